@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages RTM needs to build, test and run: only those missing.
+# Runs apt-get as root (directly, or through sudo when not root). Idempotent.
+set -euo pipefail
+
+packages=(
+  g++ cmake make pkg-config git
+  libomniorb4-dev omniidl omniorb-nameserver
+  libeigen3-dev liborocos-kdl-dev liburdfdom-dev
+  libmujoco-dev libqhull-dev
+  libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  user-mode-linux kmod iproute2 can-utils
+  gnuplot-nox procps
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
+  [[ "$status" == "install ok installed" ]] || missing+=("$p")
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+as_root=()
+if ((EUID != 0)); then
+  command -v sudo >/dev/null || { echo "deps: need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
+  as_root=(sudo)
+fi
+echo "deps: installing ${missing[*]}"
+"${as_root[@]}" apt-get update -qq
+DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
