@@ -1,0 +1,59 @@
+// The user-space CAN bus: a hub that forwards every frame to every other endpoint.
+//
+// For hosts without SocketCAN (this project's CI kernels) and for tests. The hub listens on a
+// Unix SOCK_SEQPACKET socket; each connection is one endpoint; each datagram is exactly one
+// `struct can_frame` (16 bytes). A datagram of another size or with can_dlc > 8 is dropped and
+// counted. An endpoint that cannot keep up loses frames (counted), like a CAN controller whose
+// receive FIFO overflows: the hub never blocks on a slow endpoint. Endpoints connect with
+// `open_bus("local:<path>")`; the `rtm-canhub <path>` executable runs a hub as a process.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <thread>
+
+namespace rtm::can {
+
+class LocalHub {
+ public:
+  struct Counters {
+    std::uint64_t frames_forwarded = 0;     // datagrams accepted from an endpoint
+    std::uint64_t deliveries = 0;           // frame copies written to other endpoints
+    std::uint64_t deliveries_dropped = 0;   // receiver's socket buffer was full
+    std::uint64_t datagrams_malformed = 0;  // wrong size or can_dlc > 8: dropped
+    std::uint64_t endpoints_connected = 0;  // total connections accepted
+    std::uint64_t endpoints_closed = 0;     // total connections that went away
+  };
+
+  // Binds and listens at `socket_path` (an existing stale socket file there is replaced;
+  // anything else there is an error), then forwards on its own thread. Throws BusError with
+  // the path and the cause.
+  explicit LocalHub(std::string socket_path);
+  ~LocalHub();  // stop()
+  LocalHub(const LocalHub&) = delete;
+  LocalHub& operator=(const LocalHub&) = delete;
+
+  // Stops the thread, closes every endpoint (they see the connection closed) and removes the
+  // socket file. Idempotent.
+  void stop();
+
+  const std::string& path() const { return socket_path_; }
+  std::size_t endpoint_count() const;
+  Counters counters() const;
+
+ private:
+  void run();
+
+  std::string socket_path_;
+  int listen_fd_ = -1;
+  int wake_fd_ = -1;  // eventfd: stop() wakes the poll loop
+  std::atomic<bool> stopping_{false};
+  mutable std::mutex counters_mutex_;
+  Counters counters_;
+  std::size_t endpoint_count_ = 0;
+  std::thread thread_;
+};
+
+}  // namespace rtm::can

@@ -1,0 +1,160 @@
+// Pa10Master: the CANopen master of the PA10 - NMT master, SYNC producer, PDO exchange with
+// the 7 drives and reception of the two force sensors.
+//
+// Use: construct (buses open), start() (startup sequence, blocking, throws on failure), then
+// either run_periodic() (own thread, absolute 2 ms schedule) or step() per cycle (lock-step:
+// e.g. driven by a simulator clock). From any thread: set_target_velocities(), joint_state(),
+// wrench(), fault(), fault_reset(), counters().
+//
+// One cycle: read what arrived for the previous SYNC, publish it, check faults and
+// heartbeats, write the 7 RPDOs (controlword + target velocity), send SYNC. The cycle does no
+// allocation, no logging, no I/O other than the CAN frames; the shared state is guarded by a
+// mutex held only for copies, never across a send or a wait.
+//
+// Faults (drive statusword fault, an EMCY with a non-zero code, a node silent for longer than
+// the heartbeat timeout, a bus error, a drive leaving operation enabled): latched with a reason;
+// the master then commands zero velocity to every drive and forgets the last target until
+// set_target_velocities() is called again after fault_reset().
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "arm/can/bus.h"
+#include "arm/can/cia402.h"
+#include "arm/can/protocol.h"
+
+namespace rtm::can {
+
+using SteadyTime = std::chrono::steady_clock::time_point;
+
+struct MasterConfig {
+  std::chrono::nanoseconds period{2'000'000};                 // SYNC period
+  std::chrono::milliseconds boot_timeout{5000};               // all nodes seen (boot-up/heartbeat)
+  std::chrono::milliseconds sdo_timeout{500};                 // per SDO request
+  std::chrono::milliseconds enable_timeout{2000};             // all drives operation enabled
+  std::chrono::milliseconds heartbeat_timeout{300};           // node silent longer -> fault
+  std::chrono::nanoseconds step_timeout{std::chrono::milliseconds(100)};  // lock-step wait
+  // Force sensors the master listens to (and waits for at startup and in step()).
+  std::vector<ForceSensor> sensors{ForceSensor::wrist, ForceSensor::joystick};
+  // run_periodic(): SCHED_FIFO priority (0 = keep SCHED_OTHER) and CPU to pin to (-1 = none).
+  int realtime_priority = 0;
+  int cpu = -1;
+};
+
+struct JointState {
+  std::array<double, kDriveCount> position_rad{};
+  std::array<double, kDriveCount> velocity_rad_s{};
+  std::array<std::uint16_t, kDriveCount> statusword{};
+  std::uint8_t sync_counter = 0;  // the SYNC these values answer (0 = none yet)
+  SteadyTime sync_time{};         // when that SYNC was sent (steady_clock = CLOCK_MONOTONIC)
+  std::uint64_t cycle = 0;        // cycle number of that SYNC, counting from 1
+  bool complete = false;          // all 7 drives answered that SYNC
+};
+
+struct Wrench {
+  std::array<double, 6> values{};  // Fx Fy Fz [N], Tx Ty Tz [N·m], in the sensor frame
+  std::uint8_t sync_counter = 0;   // the SYNC the force and torque frames answer (0 = none yet)
+  SteadyTime sync_time{};
+  std::uint64_t sequence = 0;      // increments with each complete wrench (force + torque)
+  bool valid = false;
+};
+
+enum class FaultKind : std::uint8_t {
+  none,
+  drive_fault,        // statusword reports fault / fault reaction
+  drive_disabled,     // a drive left operation enabled by itself
+  emergency,          // EMCY with a non-zero error code
+  heartbeat_lost,     // a node silent longer than heartbeat_timeout
+  bus_error,          // the transport failed
+  missing_feedback,   // a drive did not answer several SYNCs in a row
+};
+std::string_view to_string(FaultKind kind);
+
+struct MasterFault {
+  FaultKind kind = FaultKind::none;
+  std::uint8_t node = 0;           // the node concerned (0 = bus / none)
+  std::uint16_t code = 0;          // EMCY code or statusword
+  std::string reason;              // e.g. "drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)"
+  bool active() const { return kind != FaultKind::none; }
+};
+
+struct MasterCounters {
+  std::uint64_t cycles = 0;            // SYNCs sent
+  std::uint64_t overruns = 0;          // run_periodic: cycle found its deadline already past
+  std::uint64_t step_timeouts = 0;     // step(): not all expected TPDOs within step_timeout
+  std::uint64_t malformed_frames = 0;  // protocol id, but the decoder refused it
+  std::uint64_t unknown_frames = 0;    // id outside the protocol
+  std::uint64_t late_frames = 0;       // TPDO answering an older SYNC: ignored
+  std::uint64_t foreign_frames = 0;    // master-side frames (SYNC, NMT, RPDO, SDO request) from another master
+  std::uint64_t emcy_frames = 0;
+  std::uint64_t send_dropped = 0;      // transmit queue full
+};
+
+class Pa10Master {
+ public:
+  // `sensor_bus` may be null: the sensors are then read from `drive_bus`. The master owns both.
+  Pa10Master(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_bus,
+             MasterConfig config = {});
+  // Opens the buses by spec (see open_bus); an empty `sensor_bus_spec` means the same bus.
+  Pa10Master(std::string_view drive_bus_spec, std::string_view sensor_bus_spec,
+             MasterConfig config = {});
+  // Stops the periodic thread, then sends one last zero-velocity "shutdown" cycle and NMT
+  // enter pre-operational, so the drives brake and do not time out into fault.
+  ~Pa10Master();
+  Pa10Master(const Pa10Master&) = delete;
+  Pa10Master& operator=(const Pa10Master&) = delete;
+
+  // Startup: wait for boot-up or heartbeat of every drive and configured sensor (error names
+  // the missing nodes), NMT enter pre-operational, SDO 0x6060:00 = 9 to each drive and check
+  // 0x6061:00 reads 9, NMT start all, then cycle (paced at `period`) until every drive
+  // reports operation enabled (shutdown -> switch on -> enable operation, each on the drive's
+  // own statusword). Throws std::runtime_error with the bus name and the failing node/step.
+  void start();
+
+  // Lock-step: one cycle (read the previous answers, write RPDOs, send SYNC), then wait until
+  // every drive and configured sensor answered this SYNC or step_timeout passed. Returns true
+  // when all answered. Must not be used while run_periodic() runs.
+  bool step();
+
+  // Own thread: one cycle per `period` on an absolute CLOCK_MONOTONIC schedule; a cycle that
+  // starts after its deadline counts an overrun and the schedule skips ahead (no burst).
+  void run_periodic();
+  void stop();  // stops run_periodic's thread; idempotent
+  bool running() const { return running_.load(); }
+
+  // Joint velocity targets [rad/s] for the next cycle. Thread-safe, no allocation. Throws
+  // std::invalid_argument for a NaN or infinite value (nothing is applied then). Ignored
+  // (zero is sent) while a fault is active.
+  void set_target_velocities(const std::array<double, kDriveCount>& velocity_rad_s);
+
+  JointState joint_state() const;
+  Wrench wrench(ForceSensor sensor) const;
+  MasterFault fault() const;
+  bool enabled() const;  // every drive in operation enabled and no fault
+
+  // Clears the latched fault and makes the next cycles send the fault-reset edge and the
+  // enable sequence to every drive not in operation enabled. Asynchronous: with run_periodic()
+  // it happens on the thread; with step() on the next steps. Targets stay zero until set again.
+  // If drives are not all enabled again within enable_timeout, the fault is raised again.
+  void fault_reset();
+
+  MasterCounters counters() const;
+  const std::string& drive_bus_name() const;
+  const std::string& sensor_bus_name() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::atomic<bool> running_{false};
+  std::thread thread_;
+};
+
+}  // namespace rtm::can

@@ -1,0 +1,88 @@
+// A passive listener for one force sensor node: no SYNC, no NMT, only reading.
+//
+// The sensor component in another process sits on the same bus as the master and reads the
+// sensor's TPDO1 (force) and TPDO2 (torque) after each SYNC the master sends. It tracks the
+// SYNC counter itself, so each wrench carries the counter and the (local) time of the SYNC it
+// answers. It also watches the sensor's heartbeat and EMCY frames.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "arm/can/bus.h"
+#include "arm/can/master.h"
+#include "arm/can/protocol.h"
+
+namespace rtm::can {
+
+struct SensorListenerCounters {
+  std::uint64_t wrenches = 0;          // complete force + torque pairs
+  std::uint64_t syncs = 0;
+  std::uint64_t malformed_frames = 0;
+  std::uint64_t late_frames = 0;       // a half (force or torque) whose partner never came
+  std::uint64_t emcy_frames = 0;
+};
+
+class SensorListener {
+ public:
+  // Listens on `bus` for the sensor `node` (0x10 or 0x11; std::invalid_argument otherwise).
+  SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node,
+                 std::chrono::milliseconds heartbeat_timeout = std::chrono::milliseconds(300));
+  SensorListener(std::string_view bus_spec, ForceSensor sensor,
+                 std::chrono::milliseconds heartbeat_timeout = std::chrono::milliseconds(300));
+  ~SensorListener();  // stop()
+  SensorListener(const SensorListener&) = delete;
+  SensorListener& operator=(const SensorListener&) = delete;
+
+  // Reads frames on the caller's thread for up to `timeout`, returning as soon as a new
+  // complete wrench arrived (true) or when the time is up (false). Not with start().
+  bool poll(std::chrono::nanoseconds timeout);
+
+  // Or: a background thread reads continuously; use latest()/wait_newer_than().
+  void start();
+  void stop();
+
+  // The latest complete wrench (valid = false before the first one).
+  Wrench latest() const;
+  // Blocks until a wrench with sequence > `sequence` exists or `timeout` passed (background
+  // thread mode). Returns it, or nullopt on timeout.
+  std::optional<Wrench> wait_newer_than(std::uint64_t sequence, std::chrono::nanoseconds timeout);
+
+  // Non-empty when the sensor sent an EMCY with a non-zero code, or its heartbeat has been
+  // silent longer than heartbeat_timeout (after having been seen once). Cleared by an EMCY
+  // 0x0000 (error reset) resp. the next heartbeat.
+  std::string fault() const;
+
+  SensorListenerCounters counters() const;
+  std::uint8_t node() const { return node_; }
+
+ private:
+  void handle(const can_frame& frame, SteadyTime received_at);
+  void run();
+
+  std::unique_ptr<Bus> bus_;
+  std::uint8_t node_;
+  std::chrono::milliseconds heartbeat_timeout_;
+  mutable std::mutex mutex_;
+  std::condition_variable new_wrench_;
+  Wrench latest_;
+  SensorListenerCounters counters_;
+  // Halves of the wrench being assembled for the current SYNC.
+  std::uint8_t current_sync_counter_ = 0;
+  SteadyTime current_sync_time_{};
+  std::optional<std::array<double, 3>> pending_force_N_;
+  std::optional<std::array<double, 3>> pending_torque_Nm_;
+  std::uint16_t emcy_code_ = 0;
+  std::optional<SteadyTime> last_heartbeat_;
+  std::atomic<bool> running_{false};
+  std::thread thread_;
+};
+
+}  // namespace rtm::can
