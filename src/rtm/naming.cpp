@@ -1,0 +1,457 @@
+#include "rtm/naming.h"
+
+#include <fmt/format.h>
+#include "rtm/log.h"
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <climits>
+#include <cstdlib>
+#include <map>
+
+namespace rtm {
+
+namespace {
+
+constexpr const char* kHostKind = "host_cxt";
+constexpr const char* kComponentKind = "rtc";
+constexpr std::uint16_t kDefaultNamingPort = 2809;
+
+CosNaming::Name one_name(const std::string& id, const char* kind) {
+  CosNaming::Name name;
+  name.length(1);
+  name[0].id = CORBA::string_dup(id.c_str());
+  name[0].kind = CORBA::string_dup(kind);
+  return name;
+}
+
+CORBA::ULong to_millis(std::chrono::milliseconds ms) {
+  return static_cast<CORBA::ULong>(std::clamp<long long>(ms.count(), 1, UINT_MAX));
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Values
+// ---------------------------------------------------------------------------------------------
+
+NamingAddress NamingAddress::parse(std::string_view text) {
+  NamingAddress address;
+  std::string_view host = text;
+  std::string_view port;
+  if (!text.empty() && text.front() == '[') {
+    const auto close = text.find(']');
+    if (close == std::string_view::npos) {
+      throw std::invalid_argument(fmt::format("naming address '{}': missing ']'", text));
+    }
+    host = text.substr(1, close - 1);
+    const auto rest = text.substr(close + 1);
+    if (!rest.empty()) {
+      if (rest.front() != ':') {
+        throw std::invalid_argument(fmt::format("naming address '{}': expected ':' after ']'", text));
+      }
+      port = rest.substr(1);
+    }
+  } else if (const auto colon = text.rfind(':'); colon != std::string_view::npos) {
+    host = text.substr(0, colon);
+    port = text.substr(colon + 1);
+  }
+  if (host.empty()) {
+    throw std::invalid_argument(fmt::format("naming address '{}': empty host (want host:port)", text));
+  }
+  address.host = std::string(host);
+  address.port = kDefaultNamingPort;
+  if (!port.empty() || (text.size() > host.size() && text.back() == ':')) {
+    unsigned value = 0;
+    const auto [end, ec] = std::from_chars(port.data(), port.data() + port.size(), value);
+    if (ec != std::errc{} || end != port.data() + port.size() || value == 0 || value > 65535) {
+      throw std::invalid_argument(
+          fmt::format("naming address '{}': port '{}' is not a number in 1..65535", text, port));
+    }
+    address.port = static_cast<std::uint16_t>(value);
+  }
+  return address;
+}
+
+NamingAddress NamingAddress::from_environment() {
+  if (const char* env = std::getenv("RTM_NAMING"); env != nullptr && *env != '\0') {
+    return parse(env);
+  }
+  return NamingAddress{};
+}
+
+std::string NamingAddress::to_string() const {
+  if (host.find(':') != std::string::npos) return fmt::format("[{}]:{}", host, port);
+  return fmt::format("{}:{}", host, port);
+}
+
+std::string NamingAddress::corbaloc() const {
+  return fmt::format("corbaloc::{}/NameService", to_string());
+}
+
+ComponentPath ComponentPath::parse(std::string_view text) {
+  const auto slash = text.find('/');
+  if (slash == std::string_view::npos) {
+    if (text.empty()) throw std::invalid_argument("component name is empty");
+    return ComponentPath{"", std::string(text)};
+  }
+  const auto host = text.substr(0, slash);
+  const auto name = text.substr(slash + 1);
+  if (host.empty() || name.empty() || name.find('/') != std::string_view::npos) {
+    throw std::invalid_argument(
+        fmt::format("component '{}': expected 'host/name' or 'name'", text));
+  }
+  return ComponentPath{std::string(host), std::string(name)};
+}
+
+ComponentPath ComponentPath::on_this_host(std::string name) {
+  return ComponentPath{local_host_name(), std::move(name)};
+}
+
+std::string ComponentPath::to_string() const {
+  return fmt::format("{}.{}/{}.{}", host, kHostKind, name, kComponentKind);
+}
+
+CosNaming::Name ComponentPath::to_name() const {
+  CosNaming::Name path;
+  path.length(2);
+  path[0].id = CORBA::string_dup(host.c_str());
+  path[0].kind = CORBA::string_dup(kHostKind);
+  path[1].id = CORBA::string_dup(name.c_str());
+  path[1].kind = CORBA::string_dup(kComponentKind);
+  return path;
+}
+
+std::string local_host_name() {
+  std::array<char, 256> buffer{};
+  if (::gethostname(buffer.data(), buffer.size() - 1) != 0 || buffer[0] == '\0') {
+    return "localhost";
+  }
+  return std::string(buffer.data());
+}
+
+// ---------------------------------------------------------------------------------------------
+// NamingClient
+// ---------------------------------------------------------------------------------------------
+
+NamingClient::NamingClient(CORBA::ORB_ptr orb, NamingAddress address,
+                           std::chrono::milliseconds call_timeout)
+    : orb_(CORBA::ORB::_duplicate(orb)), address_(std::move(address)), call_timeout_(call_timeout) {}
+
+CosNaming::NamingContext_var NamingClient::root() const {
+  // An unchecked narrow makes no remote call: the service may be down right now, and the
+  // first real operation reports that with the address in the message.
+  CORBA::Object_var object = orb_->string_to_object(address_.corbaloc().c_str());
+  CosNaming::NamingContext_var context = CosNaming::NamingContext::_unchecked_narrow(object);
+  omniORB::setClientCallTimeout(context, to_millis(call_timeout_));
+  return context;
+}
+
+void NamingClient::throw_unreachable(const CORBA::SystemException& ex) const {
+  throw NamingError(
+      fmt::format("naming service at {} unreachable: {}", address_.to_string(), ex._name()));
+}
+
+template <class Call>
+auto NamingClient::guarded(Call&& call) const -> decltype(call()) {
+  try {
+    return call();
+  } catch (const CORBA::SystemException& ex) {
+    throw_unreachable(ex);
+  } catch (const CosNaming::NamingContext::InvalidName&) {
+    throw NamingError(fmt::format("naming service at {}: invalid name", address_.to_string()));
+  } catch (const CosNaming::NamingContext::CannotProceed&) {
+    throw NamingError(fmt::format("naming service at {}: cannot proceed", address_.to_string()));
+  } catch (const CORBA::UserException& ex) {
+    throw NamingError(
+        fmt::format("naming service at {}: unexpected {}", address_.to_string(), ex._name()));
+  }
+}
+
+void NamingClient::bind(const ComponentPath& path, CORBA::Object_ptr object) const {
+  guarded([&] {
+    auto root_context = root();
+    const auto host_name = one_name(path.host, kHostKind);
+    CosNaming::NamingContext_var host_context;
+    try {
+      host_context = root_context->bind_new_context(host_name);
+    } catch (const CosNaming::NamingContext::AlreadyBound&) {
+      CORBA::Object_var existing = root_context->resolve(host_name);
+      host_context = CosNaming::NamingContext::_narrow(existing);
+      if (CORBA::is_nil(host_context)) {
+        throw NamingError(fmt::format("naming service at {}: {}.{} is bound but is not a context",
+                                      address_.to_string(), path.host, kHostKind));
+      }
+    }
+    omniORB::setClientCallTimeout(host_context, to_millis(call_timeout_));
+    host_context->rebind(one_name(path.name, kComponentKind), object);
+  });
+}
+
+void NamingClient::unbind(const ComponentPath& path) const {
+  guarded([&] {
+    try {
+      root()->unbind(path.to_name());
+    } catch (const CosNaming::NamingContext::NotFound&) {
+      // Already gone, e.g. the naming service restarted without its data: nothing to undo.
+    }
+  });
+}
+
+CORBA::Object_var NamingClient::resolve_object(const ComponentPath& path) const {
+  return guarded([&]() -> CORBA::Object_var {
+    try {
+      return root()->resolve(path.to_name());
+    } catch (const CosNaming::NamingContext::NotFound&) {
+      throw NamingError(fmt::format("no component {} in naming service at {}", path.to_string(),
+                                    address_.to_string()));
+    }
+  });
+}
+
+bool NamingClient::is_bound(const ComponentPath& path) const {
+  return guarded([&] {
+    try {
+      CORBA::Object_var object = root()->resolve(path.to_name());
+      return true;
+    } catch (const CosNaming::NamingContext::NotFound&) {
+      return false;
+    }
+  });
+}
+
+std::vector<ComponentEntry> NamingClient::list_components() const {
+  return guarded([&] {
+    auto root_context = root();
+    std::vector<ComponentEntry> entries;
+
+    // list(n) returns up to n bindings directly and the rest through an iterator.
+    constexpr CORBA::ULong kBatch = 256;
+    auto for_each_binding = [&](CosNaming::NamingContext_ptr context, auto&& visit) {
+      CosNaming::BindingList_var batch;
+      CosNaming::BindingIterator_var rest;
+      context->list(kBatch, batch.out(), rest.out());
+      for (CORBA::ULong i = 0; i < batch->length(); ++i) visit(batch[i]);
+      if (CORBA::is_nil(rest)) return;
+      omniORB::setClientCallTimeout(rest, to_millis(call_timeout_));
+      while (rest->next_n(kBatch, batch.out())) {
+        for (CORBA::ULong i = 0; i < batch->length(); ++i) visit(batch[i]);
+      }
+      rest->destroy();
+    };
+
+    for_each_binding(root_context, [&](const CosNaming::Binding& host_binding) {
+      if (host_binding.binding_type != CosNaming::ncontext || host_binding.binding_name.length() != 1 ||
+          std::string_view(host_binding.binding_name[0].kind) != kHostKind) {
+        return;
+      }
+      const std::string host(host_binding.binding_name[0].id);
+      CosNaming::NamingContext_var host_context;
+      try {
+        CORBA::Object_var object = root_context->resolve(host_binding.binding_name);
+        host_context = CosNaming::NamingContext::_narrow(object);
+      } catch (const CosNaming::NamingContext::NotFound&) {
+        return;  // unbound between list and resolve
+      }
+      if (CORBA::is_nil(host_context)) return;
+      omniORB::setClientCallTimeout(host_context, to_millis(call_timeout_));
+      for_each_binding(host_context, [&](const CosNaming::Binding& binding) {
+        if (binding.binding_type != CosNaming::nobject || binding.binding_name.length() != 1 ||
+            std::string_view(binding.binding_name[0].kind) != kComponentKind) {
+          return;
+        }
+        ComponentEntry entry{{host, std::string(binding.binding_name[0].id)}, {}};
+        try {
+          entry.object = host_context->resolve(binding.binding_name);
+        } catch (const CosNaming::NamingContext::NotFound&) {
+          return;
+        }
+        entries.push_back(std::move(entry));
+      });
+    });
+
+    std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) {
+      return std::tie(a.path.host, a.path.name) < std::tie(b.path.host, b.path.name);
+    });
+    return entries;
+  });
+}
+
+RTM::RtComponent_var NamingClient::resolve_component(std::string_view host_slash_name) const {
+  ComponentPath path;
+  try {
+    path = ComponentPath::parse(host_slash_name);
+  } catch (const std::invalid_argument& ex) {
+    throw NamingError(ex.what());
+  }
+
+  CORBA::Object_var object;
+  if (!path.host.empty()) {
+    object = resolve_object(path);
+  } else {
+    std::vector<ComponentEntry> matches;
+    for (auto& entry : list_components()) {
+      if (entry.path.name == path.name) matches.push_back(std::move(entry));
+    }
+    if (matches.empty()) {
+      throw NamingError(fmt::format("no component named '{}' on any host in naming service at {}",
+                                    path.name, address_.to_string()));
+    }
+    if (matches.size() > 1) {
+      std::string hosts;
+      for (const auto& match : matches) {
+        hosts += hosts.empty() ? "" : ", ";
+        hosts += match.path.host + "/" + match.path.name;
+      }
+      throw NamingError(fmt::format("component name '{}' is ambiguous, say which: {}", path.name, hosts));
+    }
+    path = matches.front().path;
+    object = matches.front().object;
+  }
+
+  RTM::RtComponent_var component;
+  try {
+    component = RTM::RtComponent::_narrow(object);
+  } catch (const CORBA::SystemException& ex) {
+    throw NamingError(fmt::format("component {} bound in naming service at {} does not answer: {}",
+                                  path.to_string(), address_.to_string(), ex._name()));
+  }
+  if (CORBA::is_nil(component)) {
+    throw NamingError(fmt::format("{} in naming service at {} is not an RTM::RtComponent",
+                                  path.to_string(), address_.to_string()));
+  }
+  return component;
+}
+
+// ---------------------------------------------------------------------------------------------
+// NameBinding
+// ---------------------------------------------------------------------------------------------
+
+NameBinding::NameBinding(CORBA::ORB_ptr orb, NamingAddress address, ComponentPath path,
+                         CORBA::Object_ptr object)
+    : NameBinding(orb, std::move(address), std::move(path), object, Options{}) {}
+
+NameBinding::NameBinding(CORBA::ORB_ptr orb, NamingAddress address, ComponentPath path,
+                         CORBA::Object_ptr object, Options options)
+    : client_(orb, std::move(address), options.call_timeout),
+      path_(std::move(path)),
+      object_(CORBA::Object::_duplicate(object)),
+      options_(std::move(options)) {
+  if (path_.host.empty()) path_.host = local_host_name();
+  check_once();
+  watcher_ = std::thread([this] { watch(); });
+}
+
+NameBinding::~NameBinding() { unbind(); }
+
+void NameBinding::log(bool is_error, const std::string& line) const {
+  if (options_.log) {
+    options_.log(is_error, line);
+  } else if (is_error) {
+    rtm::log().error("{}", line);
+  } else {
+    rtm::log().info("{}", line);
+  }
+}
+
+void NameBinding::unbind() {
+  bool was_bound = false;
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return;
+    stopping_ = true;
+    was_bound = bound_;
+    bound_ = false;
+  }
+  wake_.notify_all();
+  if (watcher_.joinable()) watcher_.join();
+  if (!was_bound) return;
+  try {
+    client_.unbind(path_);
+    log(false, fmt::format("unbound {} from {} at {}", path_.name, path_.to_string(),
+                           client_.address().to_string()));
+  } catch (const NamingError& ex) {
+    log(true, fmt::format("could not unbind {}: {}", path_.to_string(), ex.what()));
+  }
+}
+
+bool NameBinding::is_bound() const {
+  std::lock_guard lock(mutex_);
+  return bound_;
+}
+
+std::uint64_t NameBinding::bind_count() const {
+  std::lock_guard lock(mutex_);
+  return bind_count_;
+}
+
+void NameBinding::watch() {
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    wake_.wait_for(lock, options_.check_interval, [this] { return stopping_; });
+    if (stopping_) break;
+    lock.unlock();
+    check_once();
+    lock.lock();
+  }
+}
+
+// One look at the naming service; no lock is held across the remote calls.
+void NameBinding::check_once() {
+  bool was_bound = false;
+  bool was_unreachable = false;
+  {
+    std::lock_guard lock(mutex_);
+    was_bound = bound_;
+    was_unreachable = reported_unreachable_;
+  }
+
+  enum class Found { ours, missing, someone_else } found = Found::missing;
+  try {
+    // After an outage the service may have come back with its old data: bind anyway.
+    if (was_bound && !was_unreachable) {
+      CORBA::Object_var current;
+      try {
+        current = client_.resolve_object(path_);
+        found = current->_is_equivalent(object_) ? Found::ours : Found::someone_else;
+      } catch (const NamingError&) {
+        if (!client_.is_bound(path_)) found = Found::missing;
+        else throw;
+      }
+    }
+    if (found == Found::someone_else) {
+      std::lock_guard lock(mutex_);
+      if (!reported_taken_) {
+        reported_taken_ = true;
+        log(true, fmt::format("{} in naming service at {} now names another object; not re-binding",
+                              path_.to_string(), client_.address().to_string()));
+      }
+      bound_ = false;
+      return;
+    }
+    if (found == Found::missing) {
+      client_.bind(path_, object_);
+      std::lock_guard lock(mutex_);
+      bound_ = true;
+      reported_unreachable_ = false;
+      reported_taken_ = false;
+      ++bind_count_;
+      log(false, fmt::format("{} {} at {} via {}", bind_count_ == 1 ? "bound" : "re-bound",
+                             path_.name, path_.to_string(), client_.address().to_string()));
+      return;
+    }
+    std::lock_guard lock(mutex_);
+    bound_ = true;
+  } catch (const NamingError& ex) {
+    std::lock_guard lock(mutex_);
+    bound_ = false;
+    if (!reported_unreachable_) {
+      reported_unreachable_ = true;
+      log(true, fmt::format("{}; {} will bind when it appears", ex.what(), path_.name));
+    }
+  }
+}
+
+}  // namespace rtm

@@ -1,0 +1,186 @@
+// Naming: where RT components are found.
+//
+// A component's RtComponent reference is bound in the CORBA naming service (omniNames) at
+// `<host>.host_cxt/<name>.rtc` (NameComponent id/kind {"<host>","host_cxt"},
+// {"<name>","rtc"}), the OpenRTM convention, so OpenRTM's tools can browse an RTM system.
+//
+// Three layers:
+//   - NamingAddress / ComponentPath: plain values, parsed and printed.
+//   - NamingClient: one naming service; bind, unbind, resolve and list, each call bounded by
+//     a timeout, every failure a NamingError whose message a user can act on.
+//   - NameBinding: keeps one component bound for its lifetime, re-binding from a background
+//     thread when the naming service restarts or appears late, unbinding on destruction.
+#pragma once
+
+#include <omniORB4/CORBA.h>
+#include <omniORB4/Naming.hh>
+
+#include <RTM.hh>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
+
+namespace rtm {
+
+// ---------------------------------------------------------------------------------------------
+// Values
+// ---------------------------------------------------------------------------------------------
+
+// Any failure to reach or use the naming service, or to find a component in it.
+class NamingError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// host:port of a naming service (omniNames' default port is 2809).
+struct NamingAddress {
+  std::string host = "127.0.0.1";
+  std::uint16_t port = 2809;
+
+  // Parses "host:port", "host" (port 2809) or "[v6addr]:port". Throws std::invalid_argument
+  // with the offending text on a bad port or an empty host.
+  static NamingAddress parse(std::string_view text);
+  // $RTM_NAMING when set, else 127.0.0.1:2809.
+  static NamingAddress from_environment();
+
+  std::string to_string() const;  // "127.0.0.1:2809"
+  std::string corbaloc() const;   // "corbaloc::127.0.0.1:2809/NameService"
+  bool operator==(const NamingAddress&) const = default;
+};
+
+// Where one component is bound: <host>.host_cxt/<name>.rtc
+struct ComponentPath {
+  std::string host;  // host context id, normally this machine's host name
+  std::string name;  // component name, e.g. "sensor0"
+
+  // "host/name" -> {host, name}; "name" -> {"", name} (host to be searched). Throws
+  // std::invalid_argument on an empty part or more than one '/'.
+  static ComponentPath parse(std::string_view text);
+  // {this machine's host name, name}
+  static ComponentPath on_this_host(std::string name);
+
+  std::string to_string() const;      // "host.host_cxt/name.rtc"
+  CosNaming::Name to_name() const;    // the two NameComponents
+  bool operator==(const ComponentPath&) const = default;
+};
+
+// This machine's host name as the host context uses it.
+std::string local_host_name();
+
+// One component found in the naming service.
+struct ComponentEntry {
+  ComponentPath path;
+  CORBA::Object_var object;  // the bound reference (RtComponent or a derived interface)
+};
+
+// ---------------------------------------------------------------------------------------------
+// NamingClient: one naming service
+// ---------------------------------------------------------------------------------------------
+
+// Talks to one naming service. Constructing it makes no remote call, so it succeeds whether
+// or not the service is up; each operation contacts the service and throws NamingError on
+// failure, e.g. "naming service at 127.0.0.1:2809 unreachable: TRANSIENT". Thread-safe as far
+// as omniORB object references are (every method is const).
+class NamingClient {
+ public:
+  static constexpr std::chrono::milliseconds kDefaultCallTimeout{2000};
+
+  NamingClient(CORBA::ORB_ptr orb, NamingAddress address,
+               std::chrono::milliseconds call_timeout = kDefaultCallTimeout);
+
+  const NamingAddress& address() const { return address_; }
+
+  // Binds object at path, creating the host context when missing and replacing an existing
+  // binding of the same name.
+  void bind(const ComponentPath& path, CORBA::Object_ptr object) const;
+  // Removes the binding; a binding already gone is not an error. The host context stays.
+  void unbind(const ComponentPath& path) const;
+  // The object bound at path. Throws NamingError "no component <path> in naming service at .."
+  // when nothing is bound there.
+  CORBA::Object_var resolve_object(const ComponentPath& path) const;
+  // True when path is bound (to anything); throws only when the service cannot be reached.
+  bool is_bound(const ComponentPath& path) const;
+
+  // Resolves "host/name", or "name" searched in every host context, to an RtComponent.
+  // Throws NamingError when nothing matches, or when "name" matches on more than one host
+  // (the message lists them).
+  RTM::RtComponent_var resolve_component(std::string_view host_slash_name) const;
+  // Every <host>.host_cxt/<name>.rtc binding, sorted by host then name.
+  std::vector<ComponentEntry> list_components() const;
+
+ private:
+  CosNaming::NamingContext_var root() const;
+  [[noreturn]] void throw_unreachable(const CORBA::SystemException& ex) const;
+  template <class Call>
+  auto guarded(Call&& call) const -> decltype(call());
+
+  CORBA::ORB_var orb_;
+  NamingAddress address_;
+  std::chrono::milliseconds call_timeout_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// NameBinding: keep one component bound
+// ---------------------------------------------------------------------------------------------
+
+// Binds a component for as long as it lives. The first bind is attempted in the constructor;
+// if the naming service is unreachable, one error line is logged and the component carries on
+// unbound. A background thread checks every check_interval that the binding is still there
+// and re-binds when the service restarted (entry missing, or service back after an outage).
+// The destructor stops the thread and unbinds. No hot path is involved: the thread only
+// sleeps and talks to the naming service.
+class NameBinding {
+ public:
+  struct Options {
+    std::chrono::milliseconds check_interval{500};
+    std::chrono::milliseconds call_timeout = NamingClient::kDefaultCallTimeout;
+    // Receives each bound/lost/error line; default: the "rtm" logger (rtm/log.h).
+    std::function<void(bool is_error, const std::string& line)> log;
+  };
+
+  NameBinding(CORBA::ORB_ptr orb, NamingAddress address, ComponentPath path,
+              CORBA::Object_ptr object, Options options);
+  NameBinding(CORBA::ORB_ptr orb, NamingAddress address, ComponentPath path,
+              CORBA::Object_ptr object);
+  ~NameBinding();
+  NameBinding(const NameBinding&) = delete;
+  NameBinding& operator=(const NameBinding&) = delete;
+
+  // Stops re-binding and removes the binding now (what the destructor does); idempotent.
+  void unbind();
+  // Whether the last check found the binding in place.
+  bool is_bound() const;
+  // How many times the name was bound (1 after a successful start, +1 per re-bind).
+  std::uint64_t bind_count() const;
+  const ComponentPath& path() const { return path_; }
+  const NamingAddress& address() const { return client_.address(); }
+
+ private:
+  void watch();
+  void check_once();
+  void log(bool is_error, const std::string& line) const;
+
+  NamingClient client_;
+  ComponentPath path_;
+  CORBA::Object_var object_;
+  Options options_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stopping_ = false;
+  bool bound_ = false;
+  bool reported_unreachable_ = false;
+  bool reported_taken_ = false;
+  std::uint64_t bind_count_ = 0;
+  std::thread watcher_;
+};
+
+}  // namespace rtm
