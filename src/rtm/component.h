@@ -1,0 +1,154 @@
+// Components: Component holds the logic (ports + per-cycle function), testable without an
+// ORB; ComponentServant makes it an RT component (RTM::RtComponentEx) and owns its activity.
+#pragma once
+
+#include "RTMExt.hh"
+#include "rtm/activity.h"
+#include "rtm/inport.h"
+#include "rtm/outport.h"
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace rtm {
+
+class Orb;
+
+// ============================ Component ===============================
+
+// The logic of a component. A derived class declares its ports in its constructor and
+// computes in on_cycle(); it never knows which activity calls it.
+//
+//   class Gain final : public rtm::Component {
+//    public:
+//     Gain() : Component("gain0", "controller") {}
+//     void on_cycle(const rtm::CycleContext&) override {
+//       if (in_.read(datum_) == rtm::ReadResult::NewData) out_.write(scaled(datum_));
+//     }
+//    private:
+//     rtm::InPort<RTM::TimedFloat6>& in_ = add_in_port<RTM::TimedFloat6>("in0");
+//     rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("out0");
+//     RTM::TimedFloat6 datum_{};
+//   };
+class Component {
+ public:
+  Component(std::string name, std::string kind);
+  virtual ~Component();  // closes the out ports (joins their delivery threads)
+  Component(const Component&) = delete;
+  Component& operator=(const Component&) = delete;
+
+  const std::string& name() const { return name_; }
+  const std::string& kind() const { return kind_; }
+
+  // Called by the activity: on_start() before the first cycle, on_stop() after the last.
+  // An exception from any of them puts the component's servant in COMPONENT_ERROR.
+  virtual void on_start() {}
+  virtual void on_cycle(const CycleContext& ctx) = 0;
+  virtual void on_stop() {}
+
+  // Ports in declaration order.
+  const std::vector<InPortBase*>& in_ports() const { return in_ptrs_; }
+  const std::vector<OutPortBase*>& out_ports() const { return out_ptrs_; }
+
+ protected:
+  // The port lives as long as the component (longer while an OutPort still delivers to it).
+  template <PortData T>
+  InPort<T>& add_in_port(const std::string& port_name, InPortPolicy policy = InPortPolicy::latest()) {
+    auto* port = new InPort<T>(port_name, name_, std::move(policy));
+    in_ports_.emplace_back(port);
+    in_ptrs_.push_back(port);
+    return *port;
+  }
+  template <PortData T>
+  OutPort<T>& add_out_port(const std::string& port_name, OutPortOptions options = {}) {
+    auto* port = new OutPort<T>(port_name, name_, options);
+    out_ports_.emplace_back(port);
+    out_ptrs_.push_back(port);
+    return *port;
+  }
+
+ private:
+  const std::string name_;
+  const std::string kind_;
+  std::vector<PortableServer::Servant_var<InPortBase>> in_ports_;
+  std::vector<PortableServer::Servant_var<OutPortBase>> out_ports_;
+  std::vector<InPortBase*> in_ptrs_;
+  std::vector<OutPortBase*> out_ptrs_;
+};
+
+// ============================ ComponentServant ========================
+
+// Which activity runs a component's cycle.
+struct OnArrival {
+  std::size_t in_port_index = 0;  // the InPort whose arrivals trigger a cycle
+};
+struct ExternalTick {};  // driven by someone else's SharedTick through cycle_function()
+using ActivitySpec = std::variant<PeriodicOptions, OnArrival, ExternalTick>;
+
+// An RT component: the RtComponentEx servant around a Component, owning its activity.
+//
+// on() (COMPONENT_OFF -> COMPONENT_ON) calls on_start() and starts the activity; off() stops
+// it, waits for the thread to end, calls on_stop(). Both are idempotent and safe from any
+// thread. A cycle (or on_start/on_stop) that throws moves the component to COMPONENT_ERROR:
+// the activity stops, last_error() says why, on() raises BAD_INV_ORDER(kMinorComponentError)
+// until reset().
+class ComponentServant : public virtual POA_RTM::RtComponentEx {
+ public:
+  // Throws std::invalid_argument when OnArrival names a port that does not exist.
+  ComponentServant(std::unique_ptr<Component> component, ActivitySpec activity = PeriodicOptions{});
+  ~ComponentServant() override;  // off(), deactivate()
+
+  // Activates itself and every port in orb's POA; returns the component's reference.
+  RTM::RtComponentEx_ptr activate(Orb& orb);
+  void deactivate();  // idempotent; ports too
+  RTM::RtComponentEx_ptr reference() const;  // nil before activate(); caller owns it
+
+  Component& component() { return *component_; }
+  RTM::ComponentState current_state() const { return state_.load(); }
+  std::string error_text() const;
+
+  // For ExternalTick: the function a SharedTick calls each period. It runs one cycle when the
+  // component is ON, does nothing when OFF, and returns false once it is in COMPONENT_ERROR.
+  CycleFunction cycle_function();
+  // Timing reported by timing() for an ExternalTick component (e.g. the composite's tick).
+  void set_timing_source(const Activity* activity);
+
+  // A composite hands out another component's InPort as its own: in_ports()[index] becomes
+  // ref (index == size appends). Throws std::out_of_range otherwise.
+  void expose_in_port(std::size_t index, RTM::InPort_ptr ref);
+
+  // ---- IDL ----
+  void on() override;
+  void off() override;
+  RTM::InPortList* in_ports() override;
+  RTM::OutPortList* out_ports() override;
+  char* name() override;
+  char* kind() override;
+  RTM::ComponentState state() override;
+  char* last_error() override;
+  void reset() override;
+  RTM::TimingStats timing() override;
+
+ private:
+  bool run_cycle(const CycleContext& ctx);
+  void fail(const std::string& why);
+
+  std::unique_ptr<Component> component_;
+  ActivitySpec spec_;
+  std::unique_ptr<Activity> activity_;
+  const Activity* timing_source_ = nullptr;
+  std::shared_ptr<ArrivalSignal> arrival_;
+  std::mutex control_mu_;  // serialises on/off/reset
+  std::atomic<RTM::ComponentState> state_{RTM::COMPONENT_OFF};
+  mutable std::mutex error_mu_;
+  std::string error_;
+  Orb* orb_ = nullptr;
+  RTM::RtComponentEx_var ref_;
+  std::vector<RTM::InPort_var> exposed_in_;  // in_ports() answer; defaults to our own
+};
+
+}  // namespace rtm

@@ -1,0 +1,80 @@
+// Data helpers: timestamps, the timed data types a port can carry, and their TypeCodes.
+#pragma once
+
+#include "RTM.hh"
+#include "RTMData.hh"
+
+#include <cmath>
+#include <concepts>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace rtm {
+
+// ================================ time ================================
+
+// Wall-clock time (CLOCK_REALTIME) as RTM::Time: data stamps are compared across processes
+// and machines, so they use the clock NTP keeps in step. Schedules use CLOCK_MONOTONIC.
+RTM::Time now();
+
+// Nanoseconds since the epoch of a stamp; and back.
+std::int64_t to_ns(const RTM::Time& t);
+RTM::Time from_ns(std::int64_t ns);
+
+// CLOCK_MONOTONIC in nanoseconds (the clock activities schedule on).
+std::int64_t monotonic_ns();
+
+// ================================ types ===============================
+
+// DataTraits<T>: the TypeCode and IDL name of a type a port can carry.
+// Specialised for RTM::TimedFloat6 (RTM.idl) and every Timed* of RTMData.idl.
+template <class T>
+struct DataTraits;
+
+// A type a port can carry.
+template <class T>
+concept PortData = requires {
+  { DataTraits<T>::type_code() } -> std::same_as<CORBA::TypeCode_ptr>;
+  { DataTraits<T>::name } -> std::convertible_to<std::string_view>;
+};
+
+#define RTM_DATA_TRAITS(Type, FixedSize)                                         \
+  template <>                                                                     \
+  struct DataTraits<RTM::Type> {                                                  \
+    static CORBA::TypeCode_ptr type_code() { return RTM::_tc_##Type; }            \
+    static constexpr std::string_view name = "RTM::" #Type;                       \
+    /* true: copying one allocates nothing */                                     \
+    static constexpr bool fixed_size = FixedSize;                                 \
+  };
+RTM_DATA_TRAITS(TimedFloat6, true)
+RTM_DATA_TRAITS(TimedFloat, true)
+RTM_DATA_TRAITS(TimedDouble, true)
+RTM_DATA_TRAITS(TimedLong, true)
+RTM_DATA_TRAITS(TimedBoolean, true)
+RTM_DATA_TRAITS(TimedFloat3, true)
+RTM_DATA_TRAITS(TimedFloatSeq, false)
+RTM_DATA_TRAITS(TimedDoubleSeq, false)
+#undef RTM_DATA_TRAITS
+
+// A readable name for any TypeCode: "RTM::TimedFloat6" for IDL:RTM/TimedFloat6:1.0, the
+// IDL keyword for basic types ("long", "double", ...), "<nil>" for a nil TypeCode.
+std::string type_name(CORBA::TypeCode_ptr tc);
+
+// ================================ checks ==============================
+
+// True when any value is NaN or infinite (a datum a controller must not act on).
+bool has_non_finite(const RTM::TimedFloat6& d);
+bool has_non_finite(const RTM::TimedFloat3& d);
+bool has_non_finite(const RTM::TimedFloatSeq& d);
+bool has_non_finite(const RTM::TimedDoubleSeq& d);
+
+// ============================ error minor codes =======================
+
+// Minor codes of the system exceptions RTM raises (vendor-neutral values; documented here
+// because omniORB's system exceptions cannot carry a message).
+inline constexpr CORBA::ULong kMinorWrongDataType = 0x52544d01;  // BAD_PARAM: put of wrong type
+inline constexpr CORBA::ULong kMinorNoDataYet = 0x52544d02;  // BAD_INV_ORDER: get before first write
+inline constexpr CORBA::ULong kMinorComponentError = 0x52544d03;  // BAD_INV_ORDER: on() in COMPONENT_ERROR
+
+}  // namespace rtm

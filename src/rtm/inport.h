@@ -1,0 +1,198 @@
+// InPort: the servant that receives data (put(any) from the ORB, deliver(T) in-process) and
+// keeps it according to a ready policy, the "implementations" the paper asks for.
+#pragma once
+
+#include "RTMExt.hh"
+#include "rtm/activity.h"
+#include "rtm/data.h"
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <typeinfo>
+#include <vector>
+
+namespace rtm {
+
+class Orb;
+
+// ============================ policies ================================
+
+// What a read learned (Orocos' FlowStatus).
+enum class ReadResult {
+  NoData,   // nothing was ever stored (FIFO: nothing ever read either)
+  OldData,  // the value was read before (FIFO: empty now; out gets the last value read)
+  NewData,  // out holds a datum not read before
+};
+
+// What a full FIFO does with one more datum.
+enum class FullPolicy {
+  DropOldest,  // make room by discarding the oldest datum (counted as dropped)
+  DropNewest,  // discard the arriving datum (counted as dropped)
+  Block,       // the putter waits for room up to block_timeout_ns, then drops the new datum
+};
+
+// How an InPort keeps what arrives. Named factories, one per pattern:
+//   InPortPolicy::latest()                        keep only the newest value
+//   InPortPolicy::fifo(8, FullPolicy::DropOldest) bounded queue, pre-allocated
+//   InPortPolicy::callback<T>(fn)                 call fn(datum) on arrival (and keep latest)
+class InPortPolicy {
+ public:
+  enum class Kind { Latest, Fifo, Callback };
+
+  static InPortPolicy latest() { return InPortPolicy(Kind::Latest); }
+  // capacity >= 1, else std::invalid_argument.
+  static InPortPolicy fifo(std::size_t capacity, FullPolicy full = FullPolicy::DropOldest,
+                           std::int64_t block_timeout_ns = 1'000'000);
+  // fn runs on the thread that delivers: an ORB thread for remote puts, the publisher's
+  // delivery thread in-process. It must not throw (an exception is counted and logged once).
+  template <PortData T>
+  static InPortPolicy callback(std::function<void(const T&)> fn) {
+    InPortPolicy p(Kind::Callback);
+    p.callback_ = std::make_shared<std::function<void(const T&)>>(std::move(fn));
+    p.callback_type_ = &typeid(T);
+    return p;
+  }
+
+  Kind kind() const { return kind_; }
+  std::size_t capacity() const { return capacity_; }
+  FullPolicy full_policy() const { return full_; }
+  std::int64_t block_timeout_ns() const { return block_timeout_ns_; }
+
+  // The typed callback, or nullptr when the policy is not a callback for T.
+  template <PortData T>
+  std::shared_ptr<std::function<void(const T&)>> callback_for() const {
+    if (kind_ != Kind::Callback || *callback_type_ != typeid(T)) return nullptr;
+    return std::static_pointer_cast<std::function<void(const T&)>>(callback_);
+  }
+  const std::type_info* callback_type() const { return callback_type_; }
+
+ private:
+  explicit InPortPolicy(Kind k) : kind_(k) {}
+  Kind kind_;
+  std::size_t capacity_ = 1;
+  FullPolicy full_ = FullPolicy::DropOldest;
+  std::int64_t block_timeout_ns_ = 0;
+  std::shared_ptr<void> callback_;
+  const std::type_info* callback_type_ = nullptr;
+};
+
+// Counters of one InPort (same meaning as RTM::PortCounters).
+struct InPortCounters {
+  std::uint64_t accepted = 0;  // data stored
+  std::uint64_t rejected = 0;  // puts refused: wrong type
+  std::uint64_t dropped = 0;   // data overwritten unread (latest) or lost to a full FIFO
+  std::uint64_t in_process = 0;  // of accepted: delivered without an any (in-process path)
+};
+
+// ============================ InPortBase ==============================
+
+// The type-independent part of every InPort: IDL attributes, counters, activation, the
+// process registry that lets an OutPort of this process find it (in-process fast path).
+class InPortBase : public virtual POA_RTM::InPortEx {
+ public:
+  ~InPortBase() override;
+
+  // ---- C++ side ----
+  const std::string& port_name() const { return name_; }
+  const std::string& owner_name() const { return owner_; }
+  std::string full_name() const;  // "<owner>.<name>"
+  const InPortPolicy& policy() const { return policy_; }
+  virtual CORBA::TypeCode_ptr type_code() const = 0;
+  virtual const std::type_info& data_type() const = 0;
+  InPortCounters counters_snapshot() const;
+  std::string last_rejection() const;  // "" when none
+
+  // Bumped after every stored datum (drives an OnArrivalActivity). May be null.
+  void set_arrival_signal(std::shared_ptr<ArrivalSignal> signal);
+
+  // True when storing a datum never waits nor runs user code (latest, FIFO drop-*): an
+  // in-process publisher may then store straight from its writing thread.
+  bool stores_without_waiting() const;
+
+  // Activates the servant in orb's POA and registers it as local. Idempotent.
+  RTM::InPortEx_ptr activate(Orb& orb);
+  // Unregisters and deactivates (waits until the POA released it). Idempotent.
+  void deactivate();
+  bool active() const { return active_.load(std::memory_order_acquire); }
+  // The reference (nil before activate()). Caller owns the returned duplicate.
+  RTM::InPortEx_ptr reference() const;
+
+  // ---- IDL ----
+  char* name() override;
+  CORBA::TypeCode_ptr port_type() override;
+  char* owner() override;
+  RTM::PortCounters counters() override;
+  char* last_error() override;
+  void push(const CORBA::Any& value) override;  // put() that swallows the BAD_PARAM
+
+  // The local InPort servant behind ref (with a reference count added), or nullptr when ref
+  // is nil or points into another process.
+  static PortableServer::Servant_var<InPortBase> find_local(CORBA::Object_ptr ref);
+
+ protected:
+  InPortBase(std::string name, std::string owner, InPortPolicy policy);
+  // Counts, logs once per distinct reason and remembers a refused put; then the caller throws.
+  void reject(CORBA::TypeCode_ptr got);
+  void notify_arrival();  // caller holds mu_
+
+  const std::string name_;
+  const std::string owner_;
+  const InPortPolicy policy_;
+  mutable std::mutex mu_;  // guards the stored data, the signal and last_rejection_
+  std::shared_ptr<ArrivalSignal> signal_;
+  std::string last_rejection_;
+  std::atomic<std::uint64_t> accepted_{0};
+  std::atomic<std::uint64_t> rejected_{0};
+  std::atomic<std::uint64_t> dropped_{0};
+  std::atomic<std::uint64_t> in_process_{0};
+
+ private:
+  Orb* orb_ = nullptr;
+  RTM::InPortEx_var ref_;
+  std::atomic<bool> active_{false};
+};
+
+// ============================ InPort<T> ===============================
+
+// An InPort carrying T. Storage is allocated at construction: for a fixed-size T neither
+// put/deliver nor read allocates.
+template <PortData T>
+class InPort final : public InPortBase {
+ public:
+  InPort(std::string name, std::string owner, InPortPolicy policy = InPortPolicy::latest());
+
+  // Latest/callback: copies the newest value. FIFO: pops the oldest.
+  ReadResult read(T& out);
+  // Stores value as a put would (the in-process path; counted in counters().in_process).
+  void deliver(const T& value);
+  std::size_t queued() const;  // FIFO length now; latest: 1 if unread data, else 0
+
+  CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
+  const std::type_info& data_type() const override { return typeid(T); }
+
+  // IDL: extracts T; any other type raises BAD_PARAM(kMinorWrongDataType, COMPLETED_NO) and
+  // stores nothing (see last_error for the reason).
+  void put(const CORBA::Any& value) override;
+
+ private:
+  void store(const T& value);  // caller holds no lock
+  std::vector<T> ring_;        // latest: 1 slot; FIFO: capacity slots
+  std::size_t head_ = 0;       // FIFO: index of the oldest
+  std::size_t count_ = 0;      // FIFO: stored; latest: 1 once written
+  bool unread_ = false;        // latest: the slot was not read yet
+  bool ever_read_ = false;
+  T last_read_{};
+  std::condition_variable space_cv_;  // FIFO Block: a read made room
+  std::shared_ptr<std::function<void(const T&)>> callback_;
+  std::atomic<bool> callback_failed_logged_{false};
+};
+
+}  // namespace rtm
+
+#include "rtm/inport_impl.h"

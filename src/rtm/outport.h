@@ -1,0 +1,181 @@
+// OutPort: the servant that publishes a component's data: pull (get) and push (subscribe).
+#pragma once
+
+#include "RTMExt.hh"
+#include "rtm/data.h"
+#include "rtm/inport.h"
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace rtm {
+
+class Orb;
+
+// Delivery settings of one OutPort.
+struct OutPortOptions {
+  // Consecutive COMM_FAILURE / TRANSIENT / OBJECT_NOT_EXIST before a subscriber is dropped.
+  std::uint32_t max_failures = 3;
+  // Bound on one remote put (omniORB client call timeout), ms.
+  std::uint32_t call_timeout_ms = 1000;
+  // Deliver T straight into InPorts of this process (no any, no ORB). Off: always put(any).
+  bool in_process = true;
+  // To RTM::InPortEx subscribers use the oneway push() instead of put(): more throughput,
+  // but a dead subscriber is only detected by COMM_FAILURE / TRANSIENT.
+  bool oneway = false;
+};
+
+// Counters of one OutPort (same meaning as RTM::PortCounters).
+struct OutPortCounters {
+  std::uint64_t written = 0;   // write() calls
+  std::uint64_t refused = 0;   // subscribes refused
+  std::uint64_t dropped = 0;   // stale data slow subscribers skipped
+  std::uint64_t pushed = 0;    // deliveries completed (in-process ones included)
+  std::uint64_t failed = 0;    // deliveries that raised
+};
+
+// ============================ OutPortBase =============================
+
+// The type-independent part: subscriptions, delivery threads, counters, IDL attributes.
+//
+// Each subscription has one pre-allocated slot holding the newest datum not yet delivered.
+// write() copies into the slots and wakes the delivery threads (one per remote subscription)
+// and never makes a CORBA call; a delivery thread takes the datum and calls put() with no
+// lock held. A subscriber slower than the writer sees only the newest data; what it missed is
+// counted as dropped. In-process subscribers whose policy stores without waiting are filled
+// directly by write() (a copy under the InPort's lock, no thread hand-off).
+class OutPortBase : public virtual POA_RTM::OutPortEx {
+ public:
+  ~OutPortBase() override;
+
+  // ---- C++ side ----
+  const std::string& port_name() const { return name_; }
+  const std::string& owner_name() const { return owner_; }
+  std::string full_name() const;  // "<owner>.<name>"
+  virtual CORBA::TypeCode_ptr type_code() const = 0;
+  const OutPortOptions& options() const { return options_; }
+  OutPortCounters counters_snapshot() const;
+  std::string last_refusal() const;  // why the last subscribe was refused, "" when none
+  std::size_t subscription_count() const;
+
+  RTM::OutPortEx_ptr activate(Orb& orb);  // idempotent
+  void deactivate();                      // idempotent; waits until the POA released it
+  RTM::OutPortEx_ptr reference() const;   // nil before activate(); caller owns the duplicate
+  // Drops every subscription and joins every delivery thread. Idempotent.
+  void close();
+
+  // ---- IDL ----
+  // Refuses (false, logged, last_error) a nil port, one already subscribed, or one whose
+  // port_type is not equivalent to ours.
+  CORBA::Boolean subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) override;
+  // False when i_port has no subscription of type r_type.
+  CORBA::Boolean unsubscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) override;
+  char* name() override;
+  CORBA::TypeCode_ptr port_type() override;
+  char* owner() override;
+  RTM::PortCounters counters() override;
+  RTM::SubscriptionInfoList* subscriptions() override;
+  char* last_error() override;
+
+ protected:
+  OutPortBase(std::string name, std::string owner, OutPortOptions options);
+
+  // One subscription; the typed slot lives in the derived class.
+  struct Subscription {
+    virtual ~Subscription() = default;
+    RTM::ReqType req_type = RTM::repeated;
+    RTM::InPort_var port;            // nil for a C++ connect()
+    RTM::InPortEx_var port_ex;       // narrowed when the subscriber is an InPortEx
+    PortableServer::Servant_var<InPortBase> local;  // set for in-process delivery
+    std::string peer;
+    bool direct = false;             // filled by write() itself (no thread)
+    // Slot state, guarded by slot_mu.
+    std::mutex slot_mu;
+    std::condition_variable slot_cv;
+    std::uint64_t written_seq = 0;
+    std::uint64_t delivered_seq = 0;
+    bool stop = false;
+    bool done = false;               // once-subscription delivered, or dropped as dead
+    std::thread thread;
+    std::atomic<std::uint64_t> pushed{0};
+    std::atomic<std::uint64_t> dropped{0};
+    std::atomic<std::uint32_t> failures{0};  // consecutive
+    bool failure_logged = false;
+  };
+
+  // Adds a subscription made by the derived class; refuses duplicates. Returns false + reason.
+  bool add_subscription(std::unique_ptr<Subscription> sub, bool start_thread, std::string& why);
+  // Delivery thread body: waits for data, delivers it with no lock held.
+  void delivery_loop(Subscription* sub);
+  // Type-specific delivery of the slot's datum; throws what the put raised.
+  virtual void deliver_slot(Subscription& sub) = 0;
+  // Removes sub from the list (from its own thread) and parks it for joining later.
+  void retire(Subscription* sub);
+  void reap_retired();  // joins parked threads; never from a delivery thread
+  void refuse(const std::string& why);
+  std::string describe(RTM::InPort_ptr port, CORBA::TypeCode_ptr* type_out);
+
+  const std::string name_;
+  const std::string owner_;
+  const OutPortOptions options_;
+  mutable std::mutex mu_;  // guards subs_, retired_, the latest value (derived)
+  std::vector<std::unique_ptr<Subscription>> subs_;
+  std::vector<std::unique_ptr<Subscription>> retired_;
+  std::string last_refusal_;
+  std::atomic<std::uint64_t> written_{0};
+  std::atomic<std::uint64_t> refused_{0};
+  std::atomic<std::uint64_t> dropped_{0};
+  std::atomic<std::uint64_t> pushed_{0};
+  std::atomic<std::uint64_t> failed_{0};
+  bool closed_ = false;
+
+ private:
+  Orb* orb_ = nullptr;
+  RTM::OutPortEx_var ref_;
+};
+
+// ============================ OutPort<T> ==============================
+
+template <PortData T>
+class OutPort final : public OutPortBase {
+ public:
+  OutPort(std::string name, std::string owner, OutPortOptions options = {});
+  ~OutPort() override;
+
+  // Publishes value: keeps it for get(), fills every subscription. Never blocks on a
+  // subscriber and makes no CORBA call; for a fixed-size T it allocates nothing (except when
+  // a once-subscription is retired).
+  void write(const T& value);
+  // The last written value; false before the first write().
+  bool latest(T& out) const;
+
+  // Direct C++ connection to an InPort of this process, without the ORB (composites). The
+  // same rules as subscribe(): false (with last_refusal()) for a duplicate.
+  bool connect(InPort<T>& in, RTM::ReqType type = RTM::repeated);
+  bool disconnect(InPort<T>& in);
+
+  CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
+
+  // IDL: the last written value; before the first write raises
+  // BAD_INV_ORDER(kMinorNoDataYet, COMPLETED_NO) and logs why.
+  CORBA::Any* get() override;
+  CORBA::Boolean subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) override;
+
+ private:
+  struct TypedSubscription : Subscription {
+    T slot{};
+  };
+  void deliver_slot(Subscription& sub) override;
+  T latest_{};
+  bool has_latest_ = false;
+};
+
+}  // namespace rtm
+
+#include "rtm/outport_impl.h"
