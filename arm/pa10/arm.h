@@ -3,8 +3,10 @@
 // the joint rates to the CANopen master; joint state and the tool pose come back from the
 // drives' TPDOs. The same code drives the real PA10 and pa10-sim: only the bus differs.
 //
-// Faults (drive fault, heartbeat loss, IK failure, drives not enabled) latch: from then on
-// the arm commands zero velocity and faultReason() says why, until reset() succeeds.
+// Faults (drive fault, heartbeat loss, bus error, IK failure) latch: from then on the arm
+// commands zero velocity and faultReason() says why, until reset(). While the master is not
+// (yet, or again after a reset) enabling every drive, the arm reports not_enabled and commands
+// zero; that state is not latched and clears by itself once the master is enabled.
 //
 // Works with a master that runs its own 2 ms SYNC thread (real time) and with a master
 // stepped in lock-step by a test or the simulator: the arm never sends SYNC itself, it only
@@ -16,6 +18,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <mutex>
 #include <string>
 
 namespace rtm::can {
@@ -26,9 +29,10 @@ namespace rtm::pa10 {
 
 enum class ArmFault : std::uint8_t {
   none,
-  drive_fault,     // a drive reported fault (statusword) or an EMCY other than error reset
-  heartbeat_lost,  // a node was silent longer than the heartbeat timeout
-  not_enabled,     // a drive left "operation enabled" without a fault (e.g. quick stop)
+  not_enabled,     // not latched: the master has not (yet) enabled every drive, or no feedback
+  drive_fault,     // a drive fault, EMCY, a drive leaving operation enabled, missing feedback
+  heartbeat_lost,  // a node was silent longer than the master's heartbeat timeout
+  bus_error,       // the CAN transport failed
   ik_failed,       // the twist (or the measured q) was not finite
 };
 
@@ -44,7 +48,8 @@ struct ArmOptions {
 class Pa10Arm {
  public:
   // Loads the model from `urdf_path` (throws ModelError naming the file). `master` must
-  // outlive the arm; the arm does not start or stop it.
+  // outlive the arm; the arm does not start, stop or step it (call master.start() first, then
+  // either master.run_periodic() or master.step() after each orderVelocity()).
   Pa10Arm(const std::string& urdf_path, rtm::can::Pa10Master& master, ArmOptions options = {});
   Pa10Arm(const Pa10Arm&) = delete;
   Pa10Arm& operator=(const Pa10Arm&) = delete;
@@ -59,20 +64,25 @@ class Pa10Arm {
   // Latest measured joint state (from the drives' TPDOs), s1..w2.
   JointVector jointPositions() const;   // rad
   JointVector jointVelocities() const;  // rad/s
-  // Tool pose in the base frame from the measured joint positions.
+  // Tool pose in the base frame from the measured joint positions. Same thread as
+  // orderVelocity() (uses the kinematics' scratch).
   Eigen::Isometry3d toolPose();
 
-  // Re-reads the master's state; latches a fault if it finds one. orderVelocity() does this.
+  // Re-reads the master's state; latches a fault if it finds one and returns the arm's state
+  // (none when ready to move). orderVelocity() does this every call.
   ArmFault checkFaults();
+  // The latched fault, or not_enabled / none as last seen by orderVelocity()/checkFaults().
+  // Thread-safe.
   ArmFault fault() const { return fault_.load(std::memory_order_acquire); }
   bool inFault() const { return fault() != ArmFault::none; }
-  // Human-readable reason of the latched fault ("" when none), e.g.
-  // "drive_fault: joint e1 (node 4) statusword 0x0008, EMCY 0x8250".
+  // Human-readable reason ("" when none), e.g.
+  // "drive_fault: drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)". Thread-safe.
   std::string faultReason() const;
 
-  // Clears the latched fault: fault reset and re-enable of the drives through the master,
-  // zero rates. Throws std::runtime_error with the reason when the drives do not come back
-  // (the fault then stays latched).
+  // Clears the latched fault and asks the master for a fault reset and re-enable of the
+  // drives; returns at once. The arm reports not_enabled (zero rates) until the master is
+  // enabled again, or latches the master's new fault if the drives do not come back.
+  // Call from the thread that calls orderVelocity().
   void reset();
 
   // The last IK result (scale applied, singularity, held joints) for diagnostics.
@@ -81,7 +91,8 @@ class Pa10Arm {
   const ArmOptions& options() const { return options_; }
 
  private:
-  void latch(ArmFault fault, const char* detail_format, ...);
+  void latch(ArmFault fault, const char* detail);
+  void setState(ArmFault state, const char* detail);
   void commandZero();
 
   Kinematics kinematics_;
@@ -89,10 +100,10 @@ class Pa10Arm {
   rtm::can::Pa10Master& master_;
   ArmOptions options_;
   std::atomic<ArmFault> fault_{ArmFault::none};
-  std::array<char, 192> fault_reason_{};  // fixed buffer: latching a fault allocates nothing
+  std::atomic<bool> latched_{false};       // fault_ holds a latched fault
+  mutable std::mutex reason_mutex_;        // taken only on a state change and by faultReason()
+  std::array<char, 256> fault_reason_{};  // fixed buffer: no allocation on the cycle path
   VelocityIkResult last_ik_{};
-  JointVector q_rad_ = JointVector::Zero();
-  JointVector qdot_rad_s_ = JointVector::Zero();
 };
 
 }  // namespace rtm::pa10

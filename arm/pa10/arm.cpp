@@ -1,0 +1,141 @@
+#include "arm/pa10/arm.h"
+
+#include "arm/can/master.h"
+
+#include <cstdio>
+
+namespace rtm::pa10 {
+namespace {
+
+ArmFault armFaultOf(rtm::can::FaultKind kind) {
+  using rtm::can::FaultKind;
+  switch (kind) {
+    case FaultKind::none: return ArmFault::none;
+    case FaultKind::heartbeat_lost: return ArmFault::heartbeat_lost;
+    case FaultKind::bus_error: return ArmFault::bus_error;
+    case FaultKind::drive_fault:
+    case FaultKind::drive_disabled:
+    case FaultKind::emergency:
+    case FaultKind::missing_feedback: return ArmFault::drive_fault;
+  }
+  return ArmFault::drive_fault;
+}
+
+}  // namespace
+
+const char* toString(ArmFault fault) {
+  switch (fault) {
+    case ArmFault::none: return "none";
+    case ArmFault::not_enabled: return "not_enabled";
+    case ArmFault::drive_fault: return "drive_fault";
+    case ArmFault::heartbeat_lost: return "heartbeat_lost";
+    case ArmFault::bus_error: return "bus_error";
+    case ArmFault::ik_failed: return "ik_failed";
+  }
+  return "unknown";
+}
+
+Pa10Arm::Pa10Arm(const std::string& urdf_path, rtm::can::Pa10Master& master, ArmOptions options)
+    : kinematics_(Kinematics::fromUrdfFile(urdf_path)),
+      ik_(kinematics_, options.ik),
+      master_(master),
+      options_(options) {
+  if (!(options_.period_s > 0))
+    throw std::invalid_argument("Pa10Arm: period_s must be positive (the master's SYNC period)");
+}
+
+void Pa10Arm::setState(ArmFault state, const char* detail) {
+  if (fault_.load(std::memory_order_relaxed) == state) return;
+  {
+    std::lock_guard lock(reason_mutex_);
+    if (state == ArmFault::none)
+      fault_reason_[0] = '\0';
+    else
+      std::snprintf(fault_reason_.data(), fault_reason_.size(), "%s: %s", toString(state), detail);
+  }
+  fault_.store(state, std::memory_order_release);
+}
+
+void Pa10Arm::latch(ArmFault fault, const char* detail) {
+  latched_ = true;
+  setState(fault, detail);
+  commandZero();
+}
+
+void Pa10Arm::commandZero() { master_.set_target_velocities({}); }
+
+ArmFault Pa10Arm::checkFaults() {
+  if (latched_) return fault();
+  // enabled() is the cheap check; fault() copies a reason string, so it is read only when the
+  // master is not enabled.
+  if (master_.enabled()) {
+    setState(ArmFault::none, "");
+    return ArmFault::none;
+  }
+  const rtm::can::MasterFault master_fault = master_.fault();
+  if (master_fault.active()) {
+    latch(armFaultOf(master_fault.kind), master_fault.reason.c_str());
+    return fault();
+  }
+  setState(ArmFault::not_enabled, "the master has not enabled every drive");
+  return ArmFault::not_enabled;
+}
+
+bool Pa10Arm::orderVelocity(const std::array<float, 6>& twist_base) {
+  if (checkFaults() != ArmFault::none) {
+    commandZero();
+    return false;
+  }
+  const rtm::can::JointState state = master_.joint_state();
+  if (state.cycle == 0) {  // enabled but no feedback yet: q unknown, do not move
+    commandZero();
+    return false;
+  }
+  JointVector q_rad;
+  for (int j = 0; j < kJointCount; ++j) q_rad[j] = state.position_rad[j];
+  Twist twist;
+  for (int i = 0; i < 6; ++i) twist[i] = twist_base[i];
+
+  last_ik_ = ik_.solve(twist, q_rad, options_.period_s);
+  if (last_ik_.status != IkStatus::ok) {
+    latch(ArmFault::ik_failed, last_ik_.error);
+    return false;
+  }
+  std::array<double, rtm::can::kDriveCount> target_rad_s{};
+  for (int j = 0; j < kJointCount; ++j) target_rad_s[j] = last_ik_.qdot_rad_s[j];
+  master_.set_target_velocities(target_rad_s);
+  return true;
+}
+
+void Pa10Arm::stop() { commandZero(); }
+
+JointVector Pa10Arm::jointPositions() const {
+  const rtm::can::JointState state = master_.joint_state();
+  JointVector q_rad;
+  for (int j = 0; j < kJointCount; ++j) q_rad[j] = state.position_rad[j];
+  return q_rad;
+}
+
+JointVector Pa10Arm::jointVelocities() const {
+  const rtm::can::JointState state = master_.joint_state();
+  JointVector qdot_rad_s;
+  for (int j = 0; j < kJointCount; ++j) qdot_rad_s[j] = state.velocity_rad_s[j];
+  return qdot_rad_s;
+}
+
+Eigen::Isometry3d Pa10Arm::toolPose() { return kinematics_.toolPose(jointPositions()); }
+
+std::string Pa10Arm::faultReason() const {
+  std::lock_guard lock(reason_mutex_);
+  return std::string(fault_reason_.data());
+}
+
+void Pa10Arm::reset() {
+  commandZero();
+  master_.fault_reset();
+  latched_ = false;
+  last_ik_ = VelocityIkResult{};
+  setState(ArmFault::not_enabled, "fault reset requested, waiting for the drives");
+}
+
+}  // namespace rtm::pa10
