@@ -1,0 +1,96 @@
+// The PA10 scene in MuJoCo with the drives' joint servos: what the CAN devices stand in front.
+//
+// Loads sim/models/pa10_scene.xml (or another scene with the same names: joints s1..w2,
+// motors s1..w2, sites wrist_ft/tool_tip/joystick_ft, body joystick_handle, sensors
+// wrist_force/wrist_torque/joystick_force/joystick_torque, keyframe "ready") and steps it.
+//
+// Each joint's servo is the drive's inner loop: in velocity mode a PI loop on the velocity
+// error, scaled by the joint-space inertia (computed-torque form: tau = M * a + qfrc_bias, so
+// the arm does not sag and the joints do not disturb each other), in hold mode a stiff PD on
+// the position where the brake engaged (the joint's velocity is zeroed at that instant: the
+// brake is ideal). Torques are clamped to the motors' ctrlrange (the URDF's effort limits).
+// Stepping allocates nothing.
+#pragma once
+
+#include <array>
+#include <stdexcept>
+#include <string>
+
+#include "sim/drive_device.h"
+#include "sim/wrench.h"
+
+struct mjModel_;
+struct mjData_;
+
+namespace rtm::sim {
+
+inline constexpr int kJointCount = 7;
+
+// The scene cannot be loaded or lacks a named element; what() names the file and the cause.
+class SceneError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct ServoGains {
+  double velocity_bandwidth_rad_s = 150;  // PI: a = kv*e + ki*integral(e), kv = bandwidth
+  double velocity_integral_1_s2 = 5625;   // ki = kv^2/4: critically damped position error
+  double hold_stiffness_1_s2 = 10000;     // brake: a = kp*(q_hold - q) - kd*qdot
+  double hold_damping_1_s = 200;
+};
+
+class Pa10Plant {
+ public:
+  // Loads the scene and sets the "ready" keyframe, every joint in hold. Throws SceneError.
+  explicit Pa10Plant(const std::string& scene_path, ServoGains gains = {});
+  ~Pa10Plant();
+  Pa10Plant(const Pa10Plant&) = delete;
+  Pa10Plant& operator=(const Pa10Plant&) = delete;
+
+  // Sets the joint vector (rad, zero velocity; holds there) and recomputes the kinematics.
+  void set_joint_positions(const std::array<double, kJointCount>& q_rad);
+  // Sets the named keyframe; throws SceneError if it does not exist.
+  void reset_to_keyframe(const std::string& name);
+
+  // What joint i's servo does from the next step on.
+  void set_command(int joint, const JointCommand& command);
+  // The operator's wrench on the joystick handle (joystick frame = world frame).
+  void set_operator_wrench(const Wrench& wrench);
+
+  // One physics step (timestep_s()).
+  void step();
+
+  double timestep_s() const;
+  double time_s() const;
+  JointState joint_state(int joint) const;
+  // External wrench on the tool side of the wrist sensor, flange frame, untared (includes the
+  // tool's weight and inertia).
+  Wrench wrist_wrench() const;
+  // External wrench on the joystick handle, joystick frame, untared.
+  Wrench joystick_wrench() const;
+  // Pose of the tool tip site (tool0) in the world (= arm base) frame.
+  std::array<double, 3> tool_position_m() const;
+  std::array<double, 9> tool_rotation() const;  // row-major
+  double applied_torque_Nm(int joint) const;
+
+  const mjModel_* model() const { return model_; }
+  mjData_* data() { return data_; }
+
+ private:
+  void compute_servo_torques();
+
+  mjModel_* model_ = nullptr;
+  mjData_* data_ = nullptr;
+  ServoGains gains_;
+  std::array<JointCommand, kJointCount> commands_{};
+  std::array<double, kJointCount> hold_position_rad_{};
+  std::array<double, kJointCount> velocity_error_integral_rad_{};
+  std::array<double, kJointCount> desired_acceleration_{};  // scratch, rad/s^2
+  std::array<double, kJointCount> torque_Nm_{};             // scratch
+  int joystick_body_ = -1;
+  int tool_site_ = -1;
+  int wrist_force_adr_ = -1, wrist_torque_adr_ = -1;
+  int joystick_force_adr_ = -1, joystick_torque_adr_ = -1;
+};
+
+}  // namespace rtm::sim
