@@ -8,7 +8,7 @@ packages=(
   libomniorb4-dev omniidl omniorb-nameserver
   libeigen3-dev liborocos-kdl-dev liburdfdom-dev
   libmujoco-dev libqhull-dev
-  libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev
+  libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   user-mode-linux kmod iproute2 can-utils
   gnuplot-nox procps
