@@ -42,6 +42,7 @@ struct MasterConfig {
   std::chrono::milliseconds enable_timeout{2000};             // all drives operation enabled
   std::chrono::milliseconds heartbeat_timeout{300};           // node silent longer -> fault
   std::chrono::nanoseconds step_timeout{std::chrono::milliseconds(100)};  // lock-step wait
+  int missed_feedback_limit = 5;  // a drive silent for more consecutive SYNCs -> fault
   // Force sensors the master listens to (and waits for at startup and in step()).
   std::vector<ForceSensor> sensors{ForceSensor::wrist, ForceSensor::joystick};
   // run_periodic(): SCHED_FIFO priority (0 = keep SCHED_OTHER) and CPU to pin to (-1 = none).
@@ -75,6 +76,7 @@ enum class FaultKind : std::uint8_t {
   heartbeat_lost,     // a node silent longer than heartbeat_timeout
   bus_error,          // the transport failed
   missing_feedback,   // a drive did not answer several SYNCs in a row
+  node_not_operational,  // a heartbeat reports boot-up/stopped/pre-operational after start
 };
 std::string_view to_string(FaultKind kind);
 

@@ -81,6 +81,7 @@ class SensorListener {
   std::optional<std::array<double, 3>> pending_torque_Nm_;
   std::uint16_t emcy_code_ = 0;
   std::optional<SteadyTime> last_heartbeat_;
+  std::string bus_error_;  // set when the background thread lost the bus
   std::atomic<bool> running_{false};
   std::thread thread_;
 };

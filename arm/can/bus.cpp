@@ -1,0 +1,249 @@
+#include "arm/can/bus.h"
+
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <string>
+#include <vector>
+
+namespace rtm::can {
+
+namespace {
+
+std::string errno_text(int error) { return std::string(std::strerror(error)); }
+
+[[noreturn]] void fail(const std::string& spec, const std::string& what, int error) {
+  throw BusError("CAN bus '" + spec + "': " + what + ": " + errno_text(error));
+}
+
+timespec to_timespec(std::chrono::nanoseconds d) {
+  if (d.count() < 0) d = std::chrono::nanoseconds(0);
+  timespec ts{};
+  ts.tv_sec = static_cast<time_t>(d.count() / 1'000'000'000);
+  ts.tv_nsec = static_cast<long>(d.count() % 1'000'000'000);
+  return ts;
+}
+
+// Waits until fd is readable or the deadline passed; false on timeout.
+bool wait_readable(int fd, std::chrono::steady_clock::time_point deadline, const std::string& spec) {
+  for (;;) {
+    const auto left = deadline - std::chrono::steady_clock::now();
+    pollfd p{fd, POLLIN, 0};
+    const timespec ts = to_timespec(std::chrono::duration_cast<std::chrono::nanoseconds>(left));
+    const int n = ppoll(&p, 1, &ts, nullptr);
+    if (n > 0) return true;
+    if (n == 0) return false;
+    if (errno != EINTR) fail(spec, "poll", errno);
+  }
+}
+
+class FdOwner {
+ public:
+  explicit FdOwner(int fd) : fd_(fd) {}
+  ~FdOwner() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  FdOwner(const FdOwner&) = delete;
+  FdOwner& operator=(const FdOwner&) = delete;
+  int get() const { return fd_; }
+  int release() {
+    const int fd = fd_;
+    fd_ = -1;
+    return fd;
+  }
+
+ private:
+  int fd_;
+};
+
+// ---- SocketCAN ---------------------------------------------------------------------------
+
+class SocketCanBus final : public Bus {
+ public:
+  SocketCanBus(std::string_view ifname, std::span<const FrameFilter> filters)
+      : name_("socketcan:" + std::string(ifname)), fd_(open_socket(ifname, filters, name_)) {}
+
+  bool send(const can_frame& frame) override {
+    for (;;) {
+      const ssize_t n = ::send(fd_.get(), &frame, sizeof frame, MSG_DONTWAIT);
+      if (n == static_cast<ssize_t>(sizeof frame)) return true;
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && (errno == ENOBUFS || errno == EAGAIN)) return false;
+      fail(name_, "send", n < 0 ? errno : EIO);
+    }
+  }
+
+  bool receive(can_frame& frame, std::chrono::nanoseconds timeout) override {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      const ssize_t n = ::recv(fd_.get(), &frame, sizeof frame, MSG_DONTWAIT);
+      if (n == static_cast<ssize_t>(sizeof frame)) return true;  // filters are in the kernel
+      if (n >= 0) continue;  // a short read cannot happen on CAN_RAW; skip it anyway
+      if (errno == EINTR) continue;
+      if (errno != EAGAIN) fail(name_, "recv", errno);
+      if (!wait_readable(fd_.get(), deadline, name_)) return false;
+    }
+  }
+
+  int pollable_fd() const override { return fd_.get(); }
+  const std::string& name() const override { return name_; }
+
+ private:
+  static int open_socket(std::string_view ifname, std::span<const FrameFilter> filters,
+                         const std::string& spec) {
+    if (ifname.empty()) throw BusError("CAN bus '" + spec + "': no interface name after 'socketcan:'");
+    if (ifname.size() >= IFNAMSIZ) {
+      throw BusError("CAN bus '" + spec + "': interface name longer than " +
+                     std::to_string(IFNAMSIZ - 1) + " characters");
+    }
+    const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
+    if (fd < 0) {
+      const int error = errno;
+      if (error == EAFNOSUPPORT) {
+        throw BusError("CAN bus '" + spec +
+                       "': this kernel has no SocketCAN support (socket(AF_CAN) failed: " +
+                       errno_text(error) +
+                       "); use the user-space bus instead: run 'rtm-canhub <path>' and open "
+                       "'local:<path>'");
+      }
+      fail(spec, "socket(PF_CAN, SOCK_RAW, CAN_RAW)", error);
+    }
+    FdOwner guard(fd);
+    const std::string name(ifname);
+    const unsigned index = ::if_nametoindex(name.c_str());
+    if (index == 0) {
+      fail(spec, "no CAN interface '" + name + "' (create it, e.g. 'ip link add dev " + name +
+                     " type vcan && ip link set up " + name + "')",
+           errno);
+    }
+    if (!filters.empty()) {
+      std::vector<can_filter> kernel_filters;
+      for (const auto& f : filters) kernel_filters.push_back(can_filter{f.id, f.mask});
+      if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, kernel_filters.data(),
+                       static_cast<socklen_t>(kernel_filters.size() * sizeof(can_filter))) != 0) {
+        fail(spec, "setsockopt(CAN_RAW_FILTER)", errno);
+      }
+    }
+    sockaddr_can address{};
+    address.can_family = AF_CAN;
+    address.can_ifindex = static_cast<int>(index);
+    if (::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
+      fail(spec, "bind to interface '" + name + "'", errno);
+    }
+    return guard.release();
+  }
+
+  std::string name_;
+  FdOwner fd_;
+};
+
+// ---- local bus endpoint ------------------------------------------------------------------
+
+class LocalBus final : public Bus {
+ public:
+  LocalBus(std::string_view path, std::span<const FrameFilter> filters)
+      : name_("local:" + std::string(path)),
+        filters_(filters.begin(), filters.end()),
+        fd_(connect_hub(path, name_)) {}
+
+  bool send(const can_frame& frame) override {
+    for (;;) {
+      const ssize_t n = ::send(fd_.get(), &frame, sizeof frame, MSG_DONTWAIT | MSG_NOSIGNAL);
+      if (n == static_cast<ssize_t>(sizeof frame)) return true;
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && (errno == EAGAIN || errno == ENOBUFS)) return false;
+      if (n < 0 && (errno == EPIPE || errno == ECONNRESET)) {
+        throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
+      }
+      fail(name_, "send", n < 0 ? errno : EIO);
+    }
+  }
+
+  bool receive(can_frame& frame, std::chrono::nanoseconds timeout) override {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      // One byte more than a frame: MSG_TRUNC then reports an oversized datagram's real size.
+      unsigned char buffer[sizeof(can_frame) + 1];
+      const ssize_t n = ::recv(fd_.get(), buffer, sizeof buffer, MSG_DONTWAIT | MSG_TRUNC);
+      if (n == 0) throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        if (errno == ECONNRESET) throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
+        if (errno != EAGAIN) fail(name_, "recv", errno);
+        if (!wait_readable(fd_.get(), deadline, name_)) return false;
+        continue;
+      }
+      if (n != static_cast<ssize_t>(sizeof(can_frame))) continue;  // not a frame: skip
+      std::memcpy(&frame, buffer, sizeof frame);
+      if (frame.can_dlc > CAN_MAX_DLEN) continue;
+      if (passes(frame, filters_)) return true;
+    }
+  }
+
+  int pollable_fd() const override { return fd_.get(); }
+  const std::string& name() const override { return name_; }
+
+ private:
+  static int connect_hub(std::string_view path, const std::string& spec) {
+    if (path.empty()) throw BusError("CAN bus '" + spec + "': no socket path after 'local:'");
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    if (path.size() >= sizeof address.sun_path) {
+      throw BusError("CAN bus '" + spec + "': socket path longer than " +
+                     std::to_string(sizeof address.sun_path - 1) + " bytes");
+    }
+    std::memcpy(address.sun_path, path.data(), path.size());
+    const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+    if (fd < 0) fail(spec, "socket(AF_UNIX, SOCK_SEQPACKET)", errno);
+    if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
+      const int error = errno;
+      ::close(fd);
+      fail(spec, "no hub listening at '" + std::string(path) + "' (start one: rtm-canhub " +
+                     std::string(path) + ")",
+           error);
+    }
+    return fd;
+  }
+
+  std::string name_;
+  std::vector<FrameFilter> filters_;
+  FdOwner fd_;
+};
+
+}  // namespace
+
+bool passes(const can_frame& frame, std::span<const FrameFilter> filters) noexcept {
+  if (filters.empty()) return true;
+  for (const auto& f : filters) {
+    if ((frame.can_id & f.mask) == (f.id & f.mask)) return true;
+  }
+  return false;
+}
+
+std::unique_ptr<Bus> open_socketcan(std::string_view ifname, std::span<const FrameFilter> filters) {
+  return std::make_unique<SocketCanBus>(ifname, filters);
+}
+
+std::unique_ptr<Bus> open_local(std::string_view hub_path, std::span<const FrameFilter> filters) {
+  return std::make_unique<LocalBus>(hub_path, filters);
+}
+
+std::unique_ptr<Bus> open_bus(std::string_view spec, std::span<const FrameFilter> filters) {
+  const auto colon = spec.find(':');
+  const std::string_view scheme = colon == std::string_view::npos ? spec : spec.substr(0, colon);
+  const std::string_view rest = colon == std::string_view::npos ? std::string_view{} : spec.substr(colon + 1);
+  if (colon != std::string_view::npos && scheme == "socketcan") return open_socketcan(rest, filters);
+  if (colon != std::string_view::npos && scheme == "local") return open_local(rest, filters);
+  throw BusError("CAN bus '" + std::string(spec) +
+                 "': unknown bus spec; expected 'socketcan:<interface>' (e.g. socketcan:vcan0) "
+                 "or 'local:<socket path>' (a hub started with rtm-canhub)");
+}
+
+}  // namespace rtm::can

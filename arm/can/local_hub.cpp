@@ -1,0 +1,190 @@
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <vector>
+
+#include "arm/can/bus.h"
+#include "arm/can/local_bus.h"
+
+namespace rtm::can {
+
+namespace {
+
+[[noreturn]] void fail(const std::string& path, const std::string& what, int error) {
+  throw BusError("CAN hub at '" + path + "': " + what + ": " + std::strerror(error));
+}
+
+sockaddr_un unix_address(const std::string& path) {
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  if (path.empty()) throw BusError("CAN hub: empty socket path");
+  if (path.size() >= sizeof address.sun_path) {
+    throw BusError("CAN hub at '" + path + "': socket path longer than " +
+                   std::to_string(sizeof address.sun_path - 1) + " bytes");
+  }
+  std::memcpy(address.sun_path, path.data(), path.size());
+  return address;
+}
+
+// A socket file left by a hub that died is replaced; a live hub or a non-socket is an error.
+void remove_stale_socket(const std::string& path, const sockaddr_un& address) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0) return;  // nothing there
+  if (!S_ISSOCK(st.st_mode)) {
+    throw BusError("CAN hub at '" + path + "': the path exists and is not a socket");
+  }
+  const int probe = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+  if (probe < 0) fail(path, "socket", errno);
+  const int rc = ::connect(probe, reinterpret_cast<const sockaddr*>(&address), sizeof address);
+  const int error = errno;
+  ::close(probe);
+  if (rc == 0) throw BusError("CAN hub at '" + path + "': another hub is already listening there");
+  if (error != ECONNREFUSED) fail(path, "probing the existing socket", error);
+  ::unlink(path.c_str());
+}
+
+// Lets a receiver fall behind by a few hundred frames before its copies are dropped.
+constexpr int kEndpointSendBuffer_bytes = 1 << 20;
+
+}  // namespace
+
+LocalHub::LocalHub(std::string socket_path) : socket_path_(std::move(socket_path)) {
+  const sockaddr_un address = unix_address(socket_path_);
+  remove_stale_socket(socket_path_, address);
+  listen_fd_ = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+  if (listen_fd_ < 0) fail(socket_path_, "socket(AF_UNIX, SOCK_SEQPACKET)", errno);
+  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 ||
+      ::listen(listen_fd_, 64) != 0) {
+    const int error = errno;
+    ::close(listen_fd_);
+    fail(socket_path_, "bind/listen", error);
+  }
+  wake_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+  if (wake_fd_ < 0) {
+    const int error = errno;
+    ::close(listen_fd_);
+    ::unlink(socket_path_.c_str());
+    fail(socket_path_, "eventfd", error);
+  }
+  thread_ = std::thread([this] { run(); });
+}
+
+LocalHub::~LocalHub() { stop(); }
+
+void LocalHub::stop() {
+  if (stopping_.exchange(true)) return;
+  const std::uint64_t one = 1;
+  [[maybe_unused]] const ssize_t n = ::write(wake_fd_, &one, sizeof one);
+  if (thread_.joinable()) thread_.join();
+  ::close(listen_fd_);
+  ::close(wake_fd_);
+  ::unlink(socket_path_.c_str());
+}
+
+std::size_t LocalHub::endpoint_count() const {
+  std::lock_guard lock(counters_mutex_);
+  return endpoint_count_;
+}
+
+LocalHub::Counters LocalHub::counters() const {
+  std::lock_guard lock(counters_mutex_);
+  return counters_;
+}
+
+void LocalHub::run() {
+  // pollfds[0] = wake, [1] = listen, [2..] = endpoints (parallel to `endpoints`).
+  std::vector<int> endpoints;
+  std::vector<pollfd> pollfds;
+  auto rebuild = [&] {
+    pollfds.clear();
+    pollfds.push_back({wake_fd_, POLLIN, 0});
+    pollfds.push_back({listen_fd_, POLLIN, 0});
+    for (int fd : endpoints) pollfds.push_back({fd, POLLIN, 0});
+    std::lock_guard lock(counters_mutex_);
+    endpoint_count_ = endpoints.size();
+  };
+  rebuild();
+
+  Counters local{};  // accumulated here, published after each poll round
+  std::vector<int> closed;
+  while (!stopping_.load()) {
+    const int n = ::poll(pollfds.data(), pollfds.size(), -1);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      break;  // poll on our own descriptors cannot fail otherwise
+    }
+    if (pollfds[0].revents != 0) break;
+    bool changed = false;
+
+    if (pollfds[1].revents & POLLIN) {
+      for (;;) {
+        const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
+        if (fd < 0) break;
+        ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &kEndpointSendBuffer_bytes,
+                     sizeof kEndpointSendBuffer_bytes);
+        endpoints.push_back(fd);
+        ++local.endpoints_connected;
+        changed = true;
+      }
+    }
+
+    closed.clear();
+    for (std::size_t i = 2; i < pollfds.size(); ++i) {
+      if (pollfds[i].revents == 0) continue;
+      const int from = pollfds[i].fd;
+      // Drain what this endpoint sent, one datagram = one frame.
+      for (;;) {
+        unsigned char buffer[sizeof(can_frame) + 1];
+        const ssize_t got = ::recv(from, buffer, sizeof buffer, MSG_DONTWAIT | MSG_TRUNC);
+        if (got < 0 && errno == EINTR) continue;
+        if (got < 0 && errno == EAGAIN) break;
+        if (got <= 0) {  // orderly close (0) or a reset connection
+          closed.push_back(from);
+          break;
+        }
+        can_frame frame{};
+        if (got != static_cast<ssize_t>(sizeof frame)) {
+          ++local.datagrams_malformed;
+          continue;
+        }
+        std::memcpy(&frame, buffer, sizeof frame);
+        if (frame.can_dlc > CAN_MAX_DLEN) {
+          ++local.datagrams_malformed;
+          continue;
+        }
+        ++local.frames_forwarded;
+        for (int to : endpoints) {
+          if (to == from) continue;
+          const ssize_t sent = ::send(to, &frame, sizeof frame, MSG_DONTWAIT | MSG_NOSIGNAL);
+          if (sent == static_cast<ssize_t>(sizeof frame)) {
+            ++local.deliveries;
+          } else if (sent < 0 && (errno == EAGAIN || errno == ENOBUFS)) {
+            ++local.deliveries_dropped;
+          }
+          // A broken receiver shows up as POLLHUP/POLLERR on its own descriptor.
+        }
+      }
+    }
+    for (int fd : closed) {
+      ::close(fd);
+      endpoints.erase(std::find(endpoints.begin(), endpoints.end(), fd));
+      ++local.endpoints_closed;
+      changed = true;
+    }
+    if (changed) rebuild();
+    std::lock_guard lock(counters_mutex_);
+    counters_ = local;
+  }
+  for (int fd : endpoints) ::close(fd);
+  std::lock_guard lock(counters_mutex_);
+  endpoint_count_ = 0;
+}
+
+}  // namespace rtm::can
