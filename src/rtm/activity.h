@@ -122,6 +122,7 @@ class PeriodicActivity final : public Activity {
   std::thread thread_;
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> running_{false};
+  std::atomic<std::thread::id> own_thread_id_{};
   LatenessHistogram lateness_;
   std::atomic<std::uint64_t> cycles_{0};
   std::atomic<std::uint64_t> overruns_{0};
@@ -134,9 +135,11 @@ class PeriodicActivity final : public Activity {
 class ArrivalSignal {
  public:
   void notify();
-  // Waits until the count differs from seen or timeout_ns passes; updates seen.
-  // Returns true when something arrived.
-  bool wait(std::uint64_t& seen, std::int64_t timeout_ns);
+  // Waits until the count differs from seen, *cancel becomes true, or timeout_ns passes;
+  // updates seen. Returns true when something arrived.
+  bool wait(std::uint64_t& seen, std::int64_t timeout_ns, const std::atomic<bool>* cancel = nullptr);
+  // Wakes waiters so they re-check their cancel flag (count unchanged).
+  void wake_waiters();
   std::uint64_t count() const;
 
  private:
@@ -166,6 +169,7 @@ class OnArrivalActivity final : public Activity {
   std::thread thread_;
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> running_{false};
+  std::atomic<std::thread::id> own_thread_id_{};
   std::atomic<std::uint64_t> cycles_{0};
 };
 

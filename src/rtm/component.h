@@ -147,8 +147,9 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   mutable std::mutex error_mu_;
   std::string error_;
   Orb* orb_ = nullptr;
+  mutable std::mutex refs_mu_;  // guards ref_, in_overrides_
   RTM::RtComponentEx_var ref_;
-  std::vector<RTM::InPort_var> exposed_in_;  // in_ports() answer; defaults to our own
+  std::vector<RTM::InPort_var> in_overrides_;  // non-nil: handed out instead of our own port
 };
 
 }  // namespace rtm

@@ -88,6 +88,7 @@ struct InPortCounters {
   std::uint64_t rejected = 0;  // puts refused: wrong type
   std::uint64_t dropped = 0;   // data overwritten unread (latest) or lost to a full FIFO
   std::uint64_t in_process = 0;  // of accepted: delivered without an any (in-process path)
+  std::uint64_t callback_failures = 0;  // callback policy: calls that threw
 };
 
 // ============================ InPortBase ==============================
@@ -140,6 +141,7 @@ class InPortBase : public virtual POA_RTM::InPortEx {
   // Counts, logs once per distinct reason and remembers a refused put; then the caller throws.
   void reject(CORBA::TypeCode_ptr got);
   void notify_arrival();  // caller holds mu_
+  void callback_failed(const char* what);  // counts; logs the first one
 
   const std::string name_;
   const std::string owner_;
@@ -151,6 +153,7 @@ class InPortBase : public virtual POA_RTM::InPortEx {
   std::atomic<std::uint64_t> rejected_{0};
   std::atomic<std::uint64_t> dropped_{0};
   std::atomic<std::uint64_t> in_process_{0};
+  std::atomic<std::uint64_t> callback_failures_{0};
 
  private:
   Orb* orb_ = nullptr;
@@ -181,7 +184,7 @@ class InPort final : public InPortBase {
   void put(const CORBA::Any& value) override;
 
  private:
-  void store(const T& value);  // caller holds no lock
+  void store(const T& value, bool in_process);  // caller holds no lock
   std::vector<T> ring_;        // latest: 1 slot; FIFO: capacity slots
   std::size_t head_ = 0;       // FIFO: index of the oldest
   std::size_t count_ = 0;      // FIFO: stored; latest: 1 once written
@@ -190,7 +193,6 @@ class InPort final : public InPortBase {
   T last_read_{};
   std::condition_variable space_cv_;  // FIFO Block: a read made room
   std::shared_ptr<std::function<void(const T&)>> callback_;
-  std::atomic<bool> callback_failed_logged_{false};
 };
 
 }  // namespace rtm

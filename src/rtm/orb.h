@@ -3,6 +3,7 @@
 
 #include <omniORB4/CORBA.h>
 
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -46,7 +47,7 @@ class Orb {
  private:
   CORBA::ORB_var orb_;
   PortableServer::POA_var poa_;
-  bool shut_down_ = false;
+  std::atomic<bool> shut_down_{false};
 };
 
 }  // namespace rtm

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -71,9 +72,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void close();
 
   // ---- IDL ----
-  // Refuses (false, logged, last_error) a nil port, one already subscribed, or one whose
-  // port_type is not equivalent to ours.
-  CORBA::Boolean subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) override;
+  // subscribe() is typed: see OutPort<T>.
   // False when i_port has no subscription of type r_type.
   CORBA::Boolean unsubscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) override;
   char* name() override;
@@ -95,6 +94,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
     PortableServer::Servant_var<InPortBase> local;  // set for in-process delivery
     std::string peer;
     bool direct = false;             // filled by write() itself (no thread)
+    bool check_active = true;        // subscribe(): a deactivated local InPort counts as dead
     // Slot state, guarded by slot_mu.
     std::mutex slot_mu;
     std::condition_variable slot_cv;
@@ -113,13 +113,22 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   bool add_subscription(std::unique_ptr<Subscription> sub, bool start_thread, std::string& why);
   // Delivery thread body: waits for data, delivers it with no lock held.
   void delivery_loop(Subscription* sub);
-  // Type-specific delivery of the slot's datum; throws what the put raised.
-  virtual void deliver_slot(Subscription& sub) = 0;
+  // Type-specific delivery of the slot's datum: copies it out under slot_lock, delivers with
+  // the lock released, and returns with it held again. Throws what the delivery raised.
+  virtual void deliver_slot(Subscription& sub, std::unique_lock<std::mutex>& slot_lock) = 0;
+  // Counts a failed delivery; true when sub must be dropped as dead. Logs the drop once.
+  bool count_failure(Subscription& sub, const char* exception_name, bool dead_kind);
+  // Removes the subscriptions matching (under mu_) and stops/joins them (without it).
+  bool remove_matching(const std::function<bool(const Subscription&)>& match);
+  static void stop_and_join(std::unique_ptr<Subscription> sub, std::vector<std::unique_ptr<Subscription>>& parked);
   // Removes sub from the list (from its own thread) and parks it for joining later.
   void retire(Subscription* sub);
+  // Same, from write() (mu_ held): index into subs_.
+  void retire_locked(std::size_t index);
   void reap_retired();  // joins parked threads; never from a delivery thread
   void refuse(const std::string& why);
-  std::string describe(RTM::InPort_ptr port, CORBA::TypeCode_ptr* type_out);
+  // "<owner>.<name>" of an InPort (asks it; RTM::InPort without owner: its name only).
+  static std::string peer_name(RTM::InPort_ptr port);
 
   const std::string name_;
   const std::string owner_;
@@ -134,8 +143,10 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   std::atomic<std::uint64_t> pushed_{0};
   std::atomic<std::uint64_t> failed_{0};
   bool closed_ = false;
+  std::atomic<bool> get_before_data_logged_{false};
 
  private:
+  mutable std::mutex ref_mu_;  // guards orb_, ref_ (not mu_: deactivate waits for upcalls)
   Orb* orb_ = nullptr;
   RTM::OutPortEx_var ref_;
 };
@@ -165,13 +176,17 @@ class OutPort final : public OutPortBase {
   // IDL: the last written value; before the first write raises
   // BAD_INV_ORDER(kMinorNoDataYet, COMPLETED_NO) and logs why.
   CORBA::Any* get() override;
+  // Refuses (false, logged, last_error) a nil port, one already subscribed, or one whose
+  // port_type is not equivalent to ours. An InPort of this process carrying T is fed without
+  // the ORB (SubscriptionInfo.in_process) unless options().in_process is false.
   CORBA::Boolean subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) override;
 
  private:
   struct TypedSubscription : Subscription {
-    T slot{};
+    T slot{};     // newest datum not yet delivered (guarded by slot_mu)
+    T sending{};  // the datum being delivered (delivery thread only)
   };
-  void deliver_slot(Subscription& sub) override;
+  void deliver_slot(Subscription& sub, std::unique_lock<std::mutex>& slot_lock) override;
   T latest_{};
   bool has_latest_ = false;
 };

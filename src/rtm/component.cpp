@@ -1,0 +1,229 @@
+#include "rtm/component.h"
+
+#include "rtm/log.h"
+#include "rtm/orb.h"
+
+#include <stdexcept>
+
+namespace rtm {
+
+// ============================ Component ===============================
+
+Component::Component(std::string name, std::string kind) : name_(std::move(name)), kind_(std::move(kind)) {
+  if (name_.empty()) throw std::invalid_argument("Component: empty name (kind '" + kind_ + "')");
+}
+
+Component::~Component() {
+  for (auto* port : out_ptrs_) port->close();
+}
+
+// ============================ ComponentServant ========================
+
+ComponentServant::ComponentServant(std::unique_ptr<Component> component, ActivitySpec activity)
+    : component_(std::move(component)), spec_(std::move(activity)) {
+  if (!component_) throw std::invalid_argument("ComponentServant: no component");
+  CycleFunction cycle = [this](const CycleContext& ctx) { return run_cycle(ctx); };
+  if (auto* periodic = std::get_if<PeriodicOptions>(&spec_)) {
+    PeriodicOptions options = *periodic;
+    if (options.thread_name == PeriodicOptions{}.thread_name) options.thread_name = component_->name();
+    activity_ = std::make_unique<PeriodicActivity>(std::move(cycle), std::move(options));
+  } else if (auto* arrival = std::get_if<OnArrival>(&spec_)) {
+    const auto& ins = component_->in_ports();
+    if (arrival->in_port_index >= ins.size())
+      throw std::invalid_argument("ComponentServant " + component_->name() + ": OnArrival names in port " +
+                                  std::to_string(arrival->in_port_index) + " but the component has " +
+                                  std::to_string(ins.size()));
+    arrival_ = std::make_shared<ArrivalSignal>();
+    ins[arrival->in_port_index]->set_arrival_signal(arrival_);
+    activity_ = std::make_unique<OnArrivalActivity>(std::move(cycle), arrival_, component_->name());
+  }
+}
+
+ComponentServant::~ComponentServant() {
+  off();
+  deactivate();
+  if (arrival_)
+    for (auto* port : component_->in_ports()) port->set_arrival_signal(nullptr);
+  activity_.reset();
+}
+
+RTM::RtComponentEx_ptr ComponentServant::activate(Orb& orb) {
+  for (auto* port : component_->in_ports()) CORBA::release(port->activate(orb));
+  for (auto* port : component_->out_ports()) CORBA::release(port->activate(orb));
+  std::lock_guard lock(refs_mu_);
+  if (CORBA::is_nil(ref_)) {
+    CORBA::Object_var obj = orb.activate(this);
+    ref_ = RTM::RtComponentEx::_narrow(obj);
+    orb_ = &orb;
+  }
+  return RTM::RtComponentEx::_duplicate(ref_.in());
+}
+
+void ComponentServant::deactivate() {
+  Orb* orb = nullptr;
+  {
+    std::lock_guard lock(refs_mu_);
+    if (!CORBA::is_nil(ref_)) {
+      ref_ = RTM::RtComponentEx::_nil();
+      orb = orb_;
+      orb_ = nullptr;
+    }
+  }
+  if (orb) orb->deactivate(this);
+  for (auto* port : component_->in_ports()) port->deactivate();
+  for (auto* port : component_->out_ports()) port->deactivate();
+}
+
+RTM::RtComponentEx_ptr ComponentServant::reference() const {
+  std::lock_guard lock(refs_mu_);
+  return RTM::RtComponentEx::_duplicate(ref_.in());
+}
+
+std::string ComponentServant::error_text() const {
+  std::lock_guard lock(error_mu_);
+  return error_;
+}
+
+CycleFunction ComponentServant::cycle_function() {
+  return [this](const CycleContext& ctx) { return run_cycle(ctx); };
+}
+
+void ComponentServant::set_timing_source(const Activity* activity) { timing_source_ = activity; }
+
+void ComponentServant::expose_in_port(std::size_t index, RTM::InPort_ptr ref) {
+  std::lock_guard lock(refs_mu_);
+  const std::size_t size = std::max(in_overrides_.size(), component_->in_ports().size());
+  if (index > size)
+    throw std::out_of_range("ComponentServant " + component_->name() + ": expose_in_port index " +
+                            std::to_string(index) + " beyond " + std::to_string(size) + " ports");
+  if (in_overrides_.size() <= index) in_overrides_.resize(std::max(index + 1, size));
+  in_overrides_[index] = RTM::InPort::_duplicate(ref);
+}
+
+bool ComponentServant::run_cycle(const CycleContext& ctx) {
+  const RTM::ComponentState state = state_.load();
+  if (state != RTM::COMPONENT_ON) return state != RTM::COMPONENT_ERROR;
+  try {
+    component_->on_cycle(ctx);
+    return true;
+  } catch (const std::exception& e) {
+    fail(std::string("cycle ") + std::to_string(ctx.cycle) + " threw: " + e.what());
+  } catch (const CORBA::Exception& e) {
+    fail(std::string("cycle ") + std::to_string(ctx.cycle) + " raised CORBA " + e._name());
+  } catch (...) {
+    fail(std::string("cycle ") + std::to_string(ctx.cycle) + " threw an unknown exception");
+  }
+  // A component in error must stop acting (e.g. command zero velocity): give it on_stop().
+  try {
+    component_->on_stop();
+  } catch (const std::exception& e) {
+    log().error("{}: on_stop after the error threw too: {}", component_->name(), e.what());
+  } catch (...) {
+    log().error("{}: on_stop after the error threw too", component_->name());
+  }
+  return false;
+}
+
+void ComponentServant::fail(const std::string& why) {
+  {
+    std::lock_guard lock(error_mu_);
+    error_ = why;
+  }
+  state_.store(RTM::COMPONENT_ERROR);
+  log().error("{} ({}) -> COMPONENT_ERROR: {}", component_->name(), component_->kind(), why);
+}
+
+void ComponentServant::on() {
+  std::lock_guard lock(control_mu_);
+  const RTM::ComponentState state = state_.load();
+  if (state == RTM::COMPONENT_ERROR) {
+    log().warn("{}: on() refused in COMPONENT_ERROR ({}); reset() first", component_->name(), error_text());
+    throw CORBA::BAD_INV_ORDER(kMinorComponentError, CORBA::COMPLETED_NO);
+  }
+  if (state == RTM::COMPONENT_ON) return;
+  if (activity_) activity_->stop();  // joins a thread that ended by itself
+  try {
+    component_->on_start();
+  } catch (const std::exception& e) {
+    fail(std::string("on_start threw: ") + e.what());
+    throw CORBA::BAD_INV_ORDER(kMinorComponentError, CORBA::COMPLETED_NO);
+  } catch (...) {
+    fail("on_start threw an unknown exception");
+    throw CORBA::BAD_INV_ORDER(kMinorComponentError, CORBA::COMPLETED_NO);
+  }
+  state_.store(RTM::COMPONENT_ON);
+  if (activity_) activity_->start();
+}
+
+void ComponentServant::off() {
+  std::lock_guard lock(control_mu_);
+  RTM::ComponentState expected = RTM::COMPONENT_ON;
+  const bool was_on = state_.compare_exchange_strong(expected, RTM::COMPONENT_OFF);
+  if (activity_) activity_->stop();
+  if (!was_on) return;
+  try {
+    component_->on_stop();
+  } catch (const std::exception& e) {
+    fail(std::string("on_stop threw: ") + e.what());
+  } catch (...) {
+    fail("on_stop threw an unknown exception");
+  }
+}
+
+RTM::InPortList* ComponentServant::in_ports() {
+  auto* list = new RTM::InPortList;
+  const auto& own = component_->in_ports();
+  std::lock_guard lock(refs_mu_);
+  const std::size_t size = std::max(in_overrides_.size(), own.size());
+  list->length(static_cast<CORBA::ULong>(size));
+  for (std::size_t i = 0; i < size; ++i) {
+    if (i < in_overrides_.size() && !CORBA::is_nil(in_overrides_[i])) {
+      (*list)[static_cast<CORBA::ULong>(i)] = RTM::InPort::_duplicate(in_overrides_[i].in());
+    } else if (i < own.size()) {
+      (*list)[static_cast<CORBA::ULong>(i)] = own[i]->reference();
+    }
+  }
+  return list;
+}
+
+RTM::OutPortList* ComponentServant::out_ports() {
+  auto* list = new RTM::OutPortList;
+  const auto& own = component_->out_ports();
+  list->length(static_cast<CORBA::ULong>(own.size()));
+  for (std::size_t i = 0; i < own.size(); ++i) (*list)[static_cast<CORBA::ULong>(i)] = own[i]->reference();
+  return list;
+}
+
+char* ComponentServant::name() { return CORBA::string_dup(component_->name().c_str()); }
+char* ComponentServant::kind() { return CORBA::string_dup(component_->kind().c_str()); }
+RTM::ComponentState ComponentServant::state() { return state_.load(); }
+char* ComponentServant::last_error() { return CORBA::string_dup(error_text().c_str()); }
+
+void ComponentServant::reset() {
+  std::lock_guard lock(control_mu_);
+  if (state_.load() != RTM::COMPONENT_ERROR) return;
+  if (activity_) activity_->stop();
+  {
+    std::lock_guard error_lock(error_mu_);
+    error_.clear();
+  }
+  state_.store(RTM::COMPONENT_OFF);
+  log().info("{}: reset to COMPONENT_OFF", component_->name());
+}
+
+RTM::TimingStats ComponentServant::timing() {
+  const Activity* source = activity_ ? activity_.get() : timing_source_;
+  RTM::TimingStats out{};
+  if (!source) return out;
+  const ActivityStats s = source->stats();
+  out.period_ns = static_cast<CORBA::ULongLong>(s.period_ns);
+  out.cycles = s.cycles;
+  out.overruns = s.overruns;
+  out.lateness_p50_ns = static_cast<CORBA::ULongLong>(s.lateness_p50_ns);
+  out.lateness_p99_ns = static_cast<CORBA::ULongLong>(s.lateness_p99_ns);
+  out.lateness_max_ns = static_cast<CORBA::ULongLong>(s.lateness_max_ns);
+  out.mean_period_error_ns = s.mean_period_error_ns;
+  return out;
+}
+
+}  // namespace rtm

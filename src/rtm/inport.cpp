@@ -1,0 +1,174 @@
+#include "rtm/inport.h"
+
+#include "rtm/log.h"
+#include "rtm/orb.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace rtm {
+
+InPortPolicy InPortPolicy::fifo(std::size_t capacity, FullPolicy full, std::int64_t block_timeout_ns) {
+  if (capacity == 0) throw std::invalid_argument("InPortPolicy::fifo: capacity must be >= 1");
+  if (full == FullPolicy::Block && block_timeout_ns <= 0)
+    throw std::invalid_argument("InPortPolicy::fifo: block_timeout_ns must be > 0 for FullPolicy::Block");
+  InPortPolicy p(Kind::Fifo);
+  p.capacity_ = capacity;
+  p.full_ = full;
+  p.block_timeout_ns_ = block_timeout_ns;
+  return p;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The InPorts of this process, so that an OutPort can tell a reference to one of them from a
+// reference into another process.
+namespace {
+struct LocalEntry {
+  InPortBase* port;
+  CORBA::Object_var ref;
+};
+std::mutex& registry_mu() {
+  static std::mutex mu;
+  return mu;
+}
+std::vector<LocalEntry>& registry() {
+  static std::vector<LocalEntry> entries;
+  return entries;
+}
+}  // namespace
+
+PortableServer::Servant_var<InPortBase> InPortBase::find_local(CORBA::Object_ptr ref) {
+  PortableServer::Servant_var<InPortBase> found;
+  if (CORBA::is_nil(ref)) return found;
+  std::lock_guard lock(registry_mu());
+  for (auto& entry : registry()) {
+    // _is_equivalent compares object keys and addresses locally: a reference from another
+    // process has another endpoint, so it never matches.
+    if (entry.ref->_is_equivalent(ref)) {
+      entry.port->_add_ref();
+      found = entry.port;
+      break;
+    }
+  }
+  return found;
+}
+
+InPortBase::InPortBase(std::string name, std::string owner, InPortPolicy policy)
+    : name_(std::move(name)), owner_(std::move(owner)), policy_(std::move(policy)) {
+  if (name_.empty()) throw std::invalid_argument("InPort: empty port name (owner '" + owner_ + "')");
+}
+
+InPortBase::~InPortBase() {
+  std::lock_guard lock(registry_mu());
+  auto& entries = registry();
+  entries.erase(std::remove_if(entries.begin(), entries.end(), [this](const LocalEntry& e) { return e.port == this; }),
+                entries.end());
+}
+
+std::string InPortBase::full_name() const { return owner_ + "." + name_; }
+
+InPortCounters InPortBase::counters_snapshot() const {
+  InPortCounters c;
+  c.accepted = accepted_.load(std::memory_order_relaxed);
+  c.rejected = rejected_.load(std::memory_order_relaxed);
+  c.dropped = dropped_.load(std::memory_order_relaxed);
+  c.in_process = in_process_.load(std::memory_order_relaxed);
+  c.callback_failures = callback_failures_.load(std::memory_order_relaxed);
+  return c;
+}
+
+std::string InPortBase::last_rejection() const {
+  std::lock_guard lock(mu_);
+  return last_rejection_;
+}
+
+void InPortBase::set_arrival_signal(std::shared_ptr<ArrivalSignal> signal) {
+  std::lock_guard lock(mu_);
+  signal_ = std::move(signal);
+}
+
+bool InPortBase::stores_without_waiting() const {
+  switch (policy_.kind()) {
+    case InPortPolicy::Kind::Latest: return true;
+    case InPortPolicy::Kind::Fifo: return policy_.full_policy() != FullPolicy::Block;
+    case InPortPolicy::Kind::Callback: return false;
+  }
+  return false;
+}
+
+RTM::InPortEx_ptr InPortBase::activate(Orb& orb) {
+  std::lock_guard lock(registry_mu());
+  if (!active_.load()) {
+    CORBA::Object_var obj = orb.activate(this);
+    ref_ = RTM::InPortEx::_narrow(obj);
+    orb_ = &orb;
+    registry().push_back({this, CORBA::Object::_duplicate(ref_.in())});
+    active_.store(true, std::memory_order_release);
+  }
+  return RTM::InPortEx::_duplicate(ref_.in());
+}
+
+void InPortBase::deactivate() {
+  Orb* orb = nullptr;
+  {
+    std::lock_guard lock(registry_mu());
+    if (!active_.load()) return;
+    active_.store(false, std::memory_order_release);
+    auto& entries = registry();
+    entries.erase(
+        std::remove_if(entries.begin(), entries.end(), [this](const LocalEntry& e) { return e.port == this; }),
+        entries.end());
+    orb = orb_;
+  }
+  orb->deactivate(this);
+}
+
+RTM::InPortEx_ptr InPortBase::reference() const {
+  std::lock_guard lock(registry_mu());
+  return RTM::InPortEx::_duplicate(ref_.in());
+}
+
+char* InPortBase::name() { return CORBA::string_dup(name_.c_str()); }
+CORBA::TypeCode_ptr InPortBase::port_type() { return CORBA::TypeCode::_duplicate(type_code()); }
+char* InPortBase::owner() { return CORBA::string_dup(owner_.c_str()); }
+
+RTM::PortCounters InPortBase::counters() {
+  const InPortCounters c = counters_snapshot();
+  RTM::PortCounters out{};
+  out.accepted = c.accepted;
+  out.rejected = c.rejected;
+  out.dropped = c.dropped;
+  out.pushed = 0;
+  out.failed = 0;
+  return out;
+}
+
+char* InPortBase::last_error() { return CORBA::string_dup(last_rejection().c_str()); }
+
+void InPortBase::push(const CORBA::Any& value) {
+  try {
+    put(value);
+  } catch (const CORBA::BAD_PARAM&) {
+    // Already counted and remembered by reject(); a oneway has nobody to tell.
+  }
+}
+
+void InPortBase::reject(CORBA::TypeCode_ptr got) {
+  rejected_.fetch_add(1, std::memory_order_relaxed);
+  std::string why = "put on " + full_name() + ": expected " + type_name(type_code()) + ", got " + type_name(got);
+  std::lock_guard lock(mu_);
+  // One line per distinct reason: a publisher of the wrong type must not flood the log.
+  if (why != last_rejection_) log().warn("{} (BAD_PARAM)", why);
+  last_rejection_ = std::move(why);
+}
+
+void InPortBase::notify_arrival() {
+  if (signal_) signal_->notify();
+}
+
+void InPortBase::callback_failed(const char* what) {
+  if (callback_failures_.fetch_add(1, std::memory_order_relaxed) == 0)
+    log().error("{}: callback threw: {} (further failures are only counted)", full_name(), what);
+}
+
+}  // namespace rtm

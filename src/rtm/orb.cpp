@@ -1,0 +1,126 @@
+#include "rtm/orb.h"
+
+#include "rtm/log.h"
+
+#include <omniORB4/omniPolicy.h>
+
+#include <atomic>
+#include <chrono>
+#include <stdexcept>
+#include <thread>
+
+namespace rtm {
+
+namespace {
+std::atomic<Orb*> g_instance{nullptr};
+
+std::string describe(const CORBA::Exception& e) {
+  const char* name = e._name();
+  return name ? name : "CORBA exception";
+}
+}  // namespace
+
+Orb::Orb(const std::vector<std::string>& args) {
+  // ORB_init wants a mutable argv; the storage must live through the call only.
+  std::vector<std::string> storage;
+  storage.reserve(args.size() + 1);
+  storage.emplace_back("rtm");
+  for (const auto& a : args) storage.push_back(a);
+  std::vector<char*> argv;
+  for (auto& s : storage) argv.push_back(s.data());
+  int argc = static_cast<int>(argv.size());
+  try {
+    orb_ = CORBA::ORB_init(argc, argv.data());
+    CORBA::Object_var root_obj = orb_->resolve_initial_references("RootPOA");
+    PortableServer::POA_var root = PortableServer::POA::_narrow(root_obj);
+    PortableServer::POAManager_var manager = root->the_POAManager();
+    CORBA::PolicyList policies;
+    policies.length(1);
+    policies[0] = omniPolicy::create_local_shortcut_policy(omniPolicy::LOCAL_CALLS_SHORTCUT);
+    poa_ = root->create_POA("rtm", manager, policies);
+    policies[0]->destroy();
+    manager->activate();
+  } catch (const CORBA::Exception& e) {
+    std::string what = "rtm::Orb: ORB initialisation failed: " + describe(e);
+    if (!CORBA::is_nil(orb_)) {
+      try {
+        orb_->destroy();
+      } catch (...) {
+      }
+    }
+    throw std::runtime_error(what);
+  }
+  if (argc > 1) {
+    std::string left;
+    for (int i = 1; i < argc; ++i) left += std::string(" ") + argv[static_cast<std::size_t>(i)];
+    log().debug("ORB left these arguments unused:{}", left);
+  }
+  g_instance.store(this);
+}
+
+Orb::~Orb() {
+  Orb* self = this;
+  g_instance.compare_exchange_strong(self, nullptr);
+  try {
+    shutdown();
+    orb_->destroy();
+  } catch (const CORBA::Exception& e) {
+    log().warn("ORB destroy raised {}", describe(e));
+  }
+}
+
+CORBA::Object_var Orb::activate(PortableServer::ServantBase* servant) {
+  PortableServer::ObjectId_var id = poa_->activate_object(servant);
+  return poa_->id_to_reference(id);
+}
+
+void Orb::deactivate(PortableServer::ServantBase* servant) {
+  CORBA::ULong before = servant->_refcount_value();
+  try {
+    PortableServer::ObjectId_var id = poa_->servant_to_id(servant);
+    poa_->deactivate_object(id);
+  } catch (const PortableServer::POA::ServantNotActive&) {
+    return;
+  } catch (const CORBA::Exception& e) {
+    log().warn("deactivate: {}", describe(e));
+    return;
+  }
+  // The POA drops its reference once the last call in progress on the servant has returned.
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (servant->_refcount_value() >= before) {
+    if (std::chrono::steady_clock::now() > give_up) {
+      log().error("deactivate: a call on the servant did not return within 5 s");
+      return;
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+}
+
+void Orb::run() { orb_->run(); }
+
+void Orb::shutdown() {
+  if (shut_down_.exchange(true)) return;
+  try {
+    orb_->shutdown(true);
+  } catch (const CORBA::BAD_INV_ORDER&) {
+    // Called from an upcall: shut down without waiting.
+    orb_->shutdown(false);
+  }
+}
+
+std::string Orb::to_string(CORBA::Object_ptr obj) const {
+  CORBA::String_var s = orb_->object_to_string(obj);
+  return std::string(s.in());
+}
+
+CORBA::Object_var Orb::from_string(const std::string& ior_or_url) const {
+  try {
+    return orb_->string_to_object(ior_or_url.c_str());
+  } catch (const CORBA::Exception& e) {
+    throw std::invalid_argument("rtm::Orb: not an object reference: '" + ior_or_url + "' (" + describe(e) + ")");
+  }
+}
+
+Orb* Orb::instance() { return g_instance.load(); }
+
+}  // namespace rtm

@@ -1,0 +1,293 @@
+#include "rtm/outport.h"
+
+#include "rtm/log.h"
+#include "rtm/orb.h"
+
+#include <pthread.h>
+
+#include <stdexcept>
+
+namespace rtm {
+
+OutPortBase::OutPortBase(std::string name, std::string owner, OutPortOptions options)
+    : name_(std::move(name)), owner_(std::move(owner)), options_(options) {
+  if (name_.empty()) throw std::invalid_argument("OutPort: empty port name (owner '" + owner_ + "')");
+  if (options_.max_failures == 0) throw std::invalid_argument("OutPort " + full_name() + ": max_failures must be >= 1");
+}
+
+OutPortBase::~OutPortBase() { close(); }
+
+std::string OutPortBase::full_name() const { return owner_ + "." + name_; }
+
+OutPortCounters OutPortBase::counters_snapshot() const {
+  OutPortCounters c;
+  c.written = written_.load(std::memory_order_relaxed);
+  c.refused = refused_.load(std::memory_order_relaxed);
+  c.dropped = dropped_.load(std::memory_order_relaxed);
+  c.pushed = pushed_.load(std::memory_order_relaxed);
+  c.failed = failed_.load(std::memory_order_relaxed);
+  return c;
+}
+
+std::string OutPortBase::last_refusal() const {
+  std::lock_guard lock(mu_);
+  return last_refusal_;
+}
+
+std::size_t OutPortBase::subscription_count() const {
+  std::lock_guard lock(mu_);
+  return subs_.size();
+}
+
+RTM::OutPortEx_ptr OutPortBase::activate(Orb& orb) {
+  std::lock_guard lock(ref_mu_);
+  if (CORBA::is_nil(ref_)) {
+    CORBA::Object_var obj = orb.activate(this);
+    ref_ = RTM::OutPortEx::_narrow(obj);
+    orb_ = &orb;
+  }
+  return RTM::OutPortEx::_duplicate(ref_.in());
+}
+
+void OutPortBase::deactivate() {
+  Orb* orb = nullptr;
+  {
+    std::lock_guard lock(ref_mu_);
+    if (CORBA::is_nil(ref_)) return;
+    ref_ = RTM::OutPortEx::_nil();
+    orb = orb_;
+    orb_ = nullptr;
+  }
+  orb->deactivate(this);
+}
+
+RTM::OutPortEx_ptr OutPortBase::reference() const {
+  std::lock_guard lock(ref_mu_);
+  return RTM::OutPortEx::_duplicate(ref_.in());
+}
+
+void OutPortBase::stop_and_join(std::unique_ptr<Subscription> sub,
+                                std::vector<std::unique_ptr<Subscription>>& parked) {
+  {
+    std::lock_guard slot_lock(sub->slot_mu);
+    sub->stop = true;
+  }
+  sub->slot_cv.notify_all();
+  if (sub->thread.joinable()) {
+    // A delivery thread that unsubscribes itself (e.g. from a callback) cannot join itself.
+    if (sub->thread.get_id() == std::this_thread::get_id()) {
+      parked.push_back(std::move(sub));
+      return;
+    }
+    sub->thread.join();
+  }
+}
+
+void OutPortBase::close() {
+  std::vector<std::unique_ptr<Subscription>> all;
+  {
+    std::lock_guard lock(mu_);
+    closed_ = true;
+    for (auto& s : subs_) all.push_back(std::move(s));
+    for (auto& s : retired_) all.push_back(std::move(s));
+    subs_.clear();
+    retired_.clear();
+  }
+  std::vector<std::unique_ptr<Subscription>> parked;
+  for (auto& s : all) stop_and_join(std::move(s), parked);
+  for (auto& s : parked) s->thread.detach();
+}
+
+void OutPortBase::reap_retired() {
+  std::vector<std::unique_ptr<Subscription>> dead;
+  {
+    std::lock_guard lock(mu_);
+    dead.swap(retired_);
+  }
+  std::vector<std::unique_ptr<Subscription>> parked;
+  for (auto& s : dead) stop_and_join(std::move(s), parked);
+  if (!parked.empty()) {
+    std::lock_guard lock(mu_);
+    for (auto& s : parked) retired_.push_back(std::move(s));
+  }
+}
+
+bool OutPortBase::add_subscription(std::unique_ptr<Subscription> sub, bool start_thread, std::string& why) {
+  std::lock_guard lock(mu_);
+  if (closed_) {
+    why = full_name() + " -> " + sub->peer + ": the OutPort is closed";
+    return false;
+  }
+  for (const auto& existing : subs_) {
+    const bool same_local = existing->local.in() && sub->local.in() && existing->local.in() == sub->local.in();
+    const bool same_ref = !CORBA::is_nil(existing->port) && !CORBA::is_nil(sub->port) &&
+                          existing->port->_is_equivalent(sub->port.in());
+    if (same_local || same_ref) {
+      why = full_name() + " -> " + sub->peer + ": already subscribed";
+      return false;
+    }
+  }
+  Subscription* raw = sub.get();
+  subs_.push_back(std::move(sub));
+  if (start_thread) raw->thread = std::thread(&OutPortBase::delivery_loop, this, raw);
+  return true;
+}
+
+bool OutPortBase::remove_matching(const std::function<bool(const Subscription&)>& match) {
+  reap_retired();
+  std::vector<std::unique_ptr<Subscription>> victims;
+  {
+    std::lock_guard lock(mu_);
+    for (std::size_t i = 0; i < subs_.size();) {
+      if (match(*subs_[i])) {
+        victims.push_back(std::move(subs_[i]));
+        subs_.erase(subs_.begin() + static_cast<std::ptrdiff_t>(i));
+      } else {
+        ++i;
+      }
+    }
+  }
+  std::vector<std::unique_ptr<Subscription>> parked;
+  const bool removed = !victims.empty();
+  for (auto& v : victims) stop_and_join(std::move(v), parked);
+  if (!parked.empty()) {
+    std::lock_guard lock(mu_);
+    for (auto& s : parked) retired_.push_back(std::move(s));
+  }
+  return removed;
+}
+
+void OutPortBase::retire(Subscription* sub) {
+  std::lock_guard lock(mu_);
+  for (std::size_t i = 0; i < subs_.size(); ++i) {
+    if (subs_[i].get() == sub) {
+      retire_locked(i);
+      return;
+    }
+  }
+  // Not listed any more: unsubscribe() or close() took it and joins this thread.
+}
+
+void OutPortBase::retire_locked(std::size_t index) {
+  retired_.push_back(std::move(subs_[index]));
+  subs_.erase(subs_.begin() + static_cast<std::ptrdiff_t>(index));
+}
+
+bool OutPortBase::count_failure(Subscription& sub, const char* exception_name, bool dead_kind) {
+  failed_.fetch_add(1, std::memory_order_relaxed);
+  const std::uint32_t failures = sub.failures.fetch_add(1, std::memory_order_relaxed) + 1;
+  if (dead_kind && failures >= options_.max_failures) {
+    log().warn("{} -> {}: dropped after {} consecutive failed deliveries ({})", full_name(), sub.peer, failures,
+               exception_name);
+    return true;
+  }
+  if (!sub.failure_logged) {
+    sub.failure_logged = true;
+    log().warn("{} -> {}: delivery raised {} (further failures are only counted)", full_name(), sub.peer,
+               exception_name);
+  }
+  return false;
+}
+
+void OutPortBase::delivery_loop(Subscription* sub) {
+  pthread_setname_np(pthread_self(), "rtm-deliver");
+  std::unique_lock lock(sub->slot_mu);
+  for (;;) {
+    sub->slot_cv.wait(lock, [&] { return sub->stop || sub->written_seq != sub->delivered_seq; });
+    if (sub->stop) return;
+    const std::uint64_t seq = sub->written_seq;
+    const std::uint64_t missed = seq - sub->delivered_seq - 1;
+    if (missed > 0) {
+      sub->dropped.fetch_add(missed, std::memory_order_relaxed);
+      dropped_.fetch_add(missed, std::memory_order_relaxed);
+    }
+    sub->delivered_seq = seq;
+    bool drop = false;
+    try {
+      deliver_slot(*sub, lock);
+      sub->failures.store(0, std::memory_order_relaxed);
+      sub->pushed.fetch_add(1, std::memory_order_relaxed);
+      pushed_.fetch_add(1, std::memory_order_relaxed);
+      drop = sub->req_type == RTM::once;
+    } catch (const CORBA::OBJECT_NOT_EXIST& e) {
+      drop = count_failure(*sub, e._name(), true);
+    } catch (const CORBA::COMM_FAILURE& e) {
+      drop = count_failure(*sub, e._name(), true);
+    } catch (const CORBA::TRANSIENT& e) {
+      drop = count_failure(*sub, e._name(), true);
+    } catch (const CORBA::Exception& e) {
+      drop = count_failure(*sub, e._name(), false);
+    } catch (const std::exception& e) {
+      drop = count_failure(*sub, e.what(), false);
+    }
+    if (drop) {
+      sub->done = true;
+      lock.unlock();  // lock order: mu_ before slot_mu
+      retire(sub);
+      return;
+    }
+  }
+}
+
+void OutPortBase::refuse(const std::string& why) {
+  refused_.fetch_add(1, std::memory_order_relaxed);
+  log().warn("subscribe refused: {}", why);
+  std::lock_guard lock(mu_);
+  last_refusal_ = why;
+}
+
+std::string OutPortBase::peer_name(RTM::InPort_ptr port) {
+  CORBA::String_var name = port->name();
+  RTM::InPortEx_var ex = RTM::InPortEx::_narrow(port);
+  if (CORBA::is_nil(ex)) return std::string(name.in());
+  CORBA::String_var owner = ex->owner();
+  return std::string(owner.in()) + "." + name.in();
+}
+
+CORBA::Boolean OutPortBase::unsubscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) {
+  if (CORBA::is_nil(i_port)) return false;
+  PortableServer::Servant_var<InPortBase> local = InPortBase::find_local(i_port);
+  return remove_matching([&](const Subscription& s) {
+    if (s.req_type != r_type) return false;
+    if (!CORBA::is_nil(s.port)) return static_cast<bool>(s.port->_is_equivalent(i_port));
+    return local.in() != nullptr && s.local.in() == local.in();
+  });
+}
+
+char* OutPortBase::name() { return CORBA::string_dup(name_.c_str()); }
+CORBA::TypeCode_ptr OutPortBase::port_type() { return CORBA::TypeCode::_duplicate(type_code()); }
+char* OutPortBase::owner() { return CORBA::string_dup(owner_.c_str()); }
+
+RTM::PortCounters OutPortBase::counters() {
+  const OutPortCounters c = counters_snapshot();
+  RTM::PortCounters out{};
+  out.accepted = c.written;
+  out.rejected = c.refused;
+  out.dropped = c.dropped;
+  out.pushed = c.pushed;
+  out.failed = c.failed;
+  return out;
+}
+
+RTM::SubscriptionInfoList* OutPortBase::subscriptions() {
+  reap_retired();
+  auto* list = new RTM::SubscriptionInfoList;
+  std::lock_guard lock(mu_);
+  list->length(static_cast<CORBA::ULong>(subs_.size()));
+  for (CORBA::ULong i = 0; i < subs_.size(); ++i) {
+    const Subscription& s = *subs_[i];
+    RTM::SubscriptionInfo& info = (*list)[i];
+    info.req_type = s.req_type;
+    info.subscriber = RTM::InPort::_duplicate(s.port.in());
+    info.peer = CORBA::string_dup(s.peer.c_str());
+    info.in_process = s.local.in() != nullptr;
+    info.pushed = s.pushed.load(std::memory_order_relaxed);
+    info.dropped = s.dropped.load(std::memory_order_relaxed);
+    info.failures = s.failures.load(std::memory_order_relaxed);
+  }
+  return list;
+}
+
+char* OutPortBase::last_error() { return CORBA::string_dup(last_refusal().c_str()); }
+
+}  // namespace rtm

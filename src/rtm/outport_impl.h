@@ -1,0 +1,177 @@
+// Template definitions of rtm/outport.h; include that header, not this one.
+#pragma once
+
+#include "rtm/log.h"
+
+#include <omniORB4/omniORB.h>
+
+namespace rtm {
+
+template <PortData T>
+OutPort<T>::OutPort(std::string name, std::string owner, OutPortOptions options)
+    : OutPortBase(std::move(name), std::move(owner), options) {}
+
+template <PortData T>
+OutPort<T>::~OutPort() {
+  // Here, not in ~OutPortBase: delivery threads call deliver_slot(), which needs this class.
+  close();
+}
+
+template <PortData T>
+void OutPort<T>::write(const T& value) {
+  std::lock_guard lock(mu_);
+  latest_ = value;
+  has_latest_ = true;
+  written_.fetch_add(1, std::memory_order_relaxed);
+  for (std::size_t i = 0; i < subs_.size();) {
+    auto& sub = static_cast<TypedSubscription&>(*subs_[i]);
+    if (sub.direct) {
+      if (sub.check_active && !sub.local->active()) {
+        // The InPort was deactivated: the same as OBJECT_NOT_EXIST from a remote one.
+        if (count_failure(sub, "OBJECT_NOT_EXIST", true)) {
+          retire_locked(i);
+          continue;
+        }
+      } else {
+        static_cast<InPort<T>*>(sub.local.in())->deliver(value);
+        sub.failures.store(0, std::memory_order_relaxed);
+        sub.pushed.fetch_add(1, std::memory_order_relaxed);
+        pushed_.fetch_add(1, std::memory_order_relaxed);
+        if (sub.req_type == RTM::once) {
+          retire_locked(i);
+          continue;
+        }
+      }
+    } else {
+      bool wake = false;
+      {
+        std::lock_guard slot_lock(sub.slot_mu);
+        // A once-subscription takes exactly the first datum written after it was made.
+        if (!(sub.req_type == RTM::once && sub.written_seq > 0)) {
+          sub.slot = value;
+          ++sub.written_seq;
+          wake = true;
+        }
+      }
+      if (wake) sub.slot_cv.notify_one();
+    }
+    ++i;
+  }
+}
+
+template <PortData T>
+bool OutPort<T>::latest(T& out) const {
+  std::lock_guard lock(mu_);
+  if (!has_latest_) return false;
+  out = latest_;
+  return true;
+}
+
+template <PortData T>
+void OutPort<T>::deliver_slot(Subscription& base, std::unique_lock<std::mutex>& slot_lock) {
+  auto& sub = static_cast<TypedSubscription&>(base);
+  sub.sending = sub.slot;
+  slot_lock.unlock();
+  struct Relock {
+    std::unique_lock<std::mutex>& lock;
+    ~Relock() { lock.lock(); }
+  } relock{slot_lock};
+  if (sub.local.in() != nullptr) {
+    if (sub.check_active && !sub.local->active()) throw CORBA::OBJECT_NOT_EXIST(0, CORBA::COMPLETED_NO);
+    static_cast<InPort<T>*>(sub.local.in())->deliver(sub.sending);
+    return;
+  }
+  CORBA::Any any;
+  any <<= sub.sending;
+  if (options_.oneway && !CORBA::is_nil(sub.port_ex)) sub.port_ex->push(any);
+  else sub.port->put(any);
+}
+
+template <PortData T>
+bool OutPort<T>::connect(InPort<T>& in, RTM::ReqType type) {
+  reap_retired();
+  auto sub = std::make_unique<TypedSubscription>();
+  sub->req_type = type;
+  in._add_ref();
+  sub->local = &in;
+  sub->peer = in.full_name();
+  sub->direct = in.stores_without_waiting();
+  sub->check_active = false;
+  const bool threaded = !sub->direct;
+  std::string why;
+  if (!add_subscription(std::move(sub), threaded, why)) {
+    refuse(why);
+    return false;
+  }
+  return true;
+}
+
+template <PortData T>
+bool OutPort<T>::disconnect(InPort<T>& in) {
+  return remove_matching([&](const Subscription& s) { return s.local.in() == &in; });
+}
+
+template <PortData T>
+CORBA::Any* OutPort<T>::get() {
+  auto* any = new CORBA::Any;
+  {
+    std::lock_guard lock(mu_);
+    if (has_latest_) {
+      *any <<= latest_;
+      return any;
+    }
+  }
+  delete any;
+  if (!get_before_data_logged_.exchange(true))
+    log().warn("get on {} before its first write: raising BAD_INV_ORDER (minor {:#x})", full_name(),
+               kMinorNoDataYet);
+  throw CORBA::BAD_INV_ORDER(kMinorNoDataYet, CORBA::COMPLETED_NO);
+}
+
+template <PortData T>
+CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) {
+  reap_retired();
+  if (CORBA::is_nil(i_port)) {
+    refuse(full_name() + ": nil InPort reference");
+    return false;
+  }
+  auto sub = std::make_unique<TypedSubscription>();
+  sub->req_type = r_type;
+  sub->port = RTM::InPort::_duplicate(i_port);
+  // Remote calls: made before any lock is taken.
+  CORBA::TypeCode_var their_type;
+  try {
+    sub->peer = peer_name(i_port);
+    their_type = i_port->port_type();
+    sub->port_ex = RTM::InPortEx::_narrow(i_port);
+  } catch (const CORBA::Exception& e) {
+    refuse(full_name() + " -> " + (sub->peer.empty() ? std::string("<InPort>") : sub->peer) +
+           ": the InPort does not answer (" + e._name() + ")");
+    return false;
+  }
+  if (!their_type->equivalent(type_code())) {
+    refuse(full_name() + " (" + type_name(type_code()) + ") -> " + sub->peer + " (" + type_name(their_type.in()) +
+           "): types differ");
+    return false;
+  }
+  if (options_.in_process) {
+    PortableServer::Servant_var<InPortBase> local = InPortBase::find_local(i_port);
+    if (local.in() != nullptr && local->data_type() == typeid(T)) {
+      sub->direct = local->stores_without_waiting();
+      sub->local = local._retn();
+    }
+  }
+  if (sub->local.in() == nullptr) {
+    omniORB::setClientCallTimeout(sub->port.in(), options_.call_timeout_ms);
+    if (!CORBA::is_nil(sub->port_ex)) omniORB::setClientCallTimeout(sub->port_ex.in(), options_.call_timeout_ms);
+  }
+  const bool threaded = !sub->direct;
+  std::string why;
+  if (!add_subscription(std::move(sub), threaded, why)) {
+    refuse(why);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace rtm
