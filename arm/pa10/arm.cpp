@@ -16,7 +16,8 @@ ArmFault armFaultOf(rtm::can::FaultKind kind) {
     case FaultKind::drive_fault:
     case FaultKind::drive_disabled:
     case FaultKind::emergency:
-    case FaultKind::missing_feedback: return ArmFault::drive_fault;
+    case FaultKind::missing_feedback:
+    case FaultKind::node_not_operational: return ArmFault::drive_fault;
   }
   return ArmFault::drive_fault;
 }
@@ -71,6 +72,15 @@ ArmFault Pa10Arm::checkFaults() {
   if (master_.enabled()) {
     setState(ArmFault::none, "");
     return ArmFault::none;
+  }
+  // Pa10Master::fault_reset() is taken up by the master's next cycle: until a state from that
+  // cycle is published, fault() still shows the fault being reset.
+  if (reset_pending_.load(std::memory_order_acquire)) {
+    if (master_.joint_state().cycle <= cycle_at_reset_.load(std::memory_order_acquire)) {
+      setState(ArmFault::not_enabled, "fault reset requested, waiting for the master");
+      return ArmFault::not_enabled;
+    }
+    reset_pending_.store(false, std::memory_order_release);
   }
   const rtm::can::MasterFault master_fault = master_.fault();
   if (master_fault.active()) {
@@ -132,6 +142,8 @@ std::string Pa10Arm::faultReason() const {
 
 void Pa10Arm::reset() {
   commandZero();
+  cycle_at_reset_.store(master_.joint_state().cycle, std::memory_order_release);
+  reset_pending_.store(true, std::memory_order_release);
   master_.fault_reset();
   latched_ = false;
   last_ik_ = VelocityIkResult{};

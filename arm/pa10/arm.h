@@ -30,7 +30,8 @@ namespace rtm::pa10 {
 enum class ArmFault : std::uint8_t {
   none,
   not_enabled,     // not latched: the master has not (yet) enabled every drive, or no feedback
-  drive_fault,     // a drive fault, EMCY, a drive leaving operation enabled, missing feedback
+  drive_fault,     // drive fault, EMCY, drive left operation enabled, no feedback, node not
+                   // operational
   heartbeat_lost,  // a node was silent longer than the master's heartbeat timeout
   bus_error,       // the CAN transport failed
   ik_failed,       // the twist (or the measured q) was not finite
@@ -101,6 +102,8 @@ class Pa10Arm {
   ArmOptions options_;
   std::atomic<ArmFault> fault_{ArmFault::none};
   std::atomic<bool> latched_{false};       // fault_ holds a latched fault
+  std::atomic<bool> reset_pending_{false};  // reset() sent, master not yet past that cycle
+  std::atomic<std::uint64_t> cycle_at_reset_{0};  // master cycle published when reset() ran
   mutable std::mutex reason_mutex_;        // taken only on a state change and by faultReason()
   std::array<char, 256> fault_reason_{};  // fixed buffer: no allocation on the cycle path
   VelocityIkResult last_ik_{};

@@ -1,0 +1,390 @@
+// Pa10Arm with the real CANopen master over the user-space CAN bus, against seven fake drives
+// written here at the protocol level (boot-up, heartbeats, SDO mode of operation, NMT, the
+// CiA 402 state machine, TPDO after each SYNC). The master is stepped in lock-step.
+#include "arm/pa10/arm.h"
+
+#include "arm/can/bus.h"
+#include "arm/can/cia402.h"
+#include "arm/can/local_bus.h"
+#include "arm/can/master.h"
+#include "arm/can/protocol.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+// Counts allocations made by the thread that sets the flag (the fake drives' thread and the
+// hub's thread are not counted).
+namespace {
+thread_local bool t_count_allocations = false;
+thread_local long t_allocations = 0;
+}  // namespace
+
+void* operator new(std::size_t size) {
+  if (t_count_allocations) ++t_allocations;
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) { return operator new(size); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace rtm::pa10 {
+namespace {
+
+using namespace std::chrono_literals;
+namespace can = rtm::can;
+
+constexpr double kPeriod_s = 0.002;
+
+JointVector generalPose() {
+  JointVector q;
+  q << 0.3, 0.5, -0.4, 1.3, 0.6, 0.9, -0.5;
+  return q;
+}
+
+std::string uniqueHubPath() {
+  static std::atomic<int> counter{0};
+  return (std::filesystem::path(testing::TempDir()) /
+          ("pa10_arm_" + std::to_string(::getpid()) + "_" + std::to_string(counter++) + ".bus"))
+      .string();
+}
+
+// Seven PA10 drives on one bus endpoint. Positions integrate the commanded velocity over
+// each SYNC period while the drive is in operation enabled.
+class FakeDrives {
+ public:
+  FakeDrives(const std::string& hub_path, const JointVector& q0_rad)
+      : bus_(can::open_local(hub_path)), q_rad_(q0_rad) {
+    nmt_.fill(can::NmtState::pre_operational);  // after the boot-up message
+    thread_ = std::thread([this] { run(); });
+  }
+  ~FakeDrives() {
+    stop_ = true;
+    thread_.join();
+  }
+
+  // On the next SYNC the drive goes to fault and sends this EMCY.
+  void injectFault(int joint, std::uint16_t emcy_code) {
+    std::lock_guard lock(mutex_);
+    pending_fault_joint_ = joint;
+    pending_fault_code_ = emcy_code;
+  }
+  void silenceHeartbeat(int joint) { heartbeat_silenced_[joint] = true; }
+
+  double lastTarget_rad_s(int joint) const {
+    std::lock_guard lock(mutex_);
+    return last_target_rad_s_[joint];
+  }
+  JointVector positions() const {
+    std::lock_guard lock(mutex_);
+    return q_rad_;
+  }
+  std::uint64_t syncs() const { return syncs_.load(); }
+
+ private:
+  void send(const can::Result<can_frame>& frame) {
+    if (frame) bus_->send(frame.value());
+  }
+
+  void sendHeartbeats(bool boot_up) {
+    for (int j = 0; j < can::kDriveCount; ++j) {
+      if (heartbeat_silenced_[j]) continue;
+      send(can::encode_heartbeat(can::drive_node(j), boot_up ? can::NmtState::boot_up : nmt_[j]));
+    }
+  }
+
+  void onNmt(const can_frame& frame) {
+    const auto nmt = can::decode_nmt(frame);
+    if (!nmt) return;
+    for (int j = 0; j < can::kDriveCount; ++j) {
+      if (nmt->node != can::kNmtAllNodes && nmt->node != can::drive_node(j)) continue;
+      switch (nmt->command) {
+        case can::NmtCommand::start: nmt_[j] = can::NmtState::operational; break;
+        case can::NmtCommand::stop: nmt_[j] = can::NmtState::stopped; break;
+        default: nmt_[j] = can::NmtState::pre_operational; break;
+      }
+    }
+  }
+
+  void onSdo(const can_frame& frame) {
+    const auto request = can::decode_sdo_request(frame);
+    if (!request || !can::is_drive_node(request->node)) return;
+    const int j = can::joint_index_of(request->node);
+    can::SdoResponse response{request->node, can::SdoResponseKind::abort, request->index,
+                              request->subindex, can::sdo::kAbortNoObject, 0};
+    if (request->kind == can::SdoRequestKind::download &&
+        request->index == can::object::kModesOfOperation) {
+      mode_[j] = static_cast<std::int8_t>(request->data);
+      response.kind = can::SdoResponseKind::download_ack;
+      response.data = 0;
+    } else if (request->kind == can::SdoRequestKind::upload &&
+               request->index == can::object::kModesOfOperationDisplay) {
+      response.kind = can::SdoResponseKind::upload_data;
+      response.data = static_cast<std::uint8_t>(mode_[j]);
+      response.data_size = 1;
+    }
+    send(can::encode_sdo_response(response));
+  }
+
+  void onSync() {
+    ++syncs_;
+    std::lock_guard lock(mutex_);
+    if (pending_fault_joint_ >= 0) {
+      drives_[pending_fault_joint_].raise_fault();
+      send(can::encode_emcy(can::drive_node(pending_fault_joint_), pending_fault_code_, 0x01));
+      pending_fault_joint_ = -1;
+    }
+    for (int j = 0; j < can::kDriveCount; ++j) {
+      if (nmt_[j] != can::NmtState::operational) continue;
+      if (has_command_[j]) drives_[j].apply_controlword(command_[j].controlword);
+      const double velocity_rad_s =
+          drives_[j].follows_target_velocity() ? command_[j].target_velocity_rad_s : 0.0;
+      last_target_rad_s_[j] = has_command_[j] ? command_[j].target_velocity_rad_s : 0.0;
+      q_rad_[j] += velocity_rad_s * kPeriod_s;
+      send(can::encode_drive_feedback(
+          {can::drive_node(j), drives_[j].statusword(), q_rad_[j], velocity_rad_s}));
+    }
+  }
+
+  void run() {
+    sendHeartbeats(/*boot_up=*/true);
+    auto next_heartbeat = std::chrono::steady_clock::now() + 100ms;
+    while (!stop_) {
+      if (std::chrono::steady_clock::now() >= next_heartbeat) {
+        sendHeartbeats(false);
+        next_heartbeat += 100ms;
+      }
+      can_frame frame{};
+      try {
+        if (!bus_->receive(frame, 1ms)) continue;
+      } catch (const can::BusError&) {
+        return;  // the hub went away: the test is ending
+      }
+      const can::Classified c = can::classify(frame);
+      switch (c.type) {
+        case can::FrameType::nmt: onNmt(frame); break;
+        case can::FrameType::sdo_request: onSdo(frame); break;
+        case can::FrameType::sync: onSync(); break;
+        case can::FrameType::drive_command: {
+          const auto command = can::decode_drive_command(frame);
+          if (!command) break;
+          const int j = can::joint_index_of(command->drive);
+          std::lock_guard lock(mutex_);
+          command_[j] = *command;
+          has_command_[j] = true;
+          break;
+        }
+        default: break;
+      }
+    }
+  }
+
+  std::unique_ptr<can::Bus> bus_;
+  std::atomic<bool> stop_{false};
+  mutable std::mutex mutex_;
+  std::array<can::Cia402Drive, can::kDriveCount> drives_{};
+  std::array<can::NmtState, can::kDriveCount> nmt_{};
+  std::array<std::int8_t, can::kDriveCount> mode_{};
+  std::array<can::DriveCommand, can::kDriveCount> command_{};
+  std::array<bool, can::kDriveCount> has_command_{};
+  std::array<double, can::kDriveCount> last_target_rad_s_{};
+  std::array<std::atomic<bool>, can::kDriveCount> heartbeat_silenced_{};
+  JointVector q_rad_;
+  int pending_fault_joint_ = -1;
+  std::uint16_t pending_fault_code_ = 0;
+  std::atomic<std::uint64_t> syncs_{0};
+  std::thread thread_;
+};
+
+can::MasterConfig lockStepConfig() {
+  can::MasterConfig config;
+  config.sensors.clear();  // the fake has drives only
+  return config;
+}
+
+// Hub, fake drives, master and arm, declared so that they are torn down in reverse: the arm,
+// then the master (its shutdown frames still reach the hub), then the drives, then the hub.
+struct Rig {
+  explicit Rig(const JointVector& q0 = generalPose())
+      : hub(uniqueHubPath()),
+        drives(hub.path(), q0),
+        master(can::open_local(hub.path()), nullptr, lockStepConfig()),
+        arm(RTM_PA10_URDF_PATH, master) {}
+
+  void startMaster() {
+    master.start();
+    master.step();  // first feedback after enabling
+  }
+  // Steps until `done()` or max_cycles; true when done.
+  template <class Done>
+  bool stepUntil(Done done, int max_cycles) {
+    for (int i = 0; i < max_cycles; ++i) {
+      if (done()) return true;
+      master.step();
+    }
+    return done();
+  }
+
+  can::LocalHub hub;
+  FakeDrives drives;
+  can::Pa10Master master;
+  Pa10Arm arm;
+};
+
+std::array<float, 6> smallTwist() { return {0.01f, -0.02f, 0.015f, 0.0f, 0.05f, 0.0f}; }
+
+TEST(Pa10Arm, ReportsNotEnabledBeforeTheMasterHasStarted) {
+  Rig rig;
+  EXPECT_FALSE(rig.arm.orderVelocity(smallTwist()));
+  EXPECT_EQ(rig.arm.fault(), ArmFault::not_enabled);
+  EXPECT_NE(rig.arm.faultReason().find("not enabled"), std::string::npos) << rig.arm.faultReason();
+  // Not latched: once the master is up, the arm moves without a reset.
+  rig.startMaster();
+  EXPECT_TRUE(rig.arm.orderVelocity(smallTwist())) << rig.arm.faultReason();
+  EXPECT_EQ(rig.arm.fault(), ArmFault::none);
+  EXPECT_EQ(rig.arm.faultReason(), "");
+}
+
+TEST(Pa10Arm, OrderVelocityMovesTheToolAlongTheCommandedTwist) {
+  Rig rig;
+  rig.startMaster();
+  const Eigen::Isometry3d start = rig.arm.toolPose();
+  const std::array<float, 6> twist{0.02f, -0.01f, 0.015f, 0.0f, 0.0f, 0.0f};
+  const int cycles = 100;
+  for (int i = 0; i < cycles; ++i) {
+    ASSERT_TRUE(rig.arm.orderVelocity(twist)) << rig.arm.faultReason();
+    ASSERT_TRUE(rig.master.step());
+  }
+  // The drives got the IK's rates (to the protocol's 1 urad/s resolution).
+  for (int j = 0; j < kJointCount; ++j)
+    EXPECT_NEAR(rig.drives.lastTarget_rad_s(j), rig.arm.lastIk().qdot_rad_s[j], 1e-6) << j;
+  EXPECT_DOUBLE_EQ(rig.arm.lastIk().twist_scale, 1.0);
+
+  const Eigen::Isometry3d end = rig.arm.toolPose();
+  const Eigen::Vector3d moved_m = end.translation() - start.translation();
+  // The first order is applied from the SYNC after it, so count whole periods loosely.
+  const Eigen::Vector3d expected_m =
+      Eigen::Vector3d(twist[0], twist[1], twist[2]) * (cycles - 1) * kPeriod_s;
+  EXPECT_GT(moved_m.normalized().dot(expected_m.normalized()), 0.999) << moved_m.transpose();
+  EXPECT_NEAR(moved_m.norm(), expected_m.norm(), 0.05 * expected_m.norm());
+  EXPECT_LE(Eigen::AngleAxisd(end.linear() * start.linear().transpose()).angle(), 1e-3);
+  // The arm reads back what the drives report.
+  EXPECT_LE((rig.arm.jointPositions() - rig.drives.positions()).norm(), 1e-5);
+}
+
+TEST(Pa10Arm, DriveFaultLatchesZeroVelocityWithTheReasonUntilReset) {
+  Rig rig;
+  rig.startMaster();
+  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist()));
+  rig.master.step();
+  const int e1 = 3;
+  rig.drives.injectFault(e1, can::emcy::kRpdoTimeout);
+  ASSERT_TRUE(rig.stepUntil(
+      [&] { return !rig.arm.orderVelocity(smallTwist()) && rig.arm.inFault(); }, 50));
+  EXPECT_EQ(rig.arm.fault(), ArmFault::drive_fault);
+  const std::string reason = rig.arm.faultReason();
+  EXPECT_NE(reason.find("drive_fault"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("E1"), std::string::npos) << reason;
+
+  // Latched: further orders are refused and every drive is commanded zero.
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_FALSE(rig.arm.orderVelocity(smallTwist()));
+    rig.master.step();
+  }
+  EXPECT_EQ(rig.arm.fault(), ArmFault::drive_fault);
+  for (int j = 0; j < kJointCount; ++j) EXPECT_EQ(rig.drives.lastTarget_rad_s(j), 0.0) << j;
+
+  rig.arm.reset();
+  EXPECT_NE(rig.arm.fault(), ArmFault::drive_fault);
+  ASSERT_TRUE(rig.stepUntil([&] { return rig.arm.orderVelocity(smallTwist()); }, 1000))
+      << rig.arm.faultReason();
+  EXPECT_EQ(rig.arm.fault(), ArmFault::none);
+  rig.master.step();
+  EXPECT_NE(rig.drives.lastTarget_rad_s(0), 0.0) << "motion resumes after the reset";
+}
+
+TEST(Pa10Arm, HeartbeatLossLatchesAFaultNamingTheNode) {
+  Rig rig;
+  rig.startMaster();
+  const int w1 = 5;
+  rig.drives.silenceHeartbeat(w1);
+  // The master's watch runs on real time (300 ms): step at about the real period until then.
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  bool faulted = false;
+  while (!faulted && std::chrono::steady_clock::now() < deadline) {
+    faulted = !rig.arm.orderVelocity(smallTwist()) && rig.arm.inFault();
+    rig.master.step();
+    std::this_thread::sleep_for(2ms);
+  }
+  ASSERT_TRUE(faulted) << "no fault while drive 6 was silent";
+  EXPECT_EQ(rig.arm.fault(), ArmFault::heartbeat_lost);
+  EXPECT_NE(rig.arm.faultReason().find("W1"), std::string::npos) << rig.arm.faultReason();
+  EXPECT_FALSE(rig.arm.orderVelocity(smallTwist()));
+  rig.master.step();
+  for (int j = 0; j < kJointCount; ++j) EXPECT_EQ(rig.drives.lastTarget_rad_s(j), 0.0) << j;
+}
+
+TEST(Pa10Arm, NanTwistLatchesIkFailureAndCommandsZeroUntilReset) {
+  Rig rig;
+  rig.startMaster();
+  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist()));
+  rig.master.step();
+  std::array<float, 6> bad = smallTwist();
+  bad[2] = std::nanf("");
+  EXPECT_FALSE(rig.arm.orderVelocity(bad));
+  EXPECT_EQ(rig.arm.fault(), ArmFault::ik_failed);
+  EXPECT_NE(rig.arm.faultReason().find("NaN"), std::string::npos) << rig.arm.faultReason();
+  rig.master.step();
+  for (int j = 0; j < kJointCount; ++j) EXPECT_EQ(rig.drives.lastTarget_rad_s(j), 0.0) << j;
+  // A good twist does not clear the fault by itself.
+  EXPECT_FALSE(rig.arm.orderVelocity(smallTwist()));
+  EXPECT_EQ(rig.arm.fault(), ArmFault::ik_failed);
+
+  rig.arm.reset();
+  ASSERT_TRUE(rig.stepUntil([&] { return rig.arm.orderVelocity(smallTwist()); }, 1000))
+      << rig.arm.faultReason();
+  EXPECT_EQ(rig.arm.fault(), ArmFault::none);
+}
+
+TEST(Pa10Arm, OrderVelocityAllocatesNothing) {
+  Rig rig;
+  rig.startMaster();
+  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist()));
+  rig.master.step();
+  long allocations = 0;
+  for (int i = 0; i < 50; ++i) {
+    t_allocations = 0;
+    t_count_allocations = true;
+    const bool ok = rig.arm.orderVelocity(smallTwist());
+    t_count_allocations = false;
+    allocations += t_allocations;
+    ASSERT_TRUE(ok) << rig.arm.faultReason();
+    rig.master.step();
+  }
+  EXPECT_EQ(allocations, 0);
+}
+
+TEST(Pa10Arm, MalformedUrdfPathIsAClearError) {
+  can::LocalHub hub(uniqueHubPath());
+  can::Pa10Master master(can::open_local(hub.path()), nullptr, lockStepConfig());
+  try {
+    Pa10Arm arm("/nonexistent/pa10.urdf", master);
+    FAIL() << "expected ModelError";
+  } catch (const ModelError& error) {
+    EXPECT_NE(std::string(error.what()).find("/nonexistent/pa10.urdf"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace rtm::pa10
