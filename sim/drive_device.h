@@ -12,8 +12,8 @@
 //   - heartbeat every heartbeat_period_ns of the time given to tick(), with the NMT state;
 //   - expedited SDO: 0x6060:00 mode of operation (i8, writable in pre-operational only, only
 //     9 = cyclic synchronous velocity accepted), 0x6061:00 mode display, 0x6041:00 statusword,
-//     0x6064:00 position actual, 0x606C:00 velocity actual, 0x1017:00 heartbeat period (ms);
-//     anything else is answered with an SDO abort;
+//     0x1017:00 heartbeat period (u16 ms); position/velocity actual travel in TPDO1 only (an
+//     SDO read of them is aborted), anything else is answered with an SDO abort;
 //   - the CiA 402 state machine driven by the controlword of RPDO1 (operational only);
 //   - RPDO1 (controlword, target velocity) latched at the next SYNC; TPDO1 (statusword,
 //     position, velocity) after each SYNC while operational;

@@ -47,11 +47,15 @@ class Pa10Simulator {
   void set_mode(Mode mode) { mode_ = mode; }
   Mode mode() const { return mode_; }
 
-  // One frame from the bus; replies go to `out` (and, when set, sensor frames to
-  // `sensor_out`, the separate sensor bus). In lock-step a SYNC advances the physics first.
+  // One frame from the (drive) bus; replies go to `out`. In lock-step a SYNC advances the
+  // physics first. Without a separate sensor bus the sensors see these frames too.
   void on_frame(const can_frame& frame, FrameSink& out);
-  // Where the force sensors send (default: the same sink as the drives).
+
+  // A separate sensor bus: from now on the sensors send to `sensor_out` and see only the
+  // frames given to on_sensor_bus_frame() (a SYNC there is answered at once, never advances
+  // the physics). nullptr goes back to one shared bus.
   void set_sensor_sink(FrameSink* sensor_out) { sensor_out_ = sensor_out; }
+  void on_sensor_bus_frame(const can_frame& frame);
 
   // Real time: one physics step, the devices' clocks and heartbeats.
   void step(FrameSink& out);

@@ -1,0 +1,225 @@
+#include "sim/drive_device.h"
+
+#include "arm/can/protocol.h"
+
+namespace rtm::sim {
+
+namespace pc = rtm::can;
+
+namespace {
+
+void send_if_ok(const pc::Result<can_frame>& frame, FrameSink& out) {
+  // An encoder refuses only out-of-range node ids or NaN: both are impossible here by
+  // construction, so a refusal is silently not sent rather than thrown into the bus loop.
+  if (frame.ok()) out.send(*frame);
+}
+
+}  // namespace
+
+DriveDevice::DriveDevice(DriveConfig config) : config_(config) {}
+
+void DriveDevice::power_on(std::int64_t now_ns, FrameSink& out) {
+  nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::boot_up);
+  send_if_ok(pc::encode_heartbeat(config_.node_id, pc::NmtState::boot_up), out);
+  nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::pre_operational);
+  drive_.reset();
+  mode_ = 0;
+  rpdo_pending_ = false;
+  pending_controlword_ = 0;
+  pending_velocity_rad_s_ = 0;
+  target_velocity_rad_s_ = 0;
+  syncs_without_rpdo_ = 0;
+  tpdo_due_ = false;
+  next_heartbeat_ns_ = now_ns + config_.heartbeat_period_ns;
+}
+
+void DriveDevice::on_frame(const can_frame& frame, std::int64_t now_ns, FrameSink& out) {
+  const pc::Classified kind = pc::classify(frame);
+  switch (kind.type) {
+    case pc::FrameType::nmt:
+      handle_nmt(frame, now_ns, out);
+      break;
+    case pc::FrameType::sync:
+      if (pc::decode_sync(frame).ok()) handle_sync(out);
+      break;
+    case pc::FrameType::drive_command:
+      if (kind.node == config_.node_id) handle_rpdo(frame);
+      break;
+    case pc::FrameType::sdo_request:
+      if (kind.node == config_.node_id) handle_sdo(frame, out);
+      break;
+    default:
+      break;
+  }
+}
+
+void DriveDevice::handle_nmt(const can_frame& frame, std::int64_t now_ns, FrameSink& out) {
+  const auto nmt = pc::decode_nmt(frame);
+  if (!nmt.ok()) return;
+  if (nmt->node != pc::kNmtAllNodes && nmt->node != config_.node_id) return;
+  switch (nmt->command) {
+    case pc::NmtCommand::start:
+      nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::operational);
+      break;
+    case pc::NmtCommand::stop:
+      nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::stopped);
+      // A stopped node takes no PDOs: the drive must not keep moving on an old target.
+      if (drive_.follows_target_velocity()) drive_.apply_controlword(pc::controlword::kSwitchOn);
+      break;
+    case pc::NmtCommand::enter_pre_operational:
+      nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::pre_operational);
+      if (drive_.follows_target_velocity()) drive_.apply_controlword(pc::controlword::kSwitchOn);
+      break;
+    case pc::NmtCommand::reset_node:
+    case pc::NmtCommand::reset_communication:
+      power_on(now_ns, out);
+      break;
+  }
+}
+
+void DriveDevice::handle_rpdo(const can_frame& frame) {
+  if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::operational)) return;
+  const auto command = pc::decode_drive_command(frame);
+  if (!command.ok()) return;
+  rpdo_pending_ = true;
+  pending_controlword_ = command->controlword;
+  pending_velocity_rad_s_ = command->target_velocity_rad_s;
+}
+
+void DriveDevice::handle_sync(FrameSink& out) {
+  ++syncs_seen_;
+  if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::operational)) return;
+  tpdo_due_ = true;
+  if (rpdo_pending_) {
+    rpdo_pending_ = false;
+    syncs_without_rpdo_ = 0;
+    const bool was_fault = in_fault();
+    drive_.apply_controlword(pending_controlword_);
+    if (was_fault && !in_fault()) send_emcy(pc::emcy::kErrorReset, out);
+    target_velocity_rad_s_ = pending_velocity_rad_s_;
+    return;
+  }
+  // The PA10 firmware's command-loss guard: only a moving (enabled) drive can lose commands.
+  if (!drive_.follows_target_velocity()) return;
+  if (++syncs_without_rpdo_ >= config_.rpdo_timeout_syncs) enter_fault(pc::emcy::kRpdoTimeout, out);
+}
+
+void DriveDevice::enter_fault(std::uint16_t emcy_code, FrameSink& out) {
+  drive_.raise_fault();
+  target_velocity_rad_s_ = 0;
+  syncs_without_rpdo_ = 0;
+  send_emcy(emcy_code, out);
+}
+
+void DriveDevice::send_emcy(std::uint16_t code, FrameSink& out) {
+  // Error register bit 0 (generic error) is set while an error is present.
+  const std::uint8_t error_register = code == pc::emcy::kErrorReset ? 0x00 : 0x01;
+  send_if_ok(pc::encode_emcy(config_.node_id, code, error_register), out);
+}
+
+void DriveDevice::send_tpdo(const JointState& state, FrameSink& out) {
+  if (!tpdo_due_) return;
+  tpdo_due_ = false;
+  if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::operational)) return;
+  pc::DriveFeedback feedback{};
+  feedback.drive = config_.node_id;
+  feedback.statusword = drive_.statusword();
+  feedback.position_rad = state.position_rad;
+  feedback.velocity_rad_s = state.velocity_rad_s;
+  send_if_ok(pc::encode_drive_feedback(feedback), out);
+}
+
+void DriveDevice::tick(std::int64_t now_ns, FrameSink& out) {
+  if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::boot_up)) return;
+  if (now_ns < next_heartbeat_ns_) return;
+  send_heartbeat(out);
+  // Catch up without a burst when the clock jumped by several periods.
+  while (next_heartbeat_ns_ <= now_ns) next_heartbeat_ns_ += config_.heartbeat_period_ns;
+}
+
+void DriveDevice::send_heartbeat(FrameSink& out) {
+  if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::boot_up)) return;
+  send_if_ok(pc::encode_heartbeat(config_.node_id, static_cast<pc::NmtState>(nmt_state_)), out);
+}
+
+JointCommand DriveDevice::command() const {
+  const bool moving = drive_.follows_target_velocity() &&
+                      nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::operational);
+  if (!moving) return {};
+  return {JointCommand::Mode::velocity, target_velocity_rad_s_};
+}
+
+void DriveDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
+  const auto request = pc::decode_sdo_request(frame);
+  if (!request.ok()) return;
+  // SDO is served in pre-operational and operational (CiA 301), not in stopped.
+  if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::stopped)) return;
+  pc::SdoResponse response{};
+  response.node = config_.node_id;
+  response.index = request->index;
+  response.subindex = request->subindex;
+  auto abort = [&](std::uint32_t code) {
+    response.kind = pc::SdoResponseKind::abort;
+    response.data = code;
+    response.data_size = 0;
+    send_if_ok(pc::encode_sdo_response(response), out);
+  };
+  auto upload = [&](std::uint32_t value, std::uint8_t size) {
+    response.kind = pc::SdoResponseKind::upload_data;
+    response.data = value;
+    response.data_size = size;
+    send_if_ok(pc::encode_sdo_response(response), out);
+  };
+  if (request->subindex != 0) return abort(pc::sdo::kAbortNoObject);
+
+  if (request->kind == pc::SdoRequestKind::download) {
+    switch (request->index) {
+      case pc::object::kModesOfOperation: {
+        if (request->data_size != 1) return abort(pc::sdo::kAbortLengthMismatch);
+        if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::pre_operational))
+          return abort(pc::sdo::kAbortWrongState);
+        const auto mode = static_cast<std::int8_t>(request->data & 0xFF);
+        if (mode != pc::object::kCyclicSynchronousVelocityMode)
+          return abort(pc::sdo::kAbortValueRange);
+        mode_ = mode;
+        break;
+      }
+      case 0x1017: {
+        if (request->data_size != 2) return abort(pc::sdo::kAbortLengthMismatch);
+        config_.heartbeat_period_ns = static_cast<std::int64_t>(request->data) * 1'000'000;
+        if (config_.heartbeat_period_ns == 0) return abort(pc::sdo::kAbortValueRange);
+        break;
+      }
+      case pc::object::kModesOfOperationDisplay:
+      case pc::object::kStatusword:
+      case pc::object::kPositionActual:
+      case pc::object::kVelocityActual:
+        return abort(pc::sdo::kAbortReadOnly);
+      default:
+        return abort(pc::sdo::kAbortNoObject);
+    }
+    response.kind = pc::SdoResponseKind::download_ack;
+    response.data = 0;
+    response.data_size = 0;
+    send_if_ok(pc::encode_sdo_response(response), out);
+    return;
+  }
+
+  switch (request->index) {
+    case pc::object::kModesOfOperation:
+    case pc::object::kModesOfOperationDisplay:
+      return upload(static_cast<std::uint8_t>(mode_), 1);
+    case pc::object::kStatusword:
+      return upload(drive_.statusword(), 2);
+    case 0x1017:
+      return upload(static_cast<std::uint32_t>(config_.heartbeat_period_ns / 1'000'000), 2);
+    case pc::object::kPositionActual:
+    case pc::object::kVelocityActual:
+      // Served by TPDO1 only: the device class does not hold the joint state between SYNCs.
+      return abort(pc::sdo::kAbortUnsupportedCommand);
+    default:
+      return abort(pc::sdo::kAbortNoObject);
+  }
+}
+
+}  // namespace rtm::sim

@@ -1,0 +1,62 @@
+// pa10-sim: the MuJoCo PA10 behind a CAN bus, standing in for the real arm's drives and
+// force sensors. See sim/README.md.
+#include <csignal>
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+
+#include "sim/runner.h"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+void on_signal(int) { g_stop.store(true); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  rtm::sim::RunOptions options;
+#ifdef RTM_PA10_SCENE
+  options.scene_path = RTM_PA10_SCENE;
+#endif
+  CLI::App app{"pa10-sim: the simulated PA10-7C arm (MuJoCo) behind a CAN bus"};
+  app.add_option("--bus", options.bus_spec,
+                 "CAN bus: local:<path> (hub created here if none listens) or socketcan:<if>")
+      ->required();
+  app.add_option("--sensor-bus", options.sensor_bus_spec,
+                 "separate bus for the two force sensors (default: the same bus)");
+  app.add_option("--model", options.scene_path, "MJCF scene")->capture_default_str();
+  app.add_flag("--lockstep", options.lock_step,
+               "advance one SYNC period (2 ms) per SYNC received, then answer; for tests");
+  auto* profile = app.add_option("--profile", options.profile_path,
+                                 "operator wrench profile on the joystick (YAML)");
+  app.add_flag("--stdin", options.stdin_wrench,
+               "read the operator's wrench from stdin lines 'fx fy fz [tx ty tz]' (N, N·m)")
+      ->excludes(profile);
+  app.add_option("--log", options.log_path, "CSV of the state after each SYNC");
+  app.add_option("--duration", options.duration_s, "stop after this much sim time [s]")
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--quiet", options.quiet, "no status lines on stdout");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error);
+  }
+
+  struct sigaction action {};
+  action.sa_handler = on_signal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = 0;  // no SA_RESTART: a signal interrupts ppoll at once
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+
+  try {
+    rtm::sim::run_simulator(options, g_stop);
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "pa10-sim: %s\n", error.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,178 @@
+#include "sim/pa10_plant.h"
+
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <filesystem>
+
+namespace rtm::sim {
+
+namespace {
+
+constexpr const char* kJointNames[kJointCount] = {"s1", "s2", "s3", "e1", "e2", "w1", "w2"};
+
+int require_id(const mjModel* model, mjtObj type, const char* name, const std::string& scene) {
+  const int id = mj_name2id(model, type, name);
+  if (id < 0) throw SceneError(scene + ": the scene has no " + mju_type2Str(type) + " '" + name + "'");
+  return id;
+}
+
+// MuJoCo's force/torque sensors report what the parent body exerts on the sensor's body; the
+// sensor here reports what the world exerts on the tool side, hence the sign flip.
+Wrench external_wrench(const mjData* data, int force_adr, int torque_adr) {
+  Wrench wrench;
+  for (int i = 0; i < 3; ++i) {
+    wrench.force_N[i] = -data->sensordata[force_adr + i];
+    wrench.torque_Nm[i] = -data->sensordata[torque_adr + i];
+  }
+  return wrench;
+}
+
+}  // namespace
+
+Pa10Plant::Pa10Plant(const std::string& scene_path, ServoGains gains) : gains_(gains) {
+  if (!std::filesystem::is_regular_file(scene_path))
+    throw SceneError(scene_path + ": scene file not found");
+  char error[1000] = "";
+  model_ = mj_loadXML(scene_path.c_str(), nullptr, error, sizeof error);
+  if (!model_) throw SceneError(scene_path + ": MuJoCo cannot load it: " + error);
+  data_ = mj_makeData(model_);
+  try {
+    if (model_->nq != kJointCount || model_->nv != kJointCount || model_->nu != kJointCount)
+      throw SceneError(scene_path + ": expected 7 hinge joints and 7 motors, found nq=" +
+                       std::to_string(model_->nq) + " nu=" + std::to_string(model_->nu));
+    for (int j = 0; j < kJointCount; ++j) {
+      // The servo indexes qpos/qvel/ctrl by joint number: the scene must keep that order.
+      const int joint = require_id(model_, mjOBJ_JOINT, kJointNames[j], scene_path);
+      const int motor = require_id(model_, mjOBJ_ACTUATOR, kJointNames[j], scene_path);
+      if (joint != j || model_->jnt_qposadr[joint] != j || model_->jnt_dofadr[joint] != j ||
+          motor != j || model_->actuator_trnid[2 * motor] != j)
+        throw SceneError(scene_path + ": joint/motor '" + kJointNames[j] +
+                         "' is not the scene's joint/motor number " + std::to_string(j));
+    }
+    joystick_body_ = require_id(model_, mjOBJ_BODY, "joystick_handle", scene_path);
+    tool_site_ = require_id(model_, mjOBJ_SITE, "tool_tip", scene_path);
+    auto sensor_adr = [&](const char* name) {
+      return model_->sensor_adr[require_id(model_, mjOBJ_SENSOR, name, scene_path)];
+    };
+    wrist_force_adr_ = sensor_adr("wrist_force");
+    wrist_torque_adr_ = sensor_adr("wrist_torque");
+    joystick_force_adr_ = sensor_adr("joystick_force");
+    joystick_torque_adr_ = sensor_adr("joystick_torque");
+    reset_to_keyframe("ready");
+  } catch (...) {
+    mj_deleteData(data_);
+    mj_deleteModel(model_);
+    throw;
+  }
+}
+
+Pa10Plant::~Pa10Plant() {
+  mj_deleteData(data_);
+  mj_deleteModel(model_);
+}
+
+void Pa10Plant::reset_to_keyframe(const std::string& name) {
+  const int key = mj_name2id(model_, mjOBJ_KEY, name.c_str());
+  if (key < 0) throw SceneError("the scene has no keyframe '" + name + "'");
+  mj_resetDataKeyframe(model_, data_, key);
+  std::array<double, kJointCount> q{};
+  std::copy_n(data_->qpos, kJointCount, q.begin());
+  set_joint_positions(q);
+}
+
+void Pa10Plant::set_joint_positions(const std::array<double, kJointCount>& q_rad) {
+  for (int j = 0; j < kJointCount; ++j) {
+    data_->qpos[j] = q_rad[static_cast<std::size_t>(j)];
+    data_->qvel[j] = 0;
+    commands_[static_cast<std::size_t>(j)] = {};
+    hold_position_rad_[static_cast<std::size_t>(j)] = q_rad[static_cast<std::size_t>(j)];
+    velocity_error_integral_rad_[static_cast<std::size_t>(j)] = 0;
+  }
+  mj_forward(model_, data_);
+}
+
+void Pa10Plant::set_command(int joint, const JointCommand& command) {
+  const auto j = static_cast<std::size_t>(joint);
+  const bool engaging_brake =
+      command.mode == JointCommand::Mode::hold && commands_[j].mode != JointCommand::Mode::hold;
+  const bool releasing_brake =
+      command.mode == JointCommand::Mode::velocity && commands_[j].mode == JointCommand::Mode::hold;
+  if (engaging_brake) {
+    // An ideal brake: the joint stops where it is.
+    hold_position_rad_[j] = data_->qpos[joint];
+    data_->qvel[joint] = 0;
+  }
+  if (releasing_brake) velocity_error_integral_rad_[j] = 0;
+  commands_[j] = command;
+}
+
+void Pa10Plant::set_operator_wrench(const Wrench& wrench) {
+  mjtNum* applied = data_->xfrc_applied + 6 * joystick_body_;
+  for (int i = 0; i < 3; ++i) {
+    applied[i] = wrench.force_N[static_cast<std::size_t>(i)];
+    applied[3 + i] = wrench.torque_Nm[static_cast<std::size_t>(i)];
+  }
+}
+
+void Pa10Plant::compute_servo_torques() {
+  const double dt_s = model_->opt.timestep;
+  for (int j = 0; j < kJointCount; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    const double qdot = data_->qvel[j];
+    if (commands_[k].mode == JointCommand::Mode::velocity) {
+      const double error = commands_[k].target_velocity_rad_s - qdot;
+      velocity_error_integral_rad_[k] += error * dt_s;
+      desired_acceleration_[k] = gains_.velocity_bandwidth_rad_s * error +
+                                 gains_.velocity_integral_1_s2 * velocity_error_integral_rad_[k];
+    } else {
+      desired_acceleration_[k] = gains_.hold_stiffness_1_s2 * (hold_position_rad_[k] - data_->qpos[j]) -
+                                 gains_.hold_damping_1_s * qdot;
+    }
+  }
+  // tau = M(q) a + bias(q, qdot): decoupled joints, no sag.
+  mj_mulM(model_, data_, torque_Nm_.data(), desired_acceleration_.data());
+  for (int j = 0; j < kJointCount; ++j) {
+    const double tau = torque_Nm_[static_cast<std::size_t>(j)] + data_->qfrc_bias[j];
+    data_->ctrl[j] = std::clamp(tau, model_->actuator_ctrlrange[2 * j],
+                                model_->actuator_ctrlrange[2 * j + 1]);
+  }
+}
+
+void Pa10Plant::step() {
+  // Split step: step1 brings M(q) and the bias forces up to date for this state, the servo
+  // uses them, step2 applies the torques and integrates.
+  mj_step1(model_, data_);
+  compute_servo_torques();
+  mj_step2(model_, data_);
+}
+
+double Pa10Plant::timestep_s() const { return model_->opt.timestep; }
+double Pa10Plant::time_s() const { return data_->time; }
+
+JointState Pa10Plant::joint_state(int joint) const {
+  return {data_->qpos[joint], data_->qvel[joint]};
+}
+
+Wrench Pa10Plant::wrist_wrench() const {
+  return external_wrench(data_, wrist_force_adr_, wrist_torque_adr_);
+}
+
+Wrench Pa10Plant::joystick_wrench() const {
+  return external_wrench(data_, joystick_force_adr_, joystick_torque_adr_);
+}
+
+std::array<double, 3> Pa10Plant::tool_position_m() const {
+  const mjtNum* p = data_->site_xpos + 3 * tool_site_;
+  return {p[0], p[1], p[2]};
+}
+
+std::array<double, 9> Pa10Plant::tool_rotation() const {
+  std::array<double, 9> r{};
+  std::copy_n(data_->site_xmat + 9 * tool_site_, 9, r.begin());
+  return r;
+}
+
+double Pa10Plant::applied_torque_Nm(int joint) const { return data_->ctrl[joint]; }
+
+}  // namespace rtm::sim

@@ -1,0 +1,249 @@
+#include "sim/runner.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/prctl.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <string_view>
+
+#include "arm/can/bus.h"
+#include "arm/can/local_bus.h"
+#include "sim/simulator.h"
+
+namespace rtm::sim {
+
+namespace {
+
+constexpr std::int64_t kNsPerS = 1'000'000'000;
+constexpr std::int64_t kWallHeartbeatPeriod_ns = 100'000'000;
+// A real-time step found later than this is not caught up (no burst after a host stall).
+constexpr std::int64_t kMaxCatchUp_ns = 20'000'000;
+
+std::int64_t monotonic_ns() {
+  timespec now{};
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  return now.tv_sec * kNsPerS + now.tv_nsec;
+}
+
+timespec to_timespec(std::int64_t ns) {
+  return {static_cast<time_t>(ns / kNsPerS), static_cast<long>(ns % kNsPerS)};
+}
+
+class BusSink final : public FrameSink {
+ public:
+  explicit BusSink(rtm::can::Bus& bus) : bus_(bus) {}
+  void send(const can_frame& frame) override {
+    if (!bus_.send(frame)) ++dropped_;
+  }
+  std::uint64_t dropped() const { return dropped_; }
+
+ private:
+  rtm::can::Bus& bus_;
+  std::uint64_t dropped_ = 0;
+};
+
+// Opens `spec`; for "local:<path>" with no hub listening, starts one in this process.
+std::unique_ptr<rtm::can::Bus> open_or_host(const std::string& spec,
+                                            std::unique_ptr<rtm::can::LocalHub>& hub) {
+  constexpr std::string_view kLocal = "local:";
+  if (spec.rfind(kLocal, 0) != 0) return rtm::can::open_bus(spec);
+  const std::string path = spec.substr(kLocal.size());
+  try {
+    return rtm::can::open_bus(spec);
+  } catch (const rtm::can::BusError&) {
+    if (path.empty()) throw;
+  }
+  hub = std::make_unique<rtm::can::LocalHub>(path);  // nobody listens there: host the bus
+  return rtm::can::open_bus(spec);
+}
+
+// CSV of the state after each SYNC. Buffered by stdio (1 MiB): a write() about every few
+// thousand rows, not per cycle.
+class CsvLog {
+ public:
+  explicit CsvLog(const std::string& path) {
+    if (path.empty()) return;
+    file_ = std::fopen(path.c_str(), "w");
+    if (!file_) throw RunError("--log " + path + ": " + std::strerror(errno));
+    std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
+    std::fputs("time_s", file_);
+    for (const char* j : {"s1", "s2", "s3", "e1", "e2", "w1", "w2"}) std::fprintf(file_, ",q_%s_rad", j);
+    for (const char* j : {"s1", "s2", "s3", "e1", "e2", "w1", "w2"})
+      std::fprintf(file_, ",qd_%s_rad_s", j);
+    std::fputs(",tool_x_m,tool_y_m,tool_z_m,wrist_fx_N,wrist_fy_N,wrist_fz_N,wrist_tx_Nm,"
+               "wrist_ty_Nm,wrist_tz_Nm,joy_fx_N,joy_fy_N,joy_fz_N,joy_tx_Nm,joy_ty_Nm,"
+               "joy_tz_Nm\n",
+               file_);
+  }
+  ~CsvLog() {
+    if (file_) std::fclose(file_);
+  }
+  CsvLog(const CsvLog&) = delete;
+  CsvLog& operator=(const CsvLog&) = delete;
+
+  void row(Pa10Simulator& sim) {
+    if (!file_) return;
+    Pa10Plant& plant = sim.plant();
+    std::fprintf(file_, "%.4f", static_cast<double>(sim.time_ns()) * 1e-9);
+    for (int j = 0; j < kJointCount; ++j) std::fprintf(file_, ",%.6f", plant.joint_state(j).position_rad);
+    for (int j = 0; j < kJointCount; ++j)
+      std::fprintf(file_, ",%.6f", plant.joint_state(j).velocity_rad_s);
+    for (double p : plant.tool_position_m()) std::fprintf(file_, ",%.6f", p);
+    write_wrench(plant.wrist_wrench(), sim.wrist_sensor().offset());
+    write_wrench(plant.joystick_wrench(), sim.joystick_sensor().offset());
+    std::fputc('\n', file_);
+  }
+
+ private:
+  void write_wrench(const Wrench& raw, const Wrench& offset) {
+    for (int i = 0; i < 3; ++i) std::fprintf(file_, ",%.3f", raw.force_N[i] - offset.force_N[i]);
+    for (int i = 0; i < 3; ++i)
+      std::fprintf(file_, ",%.4f", raw.torque_Nm[i] - offset.torque_Nm[i]);
+  }
+
+  std::FILE* file_ = nullptr;
+};
+
+// Non-blocking line reader for stdin wrench commands.
+class StdinWrench {
+ public:
+  explicit StdinWrench(bool enabled) : enabled_(enabled) {
+    if (enabled_) fcntl(STDIN_FILENO, F_SETFL, fcntl(STDIN_FILENO, F_GETFL) | O_NONBLOCK);
+  }
+  int fd() const { return enabled_ ? STDIN_FILENO : -1; }
+
+  // Reads what is available; applies each complete valid line to `sim`. A bad line is
+  // reported on stderr and ignored (the operator retypes it).
+  void read_into(Pa10Simulator& sim) {
+    char chunk[512];
+    for (;;) {
+      const ssize_t n = ::read(STDIN_FILENO, chunk, sizeof chunk);
+      if (n == 0) {  // EOF: keep the last wrench
+        enabled_ = false;
+        return;
+      }
+      if (n < 0) return;
+      pending_.append(chunk, static_cast<std::size_t>(n));
+      std::size_t newline = 0;
+      while ((newline = pending_.find('\n')) != std::string::npos) {
+        const std::string line = pending_.substr(0, newline);
+        pending_.erase(0, newline + 1);
+        try {
+          Wrench wrench;
+          if (parse_wrench_line(line, wrench)) sim.set_operator_override(wrench);
+        } catch (const ProfileError& error) {
+          std::fprintf(stderr, "pa10-sim: ignored: %s\n", error.what());
+        }
+      }
+    }
+  }
+
+ private:
+  bool enabled_;
+  std::string pending_;
+};
+
+}  // namespace
+
+void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
+  if (!std::filesystem::is_regular_file(options.scene_path))
+    throw RunError(options.scene_path + ": scene file not found");
+  SimulatorConfig config;
+  config.scene_path = options.scene_path;
+  if (!options.profile_path.empty())
+    config.operator_profile = OperatorProfile::from_file(options.profile_path);
+  Pa10Simulator sim(std::move(config));
+  sim.set_mode(options.lock_step ? Pa10Simulator::Mode::lock_step
+                                 : Pa10Simulator::Mode::real_time);
+
+  std::unique_ptr<rtm::can::LocalHub> hub;
+  std::unique_ptr<rtm::can::LocalHub> sensor_hub;
+  auto bus = open_or_host(options.bus_spec, hub);
+  BusSink sink(*bus);
+  std::unique_ptr<rtm::can::Bus> sensor_bus;
+  std::unique_ptr<BusSink> sensor_sink;
+  if (!options.sensor_bus_spec.empty() && options.sensor_bus_spec != options.bus_spec) {
+    sensor_bus = open_or_host(options.sensor_bus_spec, sensor_hub);
+    sensor_sink = std::make_unique<BusSink>(*sensor_bus);
+    sim.set_sensor_sink(sensor_sink.get());
+  }
+  CsvLog log(options.log_path);
+  StdinWrench stdin_wrench(options.stdin_wrench);
+
+  prctl(PR_SET_TIMERSLACK, 1);  // default 50 µs slack would blur the 1 ms schedule
+  sim.power_on(sink);
+  if (!options.quiet) {
+    std::printf("pa10-sim: ready on %s%s%s (%s)\n", bus->name().c_str(),
+                sensor_bus ? ", sensors on " : "", sensor_bus ? sensor_bus->name().c_str() : "",
+                options.lock_step ? "lock-step" : "real time");
+    std::fflush(stdout);
+  }
+
+  const std::int64_t duration_ns = static_cast<std::int64_t>(options.duration_s * 1e9);
+  const std::int64_t timestep_ns = std::llround(sim.plant().timestep_s() * 1e9);
+  std::int64_t next_step_ns = monotonic_ns() + timestep_ns;
+  std::int64_t next_wall_beat_ns = monotonic_ns() + kWallHeartbeatPeriod_ns;
+  std::uint64_t last_logged_sync = sim.drive(0).syncs_seen();
+  std::uint64_t late_steps = 0;
+
+  pollfd fds[3] = {{bus->pollable_fd(), POLLIN, 0},
+                   {sensor_bus ? sensor_bus->pollable_fd() : -1, POLLIN, 0},
+                   {stdin_wrench.fd(), POLLIN, 0}};
+  can_frame frame{};
+  while (!stop.load(std::memory_order_relaxed)) {
+    if (duration_ns > 0 && sim.time_ns() >= duration_ns) break;
+    const std::int64_t now_ns = monotonic_ns();
+    const std::int64_t wake_ns = options.lock_step ? next_wall_beat_ns : next_step_ns;
+    const timespec timeout = to_timespec(std::max<std::int64_t>(0, wake_ns - now_ns));
+    fds[2].fd = stdin_wrench.fd();
+    const int ready = ppoll(fds, 3, &timeout, nullptr);
+    if (ready < 0 && errno != EINTR)
+      throw RunError(std::string("pa10-sim: ppoll failed: ") + std::strerror(errno));
+    if (ready > 0) {
+      if (fds[0].revents != 0)
+        while (bus->receive(frame, std::chrono::nanoseconds(0))) sim.on_frame(frame, sink);
+      if (sensor_bus && fds[1].revents != 0)
+        while (sensor_bus->receive(frame, std::chrono::nanoseconds(0)))
+          sim.on_sensor_bus_frame(frame);
+      if (fds[2].revents != 0) stdin_wrench.read_into(sim);
+    }
+    if (sim.drive(0).syncs_seen() != last_logged_sync) {
+      last_logged_sync = sim.drive(0).syncs_seen();
+      log.row(sim);
+    }
+    const std::int64_t after_ns = monotonic_ns();
+    if (options.lock_step) {
+      if (after_ns >= next_wall_beat_ns) {
+        sim.send_heartbeats(sink);
+        next_wall_beat_ns = after_ns + kWallHeartbeatPeriod_ns;
+      }
+      continue;
+    }
+    while (after_ns >= next_step_ns) {
+      sim.step(sink);
+      next_step_ns += timestep_ns;
+      if (after_ns - next_step_ns > kMaxCatchUp_ns) {
+        ++late_steps;
+        next_step_ns = after_ns + timestep_ns;
+      }
+    }
+  }
+  if (!options.quiet) {
+    std::printf("pa10-sim: stopped at sim time %.3f s after %llu steps%s\n",
+                static_cast<double>(sim.time_ns()) * 1e-9,
+                static_cast<unsigned long long>(sim.steps()),
+                late_steps ? " (host stalls skipped)" : "");
+    std::fflush(stdout);
+  }
+}
+
+}  // namespace rtm::sim

@@ -1,0 +1,90 @@
+// The MuJoCo plant's joint servos and sensors: no sag on the brakes, velocity following,
+// an ideal brake, and the sign and frame of both force sensors.
+#include "sim/pa10_plant.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using rtm::sim::JointCommand;
+using rtm::sim::Pa10Plant;
+using rtm::sim::SceneError;
+using rtm::sim::Wrench;
+using rtm::sim::kJointCount;
+
+namespace {
+
+constexpr double kToolMass_kg = 0.10;
+constexpr double kHandleMass_kg = 0.20;
+constexpr double kGravity_m_s2 = 9.81;
+
+TEST(Pa10Plant, HoldingTheReadyPoseForTwoSecondsDoesNotSag) {
+  Pa10Plant plant(RTM_PA10_SCENE);
+  std::array<double, kJointCount> start{};
+  for (int j = 0; j < kJointCount; ++j) start[static_cast<std::size_t>(j)] = plant.joint_state(j).position_rad;
+  for (int i = 0; i < 2000; ++i) plant.step();
+  for (int j = 0; j < kJointCount; ++j)
+    EXPECT_NEAR(plant.joint_state(j).position_rad, start[static_cast<std::size_t>(j)], 1e-5) << "joint " << j;
+}
+
+TEST(Pa10Plant, VelocityModeFollowsTheTargetAndItsIntegral) {
+  Pa10Plant plant(RTM_PA10_SCENE);
+  const double start_rad = plant.joint_state(1).position_rad;
+  // Backwards: lifts the tool off the table (forwards it would touch the table).
+  plant.set_command(1, {JointCommand::Mode::velocity, -0.2});
+  for (int i = 0; i < 500; ++i) plant.step();
+  EXPECT_NEAR(plant.joint_state(1).velocity_rad_s, -0.2, 1e-3);
+  // The PI loop makes up the start-up lag: the position tracks the integral of the target.
+  EXPECT_NEAR(plant.joint_state(1).position_rad - start_rad, -0.2 * 0.5, 1e-3);
+  for (int j : {0, 2, 3, 4, 5, 6}) EXPECT_NEAR(plant.joint_state(j).velocity_rad_s, 0.0, 1e-3);
+}
+
+TEST(Pa10Plant, BrakeStopsTheJointAtOnceAndHoldsThere) {
+  Pa10Plant plant(RTM_PA10_SCENE);
+  plant.set_command(3, {JointCommand::Mode::velocity, -0.5});
+  for (int i = 0; i < 200; ++i) plant.step();
+  ASSERT_NEAR(plant.joint_state(3).velocity_rad_s, -0.5, 1e-2);
+  const double braked_at_rad = plant.joint_state(3).position_rad;
+  plant.set_command(3, {});
+  EXPECT_EQ(plant.joint_state(3).velocity_rad_s, 0.0);
+  for (int i = 0; i < 500; ++i) plant.step();
+  EXPECT_NEAR(plant.joint_state(3).position_rad, braked_at_rad, 1e-4);
+  EXPECT_NEAR(plant.joint_state(3).velocity_rad_s, 0.0, 1e-3);
+}
+
+TEST(Pa10Plant, WristSensorFeelsTheToolWeightAlongItsZWhenTheToolPointsDown) {
+  Pa10Plant plant(RTM_PA10_SCENE);
+  for (int i = 0; i < 50; ++i) plant.step();
+  const Wrench wrench = plant.wrist_wrench();
+  // Gravity pulls the tool away from the flange, i.e. along +z of the flange frame.
+  EXPECT_NEAR(wrench.force_N[2], kToolMass_kg * kGravity_m_s2, 1e-3);
+  EXPECT_NEAR(wrench.force_N[0], 0.0, 1e-3);
+  EXPECT_NEAR(wrench.force_N[1], 0.0, 1e-3);
+  EXPECT_NEAR(wrench.torque_Nm[0], 0.0, 1e-4);
+  EXPECT_NEAR(wrench.torque_Nm[1], 0.0, 1e-4);
+}
+
+TEST(Pa10Plant, JoystickReportsTheOperatorsWrenchPlusTheHandleWeight) {
+  Pa10Plant plant(RTM_PA10_SCENE);
+  plant.set_operator_wrench(Wrench{{5.0, -2.0, -3.0}, {0.0, 0.0, 0.4}});
+  plant.step();
+  plant.step();
+  const Wrench wrench = plant.joystick_wrench();
+  EXPECT_NEAR(wrench.force_N[0], 5.0, 1e-6);
+  EXPECT_NEAR(wrench.force_N[1], -2.0, 1e-6);
+  EXPECT_NEAR(wrench.force_N[2], -3.0 - kHandleMass_kg * kGravity_m_s2, 1e-6);
+  EXPECT_NEAR(wrench.torque_Nm[2], 0.4, 1e-6);
+}
+
+TEST(Pa10Plant, MissingOrBrokenSceneIsAClearError) {
+  try {
+    Pa10Plant plant("/nonexistent/scene.xml");
+    FAIL() << "no error";
+  } catch (const SceneError& error) {
+    EXPECT_NE(std::string(error.what()).find("/nonexistent/scene.xml: scene file not found"),
+              std::string::npos);
+  }
+  EXPECT_THROW(Pa10Plant plant(RTM_PA10_URDF), SceneError) << "a URDF without the scene's names";
+}
+
+}  // namespace

@@ -1,0 +1,134 @@
+// The simulator in lock-step, driven frame by frame in-process (no transport): startup, a
+// velocity command moving the joint, and the command-loss brake timed in SYNCs of sim time.
+#include "sim/simulator.h"
+
+#include <gtest/gtest.h>
+
+#include "arm/can/protocol.h"
+#include "recording_sink.h"
+
+namespace pc = rtm::can;
+using rtm::sim::Pa10Simulator;
+using rtm::sim::SimulatorConfig;
+using rtm::sim::testing::RecordingSink;
+
+namespace {
+
+class LockStepSimulatorTest : public ::testing::Test {
+ protected:
+  LockStepSimulatorTest() : sim_(config()) {
+    sim_.set_mode(Pa10Simulator::Mode::lock_step);
+    sim_.power_on(out_);
+  }
+  static SimulatorConfig config() {
+    SimulatorConfig config;
+    config.scene_path = RTM_PA10_SCENE;
+    return config;
+  }
+  void feed(const pc::Result<can_frame>& frame) {
+    ASSERT_TRUE(frame.ok());
+    sim_.on_frame(*frame, out_);
+  }
+  // One master cycle: RPDO to every drive, then SYNC.
+  void cycle(std::uint16_t controlword, const std::array<double, 7>& velocity_rad_s = {}) {
+    for (int j = 0; j < 7; ++j)
+      feed(pc::encode_drive_command(
+          {pc::drive_node(j), controlword, velocity_rad_s[static_cast<std::size_t>(j)]}));
+    sync_only();
+  }
+  void sync_only() {
+    counter_ = pc::next_sync_counter(counter_);
+    feed(pc::encode_sync(counter_));
+  }
+  void start_up() {
+    for (int j = 0; j < 7; ++j)
+      feed(pc::encode_sdo_request({pc::drive_node(j), pc::SdoRequestKind::download,
+                                   pc::object::kModesOfOperation, 0, 9, 1}));
+    feed(pc::encode_nmt(pc::NmtCommand::start, 0));
+    for (std::uint16_t cw : {pc::controlword::kShutdown, pc::controlword::kSwitchOn,
+                             pc::controlword::kEnableOperation})
+      cycle(cw);
+  }
+  std::optional<pc::DriveFeedback> last_feedback(int joint) const {
+    const auto frames = out_.with_id(pc::cob::kTpdo1Base + pc::drive_node(joint));
+    if (frames.empty()) return std::nullopt;
+    return *pc::decode_drive_feedback(frames.back());
+  }
+
+  Pa10Simulator sim_;
+  RecordingSink out_;
+  std::uint8_t counter_ = 0;
+};
+
+TEST_F(LockStepSimulatorTest, PowerOnBootsAllNineNodesAtSimTimeZero) {
+  int bootups = 0;
+  for (const auto& frame : out_.frames)
+    if (auto heartbeat = pc::decode_heartbeat(frame);
+        heartbeat.ok() && heartbeat->state == pc::NmtState::boot_up)
+      ++bootups;
+  EXPECT_EQ(bootups, 9);
+  EXPECT_EQ(sim_.time_ns(), 0);
+}
+
+TEST_F(LockStepSimulatorTest, EachSyncAdvancesTwoMillisecondsAndIsAnsweredByEveryNode) {
+  start_up();
+  const std::int64_t before_ns = sim_.time_ns();
+  out_.clear();
+  cycle(pc::controlword::kEnableOperation);
+  EXPECT_EQ(sim_.time_ns() - before_ns, 2'000'000);
+  EXPECT_EQ(sim_.steps(), 8u) << "4 SYNCs, 2 steps each";
+  for (int j = 0; j < 7; ++j) {
+    const auto feedback = last_feedback(j);
+    ASSERT_TRUE(feedback) << "drive " << j + 1;
+    EXPECT_EQ(feedback->statusword, pc::statusword::kOperationEnabled);
+  }
+  for (std::uint8_t node : {pc::kWristSensorNode, pc::kJoystickSensorNode}) {
+    EXPECT_EQ(out_.with_id(pc::cob::kTpdo1Base + node).size(), 1u);
+    EXPECT_EQ(out_.with_id(pc::cob::kTpdo2Base + node).size(), 1u);
+  }
+}
+
+TEST_F(LockStepSimulatorTest, CommandedJointVelocityMovesTheJointByItsIntegral) {
+  start_up();
+  const double start_rad = sim_.plant().joint_state(0).position_rad;
+  for (int i = 0; i < 250; ++i) cycle(pc::controlword::kEnableOperation, {0.4, 0, 0, 0, 0, 0, 0});
+  for (int i = 0; i < 100; ++i) cycle(pc::controlword::kEnableOperation);
+  const auto feedback = last_feedback(0);
+  ASSERT_TRUE(feedback);
+  EXPECT_NEAR(feedback->position_rad - start_rad, 0.4 * 0.5, 2e-3);
+  EXPECT_NEAR(feedback->velocity_rad_s, 0.0, 2e-3);
+}
+
+TEST_F(LockStepSimulatorTest, WithoutRpdosEveryDriveBrakesToZeroWithinThreeSyncs) {
+  start_up();
+  // Every joint moving; the pitch joints backwards so the tool rises clear of the table.
+  for (int i = 0; i < 100; ++i)
+    cycle(pc::controlword::kEnableOperation, {0.3, -0.3, 0.3, -0.3, 0.3, -0.3, 0.3});
+  const std::int64_t last_rpdo_ns = sim_.time_ns();
+  out_.clear();
+  sync_only();
+  sync_only();
+  sync_only();
+  EXPECT_EQ(sim_.time_ns() - last_rpdo_ns, 6'000'000);
+  for (int j = 0; j < 7; ++j) {
+    const auto feedback = last_feedback(j);
+    ASSERT_TRUE(feedback);
+    EXPECT_EQ(feedback->statusword & pc::statusword::kStateMask, pc::statusword::kFault);
+    EXPECT_NEAR(feedback->velocity_rad_s, 0.0, 1e-3) << "drive " << j + 1;
+    const auto emcy = out_.with_id(pc::cob::kEmcyBase + pc::drive_node(j));
+    ASSERT_EQ(emcy.size(), 1u);
+    EXPECT_EQ(pc::decode_emcy(emcy[0])->error_code, pc::emcy::kRpdoTimeout);
+  }
+}
+
+TEST_F(LockStepSimulatorTest, SensorsAreTaredSoTheyReadZeroAtRest) {
+  start_up();
+  cycle(pc::controlword::kEnableOperation);
+  const auto force = pc::decode_sensor_force(
+      out_.with_id(pc::cob::kTpdo1Base + pc::kWristSensorNode).back());
+  ASSERT_TRUE(force.ok());
+  for (double f : force->force_N) EXPECT_NEAR(f, 0.0, 0.02);
+  EXPECT_NEAR(sim_.wrist_sensor().offset().force_N[2], 0.981, 1e-2);
+}
+
+}  // namespace
