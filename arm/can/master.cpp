@@ -87,6 +87,7 @@ struct Pa10Master::Impl {
   bool started = false;     // NMT start sent: nodes must stay operational from then on
   bool enabling = false;    // startup or recovery: drive the CiA 402 enable sequence
   bool recovering = false;  // after fault_reset()
+  steady_clock::time_point state_check_from{};  // heartbeat states are checked from then on
   steady_clock::time_point recovery_deadline{};
   std::uint8_t sdo_waiting_node = 0;
   std::optional<SdoResponse> sdo_response;
@@ -197,7 +198,10 @@ struct Pa10Master::Impl {
         if (!hb) { ++counters.malformed_frames; return; }
         last_heartbeat[hb->node] = now;
         nmt_state[hb->node] = hb->state;
-        if (started && !recovering && node_expected(hb->node) && hb->state != NmtState::operational) {
+        // A heartbeat sent just before a node processed NMT start may still say pre-operational:
+        // the state is checked only once a heartbeat period has passed since the start.
+        if (started && !enabling && now > state_check_from && node_expected(hb->node) &&
+            hb->state != NmtState::operational) {
           latch_fault(FaultKind::node_not_operational, hb->node, static_cast<std::uint16_t>(hb->state),
                       "%s: heartbeat reports %s instead of operational",
                       node_description(hb->node).c_str(), to_string(hb->state).data());
@@ -305,6 +309,7 @@ struct Pa10Master::Impl {
     if (recovering) {
       // Nodes that dropped out of operational are started again; harmless for the others.
       send_nmt_all(NmtCommand::start);
+      state_check_from = steady_clock::now() + config.heartbeat_timeout;
     }
     for (int j = 0; j < kDriveCount; ++j) {
       const auto i = static_cast<std::size_t>(j);
@@ -516,6 +521,7 @@ struct Pa10Master::Impl {
     }
     started = true;
     enabling = true;
+    state_check_from = now + config.heartbeat_timeout;
     // 4. Cycle until every drive reports operation enabled.
     const auto enable_deadline = now + config.enable_timeout;
     auto next = steady_clock::now();

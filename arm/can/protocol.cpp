@@ -33,7 +33,7 @@ std::uint32_t get_u32(const std::uint8_t* p) {
 // rejected by the callers before this.
 template <class Int>
 Int scale_saturating(double value, double unit) {
-  const double scaled = std::nearbyint(value / unit);
+  const double scaled = std::round(value / unit);  // half away from zero, as documented
   constexpr double lo = static_cast<double>(std::numeric_limits<Int>::min());
   constexpr double hi = static_cast<double>(std::numeric_limits<Int>::max());
   if (!(scaled > lo)) return std::numeric_limits<Int>::min();

@@ -1,0 +1,291 @@
+// The user-space bus: delivery to every other endpoint and never back to the sender, robustness
+// against dying endpoints and malformed datagrams, filters, and the bus-spec errors.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstring>
+#include <thread>
+
+#include "arm/can/bus.h"
+#include "arm/can/local_bus.h"
+#include "test_paths.h"
+
+namespace rtm::can {
+namespace {
+
+using namespace std::chrono_literals;
+using ::testing::HasSubstr;
+using testing::TempDir;
+
+// Generous: only a lower bound on patience, never an assertion about speed.
+constexpr auto kArrives = 5s;
+// How long to wait for a frame that must NOT come; the test cannot fail by being slow.
+constexpr auto kAbsent = 100ms;
+
+can_frame frame(canid_t id, std::uint8_t first_byte) {
+  can_frame f{};
+  f.can_id = id;
+  f.can_dlc = 1;
+  f.data[0] = first_byte;
+  return f;
+}
+
+template <class Predicate>
+bool eventually(Predicate p) {
+  const auto deadline = std::chrono::steady_clock::now() + kArrives;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (p()) return true;
+    std::this_thread::sleep_for(1ms);
+  }
+  return p();
+}
+
+TEST(LocalBus, DeliversToEveryOtherEndpointAndNotBackToTheSender) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto a = open_bus("local:" + dir.file("bus"));
+  auto b = open_bus("local:" + dir.file("bus"));
+  auto c = open_bus("local:" + dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 3; }));
+
+  ASSERT_TRUE(a->send(frame(0x123, 42)));
+  can_frame got{};
+  ASSERT_TRUE(b->receive(got, kArrives));
+  EXPECT_EQ(got.can_id, 0x123u);
+  EXPECT_EQ(got.data[0], 42);
+  ASSERT_TRUE(c->receive(got, kArrives));
+  EXPECT_EQ(got.can_id, 0x123u);
+  EXPECT_FALSE(a->receive(got, kAbsent));
+  EXPECT_EQ(a->name(), "local:" + dir.file("bus"));
+}
+
+TEST(LocalBus, KeepsTheOrderOfOneSendersFrames) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto a = open_local(dir.file("bus"));
+  auto b = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 2; }));
+  for (int i = 0; i < 100; ++i) ASSERT_TRUE(a->send(frame(0x100, static_cast<std::uint8_t>(i))));
+  can_frame got{};
+  for (int i = 0; i < 100; ++i) {
+    ASSERT_TRUE(b->receive(got, kArrives));
+    EXPECT_EQ(got.data[0], i);
+  }
+}
+
+TEST(LocalBus, SurvivesAnEndpointDying) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto a = open_local(dir.file("bus"));
+  auto b = open_local(dir.file("bus"));
+  auto c = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 3; }));
+  b.reset();  // closes its socket, as a crashed process would
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 2; }));
+  ASSERT_TRUE(a->send(frame(0x321, 7)));
+  can_frame got{};
+  ASSERT_TRUE(c->receive(got, kArrives));
+  EXPECT_EQ(got.can_id, 0x321u);
+  EXPECT_EQ(hub.counters().endpoints_closed, 1u);
+}
+
+TEST(LocalBus, DropsShortLongAndBadDlcDatagramsAndCountsThem) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto receiver = open_local(dir.file("bus"));
+  // A raw client that writes whatever it likes.
+  const int raw = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+  ASSERT_GE(raw, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::strncpy(address.sun_path, dir.file("bus").c_str(), sizeof address.sun_path - 1);
+  ASSERT_EQ(::connect(raw, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  const char shorty[5] = {1, 2, 3, 4, 5};
+  ASSERT_EQ(::send(raw, shorty, sizeof shorty, 0), 5);
+  char longer[sizeof(can_frame) + 4] = {};
+  ASSERT_EQ(::send(raw, longer, sizeof longer, 0), static_cast<ssize_t>(sizeof longer));
+  can_frame bad_dlc = frame(0x111, 0);
+  bad_dlc.can_dlc = 12;
+  ASSERT_EQ(::send(raw, &bad_dlc, sizeof bad_dlc, 0), static_cast<ssize_t>(sizeof bad_dlc));
+  const can_frame good = frame(0x222, 9);
+  ASSERT_EQ(::send(raw, &good, sizeof good, 0), static_cast<ssize_t>(sizeof good));
+
+  can_frame got{};
+  ASSERT_TRUE(receiver->receive(got, kArrives));
+  EXPECT_EQ(got.can_id, 0x222u);  // the first frame through is the good one
+  EXPECT_TRUE(eventually([&] { return hub.counters().datagrams_malformed == 3; }))
+      << hub.counters().datagrams_malformed;
+  ::close(raw);
+}
+
+TEST(LocalBus, AppliesFiltersLikeSocketCan) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto a = open_local(dir.file("bus"));
+  const FrameFilter only_tpdo1[] = {{0x180, 0x780}};
+  auto b = open_local(dir.file("bus"), only_tpdo1);
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 2; }));
+  a->send(frame(0x080, 1));
+  a->send(frame(0x181, 2));
+  can_frame got{};
+  ASSERT_TRUE(b->receive(got, kArrives));
+  EXPECT_EQ(got.can_id, 0x181u);
+  EXPECT_FALSE(b->receive(got, kAbsent));
+}
+
+TEST(LocalBus, ReceiveOnAStoppedHubThrowsHubClosed) {
+  TempDir dir;
+  auto hub = std::make_unique<LocalHub>(dir.file("bus"));
+  auto a = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub->endpoint_count() == 1; }));
+  hub->stop();
+  can_frame got{};
+  try {
+    a->receive(got, kArrives);
+    FAIL() << "expected BusError";
+  } catch (const BusError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("hub closed"));
+  }
+}
+
+TEST(LocalBus, ReplacesAStaleSocketFileButRefusesALiveHub) {
+  TempDir dir;
+  {
+    LocalHub first(dir.file("bus"));
+    EXPECT_THROW(LocalHub second(dir.file("bus")), BusError);
+  }
+  // Leave a stale socket file behind, as a killed hub does.
+  const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::strncpy(address.sun_path, dir.file("bus").c_str(), sizeof address.sun_path - 1);
+  ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  ::close(fd);
+  LocalHub replacement(dir.file("bus"));
+  auto a = open_local(dir.file("bus"));
+  EXPECT_TRUE(eventually([&] { return replacement.endpoint_count() == 1; }));
+}
+
+TEST(BusSpec, UnknownSchemeNamesBothValidForms) {
+  try {
+    open_bus("can0");
+    FAIL() << "expected BusError";
+  } catch (const BusError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("'can0'"));
+    EXPECT_THAT(e.what(), HasSubstr("socketcan:<interface>"));
+    EXPECT_THAT(e.what(), HasSubstr("local:<socket path>"));
+  }
+  EXPECT_THROW(open_bus("tcp:1.2.3.4"), BusError);
+  EXPECT_THROW(open_bus(""), BusError);
+}
+
+TEST(BusSpec, MissingPathOrInterfaceIsAnError) {
+  EXPECT_THAT([] { open_bus("local:"); }, ::testing::ThrowsMessage<BusError>(HasSubstr("no socket path")));
+  EXPECT_THAT([] { open_bus("socketcan:"); }, ::testing::ThrowsMessage<BusError>(HasSubstr("no interface name")));
+}
+
+TEST(BusSpec, LocalWithoutAHubSaysHowToStartOne) {
+  TempDir dir;
+  try {
+    open_bus("local:" + dir.file("nobody"));
+    FAIL() << "expected BusError";
+  } catch (const BusError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no hub listening"));
+    EXPECT_THAT(e.what(), HasSubstr("rtm-canhub"));
+  }
+}
+
+TEST(BusSpec, SocketCanUnavailableSaysSoAndNamesTheLocalBus) {
+  const int probe = ::socket(PF_CAN, SOCK_RAW, CAN_RAW);
+  if (probe >= 0) {
+    ::close(probe);
+    GTEST_SKIP() << "this kernel has SocketCAN; the socketcan-labelled tests cover it";
+  }
+  ASSERT_EQ(errno, EAFNOSUPPORT);
+  try {
+    open_bus("socketcan:vcan0");
+    FAIL() << "expected BusError";
+  } catch (const BusError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no SocketCAN support"));
+    EXPECT_THAT(e.what(), HasSubstr("local:<path>"));
+    EXPECT_THAT(e.what(), HasSubstr("socketcan:vcan0"));
+  }
+}
+
+TEST(CanHubProcess, ForwardsFramesAndStopsCleanlyOnSigterm) {
+  TempDir dir;
+  int out[2];
+  ASSERT_EQ(::pipe(out), 0);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::dup2(out[1], STDOUT_FILENO);
+    ::close(out[0]);
+    ::execl(RTM_CANHUB_EXECUTABLE, "rtm-canhub", dir.file("bus").c_str(), nullptr);
+    ::_exit(127);
+  }
+  ::close(out[1]);
+  struct Reaper {  // the hub process is stopped whatever the test outcome
+    pid_t pid;
+    ~Reaper() {
+      if (pid > 0) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+      }
+    }
+  } reaper{pid};
+  char line[256] = {};
+  ssize_t got_bytes = 0;
+  while (got_bytes < static_cast<ssize_t>(sizeof line) - 1) {
+    const ssize_t n = ::read(out[0], line + got_bytes, 1);
+    if (n <= 0 || line[got_bytes] == '\n') break;
+    got_bytes += n;
+  }
+  ASSERT_THAT(line, HasSubstr("listening on"));
+
+  auto a = open_bus("local:" + dir.file("bus"));
+  auto b = open_bus("local:" + dir.file("bus"));
+  can_frame got{};
+  // b may connect after a's frame went out: resend until one arrives.
+  bool arrived = false;
+  for (int i = 0; i < 50 && !arrived; ++i) {
+    a->send(frame(0x7AA, 1));
+    arrived = b->receive(got, 100ms);
+  }
+  ASSERT_TRUE(arrived);
+  EXPECT_EQ(got.can_id, 0x7AAu);
+
+  ASSERT_EQ(::kill(pid, SIGTERM), 0);
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  reaper.pid = 0;
+  EXPECT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("bus")));
+  ::close(out[0]);
+}
+
+TEST(CanHubProcess, UsageErrorWithoutAPath) {
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int devnull = ::open("/dev/null", O_WRONLY);
+    ::dup2(devnull, STDERR_FILENO);
+    ::execl(RTM_CANHUB_EXECUTABLE, "rtm-canhub", nullptr);
+    ::_exit(127);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+}
+
+}  // namespace
+}  // namespace rtm::can

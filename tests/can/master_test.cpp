@@ -1,0 +1,391 @@
+// Pa10Master against the protocol-level fake PA10 on the user-space bus: startup, lock-step
+// PDO exchange, faults with reasons and zero command, fault reset, heartbeat loss, counted
+// bad frames, the periodic thread, a separate sensor bus, and the passive sensor listener.
+#include "arm/can/master.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "arm/can/local_bus.h"
+#include "arm/can/sensor_listener.h"
+#include "fake_pa10.h"
+#include "test_paths.h"
+
+namespace rtm::can {
+namespace {
+
+using namespace std::chrono_literals;
+using ::testing::HasSubstr;
+using testing::FakePa10;
+using testing::TempDir;
+
+// Timeouts here bound how long a broken build waits; no assertion is about speed. The
+// heartbeat timeout is long so a loaded machine cannot fake a heartbeat loss, except in the
+// test of heartbeat loss.
+MasterConfig test_config() {
+  MasterConfig c;
+  c.boot_timeout = 5000ms;
+  c.sdo_timeout = 2000ms;
+  c.enable_timeout = 5000ms;
+  c.heartbeat_timeout = 5000ms;
+  c.step_timeout = 2s;
+  return c;
+}
+
+struct Rig {
+  TempDir dir;
+  LocalHub hub{dir.file("bus")};
+  std::string spec = "local:" + dir.file("bus");
+  std::unique_ptr<FakePa10> fake;
+  std::unique_ptr<Pa10Master> master;
+
+  explicit Rig(FakePa10::Options options = {}, MasterConfig config = test_config()) {
+    // The master connects first so it sees the fake's boot-up messages.
+    master = std::make_unique<Pa10Master>(open_bus(spec), nullptr, config);
+    fake = std::make_unique<FakePa10>(open_bus(spec), options);
+  }
+  ~Rig() {
+    master.reset();  // before the fake, so its shutdown frames have a reader
+    fake.reset();
+  }
+};
+
+template <class Predicate>
+bool step_until(Pa10Master& m, Predicate p, int max_steps = 2000) {
+  for (int i = 0; i < max_steps; ++i) {
+    if (p()) return true;
+    m.step();
+  }
+  return p();
+}
+
+TEST(Pa10Master, StartupSetsCyclicSyncVelocityModeAndEnablesEveryDrive) {
+  Rig rig;
+  rig.master->start();
+  EXPECT_TRUE(rig.master->enabled());
+  EXPECT_FALSE(rig.master->fault().active());
+  EXPECT_EQ(rig.fake->nmt_state(), NmtState::operational);
+  for (int j = 0; j < kDriveCount; ++j) {
+    EXPECT_EQ(rig.fake->mode_of_operation(drive_node(j)), 9) << joint_name(j);
+    EXPECT_EQ(rig.fake->drive_state(drive_node(j)), DriveState::operation_enabled) << joint_name(j);
+  }
+  const JointState s = rig.master->joint_state();
+  EXPECT_TRUE(s.complete);
+  for (auto sw : s.statusword) EXPECT_EQ(sw & statusword::kStateMask, statusword::kOperationEnabled);
+}
+
+TEST(Pa10Master, StartupTimeoutNamesEveryMissingNode) {
+  FakePa10::Options options;
+  options.silent_nodes = {3, kJoystickSensorNode};
+  MasterConfig config = test_config();
+  config.boot_timeout = 300ms;
+  Rig rig(options, config);
+  try {
+    rig.master->start();
+    FAIL() << "expected start() to fail";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no boot-up or heartbeat"));
+    EXPECT_THAT(e.what(), HasSubstr("drive 3 (S3)"));
+    EXPECT_THAT(e.what(), HasSubstr("joystick sensor 0x11"));
+    EXPECT_THAT(e.what(), ::testing::Not(HasSubstr("drive 2 ")));
+    EXPECT_THAT(e.what(), HasSubstr(rig.spec));
+  }
+}
+
+TEST(Pa10Master, StartupReportsAnSdoAbortWithNodeObjectAndCode) {
+  FakePa10::Options options;
+  options.refuse_mode_of_operation = true;
+  Rig rig(options);
+  try {
+    rig.master->start();
+    FAIL() << "expected start() to fail";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("drive 1 (S1) aborted the SDO"));
+    EXPECT_THAT(e.what(), HasSubstr("0x6060:00"));
+    EXPECT_THAT(e.what(), HasSubstr("0x06090030"));
+  }
+}
+
+TEST(Pa10Master, LockStepSendsTargetsAndReadsPositionsOfTheSameSync) {
+  Rig rig;
+  rig.fake->set_wrench(ForceSensor::wrist, {1.5, -2.25, 10.0, 0.125, -0.25, 0.5});
+  rig.fake->set_wrench(ForceSensor::joystick, {-3.0, 0.0, 4.0, 0.0, 0.0, -0.001});
+  rig.master->start();
+  std::array<double, kDriveCount> start_rad{};
+  for (int j = 0; j < kDriveCount; ++j) start_rad[static_cast<std::size_t>(j)] = rig.fake->position_rad(drive_node(j));
+
+  const std::array<double, kDriveCount> target = {0.1, -0.2, 0.3, -0.4, 0.5, -0.6, 0.7};
+  rig.master->set_target_velocities(target);
+  constexpr int kSteps = 50;
+  for (int i = 0; i < kSteps; ++i) ASSERT_TRUE(rig.master->step()) << "step " << i;
+
+  const JointState s = rig.master->joint_state();
+  EXPECT_TRUE(s.complete);
+  EXPECT_EQ(s.sync_counter, rig.fake->last_sync_counter());
+  for (int j = 0; j < kDriveCount; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    EXPECT_EQ(rig.fake->latched_controlword(drive_node(j)), controlword::kEnableOperation);
+    EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(j)), target[i]);
+    // Every SYNC the fake integrates 2 ms of the latched target; positions are in 1 µrad.
+    EXPECT_NEAR(s.position_rad[i] - start_rad[i], target[i] * 0.002 * kSteps, 2e-6) << joint_name(j);
+    EXPECT_NEAR(s.velocity_rad_s[i], target[i], 1e-3);
+  }
+  const Wrench w = rig.master->wrench(ForceSensor::wrist);
+  ASSERT_TRUE(w.valid);
+  EXPECT_EQ(w.sync_counter, s.sync_counter);
+  EXPECT_NEAR(w.values[0], 1.5, 1e-9);
+  EXPECT_NEAR(w.values[1], -2.25, 1e-9);
+  EXPECT_NEAR(w.values[2], 10.0, 1e-9);
+  EXPECT_NEAR(w.values[3], 0.125, 1e-9);
+  EXPECT_NEAR(w.values[5], 0.5, 1e-9);
+  const Wrench joy = rig.master->wrench(ForceSensor::joystick);
+  EXPECT_NEAR(joy.values[0], -3.0, 1e-9);
+  EXPECT_NEAR(joy.values[5], -0.001, 1e-9);
+  EXPECT_GT(joy.sequence, static_cast<std::uint64_t>(kSteps - 1));
+}
+
+TEST(Pa10Master, SyncCounterWrapsFrom240To1) {
+  Rig rig;
+  rig.master->start();
+  std::uint8_t previous = rig.master->joint_state().sync_counter;
+  bool wrapped = false;
+  for (int i = 0; i < 300; ++i) {
+    ASSERT_TRUE(rig.master->step());
+    const std::uint8_t now = rig.master->joint_state().sync_counter;
+    EXPECT_EQ(now, next_sync_counter(previous));
+    wrapped = wrapped || (previous == 240 && now == 1);
+    previous = now;
+  }
+  EXPECT_TRUE(wrapped);
+}
+
+TEST(Pa10Master, DriveFaultLatchesFaultWithReasonAndCommandsZero) {
+  Rig rig;
+  rig.master->start();
+  rig.master->set_target_velocities({0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5});
+  for (int i = 0; i < 5; ++i) rig.master->step();
+  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.5);
+
+  rig.fake->inject_fault(drive_node(3));
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
+  const MasterFault f = rig.master->fault();
+  EXPECT_EQ(f.node, 4);
+  EXPECT_THAT(f.reason, HasSubstr("drive 4 (E1)"));
+  EXPECT_TRUE(f.kind == FaultKind::emergency || f.kind == FaultKind::drive_fault) << to_string(f.kind);
+  EXPECT_FALSE(rig.master->enabled());
+
+  rig.master->set_target_velocities({1, 1, 1, 1, 1, 1, 1});  // ignored in fault
+  for (int i = 0; i < 3; ++i) rig.master->step();
+  for (int j = 0; j < kDriveCount; ++j) {
+    EXPECT_EQ(rig.fake->latched_velocity_rad_s(drive_node(j)), 0.0) << joint_name(j);
+  }
+  // Healthy drives are held enabled at zero, the faulted one stays in fault.
+  EXPECT_EQ(rig.fake->drive_state(drive_node(0)), DriveState::operation_enabled);
+  EXPECT_EQ(rig.fake->drive_state(drive_node(3)), DriveState::fault);
+}
+
+TEST(Pa10Master, FaultResetReenablesTheDriveAndKeepsTargetsZeroUntilSetAgain) {
+  Rig rig;
+  rig.master->start();
+  rig.master->set_target_velocities({0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5});
+  rig.master->step();
+  rig.fake->inject_fault(drive_node(6));
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
+
+  rig.master->fault_reset();
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->enabled(); }));
+  EXPECT_FALSE(rig.master->fault().active());
+  EXPECT_EQ(rig.fake->drive_state(drive_node(6)), DriveState::operation_enabled);
+  rig.master->step();
+  EXPECT_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.0);  // old target forgotten
+
+  rig.master->set_target_velocities({0.25, 0, 0, 0, 0, 0, 0});
+  rig.master->step();
+  rig.master->step();
+  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.25);
+}
+
+TEST(Pa10Master, HeartbeatLossOfASensorIsAFaultNamingIt) {
+  MasterConfig config = test_config();
+  config.heartbeat_timeout = 300ms;
+  config.step_timeout = 20ms;  // the silenced sensor's TPDOs stop too
+  Rig rig({}, config);
+  rig.master->start();
+  rig.fake->silence(kWristSensorNode);
+  // Silence is measured on the wall clock: step until the master notices.
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (!rig.master->fault().active() && std::chrono::steady_clock::now() < deadline) {
+    rig.master->step();
+    std::this_thread::sleep_for(2ms);
+  }
+  const MasterFault f = rig.master->fault();
+  EXPECT_EQ(f.kind, FaultKind::heartbeat_lost);
+  EXPECT_EQ(f.node, kWristSensorNode);
+  EXPECT_THAT(f.reason, HasSubstr("wrist sensor 0x10"));
+  EXPECT_THAT(f.reason, HasSubstr("no heartbeat"));
+}
+
+TEST(Pa10Master, MissingTpdosRaiseMissingFeedbackAfterTheLimit) {
+  MasterConfig config = test_config();
+  config.step_timeout = 20ms;
+  config.missed_feedback_limit = 3;
+  Rig rig({}, config);
+  rig.master->start();
+  rig.fake->silence(drive_node(1));
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }, 50));
+  EXPECT_EQ(rig.master->fault().kind, FaultKind::missing_feedback);
+  EXPECT_THAT(rig.master->fault().reason, HasSubstr("drive 2 (S2)"));
+  EXPECT_GE(rig.master->counters().step_timeouts, 4u);
+}
+
+TEST(Pa10Master, UnknownMalformedLateAndForeignFramesAreCountedAndIgnored) {
+  Rig rig;
+  rig.master->start();
+  auto intruder = open_bus(rig.spec);
+  const MasterCounters before = rig.master->counters();
+
+  can_frame unknown{};
+  unknown.can_id = 0x123;
+  unknown.can_dlc = 2;
+  can_frame malformed{};
+  malformed.can_id = 0x181;  // drive TPDO1 with 3 bytes instead of 8
+  malformed.can_dlc = 3;
+  can_frame impossible_dlc{};
+  impossible_dlc.can_id = 0x190;
+  impossible_dlc.can_dlc = 200;
+  const can_frame late = *encode_drive_feedback({5, statusword::kOperationEnabled, 0.0, 0.0});
+  const can_frame foreign = *encode_sdo_request({0x30, SdoRequestKind::upload, 0x1000, 0, 0, 0});  // to nobody
+  for (const can_frame& f : {unknown, malformed, impossible_dlc, late, foreign}) intruder->send(f);
+  // The intruder's frames arrive between steps: nothing answers an older SYNC on time.
+  std::this_thread::sleep_for(50ms);
+  for (int i = 0; i < 5; ++i) ASSERT_TRUE(rig.master->step());
+
+  const MasterCounters after = rig.master->counters();
+  EXPECT_EQ(after.unknown_frames - before.unknown_frames, 1u);
+  EXPECT_EQ(after.malformed_frames - before.malformed_frames, 1u);  // the hub drops DLC 200
+  EXPECT_EQ(after.late_frames - before.late_frames, 1u);
+  EXPECT_EQ(after.foreign_frames - before.foreign_frames, 1u);
+  EXPECT_FALSE(rig.master->fault().active());
+  EXPECT_TRUE(rig.master->enabled());
+}
+
+TEST(Pa10Master, SetTargetVelocitiesRejectsNaNAndInfinityNamingTheJoint) {
+  Rig rig;
+  EXPECT_THAT([&] { rig.master->set_target_velocities({0, 0, NAN, 0, 0, 0, 0}); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("S3")));
+  EXPECT_THROW(rig.master->set_target_velocities({0, 0, 0, 0, 0, 0, INFINITY}), std::invalid_argument);
+}
+
+TEST(Pa10Master, StepBeforeStartIsALogicError) {
+  Rig rig;
+  EXPECT_THROW(rig.master->step(), std::logic_error);
+}
+
+TEST(Pa10Master, PeriodicThreadCyclesAndFollowsTargets) {
+  Rig rig;
+  rig.master->start();
+  rig.master->set_target_velocities({0.2, 0, 0, 0, 0, 0, -0.2});
+  const double start_rad = rig.fake->position_rad(drive_node(0));
+  rig.master->run_periodic();
+  EXPECT_TRUE(rig.master->running());
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (rig.master->counters().cycles < 100 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(5ms);
+  }
+  rig.master->stop();
+  EXPECT_FALSE(rig.master->running());
+  EXPECT_GE(rig.master->counters().cycles, 100u);
+  EXPECT_GT(rig.fake->position_rad(drive_node(0)), start_rad);
+  EXPECT_LT(rig.fake->position_rad(drive_node(6)), 0.0);
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+}
+
+TEST(Pa10Master, DestructionLeavesDrivesSwitchedOffAndPreOperational) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto master = std::make_unique<Pa10Master>(open_bus("local:" + dir.file("bus")), nullptr, test_config());
+  FakePa10 fake(open_bus("local:" + dir.file("bus")), {});
+  master->start();
+  master->step();
+  master.reset();
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (fake.nmt_state() != NmtState::pre_operational && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(1ms);
+  }
+  EXPECT_EQ(fake.nmt_state(), NmtState::pre_operational);
+  EXPECT_EQ(fake.drive_state(drive_node(0)), DriveState::ready_to_switch_on);
+}
+
+TEST(Pa10Master, SensorsOnASeparateBusGetTheirOwnSyncAndNmt) {
+  TempDir dir;
+  LocalHub drive_hub(dir.file("drives"));
+  LocalHub sensor_hub(dir.file("sensors"));
+  Pa10Master master("local:" + dir.file("drives"), "local:" + dir.file("sensors"), test_config());
+  FakePa10::Options drives_only;
+  drives_only.sensors = false;
+  FakePa10::Options sensors_only;
+  sensors_only.drives = false;
+  FakePa10 drives(open_bus("local:" + dir.file("drives")), drives_only);
+  FakePa10 sensors(open_bus("local:" + dir.file("sensors")), sensors_only);
+  sensors.set_wrench(ForceSensor::joystick, {5.0, 0, 0, 0, 0, 0});
+  master.start();
+  ASSERT_TRUE(master.step());
+  EXPECT_EQ(master.sensor_bus_name(), "local:" + dir.file("sensors"));
+  EXPECT_EQ(sensors.nmt_state(), NmtState::operational);
+  EXPECT_EQ(sensors.last_sync_counter(), master.joint_state().sync_counter);
+  EXPECT_NEAR(master.wrench(ForceSensor::joystick).values[0], 5.0, 1e-9);
+}
+
+TEST(SensorListener, ReadsTheWrenchAndItsSyncCounterPassively) {
+  Rig rig;
+  rig.fake->set_wrench(ForceSensor::joystick, {7.0, -1.0, 0.5, 0.01, 0.02, -0.03});
+  SensorListener listener(rig.spec, ForceSensor::joystick);
+  listener.start();
+  rig.master->start();
+  for (int i = 0; i < 10; ++i) ASSERT_TRUE(rig.master->step());
+  const auto w = listener.wait_newer_than(0, 5s);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_TRUE(w->valid);
+  EXPECT_NEAR(w->values[0], 7.0, 1e-9);
+  EXPECT_NEAR(w->values[5], -0.03, 1e-9);
+  EXPECT_GE(w->sync_counter, 1);
+  EXPECT_LE(w->sync_counter, 240);
+  // Wait for the last SYNC's wrench: then both sides name the same SYNC.
+  const std::uint8_t master_counter = rig.master->wrench(ForceSensor::joystick).sync_counter;
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (listener.latest().sync_counter != master_counter && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(1ms);
+  }
+  EXPECT_EQ(listener.latest().sync_counter, master_counter);
+  EXPECT_EQ(listener.fault(), "");
+  listener.stop();
+}
+
+TEST(SensorListener, PollModeAndEmcyFault) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  SensorListener listener(open_bus("local:" + dir.file("bus")), kWristSensorNode);
+  auto device = open_bus("local:" + dir.file("bus"));
+  device->send(*encode_sync(17));
+  device->send(*encode_sensor_force({kWristSensorNode, {1, 2, 3}}));
+  device->send(*encode_sensor_force({kJoystickSensorNode, {9, 9, 9}}));  // another node: ignored
+  device->send(*encode_sensor_torque({kWristSensorNode, {0.1, 0.2, 0.3}}));
+  ASSERT_TRUE(listener.poll(5s));
+  const Wrench w = listener.latest();
+  EXPECT_EQ(w.sync_counter, 17);
+  EXPECT_NEAR(w.values[2], 3.0, 1e-9);
+  EXPECT_NEAR(w.values[4], 0.2, 1e-9);
+
+  device->send(*encode_emcy(kWristSensorNode, emcy::kSensorFault, 0x80));
+  device->send(*encode_sync(18));  // gives poll a frame after the EMCY to return on
+  listener.poll(200ms);
+  EXPECT_THAT(listener.fault(), HasSubstr("EMCY 0x7300"));
+  EXPECT_THAT(listener.fault(), HasSubstr("wrist sensor 0x10"));
+  EXPECT_THROW(SensorListener(open_bus("local:" + dir.file("bus")), 3), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rtm::can
