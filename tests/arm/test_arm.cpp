@@ -8,36 +8,17 @@
 #include "arm/can/local_bus.h"
 #include "arm/can/master.h"
 #include "arm/can/protocol.h"
+#include "tests/arm/allocation_counter.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <atomic>
-#include <cstdlib>
-#include <new>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <mutex>
 #include <thread>
-
-// Counts allocations made by the thread that sets the flag (the fake drives' thread and the
-// hub's thread are not counted).
-namespace {
-thread_local bool t_count_allocations = false;
-thread_local long t_allocations = 0;
-}  // namespace
-
-void* operator new(std::size_t size) {
-  if (t_count_allocations) ++t_allocations;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size) { return operator new(size); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 
 namespace rtm::pa10 {
 namespace {
@@ -364,11 +345,9 @@ TEST(Pa10Arm, OrderVelocityAllocatesNothing) {
   rig.master.step();
   long allocations = 0;
   for (int i = 0; i < 50; ++i) {
-    t_allocations = 0;
-    t_count_allocations = true;
+    rtm::test::startCountingAllocations();
     const bool ok = rig.arm.orderVelocity(smallTwist());
-    t_count_allocations = false;
-    allocations += t_allocations;
+    allocations += rtm::test::stopCountingAllocations();
     ASSERT_TRUE(ok) << rig.arm.faultReason();
     rig.master.step();
   }

@@ -1,37 +1,17 @@
 // The PA10 model and kinematics: URDF loading, FK against an independent DH product, the
 // Jacobian, and the velocity IK's damping, limit handling and input checks.
 #include "arm/pa10/kinematics.h"
+#include "tests/arm/allocation_counter.h"
 
 #include <gtest/gtest.h>
 
 #include <kdl/chain.hpp>
 
-#include <atomic>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <new>
 #include <numbers>
 #include <random>
-
-// ---- allocation counter: proves the cycle path allocates nothing --------------------------
-
-namespace {
-std::atomic<bool> g_count_allocations{false};
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  if (g_count_allocations.load(std::memory_order_relaxed)) g_allocations.fetch_add(1);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size) { return operator new(size); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 
 namespace rtm::pa10 {
 namespace {
@@ -428,8 +408,7 @@ TEST(Pa10VelocityIk, SolveAllocatesNothing) {
   Twist twist;
   twist << 0.05, 0.02, -0.03, 0.1, 0.0, 0.2;
   ik.solve(twist, generalPose(), kDt_s);  // warm up anything lazily initialised
-  g_allocations = 0;
-  g_count_allocations = true;
+  rtm::test::startCountingAllocations();
   double sink = 0;
   for (int i = 0; i < 100; ++i) {
     sink += ik.solve(twist, generalPose(), kDt_s).qdot_rad_s[0];         // free solve
@@ -438,8 +417,7 @@ TEST(Pa10VelocityIk, SolveAllocatesNothing) {
     sink += ik.solve(kinematics.jacobian(at_limit).col(3), at_limit, kDt_s).qdot_rad_s[0];
     sink += kinematics.toolPose(generalPose()).translation().x();
   }
-  g_count_allocations = false;
-  EXPECT_EQ(g_allocations.load(), 0);
+  EXPECT_EQ(rtm::test::stopCountingAllocations(), 0);
   EXPECT_TRUE(std::isfinite(sink));
 }
 
