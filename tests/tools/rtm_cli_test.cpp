@@ -1,0 +1,375 @@
+// The `rtm` command-line tool, driven as a user drives it: the real binary against real
+// component processes and a real omniNames on a free port.
+#include "run_command.h"
+
+#include "rtm_test/child_process.h"
+#include "rtm_test/omni_names.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <thread>
+
+namespace {
+
+using nlohmann::json;
+using rtm_test::ChildProcess;
+using rtm_test::CommandResult;
+using rtm_test::OmniNames;
+using namespace std::chrono_literals;
+
+class RtmCli : public ::testing::Test {
+ protected:
+  CommandResult rtm(std::vector<std::string> args) {
+    args.insert(args.begin(), {RTM_CLI_PATH, "--naming", names_.address()});
+    return rtm_test::run_command(args, {"RTM_BIN_PATH=" + std::string(RTM_TEST_BIN_DIR)});
+  }
+  json rtm_json(std::vector<std::string> args) {
+    args.insert(args.begin(), "--json");
+    auto r = rtm(args);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return json::parse(r.out);
+  }
+  ChildProcess& talker(const std::string& name, std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv{TALKER_PATH, "--name", name, "--naming", names_.address()};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    ChildProcess::Options opts;
+    opts.echo_output = false;
+    talkers_.push_back(std::make_unique<ChildProcess>(argv, opts));
+    talkers_.back()->wait_until_bound();
+    return *talkers_.back();
+  }
+  static json find(const json& list, const std::string& name) {
+    for (const auto& c : list) {
+      if (c["name"] == name) return c;
+    }
+    return json();
+  }
+  static const json* port(const json& comp, const std::string& name) {
+    for (const auto& p : comp["ports"]) {
+      if (p["name"] == name) return &p;
+    }
+    return nullptr;
+  }
+
+  OmniNames names_;
+  std::vector<std::unique_ptr<ChildProcess>> talkers_;
+};
+
+TEST_F(RtmCli, LsListsComponentsWithStateKindPeriodAndPorts) {
+  talker("alpha", {"--period", "5ms", "--on"});
+  talker("beta");
+  auto r = rtm({"ls"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("alpha"), std::string::npos);
+  EXPECT_NE(r.out.find("force:TimedFloat6"), std::string::npos) << r.out;
+  auto list = rtm_json({"ls"});
+  ASSERT_EQ(list.size(), 2u);
+  json a = find(list, "alpha"), b = find(list, "beta");
+  EXPECT_EQ(a["state"], "on");
+  EXPECT_EQ(b["state"], "off");
+  EXPECT_EQ(a["kind"], "talker");
+  EXPECT_EQ(a["period_ns"], 5'000'000);
+  ASSERT_EQ(a["ports"].size(), 4u);
+  EXPECT_EQ(a["ports"][0]["name"], "in0");
+  EXPECT_EQ(a["ports"][3]["type"], "RTM::TimedFloat3");
+}
+
+TEST_F(RtmCli, LsLongAddsLatenessAndOverruns) {
+  talker("alpha", {"--on"});
+  std::this_thread::sleep_for(100ms);
+  auto list = rtm_json({"ls", "-l"});
+  json a = find(list, "alpha");
+  ASSERT_TRUE(a.contains("timing")) << a.dump();
+  EXPECT_GT(a["timing"]["cycles"].get<unsigned long long>(), 0u);
+  EXPECT_TRUE(a["timing"].contains("lateness_p99_ns"));
+  auto text = rtm({"ls", "-l"});
+  EXPECT_NE(text.out.find("lateness p50"), std::string::npos) << text.out;
+}
+
+TEST_F(RtmCli, LsShowsDeadBindingAsDeadAndCleanRemovesIt) {
+  talker("alive");
+  auto& doomed = talker("doomed");
+  doomed.kill_now();  // SIGKILL: no chance to unbind
+  auto list = rtm_json({"ls"});
+  ASSERT_EQ(list.size(), 2u);
+  EXPECT_EQ(find(list, "doomed")["alive"], false);
+  EXPECT_EQ(find(list, "alive")["alive"], true);
+  auto text = rtm({"ls"});
+  EXPECT_EQ(text.exit_code, 0);
+  EXPECT_NE(text.out.find("dead"), std::string::npos) << text.out;
+  auto clean = rtm({"ls", "--clean"});
+  EXPECT_EQ(clean.exit_code, 0) << clean.err;
+  EXPECT_NE(clean.out.find("doomed"), std::string::npos);
+  list = rtm_json({"ls"});
+  ASSERT_EQ(list.size(), 1u);
+  EXPECT_EQ(list[0]["name"], "alive");
+}
+
+TEST_F(RtmCli, ConnectDeliversDataAndCatShowsTheSubscriptionAndCounters) {
+  talker("src", {"--on"});
+  talker("dst");
+  auto r = rtm({"connect", "src.force", "dst.in0"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::this_thread::sleep_for(200ms);
+  auto src = rtm_json({"cat", "src"});
+  const json* force = port(src, "force");
+  ASSERT_NE(force, nullptr);
+  ASSERT_EQ((*force)["subscriptions"].size(), 1u);
+  EXPECT_EQ((*force)["subscriptions"][0]["peer"], "dst.in0");
+  EXPECT_EQ((*force)["subscriptions"][0]["type"], "repeated");
+  auto dst = rtm_json({"cat", "dst"});
+  EXPECT_GT((*port(dst, "in0"))["counters"]["accepted"].get<unsigned long long>(), 0u);
+  auto text = rtm({"cat", "src"});
+  EXPECT_NE(text.out.find("-> dst.in0 (repeated)"), std::string::npos) << text.out;
+
+  ASSERT_EQ(rtm({"disconnect", "src.force", "dst.in0"}).exit_code, 0);
+  src = rtm_json({"cat", "src"});
+  EXPECT_TRUE((*port(src, "force"))["subscriptions"].empty());
+  auto again = rtm({"disconnect", "src.force", "dst.in0"});
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_NE(again.err.find("is not connected"), std::string::npos) << again.err;
+}
+
+TEST_F(RtmCli, PortsMayBeNamedByIndex) {
+  talker("src");
+  talker("dst");
+  auto r = rtm({"connect", "src.out0", "dst.in0"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto src = rtm_json({"cat", "src"});
+  EXPECT_EQ((*port(src, "force"))["subscriptions"].size(), 1u);
+}
+
+TEST_F(RtmCli, ConnectRefusesTypeMismatchNamingBothPortsAndTypes) {
+  talker("src");
+  talker("dst");
+  auto r = rtm({"connect", "src.force", "dst.pos3"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("src.force (RTM::TimedFloat6) -> dst.pos3 (RTM::TimedFloat3): types differ"),
+            std::string::npos)
+      << r.err;
+  auto src = rtm_json({"cat", "src"});
+  EXPECT_TRUE((*port(src, "force"))["subscriptions"].empty());
+}
+
+TEST_F(RtmCli, ConnectRefusesPortsInTheWrongDirection) {
+  talker("src");
+  talker("dst");
+  auto r = rtm({"connect", "dst.in0", "src.force"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("dst.in0 is an InPort"), std::string::npos) << r.err;
+}
+
+TEST_F(RtmCli, UnknownComponentAndUnknownPortAreClearErrors) {
+  talker("src");
+  auto r = rtm({"cat", "nosuch"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("nosuch"), std::string::npos) << r.err;
+  auto p = rtm({"get", "src.nosuch"});
+  EXPECT_EQ(p.exit_code, 1);
+  EXPECT_NE(p.err.find("src has no port 'nosuch' (ports: in0, pos3, force, out3"),
+            std::string::npos)
+      << p.err;
+}
+
+TEST_F(RtmCli, OnAndOffChangeTheState) {
+  talker("t");
+  ASSERT_EQ(rtm({"on", "t"}).exit_code, 0);
+  EXPECT_EQ(rtm_json({"cat", "t"})["state"], "on");
+  ASSERT_EQ(rtm({"off", "t"}).exit_code, 0);
+  EXPECT_EQ(rtm_json({"cat", "t"})["state"], "off");
+  auto r = rtm({"on", "t", "ghost"});
+  EXPECT_EQ(r.exit_code, 1);  // one of them failed
+  EXPECT_EQ(rtm_json({"cat", "t"})["state"], "on");
+}
+
+TEST_F(RtmCli, GetSaysNoDataBeforeTheFirstDatumAndValuesAfter) {
+  talker("t");
+  auto before = rtm({"get", "t.force"});
+  EXPECT_EQ(before.exit_code, 1);
+  EXPECT_NE(before.err.find("t.force has no data yet"), std::string::npos) << before.err;
+  ASSERT_EQ(rtm({"on", "t"}).exit_code, 0);
+  std::this_thread::sleep_for(50ms);
+  auto after = rtm_json({"get", "t.force"});
+  EXPECT_EQ(after["type"], "RTM::TimedFloat6");
+  ASSERT_EQ(after["values"].size(), 6u);
+  // The talker's ramp: value i is cycle + i.
+  EXPECT_DOUBLE_EQ(after["values"][1].get<double>() - after["values"][0].get<double>(), 1.0);
+  auto text = rtm({"get", "t.force"});
+  EXPECT_NE(text.out.find(" N"), std::string::npos) << "force ports carry units: " << text.out;
+}
+
+TEST_F(RtmCli, PutInjectsOneValueTheInPortCounts) {
+  talker("t");
+  auto r = rtm({"put", "t.in0", "1", "2", "3", "4", "5", "6"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto t = rtm_json({"cat", "t"});
+  EXPECT_EQ((*port(t, "in0"))["counters"]["accepted"], 1);
+  auto bad = rtm({"put", "t.in0", "1", "2"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("t.in0: RTM::TimedFloat6 takes 6 values, got 2"), std::string::npos) << bad.err;
+  EXPECT_EQ((*port(rtm_json({"cat", "t"}), "in0"))["counters"]["accepted"], 1);
+}
+
+TEST_F(RtmCli, WatchStreamsDataThenUnsubscribes) {
+  talker("t", {"--on", "--period", "2ms"});
+  const auto csv = std::filesystem::temp_directory_path() / ("rtm-watch-" + std::to_string(::getpid()) + ".csv");
+  auto r = rtm({"--json", "watch", "t.force", "--count", "50", "--csv", csv.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream lines(r.out);
+  int data = 0;
+  double previous = -1;
+  json summary;
+  for (std::string line; std::getline(lines, line);) {
+    auto j = json::parse(line);
+    if (j.contains("summary")) {
+      summary = j["summary"];
+      continue;
+    }
+    ++data;
+    const double v0 = j["values"][0];
+    EXPECT_GT(v0, previous) << "data arrive in order";
+    previous = v0;
+  }
+  EXPECT_EQ(data, 50);
+  EXPECT_EQ(summary["received"], 50);
+  std::ifstream csv_in(csv);
+  int csv_lines = 0;
+  for (std::string line; std::getline(csv_in, line);) ++csv_lines;
+  EXPECT_EQ(csv_lines, 51);  // header + data
+  std::filesystem::remove(csv);
+  auto t = rtm_json({"cat", "t"});
+  EXPECT_TRUE((*port(t, "force"))["subscriptions"].empty()) << "watch unsubscribed on exit";
+}
+
+TEST_F(RtmCli, WatchUnsubscribesOnCtrlC) {
+  talker("t", {"--on"});
+  ChildProcess::Options opts;
+  opts.echo_output = false;
+  ChildProcess watcher({RTM_CLI_PATH, "--naming", names_.address(), "watch", "t.force"}, opts);
+  watcher.wait_for_line("T", 10s);  // first datum line carries an ISO time stamp
+  watcher.send_signal(SIGINT);
+  auto status = watcher.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(status->clean()) << status->to_string();
+  auto t = rtm_json({"cat", "t"});
+  EXPECT_TRUE((*port(t, "force"))["subscriptions"].empty());
+}
+
+TEST_F(RtmCli, NamingServiceDownIsOneLineNamingTheAddress) {
+  const std::string address = names_.address();
+  names_.stop();
+  auto r = rtm_test::run_command({RTM_CLI_PATH, "--naming", address, "--timeout", "500", "ls"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find(address), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+TEST_F(RtmCli, BadCommandLineExitsWithUsageCode) {
+  EXPECT_EQ(rtm({"frobnicate"}).exit_code, 2);
+  EXPECT_EQ(rtm({"connect", "only-one-port.out0"}).exit_code, 2);
+  EXPECT_EQ(rtm({"get", "noport"}).exit_code, 2);
+}
+
+// ------------------------------------------------------------------ up / down
+
+class RtmUpDown : public RtmCli {
+ protected:
+  std::filesystem::path write_system(const std::string& yaml) {
+    dir_ = std::filesystem::temp_directory_path() / ("rtm-up-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+    auto file = dir_ / "trio.yaml";
+    std::ofstream(file) << yaml;
+    return file;
+  }
+  CommandResult rtm_env(std::vector<std::string> args) {
+    args.insert(args.begin(), {RTM_CLI_PATH, "--naming", names_.address()});
+    return rtm_test::run_command(args, {"RTM_BIN_PATH=" + std::string(RTM_TEST_BIN_DIR),
+                                        "XDG_RUNTIME_DIR=" + dir_.string()},
+                                 std::chrono::seconds(30));
+  }
+  void TearDown() override {
+    if (!dir_.empty()) {
+      rtm_env({"down", "trio"});  // in case a test failed half-way
+      std::filesystem::remove_all(dir_);
+    }
+  }
+  std::filesystem::path dir_;
+};
+
+TEST_F(RtmUpDown, UpStartsConnectsAndTurnsOnDownStopsEveryProcess) {
+  auto file = write_system(R"(
+name: trio
+components:
+  - {name: a, command: [rtm-test-talker, --period, 2ms]}
+  - {name: b, command: rtm-test-talker}
+  - {name: c, command: rtm-test-talker}
+connections:
+  - {from: a.force, to: b.in0}
+  - {from: b.force, to: c.in0}
+activate: [a, b]
+)");
+  auto up = rtm_env({"--json", "up", file.string()});
+  ASSERT_EQ(up.exit_code, 0) << up.err << up.out;
+  auto started = json::parse(up.out);
+  ASSERT_EQ(started["processes"].size(), 3u);
+  std::vector<pid_t> pids;
+  for (const auto& p : started["processes"]) pids.push_back(p["pid"].get<pid_t>());
+
+  auto list = rtm_json({"ls"});
+  EXPECT_EQ(find(list, "a")["state"], "on");
+  EXPECT_EQ(find(list, "b")["state"], "on");
+  EXPECT_EQ(find(list, "c")["state"], "off");
+  EXPECT_EQ((*port(rtm_json({"cat", "a"}), "force"))["subscriptions"][0]["peer"], "b.in0");
+
+  auto again = rtm_env({"up", file.string()});
+  EXPECT_EQ(again.exit_code, 1) << "a system already up is not started twice";
+  EXPECT_NE(again.err.find("already up"), std::string::npos) << again.err;
+
+  auto down = rtm_env({"down", file.string()});
+  ASSERT_EQ(down.exit_code, 0) << down.err;
+  for (pid_t pid : pids) {
+    EXPECT_NE(::kill(pid, 0) == 0 && std::filesystem::exists("/proc/" + std::to_string(pid)) &&
+                  [&] {
+                    std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+                    std::string s;
+                    std::getline(stat, s);
+                    auto st = s.substr(s.rfind(')') + 2, 1);
+                    return st != "Z";
+                  }(),
+              true)
+        << "process " << pid << " still runs after down";
+  }
+  EXPECT_TRUE(rtm_json({"ls"}).empty()) << "every name unbound";
+  auto twice = rtm_env({"down", "trio"});
+  EXPECT_EQ(twice.exit_code, 1);
+  EXPECT_NE(twice.err.find("is it up?"), std::string::npos) << twice.err;
+}
+
+TEST_F(RtmUpDown, UpNamesTheComponentThatDidNotComeUpAndLeavesNothingRunning) {
+  auto file = write_system(R"(
+name: trio
+components:
+  - {name: good, command: rtm-test-talker}
+  - {name: broken, command: [rtm-test-talker, --no-such-option]}
+)");
+  auto up = rtm_env({"up", file.string()});
+  EXPECT_EQ(up.exit_code, 1);
+  EXPECT_NE(up.err.find("broken exited before it was bound"), std::string::npos) << up.err;
+  EXPECT_TRUE(rtm_json({"ls"}).empty()) << "good was stopped and unbound too";
+}
+
+TEST_F(RtmUpDown, UpWithAMissingProgramStartsNothing) {
+  auto file = write_system("components: [{name: x, command: rtm-no-such-component}]\n");
+  auto up = rtm_env({"up", file.string()});
+  EXPECT_EQ(up.exit_code, 1);
+  EXPECT_NE(up.err.find("program 'rtm-no-such-component' not found"), std::string::npos) << up.err;
+}
+
+}  // namespace

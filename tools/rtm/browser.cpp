@@ -1,0 +1,314 @@
+#include "browser.h"
+
+#include "rtm/data.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <charconv>
+#include <future>
+
+namespace rtm::cli {
+namespace {
+
+// The system exceptions that mean "the process behind this reference is gone".
+template <class F>
+std::optional<std::string> dead_if_unreachable(F&& f) {
+  try {
+    f();
+    return std::nullopt;
+  } catch (const CORBA::TRANSIENT&) {
+    return "TRANSIENT";
+  } catch (const CORBA::COMM_FAILURE&) {
+    return "COMM_FAILURE";
+  } catch (const CORBA::OBJECT_NOT_EXIST&) {
+    return "OBJECT_NOT_EXIST";
+  } catch (const CORBA::TIMEOUT&) {
+    return "TIMEOUT";
+  }
+}
+
+std::string state_name(RTM::ComponentState s) {
+  switch (s) {
+    case RTM::COMPONENT_OFF: return "off";
+    case RTM::COMPONENT_ON: return "on";
+    case RTM::COMPONENT_ERROR: return "error";
+  }
+  return "?";
+}
+
+std::optional<int> indexed(std::string_view port, std::string_view prefix) {
+  if (port.size() <= prefix.size() || port.substr(0, prefix.size()) != prefix) return std::nullopt;
+  int n = 0;
+  auto digits = port.substr(prefix.size());
+  auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), n);
+  if (ec != std::errc() || ptr != digits.data() + digits.size() || n < 0) return std::nullopt;
+  return n;
+}
+
+PortInfo inspect_in(RTM::InPort_ptr port, int index) {
+  PortInfo info;
+  info.direction = Direction::in;
+  info.index = index;
+  CORBA::String_var name = port->name();
+  CORBA::TypeCode_var type = port->port_type();
+  info.name = name.in();
+  info.type = rtm::type_name(type);
+  RTM::InPortEx_var ex = RTM::InPortEx::_narrow(port);
+  if (!CORBA::is_nil(ex)) {
+    info.extended = true;
+    info.counters = ex->counters();
+    CORBA::String_var err = ex->last_error();
+    info.last_error = err.in();
+  }
+  return info;
+}
+
+PortInfo inspect_out(RTM::OutPort_ptr port, int index) {
+  PortInfo info;
+  info.direction = Direction::out;
+  info.index = index;
+  CORBA::String_var name = port->name();
+  CORBA::TypeCode_var type = port->port_type();
+  info.name = name.in();
+  info.type = rtm::type_name(type);
+  RTM::OutPortEx_var ex = RTM::OutPortEx::_narrow(port);
+  if (!CORBA::is_nil(ex)) {
+    info.extended = true;
+    info.counters = ex->counters();
+    CORBA::String_var err = ex->last_error();
+    info.last_error = err.in();
+    RTM::SubscriptionInfoList_var subs = ex->subscriptions();
+    for (CORBA::ULong i = 0; i < subs->length(); ++i) {
+      const RTM::SubscriptionInfo& s = subs[i];
+      info.subscriptions.push_back({s.peer.in(), s.req_type == RTM::once ? "once" : "repeated",
+                                    static_cast<bool>(s.in_process), s.pushed, s.dropped,
+                                    s.failures});
+    }
+  }
+  return info;
+}
+
+}  // namespace
+
+std::string to_string(Direction d) { return d == Direction::in ? "in" : "out"; }
+
+PortAddress PortAddress::parse(std::string_view text) {
+  auto dot = text.rfind('.');
+  if (dot == std::string_view::npos || dot == 0 || dot + 1 == text.size()) {
+    throw std::invalid_argument(
+        fmt::format("'{}' is not a port address: expected <component>.<port>, e.g. sensor0.out0",
+                    text));
+  }
+  return {std::string(text.substr(0, dot)), std::string(text.substr(dot + 1))};
+}
+
+Browser::Browser(CORBA::ORB_ptr orb, NamingAddress naming, std::chrono::milliseconds call_timeout)
+    : orb_(CORBA::ORB::_duplicate(orb)), naming_(orb, std::move(naming), call_timeout) {}
+
+ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr object,
+                               bool detailed) const {
+  ComponentInfo info;
+  info.path = path;
+  auto dead = dead_if_unreachable([&] {
+    RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(object);
+    RTM::RtComponent_var comp;
+    if (!CORBA::is_nil(ex)) {
+      info.extended = true;
+      CORBA::String_var kind = ex->kind();
+      info.kind = kind.in();
+      info.state = state_name(ex->state());
+      CORBA::String_var err = ex->last_error();
+      info.last_error = err.in();
+      info.timing = ex->timing();
+      comp = RTM::RtComponent::_duplicate(ex);
+    } else {
+      comp = RTM::RtComponent::_narrow(object);
+      if (CORBA::is_nil(comp)) throw BrowseError(path.to_string() + " is not an RtComponent");
+      info.state = "?";
+    }
+    RTM::InPortList_var ins = comp->in_ports();
+    RTM::OutPortList_var outs = comp->out_ports();
+    for (CORBA::ULong i = 0; i < ins->length(); ++i) {
+      info.ports.push_back(inspect_in(ins[i], static_cast<int>(i)));
+    }
+    for (CORBA::ULong i = 0; i < outs->length(); ++i) {
+      info.ports.push_back(inspect_out(outs[i], static_cast<int>(i)));
+    }
+    if (!detailed) {
+      for (auto& p : info.ports) p.subscriptions.clear();
+    }
+  });
+  if (dead) {
+    info.liveness = Liveness::dead;
+    info.dead_reason = *dead;
+    info.ports.clear();
+    info.timing.reset();
+  }
+  return info;
+}
+
+std::vector<ComponentInfo> Browser::list(std::string_view filter, bool detailed) const {
+  std::vector<ComponentEntry> entries = naming_.list_components();
+  std::string host_filter, name_filter;
+  if (!filter.empty()) {
+    auto slash = filter.find('/');
+    host_filter = std::string(filter.substr(0, slash));
+    if (slash != std::string_view::npos) name_filter = std::string(filter.substr(slash + 1));
+  }
+  std::erase_if(entries, [&](const ComponentEntry& e) {
+    return (!host_filter.empty() && e.path.host != host_filter) ||
+           (!name_filter.empty() && e.path.name != name_filter);
+  });
+  // Components answer independently: ask them in parallel so that a system of many
+  // components (or one slow one) costs about one component's round trips.
+  std::vector<std::future<ComponentInfo>> answers;
+  answers.reserve(entries.size());
+  for (const auto& e : entries) {
+    answers.push_back(std::async(std::launch::async, [this, &e, detailed] {
+      return inspect(e.path, e.object.in(), detailed);
+    }));
+  }
+  std::vector<ComponentInfo> out;
+  out.reserve(entries.size());
+  for (auto& a : answers) out.push_back(a.get());
+  return out;
+}
+
+std::vector<ComponentPath> Browser::clean(std::string_view filter) const {
+  std::vector<ComponentPath> removed;
+  for (const auto& c : list(filter, false)) {
+    if (c.liveness == Liveness::dead) {
+      naming_.unbind(c.path);
+      removed.push_back(c.path);
+    }
+  }
+  return removed;
+}
+
+RTM::RtComponent_var Browser::component(std::string_view name) const {
+  try {
+    return naming_.resolve_component(name);
+  } catch (const NamingError& e) {
+    throw BrowseError(e.what());
+  }
+}
+
+ComponentInfo Browser::describe(std::string_view name) const {
+  ComponentPath path = ComponentPath::parse(name);
+  RTM::RtComponent_var comp = component(name);
+  if (path.host.empty()) {
+    for (const auto& e : naming_.list_components()) {
+      if (e.path.name == path.name) path = e.path;
+    }
+  }
+  ComponentInfo info = inspect(path, comp.in(), true);
+  if (info.liveness == Liveness::dead) {
+    throw BrowseError(fmt::format("{} is bound but its process does not answer ({}); "
+                                  "`rtm ls --clean` removes dead bindings",
+                                  path.to_string(), info.dead_reason));
+  }
+  return info;
+}
+
+ResolvedPort Browser::port(const PortAddress& address) const {
+  RTM::RtComponent_var comp = component(address.component);
+  ResolvedPort found{address.to_string(), Direction::in, {}, {}, {}};
+  auto dead = dead_if_unreachable([&] {
+    RTM::InPortList_var ins = comp->in_ports();
+    RTM::OutPortList_var outs = comp->out_ports();
+    std::vector<std::string> names;
+    auto take = [&](CORBA::Object_ptr obj, Direction dir, const std::string& name,
+                    CORBA::TypeCode_ptr type) {
+      found.direction = dir;
+      found.name = name;
+      found.object = CORBA::Object::_duplicate(obj);
+      found.type = CORBA::TypeCode::_duplicate(type);
+    };
+    for (CORBA::ULong i = 0; i < ins->length(); ++i) {
+      CORBA::String_var n = ins[i]->name();
+      names.push_back(n.in());
+      if (address.port == n.in()) {
+        CORBA::TypeCode_var t = ins[i]->port_type();
+        take(ins[i], Direction::in, n.in(), t);
+        return;
+      }
+    }
+    for (CORBA::ULong i = 0; i < outs->length(); ++i) {
+      CORBA::String_var n = outs[i]->name();
+      names.push_back(n.in());
+      if (address.port == n.in()) {
+        CORBA::TypeCode_var t = outs[i]->port_type();
+        take(outs[i], Direction::out, n.in(), t);
+        return;
+      }
+    }
+    if (auto i = indexed(address.port, "in"); i && *i < static_cast<int>(ins->length())) {
+      CORBA::String_var n = ins[*i]->name();
+      CORBA::TypeCode_var t = ins[*i]->port_type();
+      take(ins[*i], Direction::in, n.in(), t);
+      return;
+    }
+    if (auto i = indexed(address.port, "out"); i && *i < static_cast<int>(outs->length())) {
+      CORBA::String_var n = outs[*i]->name();
+      CORBA::TypeCode_var t = outs[*i]->port_type();
+      take(outs[*i], Direction::out, n.in(), t);
+      return;
+    }
+    std::string known;
+    for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+    throw BrowseError(fmt::format("{} has no port '{}' (ports: {}; or in<N>/out<N>)",
+                                  address.component, address.port,
+                                  known.empty() ? "none" : known));
+  });
+  if (dead) {
+    throw BrowseError(fmt::format("{} does not answer ({}): its process is gone?",
+                                  address.component, *dead));
+  }
+  return found;
+}
+
+std::pair<ResolvedPort, ResolvedPort> Browser::pair(const PortAddress& out,
+                                                    const PortAddress& in) const {
+  ResolvedPort o = port(out);
+  ResolvedPort i = port(in);
+  if (o.direction != Direction::out) {
+    throw BrowseError(fmt::format("{} is an InPort; the first port must be an OutPort", o.address));
+  }
+  if (i.direction != Direction::in) {
+    throw BrowseError(fmt::format("{} is an OutPort; the second port must be an InPort", i.address));
+  }
+  if (!o.type->equivalent(i.type)) {
+    throw BrowseError(fmt::format("{} ({}) -> {} ({}): types differ", o.address,
+                                  rtm::type_name(o.type), i.address, rtm::type_name(i.type)));
+  }
+  return {std::move(o), std::move(i)};
+}
+
+void Browser::connect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const {
+  auto [o, i] = pair(out, in);
+  RTM::OutPort_var op = RTM::OutPort::_narrow(o.object);
+  RTM::InPort_var ip = RTM::InPort::_narrow(i.object);
+  if (!op->subscribe(type, ip)) {
+    std::string why;
+    RTM::OutPortEx_var ex = RTM::OutPortEx::_narrow(op);
+    if (!CORBA::is_nil(ex)) {
+      CORBA::String_var err = ex->last_error();
+      why = err.in();
+    }
+    throw BrowseError(fmt::format("{} refused the subscription of {}{}{}", o.address, i.address,
+                                  why.empty() ? "" : ": ", why.empty() ? "(already subscribed?)" : why));
+  }
+}
+
+void Browser::disconnect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const {
+  auto [o, i] = pair(out, in);
+  RTM::OutPort_var op = RTM::OutPort::_narrow(o.object);
+  RTM::InPort_var ip = RTM::InPort::_narrow(i.object);
+  if (!op->unsubscribe(type, ip)) {
+    throw BrowseError(fmt::format("{} -> {} ({}) is not connected", o.address, i.address,
+                                  type == RTM::once ? "once" : "repeated"));
+  }
+}
+
+}  // namespace rtm::cli

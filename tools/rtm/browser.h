@@ -1,0 +1,109 @@
+// The component browser: what `rtm` asks of the naming service and of components, as plain
+// results the command line prints as text or JSON. No printing here.
+#pragma once
+
+#include "rtm/naming.h"
+
+#include <RTM.hh>
+#include <RTMExt.hh>
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rtm::cli {
+
+// A failure the user can act on: unknown component or port, type mismatch, refused subscribe.
+class BrowseError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class Direction { in, out };
+
+// "<component>.<port>": component is "name" or "host/name"; port is the port's name, or
+// "in<N>"/"out<N>" for the N-th InPort/OutPort. Split at the last '.'.
+struct PortAddress {
+  std::string component;
+  std::string port;
+  static PortAddress parse(std::string_view text);  // throws std::invalid_argument
+  std::string to_string() const { return component + "." + port; }
+};
+
+struct PortInfo {
+  Direction direction = Direction::in;
+  int index = 0;             // position in in_ports()/out_ports()
+  std::string name;
+  std::string type;          // "RTM::TimedFloat6"
+  bool extended = false;     // has the RTMExt counters
+  RTM::PortCounters counters{};
+  std::string last_error;
+  struct Subscription {
+    std::string peer;        // "<component>.<port>", or "?" when the InPort does not tell
+    std::string req_type;    // "once" / "repeated"
+    bool in_process = false;
+    unsigned long long pushed = 0, dropped = 0;
+    unsigned long failures = 0;
+  };
+  std::vector<Subscription> subscriptions;  // OutPorts only
+};
+
+enum class Liveness { alive, dead };
+
+struct ComponentInfo {
+  ComponentPath path;
+  Liveness liveness = Liveness::alive;
+  std::string dead_reason;       // "TRANSIENT" etc. for a dead binding
+  bool extended = false;         // implements RtComponentEx (else a plain seed component)
+  std::string kind;
+  std::string state;             // "on", "off", "error", "?" for a seed component
+  std::string last_error;
+  std::optional<RTM::TimingStats> timing;
+  std::vector<PortInfo> ports;   // InPorts then OutPorts, each in declaration order
+};
+
+// What a port reference is, once resolved.
+struct ResolvedPort {
+  std::string address;           // as the user wrote it, normalised "component.port"
+  Direction direction;
+  std::string name;
+  CORBA::Object_var object;      // RTM::InPort or RTM::OutPort
+  CORBA::TypeCode_var type;
+};
+
+class Browser {
+ public:
+  // call_timeout bounds every remote call, so that a hung process cannot hang the tool.
+  Browser(CORBA::ORB_ptr orb, NamingAddress naming, std::chrono::milliseconds call_timeout);
+
+  const NamingClient& naming() const { return naming_; }
+
+  // Every component under filter ("", "host", or "host/name"), with ports (and stats when
+  // detailed). Dead bindings are reported as dead, not as errors.
+  std::vector<ComponentInfo> list(std::string_view filter, bool detailed) const;
+  // Removes the dead bindings among those listed; returns their paths.
+  std::vector<ComponentPath> clean(std::string_view filter) const;
+  // One component in full (ports, counters, subscriptions).
+  ComponentInfo describe(std::string_view component) const;
+
+  RTM::RtComponent_var component(std::string_view component) const;
+  ResolvedPort port(const PortAddress& address) const;
+
+  // subscribe/unsubscribe out -> in. Checks directions and types first, throwing BrowseError
+  // "sensor0.out0 (RTM::TimedFloat6) -> ctl.in1 (RTM::TimedFloat3): types differ".
+  void connect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const;
+  void disconnect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const;
+
+ private:
+  ComponentInfo inspect(const ComponentPath& path, CORBA::Object_ptr object, bool detailed) const;
+  std::pair<ResolvedPort, ResolvedPort> pair(const PortAddress& out, const PortAddress& in) const;
+
+  CORBA::ORB_var orb_;
+  NamingClient naming_;
+};
+
+std::string to_string(Direction d);
+
+}  // namespace rtm::cli

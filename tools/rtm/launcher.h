@@ -1,0 +1,65 @@
+// `rtm up` / `rtm down`: launching the processes of a system file and tearing them down.
+//
+// `up` starts each component detached (own session, output to a log file), records it in a
+// state file at once, waits until it is bound in the naming service, then makes the
+// connections and turns on what the file lists. When anything fails, it stops what it started
+// and says which component did not come up and why. `down` reads the state file: turns off,
+// disconnects, sends SIGTERM (SIGKILL after a grace period) and waits until every process is
+// gone. The state file lives in $XDG_RUNTIME_DIR/rtm (or /tmp/rtm-<uid>), named after the
+// system; each process is recorded with its start time so that a recycled pid is never killed.
+#pragma once
+
+#include "browser.h"
+#include "system_file.h"
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace rtm::cli {
+
+struct LaunchedProcess {
+  std::string name;
+  pid_t pid = 0;
+  unsigned long long start_time = 0;  // /proc/<pid>/stat field 22, guards against pid reuse
+  std::filesystem::path log;
+};
+
+struct SystemState {
+  std::string system;
+  std::string naming;
+  std::filesystem::path file;
+  std::vector<LaunchedProcess> processes;
+  std::vector<SystemFile::Connection> connections;
+  std::vector<std::string> activated;
+
+  static std::filesystem::path directory();
+  static std::filesystem::path path_for(const std::string& system);
+  void save() const;
+  // Throws SystemFileError when there is no state for the system ("is it up?").
+  static SystemState load(const std::string& system);
+};
+
+struct LaunchOptions {
+  std::chrono::milliseconds bind_timeout{10000};
+  std::chrono::milliseconds stop_timeout{5000};
+  std::function<void(const std::string&)> progress;  // one line per step
+};
+
+// Starts the system; on failure stops what it started and throws (BrowseError or
+// SystemFileError) with the reason. Returns the state it saved.
+SystemState system_up(const SystemFile& file, const Browser& browser, const NamingAddress& naming,
+                      const LaunchOptions& options);
+
+// Stops a system started by system_up. Returns the names of processes that had to be killed.
+std::vector<std::string> system_down(const SystemState& state, const Browser* browser,
+                                     const LaunchOptions& options);
+
+// True while the recorded process still runs (not a zombie, same start time).
+bool process_alive(const LaunchedProcess& p);
+
+}  // namespace rtm::cli

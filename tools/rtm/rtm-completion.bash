@@ -1,0 +1,49 @@
+# bash completion for rtm. Install: source this file, or copy it to
+# /usr/share/bash-completion/completions/rtm.
+_rtm_components() {
+  rtm ls --names 2>/dev/null
+}
+
+_rtm_ports() {
+  # <component>.<port> for every port of the component typed so far
+  local comp=${1%.*}
+  rtm --json cat "$comp" 2>/dev/null | sed -n 's/^ *"name": "\(.*\)",$/\1/p' | sed "1d;s/^/$comp./"
+}
+
+_rtm() {
+  local cur prev words cword
+  _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
+  local commands="ls cat connect disconnect on off get put watch up down"
+  local cmd="" i
+  for ((i = 1; i < cword; i++)); do
+    case ${words[i]} in
+      --naming|--timeout) ((i++)) ;;
+      -*) ;;
+      *) cmd=${words[i]}; break ;;
+    esac
+  done
+  if [[ -z $cmd ]]; then
+    if [[ $cur == -* ]]; then
+      COMPREPLY=($(compgen -W "--naming --json --timeout --help" -- "$cur"))
+    else
+      COMPREPLY=($(compgen -W "$commands" -- "$cur"))
+    fi
+    return
+  fi
+  case $cmd in
+    ls) COMPREPLY=($(compgen -W "-l --long --clean --names" -- "$cur")) ;;
+    cat|on|off) COMPREPLY=($(compgen -W "$(_rtm_components)" -- "$cur")) ;;
+    connect|disconnect|get|put|watch)
+      if [[ $cur == *.* ]]; then
+        COMPREPLY=($(compgen -W "$(_rtm_ports "$cur")" -- "$cur"))
+      else
+        compopt -o nospace 2>/dev/null
+        COMPREPLY=($(compgen -S . -W "$(_rtm_components)" -- "$cur"))
+      fi
+      [[ $cmd == watch && $cur == -* ]] && COMPREPLY=($(compgen -W "--rate --csv --count --duration" -- "$cur"))
+      [[ $cmd == connect && $cur == -* ]] && COMPREPLY=($(compgen -W "--once" -- "$cur"))
+      ;;
+    up|down) COMPREPLY=($(compgen -f -X '!*.@(yaml|yml)' -- "$cur")) ;;
+  esac
+}
+complete -F _rtm rtm

@@ -1,0 +1,154 @@
+#include "system_file.h"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace rtm::cli {
+namespace {
+
+[[noreturn]] void fail(const SystemFile& f, const YAML::Node& at, const std::string& what) {
+  const YAML::Mark mark = at.Mark();
+  if (mark.line >= 0) {
+    throw SystemFileError(fmt::format("{}:{}: {}", f.path.string(), mark.line + 1, what));
+  }
+  throw SystemFileError(fmt::format("{}: {}", f.path.string(), what));
+}
+
+std::string scalar(const SystemFile& f, const YAML::Node& node, const std::string& what) {
+  if (!node || !node.IsScalar() || node.as<std::string>().empty()) {
+    fail(f, node, what + " must be a non-empty string");
+  }
+  return node.as<std::string>();
+}
+
+std::string component_of(const std::string& port_address) {
+  auto dot = port_address.rfind('.');
+  return dot == std::string::npos ? port_address : port_address.substr(0, dot);
+}
+
+}  // namespace
+
+SystemFile SystemFile::load(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) throw SystemFileError(fmt::format("{}: cannot read the system file", file.string()));
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse(text.str(), std::filesystem::absolute(file));
+}
+
+SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem::path& path) {
+  SystemFile f;
+  f.path = path;
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw SystemFileError(fmt::format("{}:{}: not valid YAML: {}", path.string(), e.mark.line + 1, e.msg));
+  }
+  if (!root.IsMap()) fail(f, root, "expected a mapping with 'components'");
+  for (const auto& kv : root) {
+    const auto key = kv.first.as<std::string>();
+    if (key != "name" && key != "naming" && key != "components" && key != "connections" &&
+        key != "activate") {
+      fail(f, kv.first, fmt::format("unknown key '{}' (known: name, naming, components, "
+                                    "connections, activate)", key));
+    }
+  }
+  f.name = root["name"] ? scalar(f, root["name"], "'name'") : path.stem().string();
+  if (root["naming"]) f.naming = scalar(f, root["naming"], "'naming'");
+
+  const YAML::Node comps = root["components"];
+  if (!comps || !comps.IsSequence() || comps.size() == 0) {
+    fail(f, comps ? comps : root, "'components' must be a non-empty list");
+  }
+  std::set<std::string> names;
+  for (const auto& c : comps) {
+    if (!c.IsMap()) fail(f, c, "each component must be a mapping with 'name' and 'command'");
+    Component comp;
+    comp.name = scalar(f, c["name"], "a component's 'name'");
+    if (!names.insert(comp.name).second) fail(f, c, fmt::format("component '{}' listed twice", comp.name));
+    const YAML::Node cmd = c["command"];
+    if (cmd && cmd.IsScalar()) {
+      comp.command.push_back(cmd.as<std::string>());
+    } else if (cmd && cmd.IsSequence() && cmd.size() > 0) {
+      for (const auto& w : cmd) comp.command.push_back(scalar(f, w, "a command word"));
+    } else {
+      fail(f, cmd ? cmd : c, fmt::format("component '{}' needs a 'command' (program, or list "
+                                         "of program and arguments)", comp.name));
+    }
+    f.components.push_back(std::move(comp));
+  }
+
+  if (const YAML::Node conns = root["connections"]) {
+    if (!conns.IsSequence()) fail(f, conns, "'connections' must be a list");
+    for (const auto& c : conns) {
+      if (!c.IsMap()) fail(f, c, "each connection must be a mapping with 'from' and 'to'");
+      Connection conn{scalar(f, c["from"], "a connection's 'from'"),
+                      scalar(f, c["to"], "a connection's 'to'"), false};
+      if (const YAML::Node t = c["type"]) {
+        const auto type = scalar(f, t, "a connection's 'type'");
+        if (type != "once" && type != "repeated") {
+          fail(f, t, fmt::format("connection type '{}' is neither 'once' nor 'repeated'", type));
+        }
+        conn.once = type == "once";
+      }
+      for (const auto* end : {&conn.from, &conn.to}) {
+        if (end->find('.') == std::string::npos) {
+          fail(f, c, fmt::format("'{}' is not <component>.<port>", *end));
+        }
+        if (!names.count(component_of(*end))) {
+          fail(f, c, fmt::format("'{}' names component '{}', which 'components' does not list",
+                                 *end, component_of(*end)));
+        }
+      }
+      f.connections.push_back(std::move(conn));
+    }
+  }
+
+  if (const YAML::Node act = root["activate"]) {
+    if (!act.IsSequence()) fail(f, act, "'activate' must be a list of component names");
+    for (const auto& a : act) {
+      auto n = scalar(f, a, "an 'activate' entry");
+      if (!names.count(n)) fail(f, a, fmt::format("'activate' names '{}', which 'components' does not list", n));
+      f.activate.push_back(std::move(n));
+    }
+  }
+  return f;
+}
+
+std::filesystem::path find_program(const std::string& program, const std::filesystem::path& base) {
+  namespace fs = std::filesystem;
+  auto executable = [](const fs::path& p) {
+    std::error_code ec;
+    return fs::is_regular_file(p, ec) && ::access(p.c_str(), X_OK) == 0;
+  };
+  if (program.find('/') != std::string::npos) {
+    fs::path p = fs::path(program).is_absolute() ? fs::path(program) : base / program;
+    if (executable(p)) return p;
+    throw SystemFileError(fmt::format("program {} not found or not executable", p.string()));
+  }
+  std::string searched;
+  for (const char* var : {"RTM_BIN_PATH", "PATH"}) {
+    const char* value = std::getenv(var);
+    if (!value) continue;
+    std::stringstream dirs(value);
+    for (std::string dir; std::getline(dirs, dir, ':');) {
+      if (dir.empty()) continue;
+      if (executable(fs::path(dir) / program)) return fs::path(dir) / program;
+    }
+    searched += fmt::format("{}${}", searched.empty() ? "" : " and ", var);
+  }
+  throw SystemFileError(fmt::format("program '{}' not found in {} (set RTM_BIN_PATH to the "
+                                    "folder of the component executables)",
+                                    program, searched.empty() ? "an empty search path" : searched));
+}
+
+}  // namespace rtm::cli

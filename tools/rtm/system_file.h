@@ -1,0 +1,58 @@
+// A system file: the components to launch, the connections to make and the components to turn
+// on, as `rtm up` reads it (YAML):
+//
+//   name: force-servo              # optional; default: the file name without extension
+//   naming: 127.0.0.1:2809         # optional; --naming / RTM_NAMING override it
+//   components:
+//     - name: sensor0
+//       command: [rtm-sensor, --bus, "local:/tmp/pa10.bus"]   # program + arguments
+//   connections:
+//     - {from: sensor0.out0, to: controller0.in0}              # type: repeated (default)|once
+//   activate: [sensor0]
+//
+// A program without a '/' is searched in $RTM_BIN_PATH (':'-separated), then $PATH; one with
+// a '/' is taken relative to the file's folder. `rtm up` adds `--name <name> --naming <addr>`.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace rtm::cli {
+
+// A malformed system file: the message names the file and, where known, the line.
+class SystemFileError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct SystemFile {
+  struct Component {
+    std::string name;
+    std::vector<std::string> command;  // program, then arguments
+  };
+  struct Connection {
+    std::string from, to;  // "<component>.<port>"
+    bool once = false;
+  };
+
+  std::filesystem::path path;      // absolute
+  std::string name;
+  std::optional<std::string> naming;
+  std::vector<Component> components;
+  std::vector<Connection> connections;
+  std::vector<std::string> activate;
+
+  // Throws SystemFileError for an unreadable file, bad YAML, a missing or mistyped key, a
+  // duplicate component, or a connection/activation naming a component the file does not list.
+  static SystemFile load(const std::filesystem::path& file);
+  static SystemFile parse(const std::string& yaml_text, const std::filesystem::path& path);
+};
+
+// The program to execute for `program` as written in a system file in folder `base`.
+// Throws SystemFileError when it is not found or not executable.
+std::filesystem::path find_program(const std::string& program, const std::filesystem::path& base);
+
+}  // namespace rtm::cli
