@@ -1,0 +1,223 @@
+#include "rtm/runner.h"
+
+#include "rtm/log.h"
+#include "rtm/orb.h"
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <pthread.h>
+#include <sched.h>
+#include <signal.h>
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <optional>
+
+namespace rtm {
+
+namespace {
+
+const char* program_name(const char* argv0) {
+  const char* slash = std::strrchr(argv0, '/');
+  return slash != nullptr ? slash + 1 : argv0;
+}
+
+// Waits for SIGINT/SIGTERM synchronously. The signals are blocked before any thread starts
+// (every thread inherits the mask), so none is ever delivered to a handler.
+class TerminationSignals {
+ public:
+  TerminationSignals() {
+    sigemptyset(&set_);
+    sigaddset(&set_, SIGINT);
+    sigaddset(&set_, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set_, &previous_);
+    // A peer that vanishes mid-write must not kill us.
+    ::signal(SIGPIPE, SIG_IGN);
+  }
+  ~TerminationSignals() { pthread_sigmask(SIG_SETMASK, &previous_, nullptr); }
+  TerminationSignals(const TerminationSignals&) = delete;
+  TerminationSignals& operator=(const TerminationSignals&) = delete;
+
+  int wait() const {
+    int received = 0;
+    while (sigwait(&set_, &received) != 0) {
+    }
+    return received;
+  }
+
+ private:
+  sigset_t set_{};
+  sigset_t previous_{};
+};
+
+void pin_process_to_cpu(int cpu) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  // Before any thread exists: the ORB's threads and the activity inherit it.
+  if (sched_setaffinity(0, sizeof(set), &set) != 0) {
+    log().warn("cannot pin to CPU {}: {}; running unpinned", cpu, std::strerror(errno));
+  }
+}
+
+}  // namespace
+
+PeriodicOptions RunSettings::periodic_options() const {
+  PeriodicOptions options;
+  options.period_ns = period_ns;
+  options.fifo_priority = rt_priority;
+  options.cpu = cpu;
+  options.lock_memory = lock_memory;
+  options.thread_name = name;
+  return options;
+}
+
+std::int64_t parse_period_ns(std::string_view text) {
+  struct Unit {
+    std::string_view suffix;
+    double ns;
+  };
+  // Longest suffixes first: "ms" and "ns" also end in "s".
+  static constexpr Unit kUnits[] = {{"ms", 1e6}, {"us", 1e3}, {"ns", 1.0}, {"s", 1e9}};
+  std::string_view number = text;
+  double scale = 1e9;
+  for (const auto& unit : kUnits) {
+    if (text.size() > unit.suffix.size() && text.ends_with(unit.suffix)) {
+      number = text.substr(0, text.size() - unit.suffix.size());
+      scale = unit.ns;
+      break;
+    }
+  }
+  double value = 0;
+  const auto [end, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
+  const double ns = value * scale;
+  if (ec != std::errc{} || end != number.data() + number.size() || !std::isfinite(ns) || ns < 1.0 ||
+      ns > 3600e9) {
+    throw std::invalid_argument(fmt::format(
+        "period '{}': want a positive duration up to 1 h, e.g. 2ms, 500us, 0.002s", text));
+  }
+  return std::llround(ns);
+}
+
+SplitArguments split_orb_arguments(int argc, const char* const* argv) {
+  SplitArguments split;
+  for (int i = 0; i < argc; ++i) {
+    const std::string_view arg(argv[i]);
+    if (i > 0 && arg.starts_with("-ORB") && arg.size() > 4) {
+      split.orb.emplace_back(arg);
+      if (i + 1 < argc) split.orb.emplace_back(argv[++i]);
+    } else {
+      split.own.emplace_back(arg);
+    }
+  }
+  return split;
+}
+
+int run_component(int argc, char** argv, const ComponentMain& main) {
+  const char* program = program_name(argc > 0 ? argv[0] : "rtm-component");
+  if (!main.create) {
+    std::fprintf(stderr, "%s: no component factory given\n", program);
+    return 1;
+  }
+  TerminationSignals signals;
+
+  // ---- command line ----
+  auto split = split_orb_arguments(argc, argv);
+  RunSettings settings;
+  settings.name = (main.kind.empty() ? std::string("component") : main.kind) + "0";
+  settings.orb_args = std::move(split.orb);
+  std::string naming_text;
+  std::string period_text = "2ms";
+  CLI::App app(main.description.empty() ? "RTM component" : main.description, program);
+  app.add_option("--name", settings.name, "component name, bound as <host>.host_cxt/<name>.rtc")
+      ->capture_default_str();
+  app.add_option("--naming", naming_text, "naming service host:port")
+      ->default_str(NamingAddress::from_environment().to_string())
+      ->envname("RTM_NAMING");
+  app.add_option("--period", period_text, "cycle period: 2ms, 500us, 1000ns, 0.002s")->capture_default_str();
+  app.add_option("--rt-priority", settings.rt_priority, "SCHED_FIFO priority of the activity (1..99)")
+      ->check(CLI::Range(0, 99));
+  app.add_option("--cpu", settings.cpu, "pin the process to this CPU")->check(CLI::NonNegativeNumber);
+  app.add_flag("--mlock", settings.lock_memory, "lock the process's memory (mlockall)");
+  app.add_option("--endpoint", settings.endpoints,
+                 "omniORB endpoint, repeatable (default: giop:tcp:127.0.0.1: and giop:unix:)");
+  app.add_flag("--on", settings.turn_on, "turn the component on once it is up");
+  app.footer("Options -ORB<name> <value> go to omniORB unchanged.");
+  if (main.add_options) main.add_options(app);
+  // A wrapper script may add its own default before the user's: the last one given wins.
+  for (auto* option : app.get_options()) {
+    if (option->get_expected_max() == 1) option->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+  }
+
+  std::vector<const char*> own_argv;
+  for (const auto& arg : split.own) own_argv.push_back(arg.c_str());
+  try {
+    app.parse(static_cast<int>(own_argv.size()), own_argv.data());
+    settings.period_ns = parse_period_ns(period_text);
+    settings.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "%s: %s\n", program, e.what());
+    return 2;
+  }
+  if (settings.endpoints.empty()) settings.endpoints = {"giop:tcp:127.0.0.1:", "giop:unix:"};
+  if (settings.cpu >= 0) pin_process_to_cpu(settings.cpu);
+
+  // ---- bring up: ORB, component, servant, name ----
+  std::vector<std::string> orb_args;
+  for (const auto& endpoint : settings.endpoints) orb_args.insert(orb_args.end(), {"-ORBendPoint", endpoint});
+  orb_args.insert(orb_args.end(), settings.orb_args.begin(), settings.orb_args.end());
+
+  std::optional<Orb> orb;
+  try {
+    orb.emplace(orb_args);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", program, e.what());
+    return 1;
+  }
+
+  int status = 0;
+  {
+    PortableServer::Servant_var<ComponentServant> servant;
+    std::unique_ptr<NameBinding> binding;
+    try {
+      auto component = main.create(settings);
+      if (!component) throw std::runtime_error("the factory made no component");
+      ActivitySpec activity = main.activity ? main.activity(settings, *component)
+                                            : ActivitySpec{settings.periodic_options()};
+      servant = new ComponentServant(std::move(component), std::move(activity));
+      RTM::RtComponentEx_var reference = servant->activate(*orb);
+      binding = std::make_unique<NameBinding>(orb->orb(), settings.naming,
+                                              ComponentPath::on_this_host(settings.name), reference);
+      if (settings.turn_on) servant->on();
+    } catch (const CORBA::Exception& e) {
+      log().error("{} could not start: CORBA {}", settings.name, e._name());
+      status = 1;
+    } catch (const std::exception& e) {
+      log().error("{} could not start: {}", settings.name, e.what());
+      status = 1;
+    }
+
+    if (status == 0) {
+      const int received = signals.wait();
+      log().info("stopping {} ({})", settings.name, received == SIGINT ? "SIGINT" : "SIGTERM");
+    }
+
+    // ---- shut down in order: no more cycles, no more name, no more servants ----
+    try {
+      if (servant) servant->off();
+    } catch (const CORBA::Exception& e) {
+      log().warn("{}: off() raised {}", settings.name, e._name());
+    }
+    binding.reset();
+    if (servant) servant->deactivate();
+  }
+  orb.reset();
+  return status;
+}
+
+}  // namespace rtm

@@ -1,0 +1,91 @@
+// The component runner: the main() every component executable shares.
+//
+//   int main(int argc, char** argv) {
+//     double gain = 1.0;
+//     return rtm::run_component(argc, argv, {
+//         .kind = "controller",
+//         .description = "proportional force controller",
+//         .add_options = [&](CLI::App& app) { app.add_option("--gain", gain, "P gain"); },
+//         .create = [&](const rtm::RunSettings& s) { return std::make_unique<Controller>(s.name, gain); },
+//     });
+//   }
+//
+// Command line (besides the component's own options):
+//   --name NAME          component name (default <kind>0), bound as <host>.host_cxt/NAME.rtc
+//   --naming HOST:PORT   naming service (default $RTM_NAMING, else 127.0.0.1:2809)
+//   --period 2ms         cycle period: 2ms, 500us, 1000ns, 0.002 or 0.002s
+//   --rt-priority N      SCHED_FIFO priority of the activity thread (1..99)
+//   --cpu N              pin the process (and so its activity) to CPU N
+//   --mlock              lock the process's memory
+//   --endpoint EP        omniORB endpoint, repeatable (default giop:tcp:127.0.0.1: and a
+//                        giop:unix: socket, which local omniORB clients prefer)
+//   --on                 turn the component on once it is up
+//   -ORB<option> VALUE   passed to omniORB unchanged
+//
+// The runner binds the name (and keeps it bound across naming-service restarts), logs
+// "bound NAME at HOST.host_cxt/NAME.rtc via ADDRESS", then waits for SIGINT/SIGTERM (taken
+// synchronously by sigwait, never in a handler) and shuts down in order: activity off, name
+// unbound, servants deactivated, ORB destroyed. An unreachable naming service is one error
+// line; the component keeps running and binds when the service appears.
+#pragma once
+
+#include "rtm/component.h"
+#include "rtm/naming.h"
+
+#include <CLI/App.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rtm {
+
+// What the command line asked for.
+struct RunSettings {
+  std::string name;
+  NamingAddress naming;
+  std::int64_t period_ns = 2'000'000;
+  int rt_priority = 0;   // 0: SCHED_OTHER
+  int cpu = -1;          // -1: no affinity
+  bool lock_memory = false;
+  bool turn_on = false;
+  std::vector<std::string> endpoints;  // omniORB endpoints, e.g. giop:tcp:127.0.0.1:
+  std::vector<std::string> orb_args;   // -ORB... options, passed through
+
+  // The periodic activity these settings describe (thread named after the component).
+  PeriodicOptions periodic_options() const;
+};
+
+// How to make one kind of component.
+struct ComponentMain {
+  std::string kind = {};    // "sensor", "controller", ...: default name <kind>0
+  std::string description = {};  // one line for --help
+  // Adds the component's own options to app (bound to variables the caller owns). Optional.
+  std::function<void(CLI::App& app)> add_options = {};
+  // Builds the component after the command line is parsed. An exception becomes one error
+  // line and exit status 1.
+  std::function<std::unique_ptr<Component>(const RunSettings&)> create = {};
+  // The activity that runs it; default: periodic with the settings' period, priority, CPU.
+  std::function<ActivitySpec(const RunSettings&, Component&)> activity = {};
+};
+
+// Runs one component until SIGINT/SIGTERM. Returns the process exit status: 0 after a clean
+// shutdown, 1 when the component could not start, 2 for a bad command line.
+int run_component(int argc, char** argv, const ComponentMain& main);
+
+// Parses a period: "2ms", "500us", "250000ns", "0.002s" or "0.002" (seconds). Throws
+// std::invalid_argument naming the text when it is not a positive duration.
+std::int64_t parse_period_ns(std::string_view text);
+
+// Splits -ORB<option> <value> pairs (omniORB's syntax) out of argv. The rest, argv[0] first,
+// stays in order for the command-line parser.
+struct SplitArguments {
+  std::vector<std::string> own;
+  std::vector<std::string> orb;
+};
+SplitArguments split_orb_arguments(int argc, const char* const* argv);
+
+}  // namespace rtm

@@ -1,0 +1,56 @@
+// A component process driven from outside: on/off repeated, state and timing through the
+// extension interface.
+#include "integration_fixture.h"
+
+namespace rtm_it {
+namespace {
+
+TEST_F(IntegrationTest, OnOffRepeatedLeavesTheComponentUsableAndCounting) {
+  auto process = start_component("cycler0");
+  auto c = component("cycler0");
+  for (int round = 0; round < 30; ++round) {
+    c->on();
+    ASSERT_EQ(c->state(), RTM::COMPONENT_ON) << "round " << round;
+    c->on();  // idempotent
+    c->off();
+    ASSERT_EQ(c->state(), RTM::COMPONENT_OFF) << "round " << round;
+    c->off();
+  }
+  c->on();
+  const auto cycles = c->timing().cycles;
+  ASSERT_TRUE(eventually([&] { return c->timing().cycles > cycles + 50; }));
+  EXPECT_EQ(c->timing().period_ns, 2'000'000u);
+  CORBA::String_var error = c->last_error();
+  EXPECT_STREQ(error.in(), "");
+  c->off();
+  const auto stopped_at = c->timing().cycles;
+  std::this_thread::sleep_for(50ms);
+  EXPECT_EQ(c->timing().cycles, stopped_at) << "cycles ran while off";
+  EXPECT_TRUE(process->running());
+}
+
+TEST_F(IntegrationTest, ComponentNameKindAndPortsAreVisibleRemotely) {
+  auto process = start_component("intro0", {"--period", "5ms"});
+  auto c = component("intro0");
+  CORBA::String_var name = c->name();
+  CORBA::String_var kind = c->kind();
+  EXPECT_STREQ(name.in(), "intro0");
+  EXPECT_STREQ(kind.in(), "test");
+  RTM::InPortList_var ins = c->in_ports();
+  RTM::OutPortList_var outs = c->out_ports();
+  EXPECT_EQ(ins->length(), 2u);
+  EXPECT_EQ(outs->length(), 2u);
+  EXPECT_EQ(c->timing().period_ns, 5'000'000u);
+}
+
+TEST_F(IntegrationTest, BadCommandLineIsOneErrorAndExitStatusTwo) {
+  rtm_test::ChildProcess process({RTM_TEST_COMPONENT, "--period", "fast", "--naming", names_.address()});
+  const auto status = process.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(status->exited);
+  EXPECT_EQ(status->code, 2);
+  EXPECT_NE(process.output().find("period 'fast'"), std::string::npos) << process.output();
+}
+
+}  // namespace
+}  // namespace rtm_it

@@ -1,0 +1,186 @@
+// A client of 2004: it knows only the paper's RTM.idl and the CORBA naming service. It finds
+// an RTM component, lists its ports, subscribes an InPort servant of its own and receives
+// TimedFloat6 data, as the paper's component browser did.
+#include <RTM.hh>
+#include <omniORB4/CORBA.h>
+#include <omniORB4/Naming.hh>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "rtm_test/child_process.h"
+#include "rtm_test/omni_names.h"
+
+namespace {
+
+using namespace std::chrono_literals;
+
+// The client's own InPort, written against the seed skeleton only.
+class SeedInPort : public POA_RTM::InPort {
+ public:
+  void put(const CORBA::Any& value) override {
+    const RTM::TimedFloat6* datum = nullptr;
+    if (!(value >>= datum)) throw CORBA::BAD_PARAM();
+    std::lock_guard lock(mutex_);
+    received_.push_back(*datum);
+  }
+  char* name() override { return CORBA::string_dup("seed_client.in"); }
+  CORBA::TypeCode_ptr port_type() override { return CORBA::TypeCode::_duplicate(RTM::_tc_TimedFloat6); }
+
+  std::vector<RTM::TimedFloat6> received() const {
+    std::lock_guard lock(mutex_);
+    return received_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<RTM::TimedFloat6> received_;
+};
+
+std::string host_name() {
+  std::array<char, 256> buffer{};
+  ::gethostname(buffer.data(), buffer.size() - 1);
+  return buffer.data();
+}
+
+class SeedClient : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    int argc = 3;
+    const char* argv[] = {"seed_client", "-ORBendPoint", "giop:tcp:127.0.0.1:", nullptr};
+    orb_ = CORBA::ORB_init(argc, const_cast<char**>(argv));
+    CORBA::Object_var poa_object = orb_->resolve_initial_references("RootPOA");
+    poa_ = PortableServer::POA::_narrow(poa_object);
+    PortableServer::POAManager_var manager = poa_->the_POAManager();
+    manager->activate();
+
+    component_process_ = std::make_unique<rtm_test::ChildProcess>(std::vector<std::string>{
+        RTM_TEST_COMPONENT, "--name", "seedpeer0", "--naming", names_.address(), "--period",
+        "2ms", "--on"});
+    component_process_->wait_until_bound();
+  }
+
+  void TearDown() override {
+    component_process_.reset();
+    orb_->destroy();
+  }
+
+  // As a 2004 client does it: the naming service by corbaloc, then the name path.
+  RTM::RtComponent_var find_component(const std::string& name) {
+    const std::string corbaloc = "corbaloc::" + names_.address() + "/NameService";
+    CORBA::Object_var root_object = orb_->string_to_object(corbaloc.c_str());
+    CosNaming::NamingContext_var root = CosNaming::NamingContext::_narrow(root_object);
+    CosNaming::Name path;
+    path.length(2);
+    path[0].id = CORBA::string_dup(host_name().c_str());
+    path[0].kind = CORBA::string_dup("host_cxt");
+    path[1].id = CORBA::string_dup(name.c_str());
+    path[1].kind = CORBA::string_dup("rtc");
+    CORBA::Object_var object = root->resolve(path);
+    return RTM::RtComponent::_narrow(object);
+  }
+
+  RTM::OutPort_var first_out_port(RTM::RtComponent_ptr component) {
+    RTM::OutPortList_var outs = component->out_ports();
+    if (outs->length() == 0) return RTM::OutPort::_nil();
+    return RTM::OutPort::_duplicate(outs[0]);
+  }
+
+  rtm_test::OmniNames names_;
+  CORBA::ORB_var orb_;
+  PortableServer::POA_var poa_;
+  std::unique_ptr<rtm_test::ChildProcess> component_process_;
+};
+
+std::vector<RTM::TimedFloat6> wait_for_data(const SeedInPort& port, std::size_t count,
+                                             std::chrono::seconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (port.received().size() < count && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(10ms);
+  }
+  return port.received();
+}
+
+TEST_F(SeedClient, FindsComponentInNamingServiceAndListsItsPorts) {
+  auto component = find_component("seedpeer0");
+  ASSERT_FALSE(CORBA::is_nil(component));
+
+  RTM::OutPortList_var outs = component->out_ports();
+  RTM::InPortList_var ins = component->in_ports();
+  ASSERT_GE(outs->length(), 1u);
+  ASSERT_GE(ins->length(), 1u);
+  CORBA::String_var out_name = outs[0]->name();
+  CORBA::TypeCode_var out_type = outs[0]->port_type();
+  EXPECT_STRNE(out_name.in(), "");
+  EXPECT_TRUE(out_type->equivalent(RTM::_tc_TimedFloat6));
+  CORBA::TypeCode_var in_type = ins[0]->port_type();
+  EXPECT_TRUE(in_type->equivalent(RTM::_tc_TimedFloat6));
+}
+
+TEST_F(SeedClient, SubscribedSeedInPortReceivesRisingTimedFloat6Stream) {
+  auto component = find_component("seedpeer0");
+  auto out = first_out_port(component);
+  ASSERT_FALSE(CORBA::is_nil(out));
+
+  SeedInPort servant;
+  PortableServer::ObjectId_var id = poa_->activate_object(&servant);
+  CORBA::Object_var object = poa_->id_to_reference(id);
+  RTM::InPort_var in = RTM::InPort::_narrow(object);
+
+  ASSERT_TRUE(out->subscribe(RTM::repeated, in));
+  const auto data = wait_for_data(servant, 20, 10s);
+  EXPECT_TRUE(out->unsubscribe(RTM::repeated, in));
+  poa_->deactivate_object(id);
+
+  ASSERT_GE(data.size(), 20u);
+  // The test component writes a ramp: val[0] grows by one per cycle; stamps never go back.
+  for (std::size_t i = 1; i < data.size(); ++i) {
+    EXPECT_GT(data[i].val[0], data[i - 1].val[0]) << "datum " << i;
+    const auto stamp = [](const RTM::Time& t) { return std::uint64_t{t.sec} * 1'000'000'000u + t.nsec; };
+    EXPECT_GE(stamp(data[i].tm), stamp(data[i - 1].tm)) << "datum " << i;
+  }
+}
+
+TEST_F(SeedClient, OnceSubscriptionDeliversExactlyOneDatum) {
+  auto out = first_out_port(find_component("seedpeer0"));
+  SeedInPort servant;
+  PortableServer::ObjectId_var id = poa_->activate_object(&servant);
+  CORBA::Object_var object = poa_->id_to_reference(id);
+  RTM::InPort_var in = RTM::InPort::_narrow(object);
+
+  ASSERT_TRUE(out->subscribe(RTM::once, in));
+  wait_for_data(servant, 1, 10s);
+  // Many periods later there is still exactly one.
+  std::this_thread::sleep_for(200ms);
+  poa_->deactivate_object(id);
+  EXPECT_EQ(servant.received().size(), 1u);
+}
+
+TEST_F(SeedClient, GetReturnsTimedFloat6InAny) {
+  auto out = first_out_port(find_component("seedpeer0"));
+  // The component is on: wait for its first write.
+  CORBA::Any_var value;
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  for (;;) {
+    try {
+      value = out->get();
+      break;
+    } catch (const CORBA::BAD_INV_ORDER&) {
+      ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "no datum written within 10 s";
+      std::this_thread::sleep_for(10ms);
+    }
+  }
+  const RTM::TimedFloat6* datum = nullptr;
+  ASSERT_TRUE(value.in() >>= datum);
+  EXPECT_GE(datum->val[0], 0.0f);
+}
+
+}  // namespace
