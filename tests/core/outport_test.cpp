@@ -1,0 +1,392 @@
+#include "core_test_support.h"
+
+#include "rtm/outport.h"
+
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <thread>
+
+namespace {
+
+using rtm::ReadResult;
+using rtm::test::eventually;
+using rtm::test::float6;
+
+using In6 = rtm::InPort<RTM::TimedFloat6>;
+using Out6 = rtm::OutPort<RTM::TimedFloat6>;
+
+class OutPortTest : public rtm::test::OrbTest {
+ protected:
+  PortableServer::Servant_var<Out6> make_out(rtm::OutPortOptions options = {}) {
+    return new Out6("out0", "sensor0", options);
+  }
+  PortableServer::Servant_var<In6> make_in(const char* name = "in0",
+                                           rtm::InPortPolicy policy = rtm::InPortPolicy::latest()) {
+    return new In6(name, "controller0", std::move(policy));
+  }
+};
+
+rtm::OutPortOptions via_orb() {
+  rtm::OutPortOptions o;
+  o.in_process = false;
+  return o;
+}
+
+TEST_F(OutPortTest, GetBeforeTheFirstWriteRaisesBadInvOrderThenReturnsTheLatest) {
+  auto out = make_out();
+  RTM::OutPortEx_var ref = out->activate(orb());
+  try {
+    CORBA::Any_var nothing = ref->get();
+    FAIL() << "get before the first write returned";
+  } catch (const CORBA::BAD_INV_ORDER& e) {
+    EXPECT_EQ(e.minor(), rtm::kMinorNoDataYet);
+  }
+  out->write(float6(1.0f));
+  out->write(float6(7.0f));
+  CORBA::Any_var got = ref->get();
+  const RTM::TimedFloat6* d = nullptr;
+  ASSERT_TRUE(got.in() >>= d);
+  EXPECT_FLOAT_EQ(d->val[0], 7.0f);
+  EXPECT_EQ(ref->counters().accepted, 2u);
+  out->deactivate();
+}
+
+TEST_F(OutPortTest, AttributesNameTypeAndOwner) {
+  auto out = make_out();
+  RTM::OutPortEx_var ref = out->activate(orb());
+  CORBA::String_var name = ref->name();
+  CORBA::String_var owner = ref->owner();
+  CORBA::TypeCode_var type = ref->port_type();
+  EXPECT_STREQ(name.in(), "out0");
+  EXPECT_STREQ(owner.in(), "sensor0");
+  EXPECT_TRUE(type->equivalent(RTM::_tc_TimedFloat6));
+  out->deactivate();
+}
+
+TEST_F(OutPortTest, InProcessSubscriberIsFedWithoutTheAnyPath) {
+  auto out = make_out();
+  auto in = make_in();
+  RTM::OutPortEx_var out_ref = out->activate(orb());
+  RTM::InPortEx_var in_ref = in->activate(orb());
+  ASSERT_TRUE(out_ref->subscribe(RTM::repeated, in_ref.in()));
+  RTM::SubscriptionInfoList_var subs = out_ref->subscriptions();
+  ASSERT_EQ(subs->length(), 1u);
+  EXPECT_TRUE(subs[0].in_process);
+  EXPECT_STREQ(subs[0].peer.in(), "controller0.in0");
+  for (int i = 1; i <= 5; ++i) out->write(float6(static_cast<float>(i)));
+  // Delivered synchronously by write(): no waiting needed.
+  const auto c = in->counters_snapshot();
+  EXPECT_EQ(c.accepted, 5u);
+  EXPECT_EQ(c.in_process, 5u);
+  RTM::TimedFloat6 got{};
+  ASSERT_EQ(in->read(got), ReadResult::NewData);
+  EXPECT_FLOAT_EQ(got.val[0], 5.0f);
+  EXPECT_EQ(out->counters_snapshot().pushed, 5u);
+  in->deactivate();
+  out->deactivate();
+}
+
+TEST_F(OutPortTest, WithInProcessOffTheSameSubscriberGetsPutAny) {
+  auto out = make_out(via_orb());
+  auto in = make_in("in0", rtm::InPortPolicy::fifo(16));
+  RTM::InPortEx_var in_ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, in_ref.in()));
+  RTM::SubscriptionInfoList_var subs = out->subscriptions();
+  ASSERT_EQ(subs->length(), 1u);
+  EXPECT_FALSE(subs[0].in_process);
+  out->write(float6(1.0f));
+  ASSERT_TRUE(eventually([&] { return in->counters_snapshot().accepted == 1; }));
+  EXPECT_EQ(in->counters_snapshot().in_process, 0u);
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(OutPortTest, RepeatedPushesEveryDatumOnceTakesOnlyTheNext) {
+  for (bool in_process : {true, false}) {
+    SCOPED_TRACE(in_process ? "in-process" : "through the ORB");
+    rtm::OutPortOptions options;
+    options.in_process = in_process;
+    auto out = make_out(options);
+    auto every = make_in("every", rtm::InPortPolicy::fifo(64));
+    auto next = make_in("next", rtm::InPortPolicy::fifo(64));
+    RTM::InPortEx_var every_ref = every->activate(orb());
+    RTM::InPortEx_var next_ref = next->activate(orb());
+    ASSERT_TRUE(out->subscribe(RTM::repeated, every_ref.in()));
+    ASSERT_TRUE(out->subscribe(RTM::once, next_ref.in()));
+    for (int i = 1; i <= 4; ++i) {
+      out->write(float6(static_cast<float>(i)));
+      // One at a time, so the slow path cannot coalesce them.
+      ASSERT_TRUE(eventually([&] { return every->counters_snapshot().accepted == static_cast<std::uint64_t>(i); }));
+    }
+    ASSERT_TRUE(eventually([&] { return out->subscription_count() == 1; }));
+    EXPECT_EQ(next->counters_snapshot().accepted, 1u);
+    RTM::TimedFloat6 got{};
+    ASSERT_EQ(next->read(got), ReadResult::NewData);
+    EXPECT_FLOAT_EQ(got.val[0], 1.0f);
+    for (float expected : {1.0f, 2.0f, 3.0f, 4.0f}) {
+      ASSERT_EQ(every->read(got), ReadResult::NewData);
+      EXPECT_FLOAT_EQ(got.val[0], expected);
+    }
+    out->close();
+    every->deactivate();
+    next->deactivate();
+  }
+}
+
+TEST_F(OutPortTest, OnceThroughTheOrbDeliversTheFirstDatumAfterSubscribing) {
+  auto out = make_out(via_orb());
+  auto in = make_in("in0", rtm::InPortPolicy::fifo(8));
+  RTM::InPortEx_var in_ref = in->activate(orb());
+  out->write(float6(0.0f));  // before the subscription: not for it
+  ASSERT_TRUE(out->subscribe(RTM::once, in_ref.in()));
+  out->write(float6(1.0f));
+  out->write(float6(2.0f));
+  out->write(float6(3.0f));
+  ASSERT_TRUE(eventually([&] { return out->subscription_count() == 0; }));
+  EXPECT_EQ(in->counters_snapshot().accepted, 1u);
+  RTM::TimedFloat6 got{};
+  ASSERT_EQ(in->read(got), ReadResult::NewData);
+  EXPECT_FLOAT_EQ(got.val[0], 1.0f);
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(OutPortTest, SubscribeRefusesNilReference) {
+  auto out = make_out();
+  EXPECT_FALSE(out->subscribe(RTM::repeated, RTM::InPort::_nil()));
+  EXPECT_EQ(out->last_refusal(), "sensor0.out0: nil InPort reference");
+  EXPECT_EQ(out->counters_snapshot().refused, 1u);
+  EXPECT_EQ(out->subscription_count(), 0u);
+}
+
+TEST_F(OutPortTest, SubscribeRefusesADuplicateOfEitherType) {
+  auto out = make_out();
+  auto in = make_in();
+  RTM::InPortEx_var in_ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, in_ref.in()));
+  EXPECT_FALSE(out->subscribe(RTM::repeated, in_ref.in()));
+  EXPECT_EQ(out->last_refusal(), "sensor0.out0 -> controller0.in0: already subscribed");
+  EXPECT_FALSE(out->subscribe(RTM::once, in_ref.in()));
+  EXPECT_EQ(out->subscription_count(), 1u);
+  EXPECT_EQ(out->counters_snapshot().refused, 2u);
+  in->deactivate();
+}
+
+TEST_F(OutPortTest, SubscribeRefusesATypeMismatchNamingBothPortsAndTypes) {
+  auto out = make_out();
+  PortableServer::Servant_var<rtm::InPort<RTM::TimedFloat3>> in =
+      new rtm::InPort<RTM::TimedFloat3>("in1", "controller0");
+  RTM::OutPortEx_var out_ref = out->activate(orb());
+  RTM::InPortEx_var in_ref = in->activate(orb());
+  EXPECT_FALSE(out_ref->subscribe(RTM::repeated, in_ref.in()));
+  CORBA::String_var why = out_ref->last_error();
+  EXPECT_STREQ(why.in(), "sensor0.out0 (RTM::TimedFloat6) -> controller0.in1 (RTM::TimedFloat3): types differ");
+  EXPECT_EQ(out->subscription_count(), 0u);
+  in->deactivate();
+  out->deactivate();
+}
+
+TEST_F(OutPortTest, UnsubscribeRemovesOnlyAnExistingSubscriptionOfThatType) {
+  auto out = make_out();
+  auto in = make_in();
+  RTM::InPortEx_var in_ref = in->activate(orb());
+  EXPECT_FALSE(out->unsubscribe(RTM::repeated, in_ref.in()));
+  EXPECT_FALSE(out->unsubscribe(RTM::repeated, RTM::InPort::_nil()));
+  ASSERT_TRUE(out->subscribe(RTM::repeated, in_ref.in()));
+  EXPECT_FALSE(out->unsubscribe(RTM::once, in_ref.in()));
+  EXPECT_TRUE(out->unsubscribe(RTM::repeated, in_ref.in()));
+  EXPECT_FALSE(out->unsubscribe(RTM::repeated, in_ref.in()));
+  out->write(float6(1.0f));
+  EXPECT_EQ(in->counters_snapshot().accepted, 0u);
+  // And through the ORB path.
+  auto slow = make_out(via_orb());
+  ASSERT_TRUE(slow->subscribe(RTM::repeated, in_ref.in()));
+  EXPECT_TRUE(slow->unsubscribe(RTM::repeated, in_ref.in()));
+  EXPECT_EQ(slow->subscription_count(), 0u);
+  in->deactivate();
+}
+
+TEST_F(OutPortTest, DeadSubscriberIsDroppedAfterMaxFailuresWhileWritingGoesOn) {
+  for (bool in_process : {true, false}) {
+    SCOPED_TRACE(in_process ? "in-process" : "through the ORB");
+    rtm::OutPortOptions options;
+    options.in_process = in_process;
+    options.max_failures = 3;
+    auto out = make_out(options);
+    auto dead = make_in("dead");
+    auto alive = make_in("alive", rtm::InPortPolicy::fifo(64));
+    RTM::InPortEx_var dead_ref = dead->activate(orb());
+    RTM::InPortEx_var alive_ref = alive->activate(orb());
+    ASSERT_TRUE(out->subscribe(RTM::repeated, dead_ref.in()));
+    ASSERT_TRUE(out->subscribe(RTM::repeated, alive_ref.in()));
+    dead->deactivate();  // its reference now raises OBJECT_NOT_EXIST
+    for (std::uint64_t i = 1; i <= 3; ++i) {
+      out->write(float6(static_cast<float>(i)));
+      ASSERT_TRUE(eventually([&] { return out->counters_snapshot().failed == i; }));
+    }
+    ASSERT_TRUE(eventually([&] { return out->subscription_count() == 1; }));
+    for (int i = 4; i <= 6; ++i) out->write(float6(static_cast<float>(i)));
+    ASSERT_TRUE(eventually([&] { return alive->counters_snapshot().accepted == 6; }));
+    EXPECT_EQ(out->counters_snapshot().failed, 3u);
+    EXPECT_EQ(out->counters_snapshot().written, 6u);
+    EXPECT_EQ(dead->counters_snapshot().accepted, 0u);
+    out->close();
+    alive->deactivate();
+  }
+}
+
+TEST_F(OutPortTest, CallbackSubscriberRunsOnADeliveryThreadNotTheWriter) {
+  std::atomic<std::thread::id> callback_thread{};
+  std::atomic<int> calls{0};
+  auto out = make_out();
+  auto in = make_in("in0", rtm::InPortPolicy::callback<RTM::TimedFloat6>([&](const RTM::TimedFloat6&) {
+    callback_thread = std::this_thread::get_id();
+    ++calls;
+  }));
+  RTM::InPortEx_var in_ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, in_ref.in()));
+  RTM::SubscriptionInfoList_var subs = out->subscriptions();
+  EXPECT_TRUE(subs[0].in_process);
+  out->write(float6(1.0f));
+  ASSERT_TRUE(eventually([&] { return calls.load() == 1; }));
+  EXPECT_NE(callback_thread.load(), std::this_thread::get_id());
+  EXPECT_EQ(in->counters_snapshot().in_process, 1u);
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(OutPortTest, DirectConnectNeedsNoOrb) {
+  Out6 out("out0", "sensor0");
+  PortableServer::Servant_var<In6> in = new In6("in0", "controller0");
+  ASSERT_TRUE(out.connect(*in));
+  EXPECT_FALSE(out.connect(*in));
+  out.write(float6(3.0f));
+  RTM::TimedFloat6 got{};
+  ASSERT_EQ(in->read(got), ReadResult::NewData);
+  EXPECT_FLOAT_EQ(got.val[0], 3.0f);
+  EXPECT_TRUE(out.disconnect(*in));
+  EXPECT_FALSE(out.disconnect(*in));
+  out.write(float6(4.0f));
+  EXPECT_EQ(in->read(got), ReadResult::OldData);
+}
+
+TEST_F(OutPortTest, SlowSubscriberLosesOnlyStaleDataAndItIsCounted) {
+  std::atomic<bool> release{false};
+  std::atomic<int> calls{0};
+  auto out = make_out();
+  auto slow = make_in("slow", rtm::InPortPolicy::callback<RTM::TimedFloat6>([&](const RTM::TimedFloat6&) {
+    ++calls;
+    while (!release.load()) std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }));
+  auto fast = make_in("fast", rtm::InPortPolicy::fifo(64));
+  struct ReleaseOnExit {
+    std::atomic<bool>& flag;
+    ~ReleaseOnExit() { flag = true; }
+  } release_on_exit{release};  // a failed assertion must not leave close() joining a stuck thread
+  RTM::InPortEx_var slow_ref = slow->activate(orb());
+  RTM::InPortEx_var fast_ref = fast->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, slow_ref.in()));
+  ASSERT_TRUE(out->subscribe(RTM::repeated, fast_ref.in()));
+  out->write(float6(1.0f));
+  ASSERT_TRUE(eventually([&] { return calls.load() == 1; }));  // the slow one is now stuck
+  for (int i = 2; i <= 10; ++i) out->write(float6(static_cast<float>(i)));
+  EXPECT_EQ(fast->counters_snapshot().accepted, 10u);  // never delayed by the slow one
+  release = true;
+  ASSERT_TRUE(eventually([&] { return calls.load() == 2; }));  // gets the newest, 10
+  RTM::TimedFloat6 got{};
+  ASSERT_EQ(slow->read(got), ReadResult::NewData);
+  EXPECT_FLOAT_EQ(got.val[0], 10.0f);
+  EXPECT_EQ(out->counters_snapshot().dropped, 8u);  // 2..9
+  out->close();
+  slow->deactivate();
+  fast->deactivate();
+}
+
+// ---- a reference from another process is never taken for a local one ----
+
+class PeerProcess {
+ public:
+  PeerProcess() {
+    int to_child[2], from_child[2];
+    if (pipe(to_child) != 0 || pipe(from_child) != 0) throw std::runtime_error("pipe failed");
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, to_child[0], 0);
+    posix_spawn_file_actions_adddup2(&actions, from_child[1], 1);
+    posix_spawn_file_actions_addclose(&actions, to_child[1]);
+    posix_spawn_file_actions_addclose(&actions, from_child[0]);
+    char* argv[] = {const_cast<char*>(RTM_TEST_PEER), nullptr};
+    const int err = posix_spawn(&pid_, RTM_TEST_PEER, &actions, nullptr, argv, environ);
+    posix_spawn_file_actions_destroy(&actions);
+    close(to_child[0]);
+    close(from_child[1]);
+    stdin_fd_ = to_child[1];
+    stdout_fd_ = from_child[0];
+    if (err != 0) throw std::runtime_error(std::string("cannot start ") + RTM_TEST_PEER);
+  }
+  ~PeerProcess() {
+    close(stdin_fd_);  // the peer exits on EOF
+    close(stdout_fd_);
+    for (int i = 0; i < 200; ++i) {
+      if (waitpid(pid_, nullptr, WNOHANG) == pid_) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    }
+    kill(pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+  }
+  // The IOR the peer printed (empty if it printed nothing within 20 s).
+  std::string read_ior() {
+    std::string line;
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (std::chrono::steady_clock::now() < give_up) {
+      pollfd p{stdout_fd_, POLLIN, 0};
+      if (poll(&p, 1, 100) <= 0) continue;
+      char c;
+      if (read(stdout_fd_, &c, 1) != 1) break;
+      if (c == '\n') return line;
+      line += c;
+    }
+    return {};
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int stdin_fd_ = -1;
+  int stdout_fd_ = -1;
+};
+
+TEST_F(OutPortTest, InPortOfAnotherProcessIsDeliveredThroughTheOrb) {
+  PeerProcess peer;
+  const std::string ior = peer.read_ior();
+  ASSERT_EQ(ior.rfind("IOR:", 0), 0u) << "peer printed '" << ior << "'";
+  CORBA::Object_var obj = orb().from_string(ior);
+  RTM::InPortEx_var remote = RTM::InPortEx::_narrow(obj);
+  ASSERT_FALSE(CORBA::is_nil(remote));
+  EXPECT_EQ(rtm::InPortBase::find_local(remote.in()).in(), nullptr);
+
+  // A local port activated the same way (same POA name, likely the same object id).
+  auto local_in = make_in();
+  RTM::InPortEx_var local_ref = local_in->activate(orb());
+  EXPECT_FALSE(local_ref->_is_equivalent(remote.in()));
+
+  auto out = make_out();
+  ASSERT_TRUE(out->subscribe(RTM::repeated, remote.in()));
+  RTM::SubscriptionInfoList_var subs = out->subscriptions();
+  ASSERT_EQ(subs->length(), 1u);
+  EXPECT_FALSE(subs[0].in_process);
+  EXPECT_STREQ(subs[0].peer.in(), "peer0.in0");
+  out->write(float6(5.0f));
+  ASSERT_TRUE(eventually([&] { return remote->counters().accepted == 1; }));
+  EXPECT_EQ(local_in->counters_snapshot().accepted, 0u);
+  out->close();
+  local_in->deactivate();
+}
+
+}  // namespace

@@ -1,0 +1,83 @@
+#include "rtm/activity.h"
+
+#include <gtest/gtest.h>
+
+namespace {
+
+constexpr std::int64_t kPeriod_ns = 2'000'000;
+
+TEST(Schedule, OnTimeCycleTakesTheNextGridPoint) {
+  const auto step = rtm::next_deadline(10 * kPeriod_ns, kPeriod_ns, 10 * kPeriod_ns + 300'000);
+  EXPECT_EQ(step.next_deadline_ns, 11 * kPeriod_ns);
+  EXPECT_EQ(step.skipped, 0u);
+  EXPECT_FALSE(step.overrun);
+}
+
+TEST(Schedule, LateCycleDoesNotShiftLaterDeadlines) {
+  // Finished 1.5 periods after its deadline: the next deadline (0.5 periods ago) is still taken.
+  const std::int64_t d = 10 * kPeriod_ns;
+  const auto step = rtm::next_deadline(d, kPeriod_ns, d + kPeriod_ns + kPeriod_ns / 2);
+  EXPECT_EQ(step.next_deadline_ns, d + kPeriod_ns);
+  EXPECT_EQ(step.skipped, 0u);
+  EXPECT_FALSE(step.overrun);
+}
+
+TEST(Schedule, MoreThanOnePeriodLateSkipsMissedDeadlinesOnTheGrid) {
+  const std::int64_t d = 10 * kPeriod_ns;
+  // Finished 3.5 periods after its deadline: d+1p, d+2p, d+3p are gone; d+4p is next.
+  const auto step = rtm::next_deadline(d, kPeriod_ns, d + 3 * kPeriod_ns + kPeriod_ns / 2);
+  EXPECT_TRUE(step.overrun);
+  EXPECT_EQ(step.skipped, 3u);
+  EXPECT_EQ(step.next_deadline_ns, d + 4 * kPeriod_ns);
+  EXPECT_EQ((step.next_deadline_ns - d) % kPeriod_ns, 0);
+}
+
+TEST(Schedule, ExactlyTwoPeriodsLateIsAnOverrun) {
+  const std::int64_t d = 0;
+  const auto step = rtm::next_deadline(d, kPeriod_ns, 2 * kPeriod_ns);
+  EXPECT_TRUE(step.overrun);
+  EXPECT_EQ(step.skipped, 2u);
+  EXPECT_EQ(step.next_deadline_ns, 3 * kPeriod_ns);
+}
+
+TEST(Schedule, DeadlinesStayOnTheGridOverManyIrregularCycles) {
+  const std::int64_t start = 123'456'789;
+  std::int64_t deadline = start;
+  const std::int64_t cycle_costs_ns[] = {100'000, 2'500'000, 7'100'000, 0, 1'999'999, 4'000'000, 50'000};
+  for (int round = 0; round < 100; ++round) {
+    const std::int64_t cost = cycle_costs_ns[round % 7];
+    const auto step = rtm::next_deadline(deadline, kPeriod_ns, deadline + cost);
+    ASSERT_GT(step.next_deadline_ns, deadline);
+    ASSERT_EQ((step.next_deadline_ns - start) % kPeriod_ns, 0) << "round " << round;
+    ASSERT_EQ(step.next_deadline_ns - deadline, static_cast<std::int64_t>(step.skipped + 1) * kPeriod_ns);
+    deadline = step.next_deadline_ns;
+  }
+}
+
+TEST(LatenessHistogram, PercentilesAndMaxFromKnownSamples) {
+  rtm::LatenessHistogram h;
+  EXPECT_EQ(h.percentile_ns(0.5), 0);
+  for (int i = 0; i < 98; ++i) h.record(10'500);  // 10.5 us -> bucket [10, 11) us
+  h.record(2'500'000);                            // 2.5 ms -> bucket [2, 3) ms
+  h.record(-5);                                   // early wake counts as 0
+  EXPECT_EQ(h.count(), 100u);
+  EXPECT_EQ(h.percentile_ns(0.50), 11'000);
+  EXPECT_EQ(h.percentile_ns(0.98), 11'000);
+  EXPECT_EQ(h.percentile_ns(0.995), 2'500'000);  // bucket edge 3 ms, capped at the exact max
+  EXPECT_EQ(h.max_ns(), 2'500'000);
+  h.record(5'000'000'000);  // beyond 1 s: overflow bucket, exact max
+  EXPECT_EQ(h.max_ns(), 5'000'000'000);
+  EXPECT_EQ(h.percentile_ns(1.0), 5'000'000'000);
+  h.clear();
+  EXPECT_EQ(h.count(), 0u);
+  EXPECT_EQ(h.max_ns(), 0);
+}
+
+TEST(PeriodicActivity, RejectsANonPositivePeriod) {
+  rtm::PeriodicOptions options;
+  options.period_ns = 0;
+  EXPECT_THROW(rtm::PeriodicActivity([](const rtm::CycleContext&) { return true; }, options),
+               std::invalid_argument);
+}
+
+}  // namespace
