@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# The bash completion script: parses, and completes commands and options.
+# usage: completion_test.sh <rtm-completion.bash>
+set -u
+script=$1
+bash -n "$script" || { echo "FAIL: $script does not parse"; exit 1; }
+# shellcheck disable=SC1090
+source "$script"
+fails=0
+expect() {  # expect "<words>" "<expected completions>"
+  local -a words
+  read -r -a words <<<"$1"
+  [[ $1 == *" " ]] && words+=("")
+  COMP_WORDS=("${words[@]}")
+  COMP_CWORD=$((${#words[@]} - 1))
+  COMPREPLY=()
+  _rtm
+  local got="${COMPREPLY[*]}"
+  if [[ "$got" != "$2" ]]; then
+    echo "FAIL: '$1' completed to '$got', expected '$2'"
+    fails=$((fails + 1))
+  else
+    echo "ok: '$1' -> '$got'"
+  fi
+}
+expect "rtm c" "cat connect"
+expect "rtm d" "disconnect down"
+expect "rtm --js" "--json"
+expect "rtm ls -" "-l --long --clean --names"
+expect "rtm --naming 127.0.0.1:2809 w" "watch"
+expect "rtm watch --r" "--rate"
+expect "rtm connect --o" "--once"
+if ((fails)); then echo "$fails failed"; exit 1; fi
+echo "all completions as expected"
