@@ -48,7 +48,7 @@ bool eventually(Predicate p) {
   return p();
 }
 
-TEST(LocalBus, DeliversToEveryOtherEndpointAndNotBackToTheSender) {
+TEST(CanLocalBus, DeliversToEveryOtherEndpointAndNotBackToTheSender) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));
   auto a = open_bus("local:" + dir.file("bus"));
@@ -67,7 +67,7 @@ TEST(LocalBus, DeliversToEveryOtherEndpointAndNotBackToTheSender) {
   EXPECT_EQ(a->name(), "local:" + dir.file("bus"));
 }
 
-TEST(LocalBus, KeepsTheOrderOfOneSendersFrames) {
+TEST(CanLocalBus, KeepsTheOrderOfOneSendersFrames) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));
   auto a = open_local(dir.file("bus"));
@@ -81,7 +81,7 @@ TEST(LocalBus, KeepsTheOrderOfOneSendersFrames) {
   }
 }
 
-TEST(LocalBus, SurvivesAnEndpointDying) {
+TEST(CanLocalBus, SurvivesAnEndpointDying) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));
   auto a = open_local(dir.file("bus"));
@@ -97,7 +97,7 @@ TEST(LocalBus, SurvivesAnEndpointDying) {
   EXPECT_EQ(hub.counters().endpoints_closed, 1u);
 }
 
-TEST(LocalBus, DropsShortLongAndBadDlcDatagramsAndCountsThem) {
+TEST(CanLocalBus, DropsShortLongAndBadDlcDatagramsAndCountsThem) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));
   auto receiver = open_local(dir.file("bus"));
@@ -126,7 +126,7 @@ TEST(LocalBus, DropsShortLongAndBadDlcDatagramsAndCountsThem) {
   ::close(raw);
 }
 
-TEST(LocalBus, AppliesFiltersLikeSocketCan) {
+TEST(CanLocalBus, AppliesFiltersLikeSocketCan) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));
   auto a = open_local(dir.file("bus"));
@@ -141,7 +141,7 @@ TEST(LocalBus, AppliesFiltersLikeSocketCan) {
   EXPECT_FALSE(b->receive(got, kAbsent));
 }
 
-TEST(LocalBus, ReceiveOnAStoppedHubThrowsHubClosed) {
+TEST(CanLocalBus, ReceiveOnAStoppedHubThrowsHubClosed) {
   TempDir dir;
   auto hub = std::make_unique<LocalHub>(dir.file("bus"));
   auto a = open_local(dir.file("bus"));
@@ -156,7 +156,7 @@ TEST(LocalBus, ReceiveOnAStoppedHubThrowsHubClosed) {
   }
 }
 
-TEST(LocalBus, ReplacesAStaleSocketFileButRefusesALiveHub) {
+TEST(CanLocalBus, ReplacesAStaleSocketFileButRefusesALiveHub) {
   TempDir dir;
   {
     LocalHub first(dir.file("bus"));
@@ -174,7 +174,7 @@ TEST(LocalBus, ReplacesAStaleSocketFileButRefusesALiveHub) {
   EXPECT_TRUE(eventually([&] { return replacement.endpoint_count() == 1; }));
 }
 
-TEST(BusSpec, UnknownSchemeNamesBothValidForms) {
+TEST(CanBusSpec, UnknownSchemeNamesBothValidForms) {
   try {
     open_bus("can0");
     FAIL() << "expected BusError";
@@ -187,12 +187,12 @@ TEST(BusSpec, UnknownSchemeNamesBothValidForms) {
   EXPECT_THROW(open_bus(""), BusError);
 }
 
-TEST(BusSpec, MissingPathOrInterfaceIsAnError) {
+TEST(CanBusSpec, MissingPathOrInterfaceIsAnError) {
   EXPECT_THAT([] { open_bus("local:"); }, ::testing::ThrowsMessage<BusError>(HasSubstr("no socket path")));
   EXPECT_THAT([] { open_bus("socketcan:"); }, ::testing::ThrowsMessage<BusError>(HasSubstr("no interface name")));
 }
 
-TEST(BusSpec, LocalWithoutAHubSaysHowToStartOne) {
+TEST(CanBusSpec, LocalWithoutAHubSaysHowToStartOne) {
   TempDir dir;
   try {
     open_bus("local:" + dir.file("nobody"));
@@ -203,7 +203,7 @@ TEST(BusSpec, LocalWithoutAHubSaysHowToStartOne) {
   }
 }
 
-TEST(BusSpec, SocketCanUnavailableSaysSoAndNamesTheLocalBus) {
+TEST(CanBusSpec, SocketCanUnavailableSaysSoAndNamesTheLocalBus) {
   const int probe = ::socket(PF_CAN, SOCK_RAW, CAN_RAW);
   if (probe >= 0) {
     ::close(probe);

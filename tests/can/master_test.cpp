@@ -339,7 +339,7 @@ TEST(Pa10Master, SensorsOnASeparateBusGetTheirOwnSyncAndNmt) {
   EXPECT_NEAR(master.wrench(ForceSensor::joystick).values[0], 5.0, 1e-9);
 }
 
-TEST(SensorListener, ReadsTheWrenchAndItsSyncCounterPassively) {
+TEST(CanSensorListener, ReadsTheWrenchAndItsSyncCounterPassively) {
   Rig rig;
   rig.fake->set_wrench(ForceSensor::joystick, {7.0, -1.0, 0.5, 0.01, 0.02, -0.03});
   SensorListener listener(rig.spec, ForceSensor::joystick);
@@ -364,7 +364,7 @@ TEST(SensorListener, ReadsTheWrenchAndItsSyncCounterPassively) {
   listener.stop();
 }
 
-TEST(SensorListener, PollModeAndEmcyFault) {
+TEST(CanSensorListener, PollModeAndEmcyFault) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));
   SensorListener listener(open_bus("local:" + dir.file("bus")), kWristSensorNode);

@@ -21,7 +21,7 @@ can_frame raw(canid_t id, std::initializer_list<std::uint8_t> bytes) {
   return f;
 }
 
-TEST(Protocol, NmtRoundTripsEveryCommand) {
+TEST(CanProtocol, NmtRoundTripsEveryCommand) {
   for (auto cmd : {NmtCommand::start, NmtCommand::stop, NmtCommand::enter_pre_operational,
                    NmtCommand::reset_node, NmtCommand::reset_communication}) {
     const auto f = encode_nmt(cmd, 5);
@@ -35,7 +35,7 @@ TEST(Protocol, NmtRoundTripsEveryCommand) {
   }
 }
 
-TEST(Protocol, NmtRejectsUnknownCommandWrongDlcAndNodeAbove127) {
+TEST(CanProtocol, NmtRejectsUnknownCommandWrongDlcAndNodeAbove127) {
   EXPECT_EQ(decode_nmt(raw(0x000, {0x03, 0})).error(), CodecError::unknown_command);
   EXPECT_EQ(decode_nmt(raw(0x000, {0x01})).error(), CodecError::wrong_dlc);
   EXPECT_EQ(decode_nmt(raw(0x000, {0x01, 128})).error(), CodecError::out_of_range);
@@ -44,7 +44,7 @@ TEST(Protocol, NmtRejectsUnknownCommandWrongDlcAndNodeAbove127) {
   EXPECT_EQ(encode_nmt(static_cast<NmtCommand>(0x42), 0).error(), CodecError::unknown_command);
 }
 
-TEST(Protocol, SyncCounterRunsFrom1To240AndWraps) {
+TEST(CanProtocol, SyncCounterRunsFrom1To240AndWraps) {
   EXPECT_EQ(next_sync_counter(0), 1);
   EXPECT_EQ(next_sync_counter(1), 2);
   EXPECT_EQ(next_sync_counter(239), 240);
@@ -62,7 +62,7 @@ TEST(Protocol, SyncCounterRunsFrom1To240AndWraps) {
   EXPECT_EQ(decode_sync(raw(0x080, {})).error(), CodecError::wrong_dlc);
 }
 
-TEST(Protocol, HeartbeatRoundTripsEveryStateAndRejectsOthers) {
+TEST(CanProtocol, HeartbeatRoundTripsEveryStateAndRejectsOthers) {
   for (auto s : {NmtState::boot_up, NmtState::stopped, NmtState::operational, NmtState::pre_operational}) {
     const auto f = encode_heartbeat(0x11, s);
     ASSERT_TRUE(f);
@@ -78,7 +78,7 @@ TEST(Protocol, HeartbeatRoundTripsEveryStateAndRejectsOthers) {
   EXPECT_EQ(encode_heartbeat(0, NmtState::operational).error(), CodecError::wrong_cob_id);
 }
 
-TEST(Protocol, EmcyRoundTripsCodeAndRegisterLittleEndian) {
+TEST(CanProtocol, EmcyRoundTripsCodeAndRegisterLittleEndian) {
   const auto f = encode_emcy(4, emcy::kRpdoTimeout, 0x11);
   ASSERT_TRUE(f);
   EXPECT_EQ(f->can_id, 0x084u);
@@ -94,7 +94,7 @@ TEST(Protocol, EmcyRoundTripsCodeAndRegisterLittleEndian) {
   EXPECT_EQ(emcy_description(emcy::kRpdoTimeout), "RPDO timeout (command loss)");
 }
 
-TEST(Protocol, DriveCommandScalesToMicroradPerSecond) {
+TEST(CanProtocol, DriveCommandScalesToMicroradPerSecond) {
   const auto f = encode_drive_command({3, controlword::kEnableOperation, 0.5});
   ASSERT_TRUE(f);
   EXPECT_EQ(f->can_id, 0x203u);
@@ -113,7 +113,7 @@ TEST(Protocol, DriveCommandScalesToMicroradPerSecond) {
   EXPECT_DOUBLE_EQ(d->target_velocity_rad_s, 0.5);
 }
 
-TEST(Protocol, DriveCommandRoundTripsNegativeAndSaturatesHuge) {
+TEST(CanProtocol, DriveCommandRoundTripsNegativeAndSaturatesHuge) {
   const auto neg = decode_drive_command(*encode_drive_command({7, 0x0F, -1.234567}));
   EXPECT_NEAR(neg->target_velocity_rad_s, -1.234567, 1e-12);
   const auto hi = decode_drive_command(*encode_drive_command({1, 0x0F, 1e9}));
@@ -122,7 +122,7 @@ TEST(Protocol, DriveCommandRoundTripsNegativeAndSaturatesHuge) {
   EXPECT_NEAR(lo->target_velocity_rad_s, std::numeric_limits<std::int32_t>::min() * 1e-6, 1e-9);
 }
 
-TEST(Protocol, DriveCommandRejectsNaNAndNodesOutside1To7) {
+TEST(CanProtocol, DriveCommandRejectsNaNAndNodesOutside1To7) {
   EXPECT_EQ(encode_drive_command({1, 0x0F, kNaN}).error(), CodecError::not_a_number);
   EXPECT_EQ(encode_drive_command({0, 0x0F, 0.0}).error(), CodecError::wrong_cob_id);
   EXPECT_EQ(encode_drive_command({8, 0x0F, 0.0}).error(), CodecError::wrong_cob_id);
@@ -131,7 +131,7 @@ TEST(Protocol, DriveCommandRejectsNaNAndNodesOutside1To7) {
   EXPECT_EQ(decode_drive_command(raw(0x201, {0, 0, 0, 0, 0, 0, 0, 0})).error(), CodecError::wrong_dlc);
 }
 
-TEST(Protocol, DriveFeedbackRoundTripsPositionMicroradAndVelocityMilliradPerSecond) {
+TEST(CanProtocol, DriveFeedbackRoundTripsPositionMicroradAndVelocityMilliradPerSecond) {
   const auto f = encode_drive_feedback({2, statusword::kOperationEnabled, -1.5707963, 0.87654});
   ASSERT_TRUE(f);
   EXPECT_EQ(f->can_id, 0x182u);
@@ -144,21 +144,21 @@ TEST(Protocol, DriveFeedbackRoundTripsPositionMicroradAndVelocityMilliradPerSeco
   EXPECT_NEAR(d->velocity_rad_s, 0.877, 1e-12);    // 1 mrad/s resolution, rounded
 }
 
-TEST(Protocol, DriveFeedbackVelocitySaturatesAtInt16) {
+TEST(CanProtocol, DriveFeedbackVelocitySaturatesAtInt16) {
   const auto d = decode_drive_feedback(*encode_drive_feedback({1, 0, 0.0, 100.0}));
   EXPECT_NEAR(d->velocity_rad_s, 32.767, 1e-12);
   const auto n = decode_drive_feedback(*encode_drive_feedback({1, 0, 0.0, -100.0}));
   EXPECT_NEAR(n->velocity_rad_s, -32.768, 1e-12);
 }
 
-TEST(Protocol, DriveFeedbackRejectsNaNWrongDlcAndSensorIds) {
+TEST(CanProtocol, DriveFeedbackRejectsNaNWrongDlcAndSensorIds) {
   EXPECT_EQ(encode_drive_feedback({1, 0, kNaN, 0}).error(), CodecError::not_a_number);
   EXPECT_EQ(encode_drive_feedback({1, 0, 0, kNaN}).error(), CodecError::not_a_number);
   EXPECT_EQ(decode_drive_feedback(raw(0x181, {0x27, 0, 1, 2, 3})).error(), CodecError::wrong_dlc);
   EXPECT_EQ(decode_drive_feedback(raw(0x190, {0, 0, 0, 0, 0, 0, 0, 0})).error(), CodecError::wrong_cob_id);
 }
 
-TEST(Protocol, SensorForceAndTorqueRoundTripWithTheirScales) {
+TEST(CanProtocol, SensorForceAndTorqueRoundTripWithTheirScales) {
   const auto f = encode_sensor_force({kWristSensorNode, {12.34, -0.01, 300.0}});
   ASSERT_TRUE(f);
   EXPECT_EQ(f->can_id, 0x190u);
@@ -181,7 +181,7 @@ TEST(Protocol, SensorForceAndTorqueRoundTripWithTheirScales) {
   EXPECT_NEAR(dt->torque_Nm[2], 0.0, 1e-12);  // below resolution rounds to 0
 }
 
-TEST(Protocol, SensorValuesSaturateAtInt16Range) {
+TEST(CanProtocol, SensorValuesSaturateAtInt16Range) {
   const auto f = decode_sensor_force(*encode_sensor_force({kWristSensorNode, {1e6, -1e6, 0}}));
   EXPECT_NEAR(f->force_N[0], 327.67, 1e-9);
   EXPECT_NEAR(f->force_N[1], -327.68, 1e-9);
@@ -190,7 +190,7 @@ TEST(Protocol, SensorValuesSaturateAtInt16Range) {
   EXPECT_NEAR(t->torque_Nm[1], -32.768, 1e-9);
 }
 
-TEST(Protocol, SensorFramesRejectNaNDriveNodesAndWrongDlc) {
+TEST(CanProtocol, SensorFramesRejectNaNDriveNodesAndWrongDlc) {
   EXPECT_EQ(encode_sensor_force({kWristSensorNode, {0, kNaN, 0}}).error(), CodecError::not_a_number);
   EXPECT_EQ(encode_sensor_torque({kWristSensorNode, {kNaN, 0, 0}}).error(), CodecError::not_a_number);
   EXPECT_EQ(encode_sensor_force({3, {0, 0, 0}}).error(), CodecError::wrong_cob_id);
@@ -199,7 +199,7 @@ TEST(Protocol, SensorFramesRejectNaNDriveNodesAndWrongDlc) {
   EXPECT_EQ(decode_sensor_torque(raw(0x283, {0, 0, 0, 0, 0, 0})).error(), CodecError::wrong_cob_id);
 }
 
-TEST(Protocol, SdoDownloadOfEachSizeRoundTrips) {
+TEST(CanProtocol, SdoDownloadOfEachSizeRoundTrips) {
   for (std::uint8_t size : {1, 2, 4}) {
     const std::uint32_t value = size == 1 ? 9u : size == 2 ? 0xBEEFu : 0xDEADBEEFu;
     const auto f = encode_sdo_request({2, SdoRequestKind::download, 0x6060, 0, value, size});
@@ -218,7 +218,7 @@ TEST(Protocol, SdoDownloadOfEachSizeRoundTrips) {
   }
 }
 
-TEST(Protocol, SdoUploadRequestAndResponsesRoundTrip) {
+TEST(CanProtocol, SdoUploadRequestAndResponsesRoundTrip) {
   const auto up = encode_sdo_request({5, SdoRequestKind::upload, 0x6061, 0, 0, 0});
   ASSERT_TRUE(up);
   EXPECT_EQ(up->data[0], 0x40);
@@ -244,7 +244,7 @@ TEST(Protocol, SdoUploadRequestAndResponsesRoundTrip) {
   EXPECT_EQ(da->data, sdo::kAbortValueRange);
 }
 
-TEST(Protocol, SdoRejectsUnknownCommandsBadSizesAndStrayBytes) {
+TEST(CanProtocol, SdoRejectsUnknownCommandsBadSizesAndStrayBytes) {
   EXPECT_EQ(decode_sdo_request(raw(0x601, {0x22, 0x60, 0x60, 0, 9, 0, 0, 0})).error(), CodecError::unknown_command);
   EXPECT_EQ(decode_sdo_response(raw(0x581, {0x41, 0x61, 0x60, 0, 9, 0, 0, 0})).error(), CodecError::unknown_command);
   // 1-byte download carrying a second data byte
@@ -256,7 +256,7 @@ TEST(Protocol, SdoRejectsUnknownCommandsBadSizesAndStrayBytes) {
   EXPECT_EQ(encode_sdo_request({0, SdoRequestKind::upload, 0x6061, 0, 0, 0}).error(), CodecError::wrong_cob_id);
 }
 
-TEST(Protocol, DecodersRefuseExtendedRtrAndErrorFrames) {
+TEST(CanProtocol, DecodersRefuseExtendedRtrAndErrorFrames) {
   can_frame f = *encode_sync(1);
   f.can_id |= CAN_EFF_FLAG;
   EXPECT_EQ(decode_sync(f).error(), CodecError::not_classic_frame);
@@ -268,7 +268,7 @@ TEST(Protocol, DecodersRefuseExtendedRtrAndErrorFrames) {
   EXPECT_EQ(classify(f).type, FrameType::unknown);
 }
 
-TEST(Protocol, DecodersNeverReadPastDlcEvenWithGarbageBeyond) {
+TEST(CanProtocol, DecodersNeverReadPastDlcEvenWithGarbageBeyond) {
   can_frame f{};
   f.can_id = 0x181;
   f.can_dlc = 15;  // impossible DLC: must be refused, not trusted
@@ -276,7 +276,7 @@ TEST(Protocol, DecodersNeverReadPastDlcEvenWithGarbageBeyond) {
   EXPECT_EQ(classify(f).type, FrameType::drive_feedback);  // the id alone says what it claims
 }
 
-TEST(Protocol, ClassifySortsEveryIdOfTheProtocol) {
+TEST(CanProtocol, ClassifySortsEveryIdOfTheProtocol) {
   auto type_of = [](canid_t id) { can_frame f{}; f.can_id = id; return classify(f); };
   EXPECT_EQ(type_of(0x000).type, FrameType::nmt);
   EXPECT_EQ(type_of(0x080).type, FrameType::sync);
@@ -298,7 +298,7 @@ TEST(Protocol, ClassifySortsEveryIdOfTheProtocol) {
   EXPECT_EQ(type_of(0x001).type, FrameType::unknown);
 }
 
-TEST(Protocol, NamesNodesForMessages) {
+TEST(CanProtocol, NamesNodesForMessages) {
   EXPECT_EQ(node_description(4), "drive 4 (E1)");
   EXPECT_EQ(node_description(7), "drive 7 (W2)");
   EXPECT_EQ(node_description(0x10), "wrist sensor 0x10");
@@ -307,7 +307,7 @@ TEST(Protocol, NamesNodesForMessages) {
   EXPECT_EQ(joint_name(-1), "?");
 }
 
-TEST(Protocol, ResultValueOnAnErrorThrowsWithTheReason) {
+TEST(CanProtocol, ResultValueOnAnErrorThrowsWithTheReason) {
   const auto r = encode_sync(0);
   try {
     (void)r.value();
