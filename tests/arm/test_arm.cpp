@@ -338,6 +338,42 @@ TEST(Pa10Arm, NanTwistLatchesIkFailureAndCommandsZeroUntilReset) {
   EXPECT_EQ(rig.arm.fault(), ArmFault::none);
 }
 
+// The same arm with the master on its own 2 ms SYNC thread: orders come from this thread at
+// any time, the master picks up the latest at each cycle.
+TEST(Pa10Arm, WorksWithTheMastersOwnPeriodicThread) {
+  Rig rig;
+  rig.master.start();
+  rig.master.run_periodic();
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (rig.arm.jointPositions() == JointVector::Zero() &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(2ms);  // wait for the first feedback
+  const Eigen::Isometry3d start = rig.arm.toolPose();
+  const std::array<float, 6> twist{0.0f, 0.03f, -0.02f, 0.0f, 0.0f, 0.0f};
+  const double wanted_m = 0.003;
+  Eigen::Vector3d moved_m = Eigen::Vector3d::Zero();
+  while (moved_m.norm() < wanted_m && std::chrono::steady_clock::now() < deadline) {
+    ASSERT_TRUE(rig.arm.orderVelocity(twist)) << rig.arm.faultReason();
+    std::this_thread::sleep_for(2ms);
+    moved_m = rig.arm.toolPose().translation() - start.translation();
+  }
+  rig.arm.stop();
+  ASSERT_GE(moved_m.norm(), wanted_m) << "the tool did not move";
+  const Eigen::Vector3d direction = Eigen::Vector3d(twist[0], twist[1], twist[2]).normalized();
+  EXPECT_GT(moved_m.normalized().dot(direction), 0.999) << moved_m.transpose();
+
+  // A drive fault reaches the arm through the master's thread too.
+  rig.drives.injectFault(0, rtm::can::emcy::kDeviceHardware);
+  bool faulted = false;
+  while (!faulted && std::chrono::steady_clock::now() < deadline) {
+    faulted = !rig.arm.orderVelocity(twist) && rig.arm.fault() == ArmFault::drive_fault;
+    std::this_thread::sleep_for(2ms);
+  }
+  EXPECT_TRUE(faulted) << rig.arm.faultReason();
+  EXPECT_NE(rig.arm.faultReason().find("S1"), std::string::npos) << rig.arm.faultReason();
+  rig.master.stop();
+}
+
 TEST(Pa10Arm, OrderVelocityAllocatesNothing) {
   Rig rig;
   rig.startMaster();
