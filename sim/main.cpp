@@ -38,6 +38,9 @@ int main(int argc, char** argv) {
   app.add_option("--log", options.log_path, "CSV of the state after each SYNC");
   app.add_option("--duration", options.duration_s, "stop after this much sim time [s]")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--velocity-bandwidth", options.velocity_bandwidth_rad_s,
+                 "the drives' velocity loop bandwidth [rad/s]")
+      ->capture_default_str();
   app.add_flag("--quiet", options.quiet, "no status lines on stdout");
   try {
     app.parse(argc, argv);

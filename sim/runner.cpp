@@ -159,6 +159,12 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
     throw RunError(options.scene_path + ": scene file not found");
   SimulatorConfig config;
   config.scene_path = options.scene_path;
+  if (!(options.velocity_bandwidth_rad_s > 0 && options.velocity_bandwidth_rad_s <= 500))
+    throw RunError("--velocity-bandwidth must be in (0, 500] rad/s");
+  config.gains.velocity_bandwidth_rad_s = options.velocity_bandwidth_rad_s;
+  // Critically damped position error, as the defaults.
+  config.gains.velocity_integral_1_s2 =
+      options.velocity_bandwidth_rad_s * options.velocity_bandwidth_rad_s / 4;
   if (!options.profile_path.empty())
     config.operator_profile = OperatorProfile::from_file(options.profile_path);
   Pa10Simulator sim(std::move(config));

@@ -13,6 +13,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/pa10_plant.h"
+
 namespace rtm::sim {
 
 struct RunOptions {
@@ -24,6 +26,7 @@ struct RunOptions {
   bool stdin_wrench = false;         // read "fx fy fz [tx ty tz]" lines from stdin
   std::string log_path;              // CSV of the state per SYNC (empty: none)
   double duration_s = 0;             // stop after this much sim time (0: until stopped)
+  double velocity_bandwidth_rad_s = ServoGains{}.velocity_bandwidth_rad_s;  // drive PI loop
   bool quiet = false;
 };
 

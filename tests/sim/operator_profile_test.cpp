@@ -4,7 +4,6 @@
 
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 #include <string>
 
 using rtm::sim::OperatorProfile;
@@ -97,10 +96,8 @@ TEST(OperatorProfile, MissingFileIsAClearError) {
 }
 
 TEST(OperatorProfile, ShippedExampleProfilesParse) {
-  const char* source_dir = std::getenv("RTM_SOURCE_DIR");
-  ASSERT_NE(source_dir, nullptr);
   const auto profile =
-      OperatorProfile::from_file(std::string(source_dir) + "/sim/profiles/push_and_release.yaml");
+      OperatorProfile::from_file(std::string(RTM_SIM_PROFILES) + "/push_and_release.yaml");
   EXPECT_GT(profile.duration_s(), 0.0);
   EXPECT_GT(profile.knots().size(), 2u);
 }

@@ -92,7 +92,7 @@ TEST_F(LockStepSimulatorTest, CommandedJointVelocityMovesTheJointByItsIntegral) 
   start_up();
   const double start_rad = sim_.plant().joint_state(0).position_rad;
   for (int i = 0; i < 250; ++i) cycle(pc::controlword::kEnableOperation, {0.4, 0, 0, 0, 0, 0, 0});
-  for (int i = 0; i < 100; ++i) cycle(pc::controlword::kEnableOperation);
+  for (int i = 0; i < 500; ++i) cycle(pc::controlword::kEnableOperation);
   const auto feedback = last_feedback(0);
   ASSERT_TRUE(feedback);
   EXPECT_NEAR(feedback->position_rad - start_rad, 0.4 * 0.5, 2e-3);

@@ -1,0 +1,151 @@
+// The arm library (Pa10Arm on Pa10Master) drives a real pa10-sim process over the local bus in
+// lock-step: a 10 cm Cartesian move, a 10 N press on the table with an admittance loop on the
+// wrist sensor, and the drives' command-loss brake, all timed in sim time (SYNCs).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "arm/can/bus.h"
+#include "arm/can/master.h"
+#include "arm/can/protocol.h"
+#include "arm/pa10/arm.h"
+#include "rtm_test/child_process.h"
+
+namespace pc = rtm::can;
+using namespace std::chrono_literals;
+
+namespace {
+
+constexpr double kPeriod_s = 0.002;
+
+std::string unique_bus_path() {
+  static std::atomic<int> counter{0};
+  return (std::filesystem::temp_directory_path() /
+          ("rtm-sim-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".bus"))
+      .string();
+}
+
+class ArmOnSimTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    bus_spec_ = "local:" + bus_path_;
+    sim_ = std::make_unique<rtm_test::ChildProcess>(
+        std::vector<std::string>{PA10_SIM_EXE, "--bus", bus_spec_, "--lockstep"});
+    sim_->wait_for_line("pa10-sim: ready", 20s);
+    pc::MasterConfig config;
+    config.step_timeout = 2s;  // a loaded 2-core VM may stall; lock-step never misses a SYNC
+    master_ = std::make_unique<pc::Pa10Master>(bus_spec_, "", config);
+    master_->start();
+    arm_ = std::make_unique<rtm::pa10::Pa10Arm>(RTM_PA10_URDF, *master_);
+  }
+  void TearDown() override {
+    arm_.reset();
+    master_.reset();
+    if (sim_) {
+      const auto status = sim_->stop();
+      EXPECT_TRUE(status.clean()) << "pa10-sim ended with " << status.to_string();
+    }
+  }
+
+  // One 2 ms cycle: command the twist, then let the master run one lock-step cycle.
+  void cycle(const std::array<float, 6>& twist) {
+    ASSERT_TRUE(arm_->orderVelocity(twist)) << arm_->faultReason();
+    ASSERT_TRUE(master_->step()) << "not every node answered the SYNC";
+  }
+  void cycles(int count, const std::array<float, 6>& twist) {
+    for (int i = 0; i < count && !HasFatalFailure(); ++i) cycle(twist);
+  }
+
+  std::string bus_path_ = unique_bus_path();
+  std::string bus_spec_;
+  std::unique_ptr<rtm_test::ChildProcess> sim_;
+  std::unique_ptr<pc::Pa10Master> master_;
+  std::unique_ptr<rtm::pa10::Pa10Arm> arm_;
+};
+
+TEST_F(ArmOnSimTest, TwistCommandMovesTheTool10cmInPlusXWithin1mm) {
+  cycles(5, {});
+  const Eigen::Isometry3d start = arm_->toolPose();
+  // 0.05 m/s for 2 s of sim time, then still for 1 s so the servos settle.
+  cycles(1000, {0.05f, 0, 0, 0, 0, 0});
+  cycles(500, {});
+  const Eigen::Isometry3d end = arm_->toolPose();
+  const Eigen::Vector3d moved = end.translation() - start.translation();
+  EXPECT_NEAR(moved.x(), 0.10, 1e-3);
+  EXPECT_NEAR(moved.y(), 0.0, 1e-3);
+  EXPECT_NEAR(moved.z(), 0.0, 1e-3);
+  EXPECT_TRUE(end.linear().isApprox(start.linear(), 1e-3)) << "orientation kept";
+}
+
+TEST_F(ArmOnSimTest, AdmittanceLoopPressesOnTheTableAndHolds10NWithinHalfANewton) {
+  // The table pushes the tool back along -z of the sensor frame (tool pointing down): the
+  // pressing force is -Fz. Admittance: vz = -gain * (target - pressing force); with the
+  // drives' velocity loop at 20 rad/s gains 0.002..0.007 m/(s·N) are stable.
+  constexpr double kTarget_N = 10.0;
+  constexpr double kGain_m_per_sN = 0.003;
+  constexpr double kMaxSpeed_m_s = 0.03;
+  cycles(5, {});
+  double worst_error_N = 0;
+  double pressing_N = 0;
+  const int total_cycles = 3500;      // 7 s: 5 cm of approach at 2-3 cm/s, then settling
+  const int steady_from_cycle = 3000;  // the last second must hold
+  for (int i = 0; i < total_cycles && !HasFatalFailure(); ++i) {
+    const auto wrench = master_->wrench(pc::ForceSensor::wrist);
+    ASSERT_TRUE(wrench.valid || i < 2);
+    pressing_N = -wrench.values[2];
+    const double vz = std::clamp(-kGain_m_per_sN * (kTarget_N - pressing_N), -kMaxSpeed_m_s,
+                                 kMaxSpeed_m_s);
+    cycle({0, 0, static_cast<float>(vz), 0, 0, 0});
+    if (i >= steady_from_cycle)
+      worst_error_N = std::max(worst_error_N, std::abs(pressing_N - kTarget_N));
+  }
+  EXPECT_NEAR(pressing_N, kTarget_N, 0.5);
+  EXPECT_LE(worst_error_N, 0.5) << "over the last second";
+}
+
+TEST_F(ArmOnSimTest, WithoutRpdosTheDrivesBrakeToZeroWithinThreeSyncs) {
+  cycles(200, {0.0f, 0.05f, 0.03f, 0, 0, 0});  // moving
+  const auto before = master_->joint_state();
+  double moving_rad_s = 0;
+  for (double v : before.velocity_rad_s) moving_rad_s = std::max(moving_rad_s, std::abs(v));
+  ASSERT_GT(moving_rad_s, 0.01);
+
+  // From now on only SYNCs, from our own endpoint: the master sends nothing (lock-step).
+  auto bus = pc::open_bus(bus_spec_);
+  std::uint8_t counter = before.sync_counter;
+  int fault_syncs = 0;
+  for (int sync = 1; sync <= 3; ++sync) {
+    counter = pc::next_sync_counter(counter);
+    ASSERT_TRUE(bus->send(*pc::encode_sync(counter)));
+    int answered = 0;
+    int faulted = 0;
+    bool all_stopped = true;
+    const auto deadline = std::chrono::steady_clock::now() + 5s;
+    while (answered < pc::kDriveCount && std::chrono::steady_clock::now() < deadline) {
+      can_frame frame{};
+      if (!bus->receive(frame, 100ms)) continue;
+      const auto feedback = pc::decode_drive_feedback(frame);
+      if (!feedback.ok()) continue;
+      ++answered;
+      if ((feedback->statusword & pc::statusword::kStateMask) == pc::statusword::kFault) ++faulted;
+      all_stopped = all_stopped && std::abs(feedback->velocity_rad_s) < 1e-3;
+    }
+    ASSERT_EQ(answered, pc::kDriveCount) << "SYNC " << sync;
+    if (sync < 3) {
+      EXPECT_EQ(faulted, 0) << "still within the 3-SYNC grace at SYNC " << sync;
+    } else {
+      EXPECT_EQ(faulted, pc::kDriveCount) << "every drive in fault 6 ms after the last RPDO";
+      EXPECT_TRUE(all_stopped) << "every drive at zero velocity 6 ms after the last RPDO";
+      fault_syncs = sync;
+    }
+  }
+  EXPECT_EQ(fault_syncs, 3);
+}
+
+}  // namespace
