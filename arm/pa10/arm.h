@@ -75,6 +75,7 @@ class Pa10Arm {
   // The latched fault, or not_enabled / none as last seen by orderVelocity()/checkFaults().
   // Thread-safe.
   ArmFault fault() const { return fault_.load(std::memory_order_acquire); }
+  // True while the arm will not move: a latched fault or not_enabled.
   bool inFault() const { return fault() != ArmFault::none; }
   // Human-readable reason ("" when none), e.g.
   // "drive_fault: drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)". Thread-safe.
