@@ -227,13 +227,15 @@ TEST_F(OutPortTest, DeadSubscriberIsDroppedAfterMaxFailuresWhileWritingGoesOn) {
     ASSERT_TRUE(out->subscribe(RTM::repeated, dead_ref.in()));
     ASSERT_TRUE(out->subscribe(RTM::repeated, alive_ref.in()));
     dead->deactivate();  // its reference now raises OBJECT_NOT_EXIST
-    for (std::uint64_t i = 1; i <= 3; ++i) {
+    // One datum at a time: through the ORB, data written faster than delivered may be skipped.
+    for (std::uint64_t i = 1; i <= 6; ++i) {
       out->write(float6(static_cast<float>(i)));
-      ASSERT_TRUE(eventually([&] { return out->counters_snapshot().failed == i; }));
+      ASSERT_TRUE(eventually([&] { return alive->counters_snapshot().accepted == i; }));
+      if (i <= 3) {
+        ASSERT_TRUE(eventually([&] { return out->counters_snapshot().failed == i; }));
+      }
     }
     ASSERT_TRUE(eventually([&] { return out->subscription_count() == 1; }));
-    for (int i = 4; i <= 6; ++i) out->write(float6(static_cast<float>(i)));
-    ASSERT_TRUE(eventually([&] { return alive->counters_snapshot().accepted == 6; }));
     EXPECT_EQ(out->counters_snapshot().failed, 3u);
     EXPECT_EQ(out->counters_snapshot().written, 6u);
     EXPECT_EQ(dead->counters_snapshot().accepted, 0u);

@@ -38,20 +38,29 @@ TEST_F(ThreadingTest, SubscribeAndUnsubscribeWhileWriting) {
       while (!stop) {
         a->read(d);
         RTM::SubscriptionInfoList_var subs = out->subscriptions();
+        // An introspection client, not a second writer: without a pause it can hog the
+        // port's mutex (glibc mutexes are not fair) and starve the writer in this test.
+        std::this_thread::sleep_for(std::chrono::microseconds(50));
       }
     });
     int subscribed = 0;
     for (int i = 0; i < 200; ++i) {
       if (out->subscribe(i % 3 == 0 ? RTM::once : RTM::repeated, a_ref.in())) ++subscribed;
+      std::this_thread::yield();
       out->unsubscribe(RTM::repeated, a_ref.in());
       out->unsubscribe(RTM::once, a_ref.in());
     }
+    // The writer really ran concurrently (and still does).
+    const std::uint64_t written_then = out->counters_snapshot().written;
+    ASSERT_TRUE(eventually([&] { return out->counters_snapshot().written > written_then + 100; }));
     stop = true;
     writer.join();
     reader.join();
     EXPECT_EQ(subscribed, 200);  // every unsubscribe (or once-delivery) made room for the next
     ASSERT_TRUE(eventually([&] { return out->subscription_count() == 1; }));
-    EXPECT_GT(b->counters_snapshot().accepted, 0u);
+    EXPECT_GT(b->counters_snapshot().accepted, 0u) << "written " << out->counters_snapshot().written << " pushed "
+                                                   << out->counters_snapshot().pushed << " failed "
+                                                   << out->counters_snapshot().failed;
     out->close();
     a->deactivate();
     b->deactivate();
