@@ -264,6 +264,18 @@ TEST(Pa10Arm, OrderVelocityMovesTheToolAlongTheCommandedTwist) {
   EXPECT_LE((rig.arm.jointPositions() - rig.drives.positions()).norm(), 1e-5);
 }
 
+TEST(Pa10Arm, TooFastATwistIsScaledAndTheDrivesStayWithinTheirVelocityLimits) {
+  Rig rig;
+  rig.startMaster();
+  const std::array<float, 6> fast{1.5f, -1.0f, 1.2f, 0.0f, 0.0f, 0.0f};  // m/s
+  ASSERT_TRUE(rig.arm.orderVelocity(fast)) << rig.arm.faultReason();
+  ASSERT_TRUE(rig.master.step());
+  EXPECT_LT(rig.arm.lastIk().twist_scale, 1.0);
+  const JointLimits& limits = rig.arm.kinematics().limits();
+  for (int j = 0; j < kJointCount; ++j)
+    EXPECT_LE(std::abs(rig.drives.lastTarget_rad_s(j)), limits.velocity_rad_s[j] + 1e-6) << j;
+}
+
 TEST(Pa10Arm, DriveFaultLatchesZeroVelocityWithTheReasonUntilReset) {
   Rig rig;
   rig.startMaster();

@@ -124,6 +124,15 @@ TEST(Pa10Model, JacobianMatchesFiniteDifferencesOfTheToolPose) {
   }
 }
 
+TEST(Pa10Model, MovedModelStillComputesTheSamePoses) {
+  Kinematics original = loadModel();
+  const Eigen::Isometry3d before = original.toolPose(generalPose());
+  Kinematics moved = std::move(original);
+  EXPECT_TRUE(moved.toolPose(generalPose()).isApprox(before, 1e-15));
+  VelocityIk ik(moved);
+  EXPECT_EQ(ik.solve(Twist::Constant(0.01), generalPose(), kDt_s).status, IkStatus::ok);
+}
+
 // ---- model errors --------------------------------------------------------------------------
 
 TEST(Pa10ModelErrors, MalformedUrdfFileGivesAnErrorNamingTheFile) {
