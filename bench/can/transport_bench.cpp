@@ -1,0 +1,182 @@
+// Frames through a CAN transport, and the master's lock-step cycle against the fake PA10.
+//
+// usage: can_transport_bench [BUS]   BUS = "local" (default: starts its own hub in a temporary
+//        directory) or a spec such as "socketcan:vcan0" (run inside UML with
+//        tests/can/uml-vcan-run.sh; UML is not real-time: its figures are functional only).
+// Prints: one-way burst throughput (frames/s), ping-pong round trip (p50/p99/max), and the
+// lock-step master cycle (RPDOs + SYNC + 7 drive and 4 sensor TPDOs) rate.
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "arm/can/bus.h"
+#include "arm/can/local_bus.h"
+#include "arm/can/master.h"
+#include "fake_pa10.h"
+
+namespace {
+
+using namespace rtm::can;
+using Clock = std::chrono::steady_clock;
+
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec) / 1e6;
+}
+
+struct Percentiles {
+  double p50_us, p99_us, max_us;
+};
+Percentiles percentiles(std::vector<double>& samples_us) {
+  std::sort(samples_us.begin(), samples_us.end());
+  auto at = [&](double q) { return samples_us[static_cast<std::size_t>(q * static_cast<double>(samples_us.size() - 1))]; };
+  return {at(0.5), at(0.99), samples_us.back()};
+}
+
+// Sustained one-way throughput: the sender keeps at most kWindow frames in flight, so the
+// figure is what the transport carries without dropping (the hub drops rather than block).
+void burst(const std::string& spec) {
+  auto tx = open_bus(spec);
+  auto rx = open_bus(spec);
+  constexpr int kFrames = 200000;
+  constexpr int kWindow = 64;
+  std::atomic<int> received{0};
+  std::atomic<bool> sender_done{false};
+  std::thread reader([&] {
+    can_frame f{};
+    while (received.load(std::memory_order_relaxed) < kFrames) {
+      if (rx->receive(f, std::chrono::milliseconds(200))) {
+        received.fetch_add(1, std::memory_order_release);
+      } else if (sender_done.load()) {
+        break;  // the rest was dropped
+      }
+    }
+  });
+  can_frame f{};
+  f.can_id = 0x181;
+  f.can_dlc = 8;
+  int full = 0;
+  const double cpu0 = cpu_seconds();
+  const auto t0 = Clock::now();
+  for (int i = 0; i < kFrames; ++i) {
+    while (i - received.load(std::memory_order_acquire) >= kWindow) std::this_thread::yield();
+    f.data[0] = static_cast<std::uint8_t>(i);
+    while (!tx->send(f)) {  // queue full: let the hub run
+      ++full;
+      std::this_thread::yield();
+    }
+  }
+  sender_done = true;
+  while (received.load() < kFrames && Clock::now() - t0 < std::chrono::seconds(60)) {
+    std::this_thread::yield();
+  }
+  const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+  reader.join();
+  const double cpu = cpu_seconds() - cpu0;
+  std::printf("stream  %-22s %d of %d frames in %.3f s: %.0f frames/s (CPU %.2f us/frame, "
+              "window %d, send queue full %d times)\n",
+              spec.c_str(), received.load(), kFrames, s, received.load() / s,
+              cpu / received.load() * 1e6, kWindow, full);
+}
+
+void ping_pong(const std::string& spec) {
+  auto a = open_bus(spec);
+  auto b = open_bus(spec);
+  constexpr int kRounds = 20000;
+  std::thread echo([&] {
+    can_frame f{};
+    for (int i = 0; i < kRounds; ++i) {
+      if (!b->receive(f, std::chrono::seconds(2))) return;
+      f.can_id = 0x201;
+      b->send(f);
+    }
+  });
+  std::vector<double> rtt_us;
+  rtt_us.reserve(kRounds);
+  can_frame f{};
+  f.can_dlc = 6;
+  for (int i = 0; i < kRounds; ++i) {
+    f.can_id = 0x181;
+    const auto t0 = Clock::now();
+    a->send(f);
+    if (!a->receive(f, std::chrono::seconds(2))) break;
+    rtt_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+  }
+  echo.join();
+  const auto p = percentiles(rtt_us);
+  std::printf("rtt     %-22s n=%zu round trip p50 %.1f us, p99 %.1f us, max %.1f us\n", spec.c_str(),
+              rtt_us.size(), p.p50_us, p.p99_us, p.max_us);
+}
+
+void lock_step(const std::string& spec) {
+  MasterConfig config;
+  config.heartbeat_timeout = std::chrono::milliseconds(5000);
+  config.enable_timeout = std::chrono::milliseconds(10000);
+  Pa10Master master(open_bus(spec), nullptr, config);
+  testing::FakePa10 fake(open_bus(spec), {});
+  master.start();
+  master.set_target_velocities({0.01, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01});
+  constexpr int kSteps = 5000;
+  std::vector<double> step_us;
+  step_us.reserve(kSteps);
+  int incomplete = 0;
+  const auto t0 = Clock::now();
+  for (int i = 0; i < kSteps; ++i) {
+    const auto s0 = Clock::now();
+    if (!master.step()) ++incomplete;
+    step_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - s0).count());
+  }
+  const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+  const auto p = percentiles(step_us);
+  const auto c = master.counters();
+  std::printf("master  %-22s %d lock-step cycles (19 frames each) in %.3f s: %.0f cycles/s; "
+              "cycle p50 %.1f us, p99 %.1f us, max %.1f us; incomplete %d, late %llu\n",
+              spec.c_str(), kSteps, s, kSteps / s, p.p50_us, p.p99_us, p.max_us, incomplete,
+              static_cast<unsigned long long>(c.late_frames));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string bus = argc > 1 ? argv[1] : "local";
+  std::unique_ptr<LocalHub> hub;
+  std::filesystem::path dir;
+  std::string spec = bus;
+  if (bus == "local") {
+    char pattern[] = "/tmp/rtm-can-bench-XXXXXX";
+    if (!mkdtemp(pattern)) return 1;
+    dir = pattern;
+    hub = std::make_unique<LocalHub>((dir / "bus").string());
+    spec = "local:" + (dir / "bus").string();
+  }
+  try {
+    burst(spec);
+    ping_pong(spec);
+    lock_step(spec);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "can_transport_bench: %s\n", e.what());
+    return 1;
+  }
+  if (hub) {
+    const auto c = hub->counters();
+    std::printf("hub     forwarded %llu frames, %llu deliveries, %llu dropped\n",
+                static_cast<unsigned long long>(c.frames_forwarded),
+                static_cast<unsigned long long>(c.deliveries),
+                static_cast<unsigned long long>(c.deliveries_dropped));
+    hub.reset();
+    std::filesystem::remove_all(dir);
+  }
+  return 0;
+}
