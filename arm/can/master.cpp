@@ -641,6 +641,13 @@ void Pa10Master::run_periodic() {
   });
 }
 
+void Pa10Master::run_periodic(std::chrono::nanoseconds period) {
+  if (period <= nanoseconds(0)) throw std::invalid_argument("Pa10Master::run_periodic: period must be > 0");
+  if (running_.load()) throw std::logic_error("Pa10Master::run_periodic(period) while already running");
+  impl_->config.period = period;
+  run_periodic();
+}
+
 void Pa10Master::stop() {
   if (!running_.exchange(false)) return;
   if (thread_.joinable()) thread_.join();

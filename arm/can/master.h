@@ -129,6 +129,7 @@ class Pa10Master {
   // Own thread: one cycle per `period` on an absolute CLOCK_MONOTONIC schedule; a cycle that
   // starts after its deadline counts an overrun and the schedule skips ahead (no burst).
   void run_periodic();
+  void run_periodic(std::chrono::nanoseconds period);  // same, with this SYNC period
   void stop();  // stops run_periodic's thread; idempotent
   bool running() const { return running_.load(); }
 

@@ -303,6 +303,23 @@ TEST(Pa10Master, PeriodicThreadCyclesAndFollowsTargets) {
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
 }
 
+TEST(Pa10Master, PeriodicThreadCountsOverrunsWhenCyclesOutlastThePeriod) {
+  Rig rig;
+  rig.master->start();
+  // A 1 µs period: every cycle (8 frames out, a drain in) ends after its next deadline.
+  rig.master->run_periodic(std::chrono::microseconds(1));
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (rig.master->counters().cycles < 50 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(1ms);
+  }
+  rig.master->stop();
+  const MasterCounters c = rig.master->counters();
+  EXPECT_GE(c.cycles, 50u);
+  EXPECT_GT(c.overruns, 0u);
+  EXPECT_LE(c.overruns, c.cycles);
+  EXPECT_THROW(rig.master->run_periodic(std::chrono::nanoseconds(0)), std::invalid_argument);
+}
+
 TEST(Pa10Master, DestructionLeavesDrivesSwitchedOffAndPreOperational) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));
