@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <algorithm>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -44,6 +45,23 @@ bool wait_readable(int fd, std::chrono::steady_clock::time_point deadline, const
   }
 }
 
+// A full transmit queue usually drains within a frame time or two (~0.1 ms at 1 Mbit/s): wait
+// that long, bounded, before reporting the frame dropped. A real can0 has txqueuelen 10 by
+// default; see docs/can-protocol.md.
+constexpr auto kSendPatience = std::chrono::milliseconds(1);
+
+bool wait_writable(int fd, std::chrono::steady_clock::time_point deadline) {
+  const auto left = deadline - std::chrono::steady_clock::now();
+  if (left <= std::chrono::steady_clock::duration::zero()) return false;
+  pollfd p{fd, POLLOUT, 0};
+  // ENOBUFS from a CAN qdisc does not always show in POLLOUT: poll at most 100 µs at a time.
+  const auto slice = std::min<std::chrono::nanoseconds>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(left), std::chrono::microseconds(100));
+  const timespec ts = to_timespec(slice);
+  ppoll(&p, 1, &ts, nullptr);
+  return true;
+}
+
 class FdOwner {
  public:
   explicit FdOwner(int fd) : fd_(fd) {}
@@ -71,11 +89,15 @@ class SocketCanBus final : public Bus {
       : name_("socketcan:" + std::string(ifname)), fd_(open_socket(ifname, filters, name_)) {}
 
   bool send(const can_frame& frame) override {
+    const auto deadline = std::chrono::steady_clock::now() + kSendPatience;
     for (;;) {
       const ssize_t n = ::send(fd_.get(), &frame, sizeof frame, MSG_DONTWAIT);
       if (n == static_cast<ssize_t>(sizeof frame)) return true;
       if (n < 0 && errno == EINTR) continue;
-      if (n < 0 && (errno == ENOBUFS || errno == EAGAIN)) return false;
+      if (n < 0 && (errno == ENOBUFS || errno == EAGAIN)) {
+        if (wait_writable(fd_.get(), deadline)) continue;
+        return false;
+      }
       fail(name_, "send", n < 0 ? errno : EIO);
     }
   }
@@ -154,11 +176,15 @@ class LocalBus final : public Bus {
         fd_(connect_hub(path, name_)) {}
 
   bool send(const can_frame& frame) override {
+    const auto deadline = std::chrono::steady_clock::now() + kSendPatience;
     for (;;) {
       const ssize_t n = ::send(fd_.get(), &frame, sizeof frame, MSG_DONTWAIT | MSG_NOSIGNAL);
       if (n == static_cast<ssize_t>(sizeof frame)) return true;
       if (n < 0 && errno == EINTR) continue;
-      if (n < 0 && (errno == EAGAIN || errno == ENOBUFS)) return false;
+      if (n < 0 && (errno == EAGAIN || errno == ENOBUFS)) {
+        if (wait_writable(fd_.get(), deadline)) continue;
+        return false;
+      }
       if (n < 0 && (errno == EPIPE || errno == ECONNRESET)) {
         throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
       }

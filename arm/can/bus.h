@@ -44,9 +44,9 @@ class Bus {
   Bus(const Bus&) = delete;
   Bus& operator=(const Bus&) = delete;
 
-  // Queues one frame. Returns false when the transmit queue is full and the frame was dropped
-  // (what a loaded CAN controller does); throws BusError on a hard failure (interface gone,
-  // hub gone). Never blocks for long: a full queue is reported, not waited out.
+  // Queues one frame. Returns false when the transmit queue stayed full for 1 ms and the frame
+  // was dropped (what an overloaded CAN controller does); throws BusError on a hard failure
+  // (interface gone, hub gone). Blocks at most that 1 ms.
   virtual bool send(const can_frame& frame) = 0;
 
   // Waits up to `timeout` for one frame (0 = just poll). Returns false on timeout. Frames not
