@@ -272,6 +272,42 @@ TEST(Pa10Master, UnknownMalformedLateAndForeignFramesAreCountedAndIgnored) {
   EXPECT_TRUE(rig.master->enabled());
 }
 
+TEST(Pa10Master, RpdoTimeoutEmcyFromADriveIsAFaultNamingTheCause) {
+  Rig rig;
+  rig.master->start();
+  auto drive_side = open_bus(rig.spec);
+  drive_side->send(*encode_emcy(2, emcy::kRpdoTimeout, 0x11));
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
+  const MasterFault f = rig.master->fault();
+  EXPECT_EQ(f.kind, FaultKind::emergency);
+  EXPECT_EQ(f.code, emcy::kRpdoTimeout);
+  EXPECT_EQ(f.reason, "drive 2 (S2): EMCY 0x8250 RPDO timeout (command loss)");
+}
+
+TEST(Pa10Master, EmcyErrorResetAndOtherNodesEmcyAreNoFault) {
+  Rig rig;
+  rig.master->start();
+  auto other = open_bus(rig.spec);
+  other->send(*encode_emcy(3, emcy::kErrorReset, 0));
+  other->send(*encode_emcy(0x42, emcy::kDeviceHardware, 0x01));  // not a PA10 node
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(rig.master->step());
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+  EXPECT_EQ(rig.master->counters().emcy_frames, 2u);
+}
+
+TEST(Pa10Master, HeartbeatReportingPreOperationalAfterStartIsAFault) {
+  MasterConfig config = test_config();
+  config.heartbeat_timeout = 1000ms;  // also the grace period after NMT start
+  Rig rig({}, config);
+  rig.master->start();
+  std::this_thread::sleep_for(1100ms);  // past the grace period; not an assertion on timing
+  auto other = open_bus(rig.spec);
+  other->send(*encode_heartbeat(5, NmtState::pre_operational));
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
+  EXPECT_EQ(rig.master->fault().kind, FaultKind::node_not_operational) << rig.master->fault().reason;
+  EXPECT_THAT(rig.master->fault().reason, HasSubstr("drive 5 (E2): heartbeat reports pre-operational"));
+}
+
 TEST(Pa10Master, SetTargetVelocitiesRejectsNaNAndInfinityNamingTheJoint) {
   Rig rig;
   EXPECT_THAT([&] { rig.master->set_target_velocities({0, 0, NAN, 0, 0, 0, 0}); },
