@@ -1,0 +1,376 @@
+#include "demo_report.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+
+namespace rtm::demo {
+
+namespace {
+
+using Vec3 = std::array<double, 3>;
+
+double norm(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
+Vec3 minus(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+
+double max_abs_difference(const Vec3& a, const Vec3& b) {
+  return std::max({std::abs(a[0] - b[0]), std::abs(a[1] - b[1]), std::abs(a[2] - b[2])});
+}
+
+double error_N(const Sample& s) { return norm(minus(s.reference_N, s.measured_N)); }
+
+// Splits one CSV line on commas (no quoting in what rtm watch writes).
+std::vector<std::string_view> split_fields(std::string_view line) {
+  std::vector<std::string_view> fields;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    fields.push_back(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return fields;
+}
+
+template <typename T>
+bool parse_number(std::string_view text, T& value) {
+  while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\r')) text.remove_suffix(1);
+  if (text.empty()) return false;
+  // from_chars: locale-independent, unlike strtod.
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  return ec == std::errc() && end == text.data() + text.size();
+}
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ReportError(fmt::format("{}: cannot read", path.string()));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Stable sort by stamp: rtm watch writes in arrival order, which a reordering network path
+// could permute.
+Series sorted_by_time(const Series& series) {
+  std::vector<std::size_t> order(series.time_ns.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return series.time_ns[a] < series.time_ns[b];
+  });
+  Series sorted;
+  sorted.time_ns.reserve(order.size());
+  sorted.values.reserve(order.size());
+  for (std::size_t i : order) {
+    sorted.time_ns.push_back(series.time_ns[i]);
+    sorted.values.push_back(series.values[i]);
+  }
+  return sorted;
+}
+
+std::string vec_text(const Vec3& v) { return fmt::format("{:6.1f} {:6.1f} {:6.1f}", v[0], v[1], v[2]); }
+
+}  // namespace
+
+// ============================ recorded streams ========================
+
+Series parse_watch_csv(const std::string& text, const std::string& source_name) {
+  Series series;
+  std::size_t line_start = 0;
+  int line_number = 0;
+  bool header_seen = false;
+  while (line_start < text.size()) {
+    std::size_t line_end = text.find('\n', line_start);
+    const bool terminated = line_end != std::string::npos;
+    if (!terminated) line_end = text.size();
+    const std::string_view line(text.data() + line_start, line_end - line_start);
+    line_start = line_end + 1;
+    ++line_number;
+    if (line.empty() || line == "\r") continue;
+    if (!header_seen) {
+      if (line.rfind("time_ns", 0) != 0) {
+        throw ReportError(fmt::format("{}:{}: expected the header 'time_ns,v0,...,v5' of rtm watch --csv",
+                                      source_name, line_number));
+      }
+      header_seen = true;
+      continue;
+    }
+    const auto fields = split_fields(line);
+    std::int64_t stamp_ns = 0;
+    std::array<double, 6> values{};
+    bool ok = fields.size() >= 7 && parse_number(fields[0], stamp_ns);
+    for (std::size_t i = 0; ok && i < 6; ++i) ok = parse_number(fields[i + 1], values[i]);
+    if (!ok) {
+      // A writer killed mid-line leaves one partial last line: not an error.
+      if (!terminated) break;
+      throw ReportError(fmt::format("{}:{}: expected time_ns and 6 numbers, got '{}'", source_name,
+                                    line_number, line));
+    }
+    series.time_ns.push_back(stamp_ns);
+    series.values.push_back(values);
+  }
+  if (!header_seen) throw ReportError(fmt::format("{}: empty (no header)", source_name));
+  return series;
+}
+
+Series read_watch_csv(const std::filesystem::path& path) {
+  return parse_watch_csv(read_file(path), path.string());
+}
+
+// ============================ aligned samples =========================
+
+std::vector<Sample> align(const Series& reference_in, const Series& sensor_in, const Series& command_in) {
+  if (reference_in.time_ns.empty()) throw ReportError("the reference (joystick) stream is empty");
+  if (sensor_in.time_ns.empty()) throw ReportError("the sensor stream is empty");
+  if (command_in.time_ns.empty()) throw ReportError("the command (controller) stream is empty");
+  const Series reference = sorted_by_time(reference_in);
+  const Series sensor = sorted_by_time(sensor_in);
+  const Series command = sorted_by_time(command_in);
+  const auto overlaps = [](const Series& a, const Series& b) {
+    return a.time_ns.front() <= b.time_ns.back() && b.time_ns.front() <= a.time_ns.back();
+  };
+  if (!overlaps(reference, sensor) || !overlaps(command, sensor)) {
+    throw ReportError(fmt::format(
+        "the streams do not overlap in time (reference {}..{} ns, sensor {}..{} ns, command "
+        "{}..{} ns): stamped on different clocks?",
+        reference.time_ns.front(), reference.time_ns.back(), sensor.time_ns.front(),
+        sensor.time_ns.back(), command.time_ns.front(), command.time_ns.back()));
+  }
+
+  std::vector<Sample> samples;
+  samples.reserve(sensor.time_ns.size());
+  std::size_t ref_next = 0, cmd_next = 0;  // first index stamped after the current sensor stamp
+  std::int64_t origin_ns = 0;
+  for (std::size_t i = 0; i < sensor.time_ns.size(); ++i) {
+    const std::int64_t t_ns = sensor.time_ns[i];
+    while (ref_next < reference.time_ns.size() && reference.time_ns[ref_next] <= t_ns) ++ref_next;
+    while (cmd_next < command.time_ns.size() && command.time_ns[cmd_next] <= t_ns) ++cmd_next;
+    if (ref_next == 0) continue;
+    if (samples.empty()) origin_ns = t_ns;
+    Sample s;
+    s.time_s = static_cast<double>(t_ns - origin_ns) * 1e-9;
+    const auto& ref = reference.values[ref_next - 1];
+    const auto& sen = sensor.values[i];
+    for (int k = 0; k < 3; ++k) {
+      s.reference_N[k] = ref[k];
+      s.measured_N[k] = -sen[k];
+    }
+    if (cmd_next > 0) s.velocity = command.values[cmd_next - 1];
+    samples.push_back(s);
+  }
+  return samples;
+}
+
+// ============================ phases ==================================
+
+std::vector<Phase> detect_phases(const std::vector<Sample>& samples, const PhaseOptions& options) {
+  std::vector<Phase> phases;
+  std::size_t start = 0;
+  while (start < samples.size()) {
+    std::size_t end = start + 1;
+    while (end < samples.size() &&
+           max_abs_difference(samples[end].reference_N, samples[start].reference_N) <=
+               options.reference_tolerance_N) {
+      ++end;
+    }
+    if (samples[end - 1].time_s - samples[start].time_s >= options.min_duration_s) {
+      phases.push_back({start, end});
+      start = end;
+    } else {
+      ++start;  // inside a ramp: try the next sample as a phase start
+    }
+  }
+  return phases;
+}
+
+PhaseSummary summarize(const std::vector<Sample>& samples, const Phase& phase,
+                       const PhaseOptions& options) {
+  if (phase.begin >= phase.end || phase.end > samples.size()) {
+    throw std::invalid_argument(fmt::format("phase [{}, {}) outside the {} samples", phase.begin,
+                                            phase.end, samples.size()));
+  }
+  PhaseSummary summary;
+  summary.start_s = samples[phase.begin].time_s;
+  summary.end_s = samples[phase.end - 1].time_s;
+  summary.reference_N = samples[phase.begin].reference_N;
+
+  // Steady state: the last steady_window_s, but never more than the phase's second half.
+  const double window_start_s = std::max(summary.end_s - options.steady_window_s,
+                                         (summary.start_s + summary.end_s) / 2);
+  Vec3 measured_sum{}, velocity_sum{};
+  double error_min = INFINITY, error_max = 0;
+  std::size_t count = 0;
+  for (std::size_t i = phase.begin; i < phase.end; ++i) {
+    const Sample& s = samples[i];
+    if (s.time_s < window_start_s) continue;
+    for (int k = 0; k < 3; ++k) {
+      measured_sum[k] += s.measured_N[k];
+      velocity_sum[k] += s.velocity[k];
+    }
+    const double e = error_N(s);
+    error_min = std::min(error_min, e);
+    error_max = std::max(error_max, e);
+    ++count;
+  }
+  for (int k = 0; k < 3; ++k) {
+    summary.mean_measured_N[k] = measured_sum[k] / static_cast<double>(count);
+    summary.mean_velocity_m_s[k] = velocity_sum[k] / static_cast<double>(count);
+  }
+  summary.steady_error_N = norm(minus(summary.reference_N, summary.mean_measured_N));
+  summary.error_peak_to_peak_N = error_max - error_min;
+  summary.contact = norm(summary.mean_measured_N) > options.contact_threshold_N;
+
+  // Settled at the first sample after the last one outside the band.
+  std::size_t first_settled = phase.begin;
+  for (std::size_t i = phase.end; i-- > phase.begin;) {
+    if (error_N(samples[i]) > options.settle_band_N) {
+      first_settled = i + 1;
+      break;
+    }
+  }
+  if (first_settled < phase.end && summary.end_s - samples[first_settled].time_s >= options.min_settled_s) {
+    summary.settling_time_s = samples[first_settled].time_s - summary.start_s;
+  }
+  return summary;
+}
+
+// ============================ loop timing =============================
+
+std::vector<ComponentTiming> parse_timing_json(const std::string& text, const std::string& source_name) {
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw ReportError(fmt::format("{}: not JSON: {}", source_name, e.what()));
+  }
+  if (!doc.is_array()) throw ReportError(fmt::format("{}: expected the array `rtm --json ls -l` prints", source_name));
+  std::vector<ComponentTiming> result;
+  try {
+    for (const auto& c : doc) {
+      ComponentTiming t;
+      t.name = c.at("name").get<std::string>();
+      if (!c.value("alive", true)) {
+        t.state = "dead";
+        result.push_back(t);
+        continue;
+      }
+      t.kind = c.value("kind", "");
+      t.state = c.value("state", "");
+      t.period_ns = c.value("period_ns", std::int64_t{0});
+      if (c.contains("timing")) {
+        const auto& timing = c.at("timing");
+        t.cycles = timing.at("cycles").get<std::uint64_t>();
+        t.overruns = timing.at("overruns").get<std::uint64_t>();
+        t.lateness_p99_ns = timing.at("lateness_p99_ns").get<std::int64_t>();
+        t.lateness_max_ns = timing.at("lateness_max_ns").get<std::int64_t>();
+      }
+      result.push_back(t);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw ReportError(fmt::format("{}: unexpected component entry: {}", source_name, e.what()));
+  }
+  return result;
+}
+
+// ============================ output ==================================
+
+std::string format_report(const Report& report, const PhaseOptions& options) {
+  std::string out = fmt::format("Force servo: {} samples over {:.1f} s\n\n", report.samples, report.duration_s);
+  out += fmt::format(
+      "Phases (measured = force the hand applies; steady state = the phase's last {:g} s; "
+      "settled = |error| within {:g} N to the phase end)\n",
+      options.steady_window_s, options.settle_band_N);
+  out += fmt::format("  {:>3} {:>13}  {:<20}  {:<20}  {:>8}  {:>8}  {:>8}  {}\n", "#", "time [s]",
+                     "reference [N] x y z", "measured [N] x y z", "error[N]", "p-p [N]",
+                     "settle", "");
+  int index = 1;
+  for (const auto& p : report.phases) {
+    // Settling is a contact notion: in free space the force error is the push itself.
+    const std::string settle = !p.contact           ? std::string(1, '-')
+                               : p.settling_time_s ? fmt::format("{:.2f} s", *p.settling_time_s)
+                                                   : std::string("never");
+    const Vec3 v_mm_s{p.mean_velocity_m_s[0] * 1e3, p.mean_velocity_m_s[1] * 1e3, p.mean_velocity_m_s[2] * 1e3};
+    const std::string note = p.contact ? std::string("contact")
+                             : norm(p.reference_N) > options.contact_threshold_N
+                                 ? fmt::format("free space: moving {} mm/s", vec_text(v_mm_s))
+                                 : std::string("free space, hands off");
+    out += fmt::format("  {:>3} {:5.1f} - {:5.1f}  {}  {}  {:8.2f}  {:8.2f}  {:>8}  {}\n", index++,
+                       p.start_s, p.end_s, vec_text(p.reference_N), vec_text(p.mean_measured_N),
+                       p.contact ? p.steady_error_N : NAN, p.contact ? p.error_peak_to_peak_N : NAN,
+                       settle, note);
+  }
+  if (report.phases.empty()) out += "  (no phase of constant reference found)\n";
+
+  out += "\nLoop timing per component (rtm ls -l; overruns: cycles more than one period late)\n";
+  out += fmt::format("  {:<14} {:<11} {:<6} {:>8} {:>10} {:>12} {:>12} {:>9}\n", "component", "kind",
+                     "state", "period", "cycles", "late p99", "late max", "overruns");
+  for (const auto& t : report.timing) {
+    if (t.cycles == 0) {
+      out += fmt::format("  {:<14} {:<11} {:<6} {:>8}\n", t.name, t.kind, t.state,
+                         t.period_ns ? fmt::format("{:g} ms", t.period_ns / 1e6) : "-");
+      continue;
+    }
+    out += fmt::format("  {:<14} {:<11} {:<6} {:>8} {:>10} {:>9.1f} us {:>9.1f} us {:>9}\n", t.name,
+                       t.kind, t.state, fmt::format("{:g} ms", t.period_ns / 1e6), t.cycles,
+                       t.lateness_p99_ns / 1e3, t.lateness_max_ns / 1e3, t.overruns);
+  }
+  if (report.timing.empty()) out += "  (no timing recorded)\n";
+  out += fmt::format("\nWatchdog events (actuator): {}\n",
+                     report.watchdog_events ? std::to_string(*report.watchdog_events) : "unknown");
+  return out;
+}
+
+void write_samples_csv(const std::filesystem::path& path, const std::vector<Sample>& samples) {
+  std::ofstream out(path);
+  if (!out) throw ReportError(fmt::format("{}: cannot write", path.string()));
+  out << "time_s,ref_x_N,ref_y_N,ref_z_N,measured_x_N,measured_y_N,measured_z_N,error_N,"
+         "v_x_m_s,v_y_m_s,v_z_m_s,w_x_rad_s,w_y_rad_s,w_z_rad_s\n";
+  for (const auto& s : samples) {
+    out << fmt::format("{:.4f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n",
+                       s.time_s, s.reference_N[0], s.reference_N[1], s.reference_N[2], s.measured_N[0],
+                       s.measured_N[1], s.measured_N[2], error_N(s), s.velocity[0], s.velocity[1],
+                       s.velocity[2], s.velocity[3], s.velocity[4], s.velocity[5]);
+  }
+  if (!out.flush()) throw ReportError(fmt::format("{}: write failed", path.string()));
+}
+
+std::string gnuplot_script(const std::filesystem::path& csv, const std::filesystem::path& png,
+                           const std::vector<PhaseSummary>& phases) {
+  std::string s;
+  s += "set terminal pngcairo size 1200,900 noenhanced\n";
+  s += fmt::format("set output '{}'\n", png.string());
+  s += "set datafile separator ','\n";
+  s += "set key outside right top\n";
+  s += "set grid\n";
+  for (const auto& p : phases) {
+    s += fmt::format("set arrow from {0:.3f}, graph 0 to {0:.3f}, graph 1 nohead lc rgb '#bbbbbb' dt 2\n", p.start_s);
+  }
+  s += "set multiplot layout 2,1 title 'Force servo on the PA10: reference (operator) vs measured force, and the commanded velocity'\n";
+  s += "set ylabel 'force [N]'\n";
+  s += fmt::format(
+      "plot '{0}' using 1:2 skip 1 with lines lw 2 lc rgb '#1f77b4' dt 2 title 'ref x', \\\n"
+      "     '{0}' using 1:5 skip 1 with lines lw 1 lc rgb '#1f77b4' title 'measured x', \\\n"
+      "     '{0}' using 1:3 skip 1 with lines lw 2 lc rgb '#2ca02c' dt 2 title 'ref y', \\\n"
+      "     '{0}' using 1:6 skip 1 with lines lw 1 lc rgb '#2ca02c' title 'measured y', \\\n"
+      "     '{0}' using 1:4 skip 1 with lines lw 2 lc rgb '#d62728' dt 2 title 'ref z', \\\n"
+      "     '{0}' using 1:7 skip 1 with lines lw 1 lc rgb '#d62728' title 'measured z'\n",
+      csv.string());
+  s += "set xlabel 'time [s]'\n";
+  s += "set ylabel 'velocity command [mm/s]'\n";
+  s += fmt::format(
+      "plot '{0}' using 1:($9*1000) skip 1 with lines lc rgb '#1f77b4' title 'v x', \\\n"
+      "     '{0}' using 1:($10*1000) skip 1 with lines lc rgb '#2ca02c' title 'v y', \\\n"
+      "     '{0}' using 1:($11*1000) skip 1 with lines lc rgb '#d62728' title 'v z'\n",
+      csv.string());
+  s += "unset multiplot\n";
+  return s;
+}
+
+}  // namespace rtm::demo

@@ -1,0 +1,136 @@
+// The force-servo demo's analysis: the recorded port streams in, a per-phase summary, a
+// merged CSV and a gnuplot script out. No CORBA: the demo records with `rtm watch --csv`
+// and this library reads those files (and `rtm --json ls -l` for the loop timing).
+//
+// Sign convention. The wrist sensor reads the reaction force, so the force the hand applies is
+// the reading negated: measured_N = -sensor. The controller drives ref + sensor to zero
+// (paper Fig. 6), so the force error is error_N = ref - measured_N = ref + sensor, and a
+// settled press has measured_N == ref.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace rtm::demo {
+
+// ============================ errors ==================================
+
+// An unreadable or malformed input: the message names the file and, where known, the line.
+class ReportError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// ============================ recorded streams ========================
+
+// One port's recording: a TimedFloat6 per row, in arrival order.
+struct Series {
+  std::vector<std::int64_t> time_ns;          // the datum's stamp (CLOCK_REALTIME)
+  std::vector<std::array<double, 6>> values;  // v0..v5
+};
+
+// Reads `rtm watch --csv` output: header "time_ns,v0,...,v5", then one row per datum. A row
+// with fewer than 6 values or a non-number throws ReportError naming file and line. A file
+// cut short by a killed writer (last line without newline and incomplete) loses that row only.
+Series read_watch_csv(const std::filesystem::path& path);
+Series parse_watch_csv(const std::string& text, const std::string& source_name);
+
+// ============================ aligned samples =========================
+
+// One instant of the loop, on the sensor's time base.
+struct Sample {
+  double time_s = 0;                       // since the first sensor sample
+  std::array<double, 3> reference_N{};     // the joystick's force (the operator's push)
+  std::array<double, 3> measured_N{};      // -sensor force: what the hand applies
+  std::array<double, 6> velocity{};        // controller command: m/s (0..2), rad/s (3..5)
+};
+
+// For each sensor sample, the latest reference and command stamped at or before it (the ones
+// the loop had then); sensor samples before the first reference are dropped, and a command
+// not yet produced counts as zero. Throws ReportError when a stream is empty or the streams do
+// not overlap in time (e.g. stamped on different clocks).
+std::vector<Sample> align(const Series& reference, const Series& sensor, const Series& command);
+
+// ============================ phases ==================================
+
+struct PhaseOptions {
+  double reference_tolerance_N = 0.05;  // a phase: the reference stays this close to its start
+  double min_duration_s = 0.5;          // shorter constant stretches are transitions
+  double settle_band_N = 0.5;           // settled: |error| stays within this to the phase end
+  double min_settled_s = 0.25;          // ... for at least this long (else a crossing near the
+                                        // end of an oscillating phase would count)
+  double steady_window_s = 1.0;         // steady state: the phase's last second
+  double contact_threshold_N = 1.0;     // |mean measured| above this: the hand touches
+};
+
+// A stretch of constant reference: [begin, end) indices into the samples.
+struct Phase {
+  std::size_t begin = 0;
+  std::size_t end = 0;
+};
+
+// The maximal stretches where the reference stays within reference_tolerance_N of the
+// stretch's first value for at least min_duration_s. Ramps between them belong to none.
+std::vector<Phase> detect_phases(const std::vector<Sample>& samples, const PhaseOptions& options);
+
+struct PhaseSummary {
+  double start_s = 0, end_s = 0;
+  std::array<double, 3> reference_N{};       // at the phase start
+  std::array<double, 3> mean_measured_N{};   // over the steady window
+  std::array<double, 3> mean_velocity_m_s{};  // over the steady window
+  double steady_error_N = 0;                 // |mean(error)| over the steady window
+  double error_peak_to_peak_N = 0;           // max - min of |error| over the steady window
+  std::optional<double> settling_time_s;     // from the phase start; none: not settled
+                                             // for min_settled_s before the phase end
+  bool contact = false;                      // |mean measured| > contact_threshold_N
+  bool free_space() const { return !contact; }
+};
+
+// Throws std::invalid_argument for an empty or out-of-range phase.
+PhaseSummary summarize(const std::vector<Sample>& samples, const Phase& phase,
+                       const PhaseOptions& options);
+
+// ============================ loop timing =============================
+
+struct ComponentTiming {
+  std::string name;
+  std::string kind;
+  std::string state;
+  std::int64_t period_ns = 0;
+  std::uint64_t cycles = 0;
+  std::uint64_t overruns = 0;  // cycles more than one period late
+  std::int64_t lateness_p99_ns = 0;
+  std::int64_t lateness_max_ns = 0;
+};
+
+// Parses `rtm --json ls -l` output. Components without timing (on-arrival) get cycles 0.
+// Throws ReportError for text that is not that JSON.
+std::vector<ComponentTiming> parse_timing_json(const std::string& text, const std::string& source_name);
+
+// ============================ output ==================================
+
+struct Report {
+  std::vector<PhaseSummary> phases;
+  std::vector<ComponentTiming> timing;
+  std::optional<std::uint64_t> watchdog_events;  // none: not known
+  std::size_t samples = 0;
+  double duration_s = 0;
+};
+
+// The summary as the demo prints it (plain text, one table per part).
+std::string format_report(const Report& report, const PhaseOptions& options);
+
+// Merged CSV: time_s, ref_x..z [N], measured_x..z [N], error [N], v_x..z [m/s], w_x..z [rad/s].
+void write_samples_csv(const std::filesystem::path& path, const std::vector<Sample>& samples);
+
+// A gnuplot script drawing `csv` into `png`: reference vs measured force per axis, and the
+// commanded translational velocity (mm/s), sharing the time axis. Phase starts are marked.
+std::string gnuplot_script(const std::filesystem::path& csv, const std::filesystem::path& png,
+                           const std::vector<PhaseSummary>& phases);
+
+}  // namespace rtm::demo

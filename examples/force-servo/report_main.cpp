@@ -1,0 +1,106 @@
+// rtm-demo-report: the force-servo demo's recordings in, its summary, merged CSV and gnuplot
+// script out.
+//
+//   rtm-demo-report --reference joystick.csv --sensor sensor.csv --command controller.csv
+//                   [--timing timing.json] [--watchdog-events N] --out DIR
+//
+// Writes DIR/force_servo.csv, DIR/force_servo.gp (draws DIR/force_servo.png) and
+// DIR/summary.txt, and prints the summary. Exit 0 on success, 1 for unusable input,
+// 2 for a bad command line, 3 with --check when a figure the demo promises is missed.
+#include "demo_report.h"
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include <cmath>
+#include <fstream>
+
+namespace {
+
+// The demo's promises (docs/performance.md): contact phases settle within the band, no
+// watchdog event, no overrun.
+std::vector<std::string> missed_figures(const rtm::demo::Report& report,
+                                        const rtm::demo::PhaseOptions& options) {
+  std::vector<std::string> missed;
+  for (std::size_t i = 0; i < report.phases.size(); ++i) {
+    const auto& p = report.phases[i];
+    if (!p.contact) continue;
+    if (p.steady_error_N > options.settle_band_N) {
+      missed.push_back(fmt::format("phase {}: steady-state error {:.2f} N > {:g} N", i + 1,
+                                   p.steady_error_N, options.settle_band_N));
+    }
+  }
+  for (const auto& t : report.timing) {
+    if (t.overruns > 0) missed.push_back(fmt::format("{}: {} overruns", t.name, t.overruns));
+  }
+  if (report.watchdog_events && *report.watchdog_events > 0) {
+    missed.push_back(fmt::format("{} watchdog events", *report.watchdog_events));
+  }
+  return missed;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"rtm-demo-report: summary, CSV and plot of a force-servo demo recording"};
+  std::string reference_csv, sensor_csv, command_csv, timing_json, out_dir;
+  long watchdog_events = -1;
+  bool check = false;
+  rtm::demo::PhaseOptions options;
+  app.add_option("--reference", reference_csv, "rtm watch --csv of the joystick's out0")->required()->check(CLI::ExistingFile);
+  app.add_option("--sensor", sensor_csv, "rtm watch --csv of the wrist sensor's out0")->required()->check(CLI::ExistingFile);
+  app.add_option("--command", command_csv, "rtm watch --csv of the controller's out0")->required()->check(CLI::ExistingFile);
+  app.add_option("--timing", timing_json, "output of `rtm --json ls -l`")->check(CLI::ExistingFile);
+  app.add_option("--watchdog-events", watchdog_events, "the actuator's watchdog event count");
+  app.add_option("--out", out_dir, "folder for force_servo.csv, force_servo.gp, summary.txt")->required();
+  app.add_option("--band", options.settle_band_N, "settling band, N")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--steady-window", options.steady_window_s, "steady-state window at a phase's end, s")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--min-phase", options.min_duration_s, "shortest phase of constant reference, s")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_flag("--check", check, "exit 3 when a contact phase misses the band, or on overruns or watchdog events");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    const auto samples = rtm::demo::align(rtm::demo::read_watch_csv(reference_csv),
+                                          rtm::demo::read_watch_csv(sensor_csv),
+                                          rtm::demo::read_watch_csv(command_csv));
+    if (samples.empty()) throw rtm::demo::ReportError("no sensor sample after the first reference sample");
+    rtm::demo::Report report;
+    report.samples = samples.size();
+    report.duration_s = samples.back().time_s;
+    for (const auto& phase : rtm::demo::detect_phases(samples, options)) {
+      report.phases.push_back(rtm::demo::summarize(samples, phase, options));
+    }
+    if (!timing_json.empty()) {
+      std::ifstream in(timing_json);
+      const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+      report.timing = rtm::demo::parse_timing_json(text, timing_json);
+    }
+    if (watchdog_events >= 0) report.watchdog_events = static_cast<std::uint64_t>(watchdog_events);
+
+    const std::filesystem::path dir(out_dir);
+    std::filesystem::create_directories(dir);
+    rtm::demo::write_samples_csv(dir / "force_servo.csv", samples);
+    {
+      std::ofstream gp(dir / "force_servo.gp");
+      gp << rtm::demo::gnuplot_script(dir / "force_servo.csv", dir / "force_servo.png", report.phases);
+      if (!gp.flush()) throw rtm::demo::ReportError((dir / "force_servo.gp").string() + ": write failed");
+    }
+    const std::string summary = rtm::demo::format_report(report, options);
+    {
+      std::ofstream txt(dir / "summary.txt");
+      txt << summary;
+    }
+    fmt::print("{}", summary);
+    if (check) {
+      const auto missed = missed_figures(report, options);
+      for (const auto& m : missed) fmt::print(stderr, "rtm-demo-report: missed: {}\n", m);
+      if (!missed.empty()) return 3;
+    }
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "rtm-demo-report: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}
