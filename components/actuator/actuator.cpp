@@ -1,0 +1,130 @@
+#include "components/actuator/actuator.h"
+
+#include "rtm/data.h"
+#include "rtm/log.h"
+
+#include <fmt/format.h>
+#include <spdlog/logger.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace rtm::comp {
+
+void ActuatorParams::validate() const {
+  for (std::size_t i = 0; i < limit.size(); ++i) {
+    if (!std::isfinite(limit[i]) || limit[i] < 0)
+      throw std::invalid_argument(fmt::format("actuator limit[{}] = {}: want a finite value >= 0", i, limit[i]));
+  }
+  if (watchdog_periods == 0) throw std::invalid_argument("actuator watchdog_periods must be at least 1");
+}
+
+std::array<float, 6> clamp_twist(const std::array<float, 6>& limit, const RTM::Float6& command) {
+  std::array<float, 6> out{};
+  for (std::size_t i = 0; i < 6; ++i) out[i] = std::clamp(command[i], -limit[i], limit[i]);
+  return out;
+}
+
+Actuator::Actuator(std::string name, std::unique_ptr<VelocityArm> arm, ActuatorParams params)
+    : Component(std::move(name), "actuator"), arm_(std::move(arm)), params_(params) {
+  if (!arm_) throw std::invalid_argument("Actuator " + this->name() + ": no arm");
+  params_.validate();
+}
+
+void Actuator::on_start() {
+  if (arm_->in_fault()) {
+    log().info("{}: resetting the arm ({})", name(), arm_->fault_reason());
+    arm_->reset();
+  }
+  // A command that arrived while off is not one to act on.
+  RTM::TimedFloat6 discard;
+  command_in_.read(discard);
+  age_ = 0;
+  had_command_ = false;
+  watchdog_tripped_ = false;
+  command_bad_ = false;
+  twist_ = {};
+}
+
+void Actuator::on_cycle(const rtm::CycleContext&) {
+  cycles_.fetch_add(1, std::memory_order_relaxed);
+  bool fresh_command = false;
+  if (command_in_.read(command_) == rtm::ReadResult::NewData) {
+    age_ = 0;
+    had_command_ = true;
+    watchdog_tripped_ = false;
+    const bool bad = rtm::has_non_finite(command_);
+    if (bad) {
+      if (!command_bad_) {
+        non_finite_events_.fetch_add(1, std::memory_order_relaxed);
+        log().warn("{}: command holds NaN/inf: zero velocity (event {})", name(), non_finite_events_.load());
+      }
+      twist_ = {};
+    } else {
+      twist_ = clamp_twist(params_.limit, command_.val);
+      for (CORBA::ULong i = 0; i < 6; ++i) {
+        if (twist_[i] != command_.val[i]) {
+          clamped_.fetch_add(1, std::memory_order_relaxed);
+          break;
+        }
+      }
+      commands_.fetch_add(1, std::memory_order_relaxed);
+      fresh_command = true;
+    }
+    command_bad_ = bad;
+  } else {
+    if (age_ < params_.watchdog_periods) ++age_;
+    if (!had_command_) {
+      twist_ = {};
+    } else if (age_ >= params_.watchdog_periods && !watchdog_tripped_) {
+      watchdog_tripped_ = true;
+      twist_ = {};
+      watchdog_events_.fetch_add(1, std::memory_order_relaxed);
+      const VelocityArm::BusPosition bus = arm_->bus_position();
+      log().warn("{}: watchdog: no new command for {} periods: zero velocity after bus cycle {} (SYNC counter {}) "
+                 "(event {})",
+                 name(), params_.watchdog_periods, bus.cycle, bus.sync_counter, watchdog_events_.load());
+    }
+    // Otherwise the last command (or zero after the watchdog) is repeated.
+  }
+
+  const ArmStatus status = arm_->order_velocity(twist_);
+  if (status == ArmStatus::fault) throw std::runtime_error("arm fault: " + arm_->fault_reason());
+  if (status == ArmStatus::not_ready) not_ready_cycles_.fetch_add(1, std::memory_order_relaxed);
+  if (fresh_command && status == ArmStatus::ready) latency_.record(rtm::to_ns(rtm::now()) - rtm::to_ns(command_.tm));
+  for (std::size_t i = 0; i < 6; ++i) last_twist_[i].store(status == ArmStatus::ready ? twist_[i] : 0.0f, std::memory_order_relaxed);
+}
+
+void Actuator::on_stop() {
+  arm_->stop();
+  for (auto& v : last_twist_) v.store(0.0f, std::memory_order_relaxed);
+  const ActuatorCounters c = counters();
+  log().info(
+      "{}: off, zero velocity. cycles {}, commands {}, clamped {}, watchdog events {}, non-finite events {}, "
+      "not-ready cycles {}, sample-to-drive latency p50 {} us p99 {} us max {} us",
+      name(), c.cycles, c.commands, c.clamped, c.watchdog_events, c.non_finite_events, c.not_ready_cycles,
+      c.latency_p50_ns / 1000, c.latency_p99_ns / 1000, c.latency_max_ns / 1000);
+}
+
+ActuatorCounters Actuator::counters() const {
+  ActuatorCounters c;
+  c.cycles = cycles_.load();
+  c.commands = commands_.load();
+  c.clamped = clamped_.load();
+  c.watchdog_events = watchdog_events_.load();
+  c.non_finite_events = non_finite_events_.load();
+  c.not_ready_cycles = not_ready_cycles_.load();
+  c.latency_p50_ns = latency_.percentile_ns(0.5);
+  c.latency_p99_ns = latency_.percentile_ns(0.99);
+  c.latency_max_ns = latency_.max_ns();
+  return c;
+}
+
+std::array<float, 6> Actuator::last_twist() const {
+  std::array<float, 6> out{};
+  for (std::size_t i = 0; i < 6; ++i) out[i] = last_twist_[i].load(std::memory_order_relaxed);
+  return out;
+}
+
+}  // namespace rtm::comp

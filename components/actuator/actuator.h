@@ -1,0 +1,86 @@
+// Actuator: the manipulator driven by Cartesian velocity commands (paper Fig. 7).
+//
+//   InPort 0 "in0"  velocity command (TimedFloat6 twist, BASE frame: vx vy vz m/s, wx wy wz rad/s)
+//
+// Each cycle: take the newest command, clamp each component to ±limit[i] (Fig. 7), hand it to
+// the arm (orderVelocity). Safety beyond the paper:
+//   - watchdog: after watchdog_periods cycles without a new command the twist is zero; the
+//     cycles before repeat the last command (one late datum must not jerk the arm);
+//   - a command holding NaN/inf gives zero;
+//   each counted and logged once per event (when it starts), not per cycle;
+//   - off() commands zero velocity before it returns;
+//   - a latched arm fault puts the component in COMPONENT_ERROR with the reason; on() after
+//     reset() asks the arm to reset too.
+#pragma once
+
+#include "components/actuator/velocity_arm.h"
+
+#include "rtm/activity.h"
+#include "rtm/component.h"
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace rtm::comp {
+
+struct ActuatorParams {
+  // |component| limits: m/s for vx vy vz, rad/s for wx wy wz.
+  std::array<float, 6> limit{0.05f, 0.05f, 0.05f, 0.3f, 0.3f, 0.3f};
+  std::uint32_t watchdog_periods = 3;
+
+  // Throws std::invalid_argument for a negative or non-finite limit, or watchdog_periods 0.
+  void validate() const;
+};
+
+// Fig. 7: each component clamped to [-limit[i], +limit[i]].
+std::array<float, 6> clamp_twist(const std::array<float, 6>& limit, const RTM::Float6& command);
+
+struct ActuatorCounters {
+  std::uint64_t cycles = 0;
+  std::uint64_t commands = 0;           // new finite commands applied
+  std::uint64_t clamped = 0;            // of those, commands the limiter changed
+  std::uint64_t watchdog_events = 0;    // commands stopped arriving (zero velocity)
+  std::uint64_t non_finite_events = 0;  // commands started holding NaN/inf (zero velocity)
+  std::uint64_t not_ready_cycles = 0;   // the arm was not enabled (zero velocity)
+  // Sample-to-drive latency: now - command stamp (the sensor sample's stamp, see the
+  // controller) when the twist has been handed to the arm, CLOCK_REALTIME.
+  std::int64_t latency_p50_ns = 0;
+  std::int64_t latency_p99_ns = 0;
+  std::int64_t latency_max_ns = 0;
+};
+
+class Actuator final : public rtm::Component {
+ public:
+  Actuator(std::string name, std::unique_ptr<VelocityArm> arm, ActuatorParams params);
+
+  void on_start() override;
+  void on_cycle(const rtm::CycleContext& ctx) override;
+  void on_stop() override;
+
+  rtm::InPort<RTM::TimedFloat6>& command_in() { return command_in_; }
+  VelocityArm& arm() { return *arm_; }
+  const ActuatorParams& params() const { return params_; }
+  ActuatorCounters counters() const;
+  // The twist handed to the arm in the last cycle.
+  std::array<float, 6> last_twist() const;
+
+ private:
+  std::unique_ptr<VelocityArm> arm_;
+  const ActuatorParams params_;
+  RTM::TimedFloat6 command_{};
+  std::array<float, 6> twist_{};
+  std::uint32_t age_ = 0;        // cycles since the newest command
+  bool had_command_ = false;     // since on()
+  bool watchdog_tripped_ = false;
+  bool command_bad_ = false;
+  std::array<std::atomic<float>, 6> last_twist_{};
+  rtm::LatenessHistogram latency_;
+  std::atomic<std::uint64_t> cycles_{0}, commands_{0}, clamped_{0}, watchdog_events_{0}, non_finite_events_{0},
+      not_ready_cycles_{0};
+  rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>("in0");
+};
+
+}  // namespace rtm::comp

@@ -1,0 +1,55 @@
+#include "components/actuator/velocity_arm.h"
+
+#include <thread>
+
+namespace rtm::comp {
+
+namespace pc = rtm::can;
+
+ArmHardware::ArmHardware(const Options& options) : options_(options) {
+  pc::MasterConfig config;
+  config.period = options.period;
+  config.realtime_priority = options.rt_priority;
+  config.cpu = options.cpu;
+  config.step_timeout = options.step_timeout;
+  master_ = std::make_unique<pc::Pa10Master>(options.bus, options.sensor_bus, config);
+  master_->start();
+  rtm::pa10::ArmOptions arm_options;
+  arm_options.period_s = std::chrono::duration<double>(options.period).count();
+  arm_ = std::make_unique<rtm::pa10::Pa10Arm>(options.urdf, *master_, arm_options);
+  if (options.run_master_thread) master_->run_periodic();
+}
+
+ArmHardware::~ArmHardware() {
+  arm_->stop();
+  master_->stop();
+  arm_.reset();
+  master_.reset();  // one last zero-velocity cycle, then NMT pre-operational
+}
+
+ArmStatus ArmHardware::order_velocity(const std::array<float, 6>& twist_base) {
+  if (arm_->orderVelocity(twist_base)) return ArmStatus::ready;
+  return arm_->fault() == rtm::pa10::ArmFault::not_enabled ? ArmStatus::not_ready : ArmStatus::fault;
+}
+
+bool ArmHardware::in_fault() const {
+  const auto fault = arm_->fault();
+  return fault != rtm::pa10::ArmFault::none && fault != rtm::pa10::ArmFault::not_enabled;
+}
+
+VelocityArm::BusPosition ArmHardware::bus_position() const {
+  const pc::JointState state = master_->joint_state();
+  return {state.cycle, state.sync_counter};
+}
+
+void ArmHardware::stop() {
+  arm_->stop();
+  if (!master_->running()) return;  // lock-step: the next step() sends it
+  // Wait until two SYNC cycles have passed: the zero targets were in the RPDOs of the second.
+  const std::uint64_t start = master_->counters().cycles;
+  const auto deadline = std::chrono::steady_clock::now() + 20 * options_.period + std::chrono::milliseconds(50);
+  while (master_->counters().cycles < start + 2 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(options_.period / 4);
+}
+
+}  // namespace rtm::comp

@@ -1,0 +1,83 @@
+// The Actuator's hardware seam: an arm that takes a Cartesian velocity twist each cycle.
+// ArmHardware is the real one (Pa10Master + Pa10Arm, on pa10-sim or the PA10 alike); unit
+// tests put a recording fake behind the same interface.
+#pragma once
+
+#include "arm/can/master.h"
+#include "arm/pa10/arm.h"
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace rtm::comp {
+
+enum class ArmStatus : std::uint8_t {
+  ready,      // the twist was handed to the drives
+  not_ready,  // drives not (yet) enabled: zero was commanded; clears by itself
+  fault,      // latched fault: zero is commanded until reset(); fault_reason() says why
+};
+
+class VelocityArm {
+ public:
+  virtual ~VelocityArm() = default;
+  // Twist of the tool in the BASE frame (vx vy vz m/s, wx wy wz rad/s) for the next period.
+  // Allocates nothing; one thread at a time.
+  virtual ArmStatus order_velocity(const std::array<float, 6>& twist_base) = 0;
+  // Commands zero velocity; returns once that command has left for the bus (when the bus runs
+  // on its own clock) or is set for the next cycle (lock-step).
+  virtual void stop() = 0;
+  virtual std::string fault_reason() const = 0;
+  virtual bool in_fault() const = 0;
+  virtual void reset() = 0;
+  // Where the bus is, for event reports: the SYNC cycle (counting from 1) and the CANopen SYNC
+  // counter (1..240) the arm's latest feedback answers; 0 when unknown.
+  struct BusPosition {
+    std::uint64_t cycle = 0;
+    std::uint8_t sync_counter = 0;
+  };
+  virtual BusPosition bus_position() const = 0;
+};
+
+// The PA10 behind its CANopen master: owns the master (NMT master, SYNC producer) and the arm
+// library. With run_master_thread the master runs its own 2 ms SYNC thread from construction
+// to destruction, whatever the component does (zero velocity while off, so the drives never
+// time out); without it a lock-step caller calls master().step() after each cycle.
+class ArmHardware final : public VelocityArm {
+ public:
+  struct Options {
+    std::string bus = "local:/tmp/rtm-pa10.bus";  // local:<path> or socketcan:<if>
+    std::string sensor_bus;                       // "" = the same bus
+    std::string urdf;                             // the arm model (sim/models/pa10.urdf)
+    std::chrono::nanoseconds period{2'000'000};   // SYNC period
+    bool run_master_thread = true;
+    int rt_priority = 0;  // of the master's thread; 0 = SCHED_OTHER
+    int cpu = -1;
+    std::chrono::nanoseconds step_timeout{std::chrono::seconds(2)};  // lock-step wait per SYNC
+  };
+
+  // Opens the buses and starts the master (blocks until every drive is enabled). Throws
+  // std::runtime_error / rtm::can::BusError / rtm::pa10::ModelError naming what failed.
+  explicit ArmHardware(const Options& options);
+  ~ArmHardware() override;  // zero velocity, master thread stopped, drives shut down cleanly
+
+  ArmStatus order_velocity(const std::array<float, 6>& twist_base) override;
+  void stop() override;
+  std::string fault_reason() const override { return arm_->faultReason(); }
+  bool in_fault() const override;
+  void reset() override { arm_->reset(); }
+  BusPosition bus_position() const override;
+
+  rtm::can::Pa10Master& master() { return *master_; }
+  rtm::pa10::Pa10Arm& arm() { return *arm_; }
+  const Options& options() const { return options_; }
+
+ private:
+  Options options_;
+  std::unique_ptr<rtm::can::Pa10Master> master_;
+  std::unique_ptr<rtm::pa10::Pa10Arm> arm_;
+};
+
+}  // namespace rtm::comp

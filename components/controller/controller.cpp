@@ -1,0 +1,93 @@
+#include "components/controller/controller.h"
+
+#include "rtm/data.h"
+#include "rtm/log.h"
+
+#include <fmt/format.h>
+#include <spdlog/logger.h>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace rtm::comp {
+
+void ControllerParams::validate() const {
+  for (std::size_t i = 0; i < gain.size(); ++i) {
+    if (!std::isfinite(gain[i]))
+      throw std::invalid_argument(fmt::format("controller gain[{}] = {} is not a finite number", i, gain[i]));
+  }
+  if (stale_periods == 0) throw std::invalid_argument("controller stale_periods must be at least 1");
+}
+
+std::array<float, 6> proportional_command(const std::array<float, 6>& gain, const RTM::Float6& reference,
+                                          const RTM::Float6& sensor) {
+  std::array<float, 6> out{};
+  for (std::size_t i = 0; i < 6; ++i) out[i] = gain[i] * (reference[i] + sensor[i]);
+  return out;
+}
+
+Controller::Controller(std::string name, ControllerParams params)
+    : Component(std::move(name), "controller"), params_(params) {
+  params_.validate();
+}
+
+void Controller::on_start() {
+  // Data that arrived while off is not fresh: a restart begins stale until new data comes.
+  sensor_ = Input{};
+  reference_ = Input{};
+  RTM::TimedFloat6 discard;
+  sensor_in_.read(discard);
+  reference_in_.read(discard);
+}
+
+void Controller::update(rtm::InPort<RTM::TimedFloat6>& port, Input& input) {
+  if (port.read(input.datum) == rtm::ReadResult::NewData) {
+    input.age = 0;
+    input.seen = true;
+  } else if (input.age < params_.stale_periods) {
+    ++input.age;
+  }
+}
+
+// Fresh and finite; counts and logs (once per event) an input going stale or bad.
+bool Controller::usable(Input& input, const char* what) {
+  const bool fresh = input.seen && input.age < params_.stale_periods;
+  if (input.was_fresh && !fresh) {
+    stale_events_.fetch_add(1, std::memory_order_relaxed);
+    log().warn("{}: {} input stale (no new datum for {} periods): zero command", name(), what, params_.stale_periods);
+  }
+  input.was_fresh = fresh;
+  if (!fresh) return false;
+  const bool bad = rtm::has_non_finite(input.datum);
+  if (bad && !input.was_bad) {
+    non_finite_events_.fetch_add(1, std::memory_order_relaxed);
+    log().warn("{}: {} input holds NaN/inf: zero command", name(), what);
+  }
+  input.was_bad = bad;
+  return !bad;
+}
+
+void Controller::on_cycle(const rtm::CycleContext&) {
+  cycles_.fetch_add(1, std::memory_order_relaxed);
+  update(sensor_in_, sensor_);
+  update(reference_in_, reference_);
+  const bool sensor_ok = usable(sensor_, "sensor (in0)");
+  const bool reference_ok = usable(reference_, "reference (in1)");
+  if (sensor_ok && reference_ok) {
+    const auto out = proportional_command(params_.gain, reference_.datum.val, sensor_.datum.val);
+    for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = out[i];
+    command_.tm = sensor_.datum.tm;
+    commands_.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = 0.0f;
+    command_.tm = rtm::now();
+    zero_commands_.fetch_add(1, std::memory_order_relaxed);
+  }
+  command_out_.write(command_);
+}
+
+ControllerCounters Controller::counters() const {
+  return {cycles_.load(), commands_.load(), zero_commands_.load(), stale_events_.load(), non_finite_events_.load()};
+}
+
+}  // namespace rtm::comp

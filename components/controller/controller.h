@@ -1,0 +1,81 @@
+// Controller: the paper's proportional force controller (Fig. 6).
+//
+//   InPort 0 "in0"   sensor wrench     (TimedFloat6, base frame, N / N·m)
+//   InPort 1 "in1"   reference wrench  (TimedFloat6, base frame, N / N·m)
+//   OutPort 0 "out0" velocity command  (TimedFloat6 twist, base frame, m/s / rad/s)
+//
+// Each cycle out[i] = gain[i] * (ref[i] + sen[i]). The plus is the paper's: the hand sensor
+// reads the reaction force, opposite in sign to the reference, so the command is zero when
+// they balance. An input with no new datum for stale_periods cycles, or holding NaN/inf,
+// makes the command zero (never the last one). A command's stamp is the stamp of the sensor
+// sample it was computed from, so a receiver can measure sample-to-drive latency; a zero
+// command from stale or bad input is stamped with the time it was made.
+#pragma once
+
+#include "rtm/component.h"
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+namespace rtm::comp {
+
+struct ControllerParams {
+  // (m/s)/N for x y z, (rad/s)/(N·m) for the rotations. With the PA10's drive loops
+  // (pa10-sim: 20 rad/s velocity bandwidth) 0.002..0.007 m/(s·N) press stably on the table.
+  std::array<float, 6> gain{0.003f, 0.003f, 0.003f, 0.0f, 0.0f, 0.0f};
+  std::uint32_t stale_periods = 3;  // cycles without a new datum before an input is stale
+
+  // Throws std::invalid_argument naming the bad value (NaN/inf gain, stale_periods 0).
+  void validate() const;
+};
+
+// Fig. 6: out[i] = gain[i] * (ref[i] + sen[i]).
+std::array<float, 6> proportional_command(const std::array<float, 6>& gain, const RTM::Float6& reference,
+                                          const RTM::Float6& sensor);
+
+struct ControllerCounters {
+  std::uint64_t cycles = 0;
+  std::uint64_t commands = 0;         // proportional commands written
+  std::uint64_t zero_commands = 0;    // zero commands written (stale, missing or bad input)
+  std::uint64_t stale_events = 0;     // an input went stale after having been fresh
+  std::uint64_t non_finite_events = 0;  // an input started holding NaN/inf
+};
+
+class Controller final : public rtm::Component {
+ public:
+  Controller(std::string name, ControllerParams params);
+
+  void on_start() override;
+  void on_cycle(const rtm::CycleContext& ctx) override;
+
+  rtm::InPort<RTM::TimedFloat6>& sensor_in() { return sensor_in_; }
+  rtm::InPort<RTM::TimedFloat6>& reference_in() { return reference_in_; }
+  rtm::OutPort<RTM::TimedFloat6>& command_out() { return command_out_; }
+  const ControllerParams& params() const { return params_; }
+  ControllerCounters counters() const;
+
+ private:
+  // Age in cycles of the newest datum of one input; the input is fresh below stale_periods.
+  struct Input {
+    RTM::TimedFloat6 datum{};
+    std::uint32_t age = 0;
+    bool seen = false;
+    bool was_fresh = false;
+    bool was_bad = false;
+  };
+  void update(rtm::InPort<RTM::TimedFloat6>& port, Input& input);
+  bool usable(Input& input, const char* what);
+
+  const ControllerParams params_;
+  Input sensor_;
+  Input reference_;
+  RTM::TimedFloat6 command_{};
+  std::atomic<std::uint64_t> cycles_{0}, commands_{0}, zero_commands_{0}, stale_events_{0}, non_finite_events_{0};
+  rtm::InPort<RTM::TimedFloat6>& sensor_in_ = add_in_port<RTM::TimedFloat6>("in0");
+  rtm::InPort<RTM::TimedFloat6>& reference_in_ = add_in_port<RTM::TimedFloat6>("in1");
+  rtm::OutPort<RTM::TimedFloat6>& command_out_ = add_out_port<RTM::TimedFloat6>("out0");
+};
+
+}  // namespace rtm::comp

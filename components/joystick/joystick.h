@@ -1,0 +1,81 @@
+// Joystick: the reference generator (paper Fig. 5's twin). A second 6-axis force sensor that
+// the operator pushes; the force applied is the reference, written each cycle to OutPort 0
+// ("out0", RTM::TimedFloat6).
+//
+// Sign and frame: the joystick's sensor frame is aligned with the arm's base frame
+// (sim/profiles: x forward, z up), and it reports the force the operator applies to the
+// handle. So the value is already in the base frame: pushing the handle down reads -Fz, a
+// downward reference; the controller's gain*(ref + sen) then drives the tool down until the
+// table's reaction (+Fz at the wrist) balances it.
+#pragma once
+
+#include "arm/can/master.h"
+#include "arm/can/sensor_listener.h"
+#include "rtm/component.h"
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+
+namespace rtm::comp {
+
+// The newest joystick wrench (Fx Fy Fz N, Tx Ty Tz N·m, base-aligned frame).
+struct JoystickReading {
+  std::array<double, 6> wrench{};
+  std::uint64_t sequence = 0;  // grows with each new wrench
+  bool valid = false;
+};
+
+// The hardware seam of the Joystick component.
+class JoystickSource {
+ public:
+  virtual ~JoystickSource() = default;
+  virtual JoystickReading latest() const = 0;  // never blocks
+  virtual std::string fault() const = 0;       // "" when healthy; asked only when nothing new came
+};
+
+// Reads the Pa10Master of this process (it listens to the joystick node too).
+class MasterJoystickSource final : public JoystickSource {
+ public:
+  explicit MasterJoystickSource(const rtm::can::Pa10Master& master) : master_(master) {}
+  JoystickReading latest() const override;
+  std::string fault() const override { return ""; }
+
+ private:
+  const rtm::can::Pa10Master& master_;
+};
+
+// A passive listener on the joystick's bus (its own process). Throws rtm::can::BusError.
+class BusJoystickSource final : public JoystickSource {
+ public:
+  explicit BusJoystickSource(std::string_view bus_spec);
+  JoystickReading latest() const override;
+  std::string fault() const override { return listener_.fault(); }
+
+ private:
+  rtm::can::SensorListener listener_;
+};
+
+class Joystick final : public rtm::Component {
+ public:
+  Joystick(std::string name, std::unique_ptr<JoystickSource> source);
+
+  void on_start() override;
+  // Writes each new wrench once, stamped with the time it was read.
+  void on_cycle(const rtm::CycleContext& ctx) override;
+
+  rtm::OutPort<RTM::TimedFloat6>& out() { return out_; }
+  std::uint64_t samples_written() const { return written_.load(std::memory_order_relaxed); }
+
+ private:
+  std::unique_ptr<JoystickSource> source_;
+  std::uint64_t last_sequence_ = 0;
+  RTM::TimedFloat6 datum_{};
+  std::atomic<std::uint64_t> written_{0};
+  rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("out0");
+};
+
+}  // namespace rtm::comp

@@ -1,0 +1,30 @@
+// rtm-sensor: the wrist force/torque sensor as an RT component (paper Fig. 5). A passive
+// listener on the arm's bus: it reads the wrist sensor's TPDOs and the drives' joint
+// positions, and writes the wrench in the arm's base frame to out0 each cycle.
+#include "components/sensor/sensor.h"
+
+#include "rtm/runner.h"
+
+int main(int argc, char** argv) {
+  std::string bus = "local:/tmp/rtm-pa10.bus";
+  std::string sensor_bus;
+  std::string urdf = RTM_PA10_URDF;
+  return rtm::run_component(argc, argv, {
+      .kind = "sensor",
+      .description =
+          "rtm-sensor: wrist F/T sensor; out0 = TimedFloat6 wrench on the tool, base frame "
+          "(Fx Fy Fz N, Tx Ty Tz N·m; pressing on the table reads +Fz)",
+      .add_options =
+          [&](CLI::App& app) {
+            app.add_option("--bus", bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
+            app.add_option("--sensor-bus", sensor_bus, "separate bus of the force sensors (default: --bus)");
+            app.add_option("--urdf", urdf, "arm model, for the sensor frame's orientation")->capture_default_str();
+          },
+      .create =
+          [&](const rtm::RunSettings& settings) {
+            return std::make_unique<rtm::comp::Sensor>(
+                settings.name, std::make_unique<rtm::comp::BusWristSource>(bus, sensor_bus),
+                rtm::pa10::Kinematics::fromUrdfFile(urdf));
+          },
+  });
+}

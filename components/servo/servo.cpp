@@ -1,0 +1,240 @@
+#include "components/servo/servo.h"
+
+#include "rtm/log.h"
+#include "rtm/orb.h"
+
+#include <fmt/format.h>
+#include <spdlog/logger.h>
+
+#include <stdexcept>
+
+namespace rtm::comp {
+
+namespace {
+
+std::string text_of(const CORBA::Exception& e) { return std::string("CORBA ") + e._name(); }
+
+std::string name_of(RTM::RtComponent_ptr component, const char* role) {
+  // Only an RTM::RtComponentEx knows its name; a seed RtComponent is named by its role.
+  try {
+    RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(component);
+    if (CORBA::is_nil(ex)) return role;
+    CORBA::String_var name = ex->name();
+    return name.in();
+  } catch (const CORBA::Exception&) {
+    return role;
+  }
+}
+
+// Why an OutPort refused a subscription (an RTM::OutPortEx says it; a plain OutPort cannot).
+std::string refusal_of(RTM::OutPort_ptr port) {
+  try {
+    RTM::OutPortEx_var ex = RTM::OutPortEx::_narrow(port);
+    if (!CORBA::is_nil(ex)) {
+      CORBA::String_var why = ex->last_error();
+      return why.in();
+    }
+  } catch (const CORBA::Exception& e) {
+    return text_of(e);
+  }
+  return "refused";
+}
+
+}  // namespace
+
+// ============================ RemoteServo =============================
+
+RemoteServo::RemoteServo(std::string name, RTM::RtComponent_ptr sensor, RTM::RtComponent_ptr controller,
+                         RTM::RtComponent_ptr actuator)
+    : Component(std::move(name), "servo"),
+      sensor_(RTM::RtComponent::_duplicate(sensor)),
+      controller_(RTM::RtComponent::_duplicate(controller)),
+      actuator_(RTM::RtComponent::_duplicate(actuator)) {
+  if (CORBA::is_nil(sensor_) || CORBA::is_nil(controller_) || CORBA::is_nil(actuator_))
+    throw std::invalid_argument("servo " + this->name() + ": a member reference is nil");
+}
+
+RTM::InPort_ptr RemoteServo::reference_port() const {
+  RTM::InPortList_var ins = controller_->in_ports();
+  if (ins->length() < 2)
+    throw std::runtime_error(fmt::format("servo {}: controller {} has {} InPorts, the reference is InPort 1", name(),
+                                         name_of(controller_, "controller"), ins->length()));
+  return RTM::InPort::_duplicate(ins[1]);
+}
+
+RemoteServo::Link RemoteServo::link(RTM::RtComponent_ptr from, const char* from_role, RTM::RtComponent_ptr to,
+                                    const char* to_role, CORBA::ULong in_index) const {
+  Link result;
+  result.text = fmt::format("{}.out0 -> {}.in{}", name_of(from, from_role), name_of(to, to_role), in_index);
+  RTM::OutPortList_var outs = from->out_ports();
+  RTM::InPortList_var ins = to->in_ports();
+  if (outs->length() < 1 || ins->length() <= in_index)
+    throw std::runtime_error(fmt::format("servo {}: {}: port missing ({} has {} OutPorts, {} has {} InPorts)", name(),
+                                         result.text, from_role, outs->length(), to_role, ins->length()));
+  result.from = RTM::OutPort::_duplicate(outs[0]);
+  result.to = RTM::InPort::_duplicate(ins[in_index]);
+  return result;
+}
+
+void RemoteServo::undo(bool turned_on[3], bool subscribed[2]) {
+  RTM::RtComponent_ptr members[3] = {actuator_.in(), controller_.in(), sensor_.in()};
+  for (int i = 0; i < 3; ++i) {
+    if (!turned_on[i]) continue;
+    try {
+      members[i]->off();
+    } catch (const CORBA::Exception& e) {
+      log().warn("servo {}: off() of {} raised {}", name(), name_of(members[i], "member"), e._name());
+    }
+  }
+  for (int i = 0; i < 2; ++i) {
+    if (!subscribed[i]) continue;
+    try {
+      const Link l = i == 0 ? link(sensor_, "sensor", controller_, "controller", 0)
+                            : link(controller_, "controller", actuator_, "actuator", 0);
+      l.from->unsubscribe(RTM::repeated, l.to);
+    } catch (const CORBA::Exception& e) {
+      log().warn("servo {}: unsubscribe raised {}", name(), e._name());
+    } catch (const std::exception& e) {
+      log().warn("servo {}: unsubscribe failed: {}", name(), e.what());
+    }
+  }
+}
+
+void RemoteServo::on_start() {
+  bool turned_on[3] = {false, false, false};  // actuator, controller, sensor
+  bool subscribed[2] = {false, false};
+  std::string step;
+  try {
+    const Link links[2] = {link(sensor_, "sensor", controller_, "controller", 0),
+                           link(controller_, "controller", actuator_, "actuator", 0)};
+    for (int i = 0; i < 2; ++i) {
+      step = "subscribe " + links[i].text;
+      // A subscription left from an earlier run (a crash between on and off) is replaced.
+      links[i].from->unsubscribe(RTM::repeated, links[i].to);
+      if (!links[i].from->subscribe(RTM::repeated, links[i].to))
+        throw std::runtime_error(step + ": " + refusal_of(links[i].from));
+      subscribed[i] = true;
+    }
+    RTM::RtComponent_ptr members[3] = {actuator_.in(), controller_.in(), sensor_.in()};
+    for (int i = 0; i < 3; ++i) {
+      step = "on() " + name_of(members[i], "member");
+      members[i]->on();
+      turned_on[i] = true;
+    }
+  } catch (const CORBA::Exception& e) {
+    undo(turned_on, subscribed);
+    throw std::runtime_error(fmt::format("servo {}: {} raised {}", name(), step, e._name()));
+  } catch (const std::exception& e) {
+    undo(turned_on, subscribed);
+    throw std::runtime_error(fmt::format("servo {}: {}", name(), e.what()));
+  }
+  log().info("servo {}: members connected and on", name());
+}
+
+void RemoteServo::on_stop() {
+  bool all[3] = {true, true, true};
+  bool both[2] = {true, true};
+  undo(all, both);
+  log().info("servo {}: members off and disconnected", name());
+}
+
+// ============================ SharedTickServo =========================
+
+SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> sensor,
+                                 std::unique_ptr<Controller> controller, std::unique_ptr<Actuator> actuator,
+                                 rtm::PeriodicOptions tick)
+    : Component(std::move(name), "servo"),
+      sensor_logic_(sensor.get()),
+      controller_logic_(controller.get()),
+      actuator_logic_(actuator.get()),
+      tick_(std::move(tick)) {
+  if (!sensor || !controller || !actuator)
+    throw std::invalid_argument("servo " + this->name() + ": a member is missing");
+  sensor_ = new rtm::ComponentServant(std::move(sensor), rtm::ExternalTick{});
+  controller_ = new rtm::ComponentServant(std::move(controller), rtm::ExternalTick{});
+  actuator_ = new rtm::ComponentServant(std::move(actuator), rtm::ExternalTick{});
+  for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) member->set_timing_source(&tick_);
+  // A failed sensor or controller must not stop the tick: the actuator still has to run (its
+  // watchdog zeroes the arm) and this servo's own cycle reports the failure.
+  auto keep_going = [](rtm::CycleFunction f) {
+    return [f = std::move(f)](const rtm::CycleContext& ctx) {
+      f(ctx);
+      return true;
+    };
+  };
+  tick_.add(keep_going(sensor_->cycle_function()));
+  tick_.add(keep_going(controller_->cycle_function()));
+  tick_.add(actuator_->cycle_function());
+}
+
+SharedTickServo::~SharedTickServo() {
+  tick_.stop();
+  // Sensor first: it may read the master the actuator owns.
+  for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) {
+    try {
+      member->off();
+    } catch (...) {
+    }
+    member->deactivate();
+  }
+  sensor_ = nullptr;
+  controller_ = nullptr;
+  actuator_ = nullptr;
+}
+
+void SharedTickServo::activate_members(rtm::Orb& orb) {
+  for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) {
+    RTM::RtComponentEx_var ref = member->activate(orb);
+  }
+}
+
+RTM::InPort_ptr SharedTickServo::reference_port() const {
+  RTM::InPortEx_var ref = controller_logic_->reference_in().reference();
+  if (CORBA::is_nil(ref)) throw std::logic_error("servo " + name() + ": members not activated");
+  return RTM::InPort::_duplicate(ref.in());
+}
+
+void SharedTickServo::on_start() {
+  sensor_logic_->out().disconnect(controller_logic_->sensor_in());
+  controller_logic_->command_out().disconnect(actuator_logic_->command_in());
+  if (!sensor_logic_->out().connect(controller_logic_->sensor_in()) ||
+      !controller_logic_->command_out().connect(actuator_logic_->command_in()))
+    throw std::runtime_error("servo " + name() + ": connecting the members failed: " +
+                             sensor_logic_->out().last_refusal() + controller_logic_->command_out().last_refusal());
+  try {
+    actuator_->on();
+    controller_->on();
+    sensor_->on();
+  } catch (const CORBA::Exception& e) {
+    actuator_->off();
+    controller_->off();
+    sensor_->off();
+    std::string why;
+    for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) {
+      if (member->current_state() == RTM::COMPONENT_ERROR)
+        why += " " + member->component().name() + ": " + member->error_text();
+    }
+    throw std::runtime_error("servo " + name() + ": turning the members on failed:" + why);
+  }
+  tick_.start();
+  log().info("servo {}: shared tick running sensor -> controller -> actuator", name());
+}
+
+void SharedTickServo::on_cycle(const rtm::CycleContext&) {
+  for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) {
+    if (member->current_state() == RTM::COMPONENT_ERROR)
+      throw std::runtime_error("member " + member->component().name() + " failed: " + member->error_text());
+  }
+}
+
+void SharedTickServo::on_stop() {
+  tick_.stop();
+  actuator_->off();
+  controller_->off();
+  sensor_->off();
+  sensor_logic_->out().disconnect(controller_logic_->sensor_in());
+  controller_logic_->command_out().disconnect(actuator_logic_->command_in());
+  log().info("servo {}: members off", name());
+}
+
+}  // namespace rtm::comp

@@ -1,0 +1,104 @@
+// Servo: the composite of the paper (Figs. 4, 8). It owns a sensor, a controller and an
+// actuator in their fixed pattern and hides them:
+//   on():  sensor.out0 -> controller.in0 and controller.out0 -> actuator.in0 (repeated), then
+//          on() each member (actuator, controller, sensor: downstream first, so no datum
+//          reaches a member that is not running);
+//   off(): off() each member (actuator first: the arm gets zero velocity before its command
+//          stream ends, so no watchdog fires), then the two subscriptions are removed.
+// Its own InPort 0 IS the controller's InPort 1 (the reference): the servo's servant hands out
+// the controller's reference (ComponentServant::expose_in_port), so a put on it lands directly
+// in the controller.
+//
+// Two run modes:
+//   RemoteServo       the paper's: members are RT components anywhere (found by name), each on
+//                     its own periodic activity;
+//   SharedTickServo   members live in this process as ExternalTick components and one
+//                     SharedTick runs sensor -> controller -> actuator in that order every
+//                     period, so a sensor sample reaches the drives in the same cycle.
+#pragma once
+
+#include "components/actuator/actuator.h"
+#include "components/controller/controller.h"
+#include "components/sensor/sensor.h"
+
+#include "rtm/activity.h"
+#include "rtm/component.h"
+
+#include <RTMExt.hh>
+
+#include <memory>
+#include <string>
+
+namespace rtm::comp {
+
+// ============================ RemoteServo =============================
+
+class RemoteServo final : public rtm::Component {
+ public:
+  // The three members' references (e.g. from NamingClient::resolve_component). Throws
+  // std::invalid_argument when one is nil.
+  RemoteServo(std::string name, RTM::RtComponent_ptr sensor, RTM::RtComponent_ptr controller,
+              RTM::RtComponent_ptr actuator);
+
+  // The controller's InPort 1, to expose as the servo's InPort 0. Throws std::runtime_error
+  // when the controller has fewer than two InPorts.
+  RTM::InPort_ptr reference_port() const;
+
+  // Subscribes and turns the members on; on any failure undoes what it did and throws
+  // std::runtime_error naming the member and the reason.
+  void on_start() override;
+  void on_cycle(const rtm::CycleContext&) override {}  // the members run themselves
+  void on_stop() override;
+
+ private:
+  struct Link {
+    RTM::OutPort_var from;
+    RTM::InPort_var to;
+    std::string text;  // "sensor0.out0 -> controller0.in0"
+  };
+  Link link(RTM::RtComponent_ptr from, const char* from_role, RTM::RtComponent_ptr to, const char* to_role,
+            CORBA::ULong in_index) const;
+  void undo(bool turned_on[3], bool subscribed[2]);
+
+  RTM::RtComponent_var sensor_, controller_, actuator_;
+};
+
+// ============================ SharedTickServo =========================
+
+class SharedTickServo final : public rtm::Component {
+ public:
+  // Members become ExternalTick servants run by one SharedTick with `tick` (period, priority,
+  // CPU). The actuator's arm must outlive nothing else here: members are destroyed sensor
+  // first, actuator last (a sensor may read the actuator's master).
+  SharedTickServo(std::string name, std::unique_ptr<Sensor> sensor, std::unique_ptr<Controller> controller,
+                  std::unique_ptr<Actuator> actuator, rtm::PeriodicOptions tick);
+  ~SharedTickServo() override;
+
+  // Activates the three members in orb (their ports become reachable; the servo exposes the
+  // controller's InPort 1 through reference_port()).
+  void activate_members(rtm::Orb& orb);
+  RTM::InPort_ptr reference_port() const;  // after activate_members()
+
+  // Appended to the tick after the three members (e.g. the servo servant's own
+  // cycle_function(), so a failed member puts the servo in error). Only while off.
+  void add_to_tick(rtm::CycleFunction cycle) { tick_.add(std::move(cycle)); }
+
+  void on_start() override;
+  // Runs in the tick after the members: a member in COMPONENT_ERROR fails the servo.
+  void on_cycle(const rtm::CycleContext&) override;
+  void on_stop() override;
+
+  rtm::ComponentServant& sensor() { return *sensor_; }
+  rtm::ComponentServant& controller() { return *controller_; }
+  rtm::ComponentServant& actuator() { return *actuator_; }
+  const rtm::SharedTick& tick() const { return tick_; }
+
+ private:
+  PortableServer::Servant_var<rtm::ComponentServant> sensor_, controller_, actuator_;
+  Sensor* sensor_logic_;
+  Controller* controller_logic_;
+  Actuator* actuator_logic_;
+  rtm::SharedTick tick_;
+};
+
+}  // namespace rtm::comp

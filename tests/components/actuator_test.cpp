@@ -1,0 +1,164 @@
+// The Actuator without CORBA, against a recording arm: Fig. 7's limiter, the watchdog, NaN,
+// zero velocity on off(), arm faults.
+#include "components/actuator/actuator.h"
+
+#include "component_test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <vector>
+
+namespace {
+
+using comp_test::cycle;
+using comp_test::float6;
+
+constexpr std::array<float, 6> kZero{};
+
+class RecordingArm final : public rtm::comp::VelocityArm {
+ public:
+  std::vector<std::array<float, 6>> ordered;
+  int stops = 0;
+  int resets = 0;
+  rtm::comp::ArmStatus status = rtm::comp::ArmStatus::ready;
+  std::string reason;
+
+  rtm::comp::ArmStatus order_velocity(const std::array<float, 6>& twist) override {
+    ordered.push_back(twist);
+    return status;
+  }
+  void stop() override { ++stops; }
+  std::string fault_reason() const override { return reason; }
+  bool in_fault() const override { return status == rtm::comp::ArmStatus::fault; }
+  void reset() override {
+    ++resets;
+    status = rtm::comp::ArmStatus::ready;
+  }
+  BusPosition bus_position() const override { return {}; }
+};
+
+struct ActuatorUnderTest {
+  RecordingArm* arm = nullptr;
+  std::unique_ptr<rtm::comp::Actuator> actuator;
+  std::uint64_t n = 0;
+  explicit ActuatorUnderTest(rtm::comp::ActuatorParams params = {}) {
+    auto fake = std::make_unique<RecordingArm>();
+    arm = fake.get();
+    actuator = std::make_unique<rtm::comp::Actuator>("actuator0", std::move(fake), params);
+    actuator->on_start();
+  }
+  std::array<float, 6> step() {
+    actuator->on_cycle(cycle(n++));
+    return arm->ordered.back();
+  }
+  std::array<float, 6> step(std::array<float, 6> command) {
+    actuator->command_in().deliver(float6(command));
+    return step();
+  }
+};
+
+TEST(ActuatorLimiter, EachComponentIsClampedToItsOwnLimit) {
+  const RTM::TimedFloat6 cmd = float6({0.2f, -0.2f, 0.01f, 1.0f, -0.05f, -3.0f});
+  const auto out = rtm::comp::clamp_twist({0.05f, 0.1f, 0.05f, 0.3f, 0.3f, 0.5f}, cmd.val);
+  const std::array<float, 6> expected{0.05f, -0.1f, 0.01f, 0.3f, -0.05f, -0.5f};
+  EXPECT_EQ(out, expected);
+}
+
+TEST(Actuator, CommandWithinLimitsReachesTheArmUnchanged) {
+  ActuatorUnderTest t;
+  const std::array<float, 6> cmd{0.01f, -0.02f, 0.03f, 0.1f, -0.1f, 0.2f};
+  EXPECT_EQ(t.step(cmd), cmd);
+  EXPECT_EQ(t.actuator->counters().clamped, 0u);
+}
+
+TEST(Actuator, CommandBeyondTheLimiterIsClampedAndCounted) {
+  ActuatorUnderTest t;
+  const std::array<float, 6> clamped{0.05f, -0.05f, 0, 0, 0, 0.3f};
+  EXPECT_EQ(t.step({1, -1, 0, 0, 0, 9}), clamped);
+  EXPECT_EQ(t.actuator->counters().clamped, 1u);
+}
+
+TEST(Actuator, NoCommandYetGivesZeroWithoutAWatchdogEvent) {
+  ActuatorUnderTest t;
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(t.step(), kZero);
+  EXPECT_EQ(t.actuator->counters().watchdog_events, 0u);
+}
+
+TEST(Actuator, WatchdogZeroesTheArmAfterThreePeriodsAndCountsOneEvent) {
+  ActuatorUnderTest t;  // default watchdog: 3 periods
+  const std::array<float, 6> cmd{0.01f, 0, 0, 0, 0, 0};
+  EXPECT_EQ(t.step(cmd), cmd);
+  EXPECT_EQ(t.step(), cmd) << "1 period without a command: the last one holds";
+  EXPECT_EQ(t.step(), cmd) << "2 periods";
+  EXPECT_EQ(t.step(), kZero) << "3 periods: watchdog";
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(t.step(), kZero);
+  EXPECT_EQ(t.actuator->counters().watchdog_events, 1u) << "one event, not one per cycle";
+  EXPECT_EQ(t.step(cmd), cmd) << "a new command ends the event";
+  for (int i = 0; i < 3; ++i) t.step();
+  EXPECT_EQ(t.actuator->counters().watchdog_events, 2u);
+}
+
+TEST(Actuator, WatchdogPeriodsAreConfigurable) {
+  rtm::comp::ActuatorParams p;
+  p.watchdog_periods = 1;
+  ActuatorUnderTest t(p);
+  t.step({0.01f, 0, 0, 0, 0, 0});
+  EXPECT_EQ(t.step(), kZero);
+  EXPECT_EQ(t.actuator->counters().watchdog_events, 1u);
+}
+
+TEST(Actuator, NonFiniteCommandGivesZeroAndCountsOneEventPerEpisode) {
+  ActuatorUnderTest t;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  t.step({0.01f, 0, 0, 0, 0, 0});
+  EXPECT_EQ(t.step({nan, 0, 0, 0, 0, 0}), kZero);
+  EXPECT_EQ(t.step({0, 0, std::numeric_limits<float>::infinity(), 0, 0, 0}), kZero);
+  EXPECT_EQ(t.step(), kZero) << "the bad command is not repeated";
+  EXPECT_EQ(t.actuator->counters().non_finite_events, 1u);
+  t.step({0.01f, 0, 0, 0, 0, 0});
+  t.step({nan, 0, 0, 0, 0, 0});
+  EXPECT_EQ(t.actuator->counters().non_finite_events, 2u);
+}
+
+TEST(Actuator, OffCommandsZeroVelocity) {
+  ActuatorUnderTest t;
+  t.step({0.01f, 0, 0, 0, 0, 0});
+  t.actuator->on_stop();
+  EXPECT_EQ(t.arm->stops, 1);
+  EXPECT_EQ(t.actuator->last_twist(), kZero);
+}
+
+TEST(Actuator, ArmFaultThrowsTheReasonAndOnAfterwardsResetsTheArm) {
+  ActuatorUnderTest t;
+  t.arm->status = rtm::comp::ArmStatus::fault;
+  t.arm->reason = "drive_fault: drive 4 (E1): EMCY 0x8250";
+  t.actuator->command_in().deliver(float6({0.01f, 0, 0, 0, 0, 0}));
+  try {
+    t.actuator->on_cycle(cycle(0));
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("EMCY 0x8250"), std::string::npos) << e.what();
+  }
+  t.actuator->on_start();
+  EXPECT_EQ(t.arm->resets, 1);
+}
+
+TEST(Actuator, ArmNotYetEnabledIsCountedNotAnError) {
+  ActuatorUnderTest t;
+  t.arm->status = rtm::comp::ArmStatus::not_ready;
+  EXPECT_NO_THROW(t.step({0.01f, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(t.actuator->counters().not_ready_cycles, 1u);
+  EXPECT_EQ(t.actuator->last_twist(), kZero);
+}
+
+TEST(Actuator, NegativeLimitOrZeroWatchdogIsRefused) {
+  rtm::comp::ActuatorParams p;
+  p.limit[2] = -0.1f;
+  EXPECT_THROW(rtm::comp::Actuator("a", std::make_unique<RecordingArm>(), p), std::invalid_argument);
+  rtm::comp::ActuatorParams q;
+  q.watchdog_periods = 0;
+  EXPECT_THROW(rtm::comp::Actuator("a", std::make_unique<RecordingArm>(), q), std::invalid_argument);
+}
+
+}  // namespace
