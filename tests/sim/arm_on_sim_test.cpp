@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "arm/can/bus.h"
 #include "arm/can/master.h"
@@ -33,10 +34,12 @@ std::string unique_bus_path() {
 
 class ArmOnSimTest : public ::testing::Test {
  protected:
-  void SetUp() override {
+  void SetUp() override { start(true); }
+  void start(bool lock_step) {
     bus_spec_ = "local:" + bus_path_;
-    sim_ = std::make_unique<rtm_test::ChildProcess>(
-        std::vector<std::string>{PA10_SIM_EXE, "--bus", bus_spec_, "--lockstep"});
+    std::vector<std::string> argv{PA10_SIM_EXE, "--bus", bus_spec_};
+    if (lock_step) argv.push_back("--lockstep");
+    sim_ = std::make_unique<rtm_test::ChildProcess>(argv);
     sim_->wait_for_line("pa10-sim: ready", 20s);
     pc::MasterConfig config;
     config.step_timeout = 2s;  // a loaded 2-core VM may stall; lock-step never misses a SYNC
@@ -45,6 +48,7 @@ class ArmOnSimTest : public ::testing::Test {
     arm_ = std::make_unique<rtm::pa10::Pa10Arm>(RTM_PA10_URDF, *master_);
   }
   void TearDown() override {
+    if (master_) master_->stop();
     arm_.reset();
     master_.reset();
     if (sim_) {
@@ -146,6 +150,39 @@ TEST_F(ArmOnSimTest, WithoutRpdosTheDrivesBrakeToZeroWithinThreeSyncs) {
     }
   }
   EXPECT_EQ(fault_syncs, 3);
+}
+
+// Real time: pa10-sim on its own 1 ms clock, the master on its own 2 ms thread. Only loose,
+// direction-and-sanity checks: host stalls on these VMs cost cycles, never correctness.
+class ArmOnRealTimeSimTest : public ArmOnSimTest {
+ protected:
+  void SetUp() override { start(false); }
+};
+
+TEST_F(ArmOnRealTimeSimTest, PeriodicMasterMovesTheToolForwardWithoutFault) {
+  master_->run_periodic();
+  // The arm reports not_enabled until the periodic thread has published its first cycles.
+  const auto ready_by = std::chrono::steady_clock::now() + 5s;
+  while (!arm_->orderVelocity({}) && std::chrono::steady_clock::now() < ready_by)
+    std::this_thread::sleep_for(2ms);
+  ASSERT_TRUE(arm_->orderVelocity({})) << toString(arm_->fault()) << " " << arm_->faultReason();
+  const Eigen::Vector3d start = arm_->toolPose().translation();
+  const auto until = std::chrono::steady_clock::now() + 1s;
+  while (std::chrono::steady_clock::now() < until) {
+    ASSERT_TRUE(arm_->orderVelocity({0.05f, 0, 0, 0, 0, 0})) << arm_->faultReason();
+    std::this_thread::sleep_for(2ms);
+  }
+  const auto still_until = std::chrono::steady_clock::now() + 500ms;
+  while (std::chrono::steady_clock::now() < still_until) {
+    ASSERT_TRUE(arm_->orderVelocity({})) << arm_->faultReason();
+    std::this_thread::sleep_for(2ms);
+  }
+  const Eigen::Vector3d moved = arm_->toolPose().translation() - start;
+  EXPECT_GT(moved.x(), 0.005);
+  EXPECT_LT(moved.x(), 0.06);
+  EXPECT_NEAR(moved.y(), 0.0, 0.002);
+  EXPECT_NEAR(moved.z(), 0.0, 0.002);
+  EXPECT_FALSE(arm_->inFault()) << arm_->faultReason();
 }
 
 }  // namespace

@@ -80,7 +80,8 @@ TEST(Pa10SceneMatchesUrdf, MassesCentresOfMassAndInertiasAgree) {
       EXPECT_NEAR(model->body_ipos[3 * body + i], com[i], 1e-9) << segment.getName();
     // KDL keeps the rotational inertia about the segment origin; MuJoCo about the COM, in
     // principal axes (identity here: the URDF inertias are diagonal in the link frame).
-    const double* about_origin = inertia.getRotationalInertia().data;
+    const KDL::RotationalInertia rotational = inertia.getRotationalInertia();
+    const double* about_origin = rotational.data;
     const double com_sq = dot(com, com);
     for (int i = 0; i < 3; ++i) {
       const double about_com = about_origin[4 * i] - mass_kg * (com_sq - com[i] * com[i]);
