@@ -97,6 +97,28 @@ TEST(CanLocalBus, SurvivesAnEndpointDying) {
   EXPECT_EQ(hub.counters().endpoints_closed, 1u);
 }
 
+TEST(CanLocalBus, ASlowEndpointLosesFramesWithoutBlockingTheOthers) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto sender = open_local(dir.file("bus"));
+  auto asleep = open_local(dir.file("bus"));  // never reads: its socket buffer fills up
+  auto reader = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 3; }));
+  constexpr int kFrames = 10000;  // far more than any socket buffer holds
+  can_frame got{};
+  for (int i = 0; i < kFrames; ++i) {
+    ASSERT_TRUE(sender->send(frame(0x181, static_cast<std::uint8_t>(i))));
+    ASSERT_TRUE(reader->receive(got, kArrives)) << "frame " << i;
+    ASSERT_EQ(got.data[0], static_cast<std::uint8_t>(i));
+  }
+  // The hub publishes its counters after each poll round: wait for the last one.
+  EXPECT_TRUE(eventually([&] {
+    const auto c = hub.counters();
+    return c.deliveries + c.deliveries_dropped == 2u * kFrames;
+  }));
+  EXPECT_GT(hub.counters().deliveries_dropped, 0u);
+}
+
 TEST(CanLocalBus, DropsShortLongAndBadDlcDatagramsAndCountsThem) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));

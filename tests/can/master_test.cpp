@@ -440,5 +440,18 @@ TEST(CanSensorListener, PollModeAndEmcyFault) {
   EXPECT_THROW(SensorListener(open_bus("local:" + dir.file("bus")), 3), std::invalid_argument);
 }
 
+TEST(CanSensorListener, ASilentHeartbeatIsReportedAsAFault) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  SensorListener listener(open_bus("local:" + dir.file("bus")), kJoystickSensorNode, 50ms);
+  auto device = open_bus("local:" + dir.file("bus"));
+  device->send(*encode_heartbeat(kJoystickSensorNode, NmtState::operational));
+  device->send(*encode_sync(1));
+  EXPECT_FALSE(listener.poll(200ms));  // no wrench, but the heartbeat was read
+  EXPECT_EQ(listener.counters().syncs, 1u);
+  std::this_thread::sleep_for(100ms);  // longer than the 50 ms heartbeat timeout
+  EXPECT_THAT(listener.fault(), HasSubstr("joystick sensor 0x11: no heartbeat"));
+}
+
 }  // namespace
 }  // namespace rtm::can
