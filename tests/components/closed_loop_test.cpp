@@ -1,0 +1,196 @@
+// The force servo closed around a real pa10-sim process in lock-step: joystick, sensor,
+// controller and actuator constructed directly in this process (no CORBA), each 2 ms step
+// running their cycles in order and then one master SYNC (the sim advances one period). The
+// operator's hand is a profile file given to pa10-sim. Everything is measured in bus time.
+#include "components/actuator/actuator.h"
+#include "components/controller/controller.h"
+#include "components/joystick/joystick.h"
+#include "components/sensor/sensor.h"
+
+#include "component_test_support.h"
+#include "rtm_test/child_process.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+
+namespace {
+
+using namespace std::chrono_literals;
+using comp_test::values;
+
+std::filesystem::path unique_path(const std::string& stem, const std::string& ext) {
+  static std::atomic<int> counter{0};
+  return std::filesystem::temp_directory_path() /
+         (stem + "-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ext);
+}
+
+class ClosedLoopTest : public ::testing::Test {
+ protected:
+  // Starts pa10-sim with the operator profile (YAML segments), the master, and the components.
+  void start(const std::string& profile_yaml) {
+    profile_path_ = unique_path("rtm-closed-loop-profile", ".yaml");
+    std::ofstream(profile_path_) << profile_yaml;
+    bus_spec_ = "local:" + unique_path("rtm-closed-loop", ".bus").string();
+    sim_ = std::make_unique<rtm_test::ChildProcess>(std::vector<std::string>{
+        PA10_SIM_EXE, "--bus", bus_spec_, "--lockstep", "--profile", profile_path_.string()});
+    sim_->wait_for_line("pa10-sim: ready", 30s);
+
+    rtm::comp::ArmHardware::Options options;
+    options.bus = bus_spec_;
+    options.urdf = RTM_PA10_URDF;
+    options.run_master_thread = false;
+    auto hardware = std::make_unique<rtm::comp::ArmHardware>(options);
+    hardware_ = hardware.get();
+    joystick_ = std::make_unique<rtm::comp::Joystick>(
+        "joystick0", std::make_unique<rtm::comp::MasterJoystickSource>(hardware_->master()));
+    sensor_ = std::make_unique<rtm::comp::Sensor>(
+        "sensor0", std::make_unique<rtm::comp::MasterWristSource>(hardware_->master()),
+        rtm::pa10::Kinematics::fromUrdfFile(RTM_PA10_URDF));
+    controller_ = std::make_unique<rtm::comp::Controller>("controller0", rtm::comp::ControllerParams{});
+    actuator_ = std::make_unique<rtm::comp::Actuator>("actuator0", std::move(hardware), rtm::comp::ActuatorParams{});
+
+    ASSERT_TRUE(joystick_->out().connect(controller_->reference_in()));
+    ASSERT_TRUE(sensor_->out().connect(controller_->sensor_in()));
+    ASSERT_TRUE(controller_->command_out().connect(actuator_->command_in()));
+    actuator_->on_start();
+    controller_->on_start();
+    sensor_->on_start();
+    joystick_->on_start();
+  }
+
+  void TearDown() override {
+    if (actuator_) actuator_->on_stop();
+    joystick_.reset();
+    sensor_.reset();
+    controller_.reset();
+    actuator_.reset();  // the master's last cycle and NMT pre-operational
+    if (sim_) {
+      const auto status = sim_->stop();
+      EXPECT_TRUE(status.clean()) << "pa10-sim ended with " << status.to_string();
+    }
+    if (!profile_path_.empty()) std::filesystem::remove(profile_path_);
+  }
+
+  // One 2 ms period: the cycles in data-flow order, then one SYNC.
+  void step() {
+    const rtm::CycleContext ctx = comp_test::cycle(cycle_++);
+    joystick_->on_cycle(ctx);
+    sensor_->on_cycle(ctx);
+    controller_->on_cycle(ctx);
+    actuator_->on_cycle(ctx);
+    ASSERT_TRUE(hardware_->master().step()) << "not every node answered the SYNC";
+  }
+  void steps(int count) {
+    for (int i = 0; i < count && !HasFatalFailure(); ++i) step();
+  }
+
+  // The wrench the sensor component last wrote (base frame; +z = the table pushing up).
+  std::array<float, 6> measured() {
+    RTM::TimedFloat6 out{};
+    sensor_->out().latest(out);
+    return values(out);
+  }
+  std::array<float, 6> commanded() {
+    RTM::TimedFloat6 out{};
+    controller_->command_out().latest(out);
+    return values(out);
+  }
+  Eigen::Vector3d tool_position() { return hardware_->arm().toolPose().translation(); }
+
+  std::filesystem::path profile_path_;
+  std::string bus_spec_;
+  std::unique_ptr<rtm_test::ChildProcess> sim_;
+  rtm::comp::ArmHardware* hardware_ = nullptr;
+  std::unique_ptr<rtm::comp::Joystick> joystick_;
+  std::unique_ptr<rtm::comp::Sensor> sensor_;
+  std::unique_ptr<rtm::comp::Controller> controller_;
+  std::unique_ptr<rtm::comp::Actuator> actuator_;
+  std::uint64_t cycle_ = 0;
+};
+
+// The operator presses down with 10 N from 0.2 s on (sim time) and holds.
+constexpr const char* kPress10N = R"(segments:
+  - hold: 0.2
+  - ramp: {duration_s: 0.3, force_N: [0, 0, -10]}
+)";
+
+TEST_F(ClosedLoopTest, PressingAt10NSettlesWithinHalfANewtonWithoutChattering) {
+  start(kPress10N);
+  // 5 cm of approach at 3 cm/s, contact, settling: 7 s of bus time; the last second must hold.
+  constexpr int kTotal = 3500, kSteadyFrom = 3000;
+  float min_N = 1e9f, max_N = -1e9f, max_speed_m_s = 0;
+  for (int i = 0; i < kTotal && !HasFatalFailure(); ++i) {
+    step();
+    if (i < kSteadyFrom) continue;
+    const float fz = measured()[2];
+    min_N = std::min(min_N, fz);
+    max_N = std::max(max_N, fz);
+    max_speed_m_s = std::max(max_speed_m_s, std::abs(commanded()[2]));
+  }
+  EXPECT_GE(min_N, 9.5f) << "the tool must press with 10 N (+z: the table's reaction)";
+  EXPECT_LE(max_N, 10.5f);
+  EXPECT_LE(max_N - min_N, 0.5f) << "bounded oscillation after settling";
+  EXPECT_LE(max_speed_m_s, 0.003f * 0.5f) << "the command stays within the gain times the allowed error";
+  EXPECT_EQ(actuator_->counters().watchdog_events, 0u);
+}
+
+TEST_F(ClosedLoopTest, FreeSpaceMotionFollowsTheJoystickDirection) {
+  // Forward, to the right and up (base frame), with no contact anywhere on the way.
+  start(R"(segments:
+  - hold: 0.1
+  - step: {force_N: [4, -3, 5]}
+)");
+  steps(100);  // the push has begun (sim time 0.1 s is within the master's start plus these)
+  const Eigen::Vector3d from = tool_position();
+  steps(500);  // 1 s
+  const Eigen::Vector3d moved = tool_position() - from;
+  const Eigen::Vector3d pushed = Eigen::Vector3d(4, -3, 5).normalized();
+  ASSERT_GT(moved.norm(), 0.01) << "the tool moved " << moved.transpose();
+  EXPECT_GT(moved.normalized().dot(pushed), 0.98) << "moved " << moved.transpose() << " for a push along "
+                                                  << pushed.transpose();
+}
+
+TEST_F(ClosedLoopTest, ChangingConnectionsWhileRunningNeitherCrashesNorJumps) {
+  start(kPress10N);
+  steps(3000);  // pressing, settled
+  ASSERT_NEAR(measured()[2], 10.0f, 0.5f);
+  float previous_N = measured()[2];
+  float largest_step_N = 0;
+  auto run_and_watch = [&](int count) {
+    for (int i = 0; i < count && !HasFatalFailure(); ++i) {
+      step();
+      const float fz = measured()[2];
+      largest_step_N = std::max(largest_step_N, std::abs(fz - previous_N));
+      previous_N = fz;
+      for (float v : commanded()) ASSERT_LE(std::abs(v), 0.05f);
+    }
+  };
+  // The sensor link goes away: stale input, zero command, the arm holds where it is.
+  ASSERT_TRUE(sensor_->out().disconnect(controller_->sensor_in()));
+  run_and_watch(100);
+  EXPECT_EQ(commanded(), (std::array<float, 6>{})) << "a stale sensor gives a zero command";
+  ASSERT_TRUE(sensor_->out().connect(controller_->sensor_in()));
+  run_and_watch(100);
+  // The reference link is cut and made again; a duplicate connect is refused, not doubled.
+  ASSERT_TRUE(joystick_->out().disconnect(controller_->reference_in()));
+  run_and_watch(50);
+  ASSERT_TRUE(joystick_->out().connect(controller_->reference_in()));
+  EXPECT_FALSE(joystick_->out().connect(controller_->reference_in()));
+  // The command link too: the actuator's watchdog stops the arm meanwhile.
+  ASSERT_TRUE(controller_->command_out().disconnect(actuator_->command_in()));
+  run_and_watch(50);
+  ASSERT_TRUE(controller_->command_out().connect(actuator_->command_in()));
+  run_and_watch(500);
+  EXPECT_LE(largest_step_N, 1.0f) << "no jump in the contact force from one period to the next";
+  EXPECT_NEAR(measured()[2], 10.0f, 0.5f) << "back at the reference after the changes";
+  EXPECT_EQ(actuator_->counters().watchdog_events, 1u) << "only the cut command link trips the watchdog";
+}
+
+}  // namespace
