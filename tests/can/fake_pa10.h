@@ -49,6 +49,11 @@ class FakePa10 {
     drives_[static_cast<std::size_t>(joint_index_of(drive))].cia.raise_fault();
     send(encode_emcy(drive, emcy::kDeviceHardware, 0x01));
   }
+  // The drive's fault cannot be reset: it faults again at every SYNC (broken hardware).
+  void hold_in_fault(std::uint8_t drive) {
+    std::lock_guard lock(mutex_);
+    drives_[static_cast<std::size_t>(joint_index_of(drive))].stuck_in_fault = true;
+  }
   void silence(std::uint8_t node) {
     std::lock_guard lock(mutex_);
     options_.silent_nodes.insert(node);
@@ -105,6 +110,7 @@ class FakePa10 {
     double latched_velocity_rad_s = 0;
     double position_rad = 0;
     bool drop_next = false;
+    bool stuck_in_fault = false;
   };
   static constexpr double kSyncPeriod_s = 0.002;
 
@@ -228,6 +234,7 @@ class FakePa10 {
         send(encode_emcy(node, emcy::kRpdoTimeout, 0x01));
       }
       d.rpdo_since_sync = false;
+      if (d.stuck_in_fault) d.cia.raise_fault();
       const double velocity = d.cia.follows_target_velocity() ? d.latched_velocity_rad_s : 0.0;
       d.position_rad += velocity * kSyncPeriod_s;
       if (d.drop_next) {

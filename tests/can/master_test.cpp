@@ -208,6 +208,27 @@ TEST(Pa10Master, FaultResetReenablesTheDriveAndKeepsTargetsZeroUntilSetAgain) {
   EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.25);
 }
 
+TEST(Pa10Master, AFaultResetThatDoesNotTakeRaisesTheFaultAgain) {
+  MasterConfig config = test_config();
+  config.enable_timeout = 300ms;
+  Rig rig({}, config);
+  rig.master->start();
+  rig.fake->hold_in_fault(drive_node(2));
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
+  rig.master->fault_reset();
+  rig.master->step();  // the master takes the reset up
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (!rig.master->fault().active() && std::chrono::steady_clock::now() < deadline) {
+    rig.master->step();
+    std::this_thread::sleep_for(1ms);
+  }
+  const MasterFault f = rig.master->fault();
+  EXPECT_EQ(f.kind, FaultKind::drive_fault);
+  EXPECT_THAT(f.reason, HasSubstr("fault reset failed: drive 3 (S3) still fault"));
+  EXPECT_FALSE(rig.master->enabled());
+  EXPECT_EQ(rig.fake->drive_state(drive_node(0)), DriveState::operation_enabled);
+}
+
 TEST(Pa10Master, HeartbeatLossOfASensorIsAFaultNamingIt) {
   MasterConfig config = test_config();
   config.heartbeat_timeout = 300ms;
