@@ -1,0 +1,181 @@
+// The servo composite through real CORBA and a real omniNames: members found by name, on()
+// subscribes and turns them on, the servo's InPort 0 is the controller's InPort 1 (a put on it
+// lands in the controller), data flows sensor -> controller -> actuator, off() undoes it all.
+// The members live in this process as ExternalTick servants, so the test runs their cycles.
+#include "components/servo/servo.h"
+
+#include "component_test_support.h"
+#include "rtm/naming.h"
+#include "rtm/orb.h"
+#include "rtm_test/omni_names.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+namespace {
+
+using comp_test::cycle;
+using comp_test::float6;
+
+rtm::Orb& test_orb() {
+  static rtm::Orb orb;  // omniORB: one ORB per process
+  return orb;
+}
+
+class FakeWristSource final : public rtm::comp::WristSampleSource {
+ public:
+  rtm::comp::WristSample sample;
+  rtm::comp::WristSample latest() const override { return sample; }
+  std::string fault() const override { return ""; }
+};
+
+class RecordingArm final : public rtm::comp::VelocityArm {
+ public:
+  std::vector<std::array<float, 6>> ordered;
+  rtm::comp::ArmStatus order_velocity(const std::array<float, 6>& twist) override {
+    ordered.push_back(twist);
+    return rtm::comp::ArmStatus::ready;
+  }
+  void stop() override {}
+  std::string fault_reason() const override { return ""; }
+  bool in_fault() const override { return false; }
+  void reset() override {}
+  BusPosition bus_position() const override { return {}; }
+};
+
+class ServoWiringTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto source = std::make_unique<FakeWristSource>();
+    source_ = source.get();
+    // The ready pose: tool pointing down (sensor +z = base -z).
+    source_->sample.q_rad = {0, 0.360534478941, 0, 1.828143726078, 0, 0.952914448571, 0};
+    auto arm = std::make_unique<RecordingArm>();
+    arm_ = arm.get();
+    rtm::comp::ControllerParams gains;
+    gains.gain = {1, 1, 1, 1, 1, 1};
+    rtm::comp::ActuatorParams limits;
+    limits.limit = {100, 100, 100, 100, 100, 100};
+    sensor_ = new rtm::ComponentServant(
+        std::make_unique<rtm::comp::Sensor>("sensor0", std::move(source), rtm::pa10::Kinematics::fromUrdfFile(RTM_PA10_URDF)),
+        rtm::ExternalTick{});
+    controller_ = new rtm::ComponentServant(std::make_unique<rtm::comp::Controller>("controller0", gains), rtm::ExternalTick{});
+    actuator_ = new rtm::ComponentServant(std::make_unique<rtm::comp::Actuator>("actuator0", std::move(arm), limits),
+                                          rtm::ExternalTick{});
+    const rtm::NamingClient naming(test_orb().orb(), rtm::NamingAddress::parse(names_.address()));
+    for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) {
+      RTM::RtComponentEx_var ref = member->activate(test_orb());
+      naming.bind(rtm::ComponentPath::on_this_host(member->component().name()), ref);
+    }
+    auto servo = std::make_unique<rtm::comp::RemoteServo>("servo0", naming.resolve_component("sensor0"),
+                                                          naming.resolve_component("controller0"),
+                                                          naming.resolve_component("actuator0"));
+    RTM::InPort_var reference = servo->reference_port();
+    servo_ = new rtm::ComponentServant(std::move(servo), rtm::ExternalTick{});
+    servo_ref_ = servo_->activate(test_orb());
+    servo_->expose_in_port(0, reference);
+  }
+  void TearDown() override {
+    for (auto* s : {servo_.in(), sensor_.in(), controller_.in(), actuator_.in()}) {
+      s->off();
+      s->deactivate();
+    }
+  }
+
+  rtm::comp::Sensor& sensor() { return static_cast<rtm::comp::Sensor&>(sensor_->component()); }
+  rtm::comp::Controller& controller() { return static_cast<rtm::comp::Controller&>(controller_->component()); }
+  rtm::comp::Actuator& actuator() { return static_cast<rtm::comp::Actuator&>(actuator_->component()); }
+  void run_members_once(std::uint64_t n) {
+    sensor_->cycle_function()(cycle(n));
+    controller_->cycle_function()(cycle(n));
+    actuator_->cycle_function()(cycle(n));
+  }
+
+  rtm_test::OmniNames names_;
+  FakeWristSource* source_ = nullptr;
+  RecordingArm* arm_ = nullptr;
+  PortableServer::Servant_var<rtm::ComponentServant> sensor_, controller_, actuator_, servo_;
+  RTM::RtComponentEx_var servo_ref_;
+};
+
+TEST_F(ServoWiringTest, OnSubscribesSensorToControllerToActuatorAndTurnsEachOn) {
+  EXPECT_EQ(sensor().out().subscription_count(), 0u);
+  servo_ref_->on();
+  EXPECT_EQ(servo_ref_->state(), RTM::COMPONENT_ON);
+  for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()})
+    EXPECT_EQ(member->current_state(), RTM::COMPONENT_ON) << member->component().name();
+  EXPECT_EQ(sensor().out().subscription_count(), 1u);
+  EXPECT_EQ(controller().command_out().subscription_count(), 1u);
+  RTM::SubscriptionInfoList_var subs = controller().command_out().subscriptions();
+  ASSERT_EQ(subs->length(), 1u);
+  EXPECT_EQ(subs[0].req_type, RTM::repeated);
+}
+
+TEST_F(ServoWiringTest, ServoInPortZeroIsTheControllersReferencePort) {
+  RTM::InPortList_var servo_ins = servo_ref_->in_ports();
+  ASSERT_EQ(servo_ins->length(), 1u);
+  RTM::InPortEx_var controller_in1 = controller().reference_in().reference();
+  EXPECT_TRUE(servo_ins[0]->_is_equivalent(controller_in1.in()));
+  CORBA::Any any;
+  any <<= float6({0, 0, -7, 0, 0, 0});
+  servo_ins[0]->put(any);  // through the ORB, to the servo's port
+  RTM::TimedFloat6 got{};
+  ASSERT_EQ(controller().reference_in().read(got), rtm::ReadResult::NewData) << "the put landed in the controller";
+  EXPECT_FLOAT_EQ(got.val[2], -7.0f);
+}
+
+TEST_F(ServoWiringTest, DataFlowsFromSensorThroughControllerToTheArm) {
+  servo_ref_->on();
+  RTM::InPortList_var servo_ins = servo_ref_->in_ports();
+  CORBA::Any any;
+  any <<= float6({0, 0, -10, 0, 0, 0});
+  servo_ins[0]->put(any);
+  source_->sample.wrench_sensor = {0, 0, 4, 0, 0, 0};  // sensor frame: tool down, so -4 N in base z
+  source_->sample.valid = true;
+  source_->sample.sequence = 1;
+  run_members_once(0);
+  ASSERT_FALSE(arm_->ordered.empty());
+  EXPECT_NEAR(arm_->ordered.back()[2], 1.0 * (-10 + -4), 1e-3) << "gain * (ref + sen) reached the arm";
+}
+
+TEST_F(ServoWiringTest, OffTurnsTheMembersOffAndRemovesTheSubscriptions) {
+  servo_ref_->on();
+  servo_ref_->off();
+  EXPECT_EQ(servo_ref_->state(), RTM::COMPONENT_OFF);
+  for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()})
+    EXPECT_EQ(member->current_state(), RTM::COMPONENT_OFF) << member->component().name();
+  EXPECT_EQ(sensor().out().subscription_count(), 0u);
+  EXPECT_EQ(controller().command_out().subscription_count(), 0u);
+  servo_ref_->on();  // and again: nothing was left behind that would refuse it
+  EXPECT_EQ(servo_ref_->state(), RTM::COMPONENT_ON);
+  EXPECT_EQ(sensor().out().subscription_count(), 1u);
+}
+
+TEST_F(ServoWiringTest, AMemberWithoutTheExpectedPortFailsOnNamingTheLinkAndTurnsNothingOn) {
+  // A "sensor" with no OutPort: the wiring step must fail, say which link, and leave the
+  // other members off and unsubscribed.
+  class PortlessSensor final : public rtm::Component {
+   public:
+    PortlessSensor() : Component("sensor9", "sensor") {}
+    void on_cycle(const rtm::CycleContext&) override {}
+  };
+  PortableServer::Servant_var<rtm::ComponentServant> portless =
+      new rtm::ComponentServant(std::make_unique<PortlessSensor>(), rtm::ExternalTick{});
+  RTM::RtComponentEx_var portless_ref = portless->activate(test_orb());
+  RTM::RtComponentEx_var controller_ref = controller_->reference();
+  RTM::RtComponentEx_var actuator_ref = actuator_->reference();
+  rtm::comp::RemoteServo servo("servo1", portless_ref, controller_ref, actuator_ref);
+  try {
+    servo.on_start();
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("sensor9.out0 -> controller0.in0"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(controller().command_out().subscription_count(), 0u);
+  EXPECT_EQ(actuator_->current_state(), RTM::COMPONENT_OFF);
+  EXPECT_EQ(controller_->current_state(), RTM::COMPONENT_OFF);
+  portless->deactivate();
+}
+
+}  // namespace
