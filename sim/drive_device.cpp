@@ -40,10 +40,10 @@ void DriveDevice::on_frame(const can_frame& frame, std::int64_t now_ns, FrameSin
       handle_nmt(frame, now_ns, out);
       break;
     case pc::FrameType::sync:
-      if (pc::decode_sync(frame).ok()) handle_sync(out);
+      if (pc::decode_sync(frame).ok()) handle_sync(now_ns, out);
       break;
     case pc::FrameType::drive_command:
-      if (kind.node == config_.node_id) handle_rpdo(frame);
+      if (kind.node == config_.node_id) handle_rpdo(frame, now_ns);
       break;
     case pc::FrameType::sdo_request:
       if (kind.node == config_.node_id) handle_sdo(frame, out);
@@ -77,16 +77,17 @@ void DriveDevice::handle_nmt(const can_frame& frame, std::int64_t now_ns, FrameS
   }
 }
 
-void DriveDevice::handle_rpdo(const can_frame& frame) {
+void DriveDevice::handle_rpdo(const can_frame& frame, std::int64_t now_ns) {
   if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::operational)) return;
   const auto command = pc::decode_drive_command(frame);
   if (!command.ok()) return;
+  last_rpdo_ns_ = now_ns;
   rpdo_pending_ = true;
   pending_controlword_ = command->controlword;
   pending_velocity_rad_s_ = command->target_velocity_rad_s;
 }
 
-void DriveDevice::handle_sync(FrameSink& out) {
+void DriveDevice::handle_sync(std::int64_t now_ns, FrameSink& out) {
   ++syncs_seen_;
   if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::operational)) return;
   tpdo_due_ = true;
@@ -94,7 +95,9 @@ void DriveDevice::handle_sync(FrameSink& out) {
     rpdo_pending_ = false;
     syncs_without_rpdo_ = 0;
     const bool was_fault = in_fault();
+    const bool was_enabled = drive_.follows_target_velocity();
     drive_.apply_controlword(pending_controlword_);
+    if (!was_enabled && drive_.follows_target_velocity()) last_rpdo_ns_ = now_ns;
     if (was_fault && !in_fault()) send_emcy(pc::emcy::kErrorReset, out);
     target_velocity_rad_s_ = pending_velocity_rad_s_;
     return;
@@ -131,6 +134,9 @@ void DriveDevice::send_tpdo(const JointState& state, FrameSink& out) {
 
 void DriveDevice::tick(std::int64_t now_ns, FrameSink& out) {
   if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::boot_up)) return;
+  if (drive_.follows_target_velocity() && config_.rpdo_silence_timeout_ns > 0 &&
+      now_ns - last_rpdo_ns_ > config_.rpdo_silence_timeout_ns)
+    enter_fault(pc::emcy::kRpdoTimeout, out);
   if (now_ns < next_heartbeat_ns_) return;
   send_heartbeat(out);
   // Catch up without a burst when the clock jumped by several periods.

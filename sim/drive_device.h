@@ -19,7 +19,9 @@
 //     position, velocity) after each SYNC while operational;
 //   - safety: in operation enabled, when `rpdo_timeout_syncs` SYNCs in a row arrive without an
 //     RPDO1 in between, the drive brakes (command() becomes hold), sends EMCY 0x8250 and enters
-//     fault; a fault reset (controlword bit 7 rising) clears it and sends EMCY 0x0000.
+//     fault; a fault reset (controlword bit 7 rising) clears it and sends EMCY 0x0000. The same
+//     happens when the master falls silent altogether (no SYNC either) for
+//     `rpdo_silence_timeout_ns` of device time, so a dead master does not leave the arm moving.
 #pragma once
 
 #include <linux/can.h>
@@ -51,6 +53,9 @@ struct DriveConfig {
   std::uint8_t node_id = 1;                         // 1..7 for S1..W2
   std::int64_t heartbeat_period_ns = 100'000'000;   // 0x1017, 100 ms
   int rpdo_timeout_syncs = 3;                       // SYNCs without RPDO1 before the fault
+  // Device time without any RPDO1 before the fault, for a master that stopped sending SYNC
+  // too. Generous: a host stall of the master must not fault the drives in real time.
+  std::int64_t rpdo_silence_timeout_ns = 100'000'000;
 };
 
 class DriveDevice {
@@ -70,7 +75,8 @@ class DriveDevice {
   // operational; does nothing otherwise.
   void send_tpdo(const JointState& state, FrameSink& out);
 
-  // Advances the device clock: sends the heartbeat when its period has elapsed.
+  // Advances the device clock: sends the heartbeat when its period has elapsed; faults an
+  // enabled drive whose master has been silent for rpdo_silence_timeout_ns.
   void tick(std::int64_t now_ns, FrameSink& out);
 
   // Sends a heartbeat now (pa10-sim's lock-step mode also beats on the wall clock, so a
@@ -91,8 +97,8 @@ class DriveDevice {
 
  private:
   void handle_nmt(const can_frame& frame, std::int64_t now_ns, FrameSink& out);
-  void handle_sync(FrameSink& out);
-  void handle_rpdo(const can_frame& frame);
+  void handle_sync(std::int64_t now_ns, FrameSink& out);
+  void handle_rpdo(const can_frame& frame, std::int64_t now_ns);
   void handle_sdo(const can_frame& frame, FrameSink& out);
   void enter_fault(std::uint16_t emcy_code, FrameSink& out);
   void send_emcy(std::uint16_t code, FrameSink& out);
@@ -107,6 +113,7 @@ class DriveDevice {
   double pending_velocity_rad_s_ = 0;
   double target_velocity_rad_s_ = 0;
   int syncs_without_rpdo_ = 0;
+  std::int64_t last_rpdo_ns_ = 0;  // device time of the last RPDO1 (or of enabling)
   bool tpdo_due_ = false;
   std::uint32_t syncs_seen_ = 0;
   std::int64_t next_heartbeat_ns_ = 0;

@@ -54,9 +54,9 @@ class OperatorProfile {
   bool repeat_ = false;
 };
 
-// Parses one stdin command line "fx fy fz [tx ty tz]" (N, N·m; blank or '#' lines give
-// nullopt-like false). Returns true and fills `wrench` for a valid line, false for a blank or
-// comment line; throws ProfileError naming the line for anything else.
+// Parses one stdin command line "fx fy fz [tx ty tz]" (N, N·m). Returns true and fills
+// `wrench` for a valid line, false for a blank or '#' comment line (wrench untouched); throws
+// ProfileError naming the line for anything else.
 bool parse_wrench_line(const std::string& line, Wrench& wrench);
 
 }  // namespace rtm::sim

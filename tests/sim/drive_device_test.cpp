@@ -196,6 +196,22 @@ TEST_F(DriveDeviceTest, ThreeSyncsWithoutRpdoBrakeSendEmcy8250AndFault) {
   EXPECT_EQ(tpdo->statusword & pc::statusword::kStateMask, pc::statusword::kFault);
 }
 
+TEST_F(DriveDeviceTest, MasterSilentFor100msWithoutSyncsEitherBrakesTheDrive) {
+  enable();
+  const std::int64_t last_rpdo_ns = now_ns_;
+  rpdo(pc::controlword::kEnableOperation, 0.3);
+  sync();
+  out_.clear();
+  drive_.tick(last_rpdo_ns + 99 * kMs, out_);
+  EXPECT_FALSE(drive_.in_fault()) << "a host stall of the master is tolerated";
+  drive_.tick(last_rpdo_ns + 101 * kMs, out_);
+  EXPECT_TRUE(drive_.in_fault());
+  EXPECT_EQ(drive_.command().mode, JointCommand::Mode::hold);
+  const auto sent = emcys();
+  ASSERT_EQ(sent.size(), 1u);
+  EXPECT_EQ(sent[0].error_code, pc::emcy::kRpdoTimeout);
+}
+
 TEST_F(DriveDeviceTest, OneRpdoPerSyncKeepsTheDriveEnabled) {
   enable();
   for (int i = 0; i < 50; ++i) {

@@ -4,8 +4,24 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
 #include "arm/can/protocol.h"
 #include "recording_sink.h"
+
+// Counts heap allocations of this test binary, to prove the lock-step cycle makes none.
+namespace {
+std::atomic<long> g_allocations{0};
+}  // namespace
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace pc = rtm::can;
 using rtm::sim::Pa10Simulator;
@@ -118,6 +134,35 @@ TEST_F(LockStepSimulatorTest, WithoutRpdosEveryDriveBrakesToZeroWithinThreeSyncs
     const auto emcy = out_.with_id(pc::cob::kEmcyBase + pc::drive_node(j));
     ASSERT_EQ(emcy.size(), 1u);
     EXPECT_EQ(pc::decode_emcy(emcy[0])->error_code, pc::emcy::kRpdoTimeout);
+  }
+}
+
+TEST_F(LockStepSimulatorTest, ASyncCycleAllocatesNothing) {
+  start_up();
+  cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
+  out_.frames.reserve(out_.frames.size() + 10000);  // the recording sink's own growth
+  const long before = g_allocations.load();
+  for (int i = 0; i < 200; ++i) cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
+  EXPECT_EQ(g_allocations.load() - before, 0);
+}
+
+TEST_F(LockStepSimulatorTest, WithASeparateSensorBusTheSensorsAnswerOnlyThere) {
+  RecordingSink sensor_bus;
+  sim_.set_sensor_sink(&sensor_bus);
+  start_up();
+  out_.clear();
+  cycle(pc::controlword::kEnableOperation);
+  EXPECT_TRUE(out_.with_id(pc::cob::kTpdo1Base + pc::kWristSensorNode).empty());
+  EXPECT_EQ(out_.with_id(pc::cob::kTpdo1Base + pc::drive_node(0)).size(), 1u);
+  EXPECT_TRUE(sensor_bus.with_id(pc::cob::kTpdo1Base + pc::kWristSensorNode).empty())
+      << "the sensors are not operational on their bus yet";
+  sim_.on_sensor_bus_frame(*pc::encode_nmt(pc::NmtCommand::start, 0));
+  const std::int64_t before_ns = sim_.time_ns();
+  sim_.on_sensor_bus_frame(*pc::encode_sync(1));
+  EXPECT_EQ(sim_.time_ns(), before_ns) << "a sensor-bus SYNC never advances the physics";
+  for (std::uint8_t node : {pc::kWristSensorNode, pc::kJoystickSensorNode}) {
+    EXPECT_EQ(sensor_bus.with_id(pc::cob::kTpdo1Base + node).size(), 1u);
+    EXPECT_EQ(sensor_bus.with_id(pc::cob::kTpdo2Base + node).size(), 1u);
   }
 }
 
