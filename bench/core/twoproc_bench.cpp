@@ -1,0 +1,297 @@
+// Two processes over loopback: one-way latency of TimedFloat6 paced at 1 kHz and burst
+// throughput, through RTM's ports (OutPort::write in the publisher process -> delivery
+// thread -> InPort::put in this process), beside a bare omniORB put(any) on a servant with
+// no RTM code as the floor. Each transport is chosen by the publisher's client transport
+// rule: the receiving InPort offers both TCP and a unix socket.
+//
+//   rtm_bench_twoproc [--cpu N] [--paced N] [--burst N] [--transport tcp|unix|both]
+//
+// --cpu N pins both processes to CPU N (MACHINE-NOTES: stages that wake each other are
+// fastest on one CPU). This process is the receiver; it runs itself again as the publisher
+// (--role publisher ...), one child per row.
+#include "bench_stats.h"
+
+#include "rtm/activity.h"
+#include "rtm/inport.h"
+#include "rtm/log.h"
+#include "rtm/orb.h"
+#include "rtm/outport.h"
+
+#include <fcntl.h>
+#include <sched.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+
+extern char** environ;
+
+namespace {
+
+using Float6In = rtm::InPort<RTM::TimedFloat6>;
+using Float6Out = rtm::OutPort<RTM::TimedFloat6>;
+
+struct Args {
+  std::map<std::string, std::string> values;
+  std::string get(const std::string& key, const std::string& fallback) const {
+    auto it = values.find(key);
+    return it == values.end() ? fallback : it->second;
+  }
+  long number(const std::string& key, long fallback) const { return std::stol(get(key, std::to_string(fallback))); }
+};
+
+Args parse(int argc, char** argv) {
+  Args args;
+  for (int i = 1; i + 1 < argc; i += 2) args.values[argv[i]] = argv[i + 1];
+  return args;
+}
+
+void pin(int cpu) {
+  if (cpu < 0) return;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  sched_setaffinity(0, sizeof(set), &set);
+}
+
+void stamp(RTM::TimedFloat6& d) {
+  const auto now = rtm_bench::monotonic_ns();
+  d.tm.sec = static_cast<CORBA::ULong>(now / 1'000'000'000);
+  d.tm.nsec = static_cast<CORBA::ULong>(now % 1'000'000'000);
+}
+
+std::int64_t stamp_ns(const RTM::TimedFloat6& d) { return std::int64_t{d.tm.sec} * 1'000'000'000 + d.tm.nsec; }
+
+// ---------------------------------------------------------------------------------------------
+// Publisher (child process)
+// ---------------------------------------------------------------------------------------------
+
+int run_publisher(const Args& args) {
+  const int cpu = static_cast<int>(args.number("--cpu", -1));
+  pin(cpu);
+  const std::string transport = args.get("--transport", "tcp");
+  const std::string mode = args.get("--mode", "paced");
+  const auto count = static_cast<std::size_t>(args.number("--count", 1000));
+  rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBclientTransportRule", "* " + transport});
+  CORBA::Object_var target_object = orb.from_string(args.get("--target", ""));
+  RTM::InPort_var target = RTM::InPort::_narrow(target_object);
+
+  if (mode == "bare-paced" || mode == "bare-burst") {
+    CORBA::Any any;
+    RTM::TimedFloat6 datum{};
+    any <<= datum;
+    for (int i = 0; i < 1000; ++i) target->put(any);  // connect and warm up
+    std::vector<std::int64_t> rtt_ns;
+    rtt_ns.reserve(count);
+    const auto start = rtm_bench::monotonic_ns();
+    timespec next{};
+    clock_gettime(CLOCK_MONOTONIC, &next);
+    for (std::size_t i = 0; i < count; ++i) {
+      if (mode == "bare-paced") {
+        next.tv_nsec += 1'000'000;
+        if (next.tv_nsec >= 1'000'000'000) {
+          next.tv_nsec -= 1'000'000'000;
+          ++next.tv_sec;
+        }
+        clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
+      }
+      const auto before = rtm_bench::monotonic_ns();
+      target->put(any);
+      rtt_ns.push_back(rtm_bench::monotonic_ns() - before);
+    }
+    const auto elapsed_ns = rtm_bench::monotonic_ns() - start;
+    const auto s = rtm_bench::summarize(rtt_ns);
+    std::printf("RESULT rtt_p50_us=%.2f rtt_p99_us=%.2f rtt_max_us=%.2f rate_per_s=%.0f\n", s.p50_us, s.p99_us,
+                s.max_us, static_cast<double>(count) / (static_cast<double>(elapsed_ns) / 1e9));
+    return 0;
+  }
+
+  rtm::OutPortOptions options;
+  options.oneway = mode == "burst-oneway";
+  PortableServer::Servant_var<Float6Out> out(new Float6Out("out", "publisher", options));
+  RTM::OutPortEx_var out_ref = out->activate(orb);
+  if (!out->subscribe(RTM::repeated, target)) {
+    std::fprintf(stderr, "publisher: subscribe refused: %s\n", out->last_refusal().c_str());
+    return 1;
+  }
+  RTM::TimedFloat6 datum{};
+  if (mode == "paced") {
+    std::atomic<std::size_t> written{0};
+    rtm::PeriodicOptions periodic;
+    periodic.period_ns = 1'000'000;
+    periodic.cpu = cpu;
+    rtm::PeriodicActivity activity(
+        [&](const rtm::CycleContext&) {
+          stamp(datum);
+          out->write(datum);
+          return written.fetch_add(1) + 1 < count;
+        },
+        periodic);
+    activity.start();
+    while (written.load() < count) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    activity.stop();
+  } else {
+    for (std::size_t i = 0; i < count; ++i) {
+      stamp(datum);
+      out->write(datum);
+    }
+  }
+  // Let the delivery thread finish what is in flight.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto c = out->counters_snapshot();
+  std::printf("RESULT written=%llu pushed=%llu dropped=%llu failed=%llu\n",
+              static_cast<unsigned long long>(c.written), static_cast<unsigned long long>(c.pushed),
+              static_cast<unsigned long long>(c.dropped), static_cast<unsigned long long>(c.failed));
+  out->close();
+  out->deactivate();
+  return 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Receiver (this process)
+// ---------------------------------------------------------------------------------------------
+
+// A servant with no RTM code: the floor of what any put(any) costs.
+class BareInPort : public POA_RTM::InPort {
+ public:
+  void put(const CORBA::Any& value) override {
+    const RTM::TimedFloat6* d = nullptr;
+    if (value >>= d) received.fetch_add(1, std::memory_order_relaxed);
+  }
+  char* name() override { return CORBA::string_dup("bare"); }
+  CORBA::TypeCode_ptr port_type() override { return CORBA::TypeCode::_duplicate(RTM::_tc_TimedFloat6); }
+  std::atomic<std::uint64_t> received{0};
+};
+
+struct Receiver {
+  std::mutex mu;
+  std::vector<std::int64_t> latency_ns;
+  std::int64_t first_ns = 0;
+  std::int64_t last_ns = 0;
+  std::uint64_t count = 0;
+
+  void reset(std::size_t expected) {
+    std::lock_guard lock(mu);
+    latency_ns.clear();
+    latency_ns.reserve(expected);
+    first_ns = last_ns = 0;
+    count = 0;
+  }
+  void on_datum(const RTM::TimedFloat6& d) {
+    const auto now = rtm_bench::monotonic_ns();
+    std::lock_guard lock(mu);
+    if (latency_ns.size() < latency_ns.capacity()) latency_ns.push_back(now - stamp_ns(d));
+    if (count++ == 0) first_ns = now;
+    last_ns = now;
+  }
+};
+
+std::string run_child(const char* self, const std::vector<std::string>& child_args) {
+  int fds[2];
+  if (pipe(fds) != 0) return {};
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+  posix_spawn_file_actions_addclose(&actions, fds[0]);
+  std::vector<std::string> storage{self};
+  storage.insert(storage.end(), child_args.begin(), child_args.end());
+  std::vector<char*> argv;
+  for (auto& s : storage) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, self, &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  close(fds[1]);
+  std::string output;
+  if (rc == 0) {
+    char buffer[4096];
+    ssize_t n;
+    while ((n = read(fds[0], buffer, sizeof(buffer))) > 0) output.append(buffer, static_cast<std::size_t>(n));
+    int status = 0;
+    waitpid(pid, &status, 0);
+  }
+  close(fds[0]);
+  return output;
+}
+
+std::string result_line(const std::string& output) {
+  const auto at = output.find("RESULT ");
+  if (at == std::string::npos) return "(publisher failed: " + output + ")";
+  return output.substr(at + 7, output.find('\n', at) - at - 7);
+}
+
+int run_receiver(const char* self, const Args& args) {
+  const int cpu = static_cast<int>(args.number("--cpu", -1));
+  pin(cpu);
+  const auto paced = static_cast<std::size_t>(args.number("--paced", 5000));
+  const auto burst = static_cast<std::size_t>(args.number("--burst", 200000));
+  const std::string which = args.get("--transport", "both");
+  rtm::log().set_level(spdlog::level::warn);
+
+  rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBendPoint", "giop:unix:"});
+  Receiver receiver;
+  PortableServer::Servant_var<Float6In> in(new Float6In(
+      "in", "receiver",
+      rtm::InPortPolicy::callback<RTM::TimedFloat6>([&](const RTM::TimedFloat6& d) { receiver.on_datum(d); })));
+  RTM::InPortEx_var in_ref = in->activate(orb);
+  const std::string in_ior = orb.to_string(in_ref);
+  PortableServer::Servant_var<BareInPort> bare(new BareInPort);
+  CORBA::Object_var bare_ref = orb.activate(bare.in());
+  const std::string bare_ior = orb.to_string(bare_ref);
+
+  std::printf("two processes, TimedFloat6, %s\n", cpu >= 0 ? ("both pinned to CPU " + std::to_string(cpu)).c_str()
+                                                            : "unpinned");
+  for (const std::string transport : {"tcp", "unix"}) {
+    if (which != "both" && which != transport) continue;
+    const std::vector<std::string> common{"--role", "publisher", "--transport", transport, "--cpu", std::to_string(cpu)};
+    auto with = [&](std::vector<std::string> extra) {
+      auto all = common;
+      all.insert(all.end(), extra.begin(), extra.end());
+      return all;
+    };
+
+    receiver.reset(paced);
+    const auto paced_out = run_child(self, with({"--target", in_ior, "--mode", "paced", "--count", std::to_string(paced)}));
+    {
+      std::lock_guard lock(receiver.mu);
+      const auto label = "[" + transport + "] RTM one-way, paced 1 kHz";
+      rtm_bench::print_row(label.c_str(), rtm_bench::summarize(receiver.latency_ns));
+      std::printf("%-44s publisher: %s\n", "", result_line(paced_out).c_str());
+    }
+
+    for (const std::string mode : {"burst", "burst-oneway"}) {
+      receiver.reset(0);
+      const auto out = run_child(self, with({"--target", in_ior, "--mode", mode, "--count", std::to_string(burst)}));
+      std::lock_guard lock(receiver.mu);
+      const double seconds = static_cast<double>(receiver.last_ns - receiver.first_ns) / 1e9;
+      std::printf("[%s] RTM burst, %s %*s %.0f msg/s received (%llu of %zu written)\n", transport.c_str(),
+                  mode == "burst" ? "put (twoway)  " : "push (oneway) ", 10, "",
+                  seconds > 0 ? static_cast<double>(receiver.count) / seconds : 0.0,
+                  static_cast<unsigned long long>(receiver.count), burst);
+      std::printf("%-44s publisher: %s\n", "", result_line(out).c_str());
+    }
+
+    const auto bare_paced = run_child(self, with({"--target", bare_ior, "--mode", "bare-paced", "--count", std::to_string(paced)}));
+    std::printf("[%s] bare omniORB put(any) round trip, 1 kHz: %s\n", transport.c_str(), result_line(bare_paced).c_str());
+    const auto bare_burst = run_child(self, with({"--target", bare_ior, "--mode", "bare-burst", "--count", std::to_string(burst / 4)}));
+    std::printf("[%s] bare omniORB put(any) back to back:      %s\n", transport.c_str(), result_line(bare_burst).c_str());
+  }
+  in->deactivate();
+  orb.deactivate(bare.in());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Args args = parse(argc, argv);
+  if (args.get("--role", "receiver") == "publisher") return run_publisher(args);
+  return run_receiver("/proc/self/exe", args);
+}
