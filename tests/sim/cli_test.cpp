@@ -1,0 +1,70 @@
+// pa10-sim as a process: bad input is one clear line and exit code 1; SIGTERM stops it cleanly.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "rtm_test/child_process.h"
+
+using namespace std::chrono_literals;
+
+namespace {
+
+std::string temp_path(const std::string& name) {
+  return (std::filesystem::temp_directory_path() /
+          ("rtm-sim-cli-" + std::to_string(::getpid()) + "-" + name))
+      .string();
+}
+
+// Runs pa10-sim with `args`, expects exit code 1 and returns its output.
+std::string failing_run(std::vector<std::string> args) {
+  args.insert(args.begin(), PA10_SIM_EXE);
+  rtm_test::ChildProcess::Options quiet;
+  quiet.echo_output = false;
+  rtm_test::ChildProcess sim(args, quiet);
+  const auto status = sim.wait_for_exit(30s);
+  EXPECT_TRUE(status.has_value()) << "still running";
+  if (status) {
+    EXPECT_TRUE(status->exited) << status->to_string();
+    EXPECT_EQ(status->code, 1) << sim.output();
+  }
+  return sim.output();
+}
+
+TEST(Pa10SimCli, MissingModelFileIsOneLineAndExit1) {
+  const auto output = failing_run({"--bus", "local:" + temp_path("a.bus"), "--model", "/nonexistent.xml"});
+  EXPECT_NE(output.find("pa10-sim: /nonexistent.xml: scene file not found"), std::string::npos) << output;
+}
+
+TEST(Pa10SimCli, MalformedProfileNamesFileAndSegmentAndExits1) {
+  const std::string profile = temp_path("bad.yaml");
+  std::ofstream(profile) << "segments:\n  - hold: 1\n  - ramp: {force_N: [1, 2, 3]}\n";
+  const auto output = failing_run({"--bus", "local:" + temp_path("b.bus"), "--profile", profile});
+  EXPECT_NE(output.find(profile + ": segment 2: a ramp needs duration_s"), std::string::npos) << output;
+  std::filesystem::remove(profile);
+}
+
+TEST(Pa10SimCli, UnknownBusSchemeIsOneLineAndExit1) {
+  const auto output = failing_run({"--bus", "carrier-pigeon:coop"});
+  EXPECT_NE(output.find("pa10-sim: CAN bus 'carrier-pigeon:coop'"), std::string::npos) << output;
+}
+
+TEST(Pa10SimCli, SigtermStopsItCleanlyAndRemovesTheHubSocket) {
+  const std::string bus = temp_path("c.bus");
+  rtm_test::ChildProcess sim({PA10_SIM_EXE, "--bus", "local:" + bus});
+  sim.wait_for_line("pa10-sim: ready", 20s);
+  EXPECT_TRUE(std::filesystem::exists(bus)) << "pa10-sim hosts the hub when none listens";
+  sim.send_signal(SIGTERM);
+  const auto status = sim.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(status->clean()) << status->to_string();
+  EXPECT_NE(sim.output().find("pa10-sim: stopped at sim time"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(bus));
+}
+
+}  // namespace
