@@ -291,7 +291,8 @@ struct Pa10Master::Impl {
   }
 
   void check_heartbeats(steady_clock::time_point now) {
-    if (!started) return;
+    // Once latched, a fault is not formatted again each cycle (node names may allocate).
+    if (!started || fault.kind != FaultKind::none) return;
     for (unsigned node = 1; node < last_heartbeat.size(); ++node) {
       const auto n = static_cast<std::uint8_t>(node);
       if (!node_expected(n) || !last_heartbeat[node]) continue;
@@ -347,7 +348,8 @@ struct Pa10Master::Impl {
       if (got_feedback[i]) {
         missed[i] = 0;
         last_statusword[i] = feedback[i].statusword;
-      } else if (started && ++missed[i] > config.missed_feedback_limit) {
+      } else if (started && ++missed[i] > config.missed_feedback_limit &&
+                 fault.kind == FaultKind::none) {
         latch_fault(FaultKind::missing_feedback, drive_node(j), 0,
                     "%s: no TPDO for %d consecutive SYNCs", node_description(drive_node(j)).c_str(),
                     missed[i]);
@@ -355,7 +357,7 @@ struct Pa10Master::Impl {
       const auto state = state_from_statusword(last_statusword[i]);
       const bool enabled = state == DriveState::operation_enabled;
       all_enabled = all_enabled && enabled && got_feedback[i];
-      if (enabling || !started || enabled) continue;
+      if (enabling || !started || enabled || fault.kind != FaultKind::none) continue;
       if (state == DriveState::fault || state == DriveState::fault_reaction_active) {
         latch_fault(FaultKind::drive_fault, drive_node(j), last_statusword[i],
                     "%s: statusword 0x%04x (%s)", node_description(drive_node(j)).c_str(),

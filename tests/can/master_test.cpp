@@ -8,9 +8,11 @@
 
 #include <chrono>
 #include <thread>
+#include <vector>
 
 #include "arm/can/local_bus.h"
 #include "arm/can/sensor_listener.h"
+#include "allocation_counter.h"
 #include "fake_pa10.h"
 #include "test_paths.h"
 
@@ -145,6 +147,24 @@ TEST(Pa10Master, LockStepSendsTargetsAndReadsPositionsOfTheSameSync) {
   EXPECT_NEAR(joy.values[0], -3.0, 1e-9);
   EXPECT_NEAR(joy.values[5], -0.001, 1e-9);
   EXPECT_GT(joy.sequence, static_cast<std::uint64_t>(kSteps - 1));
+}
+
+TEST(Pa10Master, ACycleAllocatesNothing) {
+  Rig rig;
+  rig.master->start();
+  for (int i = 0; i < 10; ++i) rig.master->step();  // warm-up
+  const std::size_t probe = testing::allocations_on_this_thread();
+  { std::vector<int> counted(100); }
+  ASSERT_EQ(testing::allocations_on_this_thread() - probe, 1u) << "the counter must see allocations";
+  const std::size_t before = testing::allocations_on_this_thread();
+  for (int i = 0; i < 200; ++i) {
+    rig.master->set_target_velocities({0.01 * i, 0, 0, 0, 0, 0, -0.01 * i});
+    ASSERT_TRUE(rig.master->step());
+    const JointState s = rig.master->joint_state();
+    const Wrench w = rig.master->wrench(ForceSensor::wrist);
+    ASSERT_TRUE(s.complete && w.valid);
+  }
+  EXPECT_EQ(testing::allocations_on_this_thread() - before, 0u);
 }
 
 TEST(Pa10Master, SyncCounterWrapsFrom240To1) {
