@@ -201,6 +201,20 @@ PhaseSummary summarize(const std::vector<Sample>& samples, const Phase& phase,
   summary.end_s = samples[phase.end - 1].time_s;
   summary.reference_N = samples[phase.begin].reference_N;
 
+  // The force error is taken along the reference: pressing "at 10 N" is about the normal
+  // force; friction on the table shows as a lateral force, reported apart. Without a
+  // reference direction (hands off) it is the whole vector.
+  const double reference_norm_N = norm(summary.reference_N);
+  const bool has_axis = reference_norm_N > options.contact_threshold_N;
+  Vec3 axis{};
+  if (has_axis) {
+    for (int k = 0; k < 3; ++k) axis[k] = summary.reference_N[k] / reference_norm_N;
+  }
+  const auto phase_error_N = [&](const Vec3& reference, const Vec3& measured) {
+    const Vec3 e = minus(reference, measured);
+    return has_axis ? std::abs(e[0] * axis[0] + e[1] * axis[1] + e[2] * axis[2]) : norm(e);
+  };
+
   // Steady state: the last steady_window_s, but never more than the phase's second half.
   const double window_start_s = std::max(summary.end_s - options.steady_window_s,
                                          (summary.start_s + summary.end_s) / 2);
@@ -214,7 +228,7 @@ PhaseSummary summarize(const std::vector<Sample>& samples, const Phase& phase,
       measured_sum[k] += s.measured_N[k];
       velocity_sum[k] += s.velocity[k];
     }
-    const double e = error_N(s);
+    const double e = phase_error_N(s.reference_N, s.measured_N);
     error_min = std::min(error_min, e);
     error_max = std::max(error_max, e);
     ++count;
@@ -223,14 +237,19 @@ PhaseSummary summarize(const std::vector<Sample>& samples, const Phase& phase,
     summary.mean_measured_N[k] = measured_sum[k] / static_cast<double>(count);
     summary.mean_velocity_m_s[k] = velocity_sum[k] / static_cast<double>(count);
   }
-  summary.steady_error_N = norm(minus(summary.reference_N, summary.mean_measured_N));
+  summary.steady_error_N = phase_error_N(summary.reference_N, summary.mean_measured_N);
+  if (has_axis) {
+    const Vec3& m = summary.mean_measured_N;
+    const double along_N = m[0] * axis[0] + m[1] * axis[1] + m[2] * axis[2];
+    summary.lateral_N = norm(minus(m, {along_N * axis[0], along_N * axis[1], along_N * axis[2]}));
+  }
   summary.error_peak_to_peak_N = error_max - error_min;
   summary.contact = norm(summary.mean_measured_N) > options.contact_threshold_N;
 
   // Settled at the first sample after the last one outside the band.
   std::size_t first_settled = phase.begin;
   for (std::size_t i = phase.end; i-- > phase.begin;) {
-    if (error_N(samples[i]) > options.settle_band_N) {
+    if (phase_error_N(samples[i].reference_N, samples[i].measured_N) > options.settle_band_N) {
       first_settled = i + 1;
       break;
     }
@@ -264,6 +283,7 @@ std::vector<ComponentTiming> parse_timing_json(const std::string& text, const st
       t.kind = c.value("kind", "");
       t.state = c.value("state", "");
       t.period_ns = c.value("period_ns", std::int64_t{0});
+      t.last_error = c.value("last_error", "");
       if (c.contains("timing")) {
         const auto& timing = c.at("timing");
         t.cycles = timing.at("cycles").get<std::uint64_t>();
@@ -284,12 +304,13 @@ std::vector<ComponentTiming> parse_timing_json(const std::string& text, const st
 std::string format_report(const Report& report, const PhaseOptions& options) {
   std::string out = fmt::format("Force servo: {} samples over {:.1f} s\n\n", report.samples, report.duration_s);
   out += fmt::format(
-      "Phases (measured = force the hand applies; steady state = the phase's last {:g} s; "
-      "settled = |error| within {:g} N to the phase end)\n",
+      "Phases (measured = force the hand applies; error = along the reference, over the "
+      "steady state = the phase's last {:g} s; settled = |error| within {:g} N to the phase end; "
+      "lateral = measured force across the reference)\n",
       options.steady_window_s, options.settle_band_N);
-  out += fmt::format("  {:>3} {:>13}  {:<20}  {:<20}  {:>8}  {:>8}  {:>8}  {}\n", "#", "time [s]",
+  out += fmt::format("  {:>3} {:>13}  {:<20}  {:<20}  {:>8}  {:>8}  {:>8}  {:>8}  {}\n", "#", "time [s]",
                      "reference [N] x y z", "measured [N] x y z", "error[N]", "p-p [N]",
-                     "settle", "");
+                     "lateral", "settle", "");
   int index = 1;
   for (const auto& p : report.phases) {
     // Settling is a contact notion: in free space the force error is the push itself.
@@ -301,9 +322,10 @@ std::string format_report(const Report& report, const PhaseOptions& options) {
                              : norm(p.reference_N) > options.contact_threshold_N
                                  ? fmt::format("free space: moving {} mm/s", vec_text(v_mm_s))
                                  : std::string("free space, hands off");
-    out += fmt::format("  {:>3} {:5.1f} - {:5.1f}  {}  {}  {:8.2f}  {:8.2f}  {:>8}  {}\n", index++,
+    const auto number = [&](double v) { return p.contact ? fmt::format("{:.2f}", v) : std::string(1, '-'); };
+    out += fmt::format("  {:>3} {:5.1f} - {:5.1f}  {}  {}  {:>8}  {:>8}  {:>8}  {:>8}  {}\n", index++,
                        p.start_s, p.end_s, vec_text(p.reference_N), vec_text(p.mean_measured_N),
-                       p.contact ? p.steady_error_N : NAN, p.contact ? p.error_peak_to_peak_N : NAN,
+                       number(p.steady_error_N), number(p.error_peak_to_peak_N), number(p.lateral_N),
                        settle, note);
   }
   if (report.phases.empty()) out += "  (no phase of constant reference found)\n";
@@ -322,6 +344,9 @@ std::string format_report(const Report& report, const PhaseOptions& options) {
                        t.lateness_p99_ns / 1e3, t.lateness_max_ns / 1e3, t.overruns);
   }
   if (report.timing.empty()) out += "  (no timing recorded)\n";
+  for (const auto& t : report.timing) {
+    if (!t.last_error.empty()) out += fmt::format("  ! {} ({}): {}\n", t.name, t.state, t.last_error);
+  }
   out += fmt::format("\nWatchdog events (actuator): {}\n",
                      report.watchdog_events ? std::to_string(*report.watchdog_events) : "unknown");
   return out;

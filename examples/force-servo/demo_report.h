@@ -83,8 +83,11 @@ struct PhaseSummary {
   std::array<double, 3> reference_N{};       // at the phase start
   std::array<double, 3> mean_measured_N{};   // over the steady window
   std::array<double, 3> mean_velocity_m_s{};  // over the steady window
-  double steady_error_N = 0;                 // |mean(error)| over the steady window
+  // The error is ref - measured along the reference's direction (the whole vector when the
+  // reference is below contact_threshold_N): pressing "at 10 N" is about the normal force.
+  double steady_error_N = 0;                 // |mean error| over the steady window
   double error_peak_to_peak_N = 0;           // max - min of |error| over the steady window
+  double lateral_N = 0;                      // |mean measured across the reference| (friction)
   std::optional<double> settling_time_s;     // from the phase start; none: not settled
                                              // for min_settled_s before the phase end
   bool contact = false;                      // |mean measured| > contact_threshold_N
@@ -106,6 +109,7 @@ struct ComponentTiming {
   std::uint64_t overruns = 0;  // cycles more than one period late
   std::int64_t lateness_p99_ns = 0;
   std::int64_t lateness_max_ns = 0;
+  std::string last_error;  // why it is in error ("" when not)
 };
 
 // Parses `rtm --json ls -l` output. Components without timing (on-arrival) get cycles 0.

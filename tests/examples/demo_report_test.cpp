@@ -154,6 +154,21 @@ TEST(DemoReportSummary, OscillationAroundTheReferenceNeverSettlesAndShowsPeakToP
   EXPECT_GT(s.error_peak_to_peak_N, 0.9);
 }
 
+TEST(DemoReportSummary, FrictionAcrossTheReferenceIsLateralNotForceError) {
+  // Pressing down at 10 N exactly while sliding: 2 N of friction along x.
+  const auto ref = make_series(3.0, [](double) { return std::array<double, 3>{0, 0, -10}; });
+  const auto sen = make_series(3.0, [](double) { return std::array<double, 3>{-2, 0, 9.7}; });
+  const auto samples = rtm::demo::align(ref, sen, ref);
+  const auto phases = rtm::demo::detect_phases(samples, PhaseOptions{});
+  ASSERT_EQ(phases.size(), 1u);
+  const auto s = rtm::demo::summarize(samples, phases[0], PhaseOptions{});
+  EXPECT_TRUE(s.contact);
+  EXPECT_NEAR(s.steady_error_N, 0.3, 1e-9);
+  EXPECT_NEAR(s.lateral_N, 2.0, 1e-9);
+  ASSERT_TRUE(s.settling_time_s.has_value());
+  EXPECT_DOUBLE_EQ(*s.settling_time_s, 0.0);
+}
+
 TEST(DemoReportSummary, FreeSpacePushIsNoContactAndReportsTheVelocity) {
   const auto ref = make_series(2.0, [](double) { return std::array<double, 3>{5, 0, 0}; });
   const auto sen = make_series(2.0, [](double) { return std::array<double, 3>{0.1, 0, 0}; });
@@ -174,12 +189,14 @@ TEST(DemoReportTiming, ParsesRtmLsJsonIncludingDeadAndUntimedComponents) {
     {"host":"h","name":"sensor0","alive":true,"kind":"sensor","state":"ON","period_ns":2000000,
      "timing":{"cycles":5000,"overruns":2,"lateness_p50_ns":30000,"lateness_p99_ns":91000,
                "lateness_max_ns":4100000,"mean_period_error_ns":1.5},"ports":[]},
-    {"host":"h","name":"servo0","alive":true,"kind":"servo","state":"ON","ports":[]},
+    {"host":"h","name":"servo0","alive":true,"kind":"servo","state":"ERROR","last_error":"arm fault","ports":[]},
     {"host":"h","name":"gone0","alive":false,"dead_reason":"TRANSIENT"}])", "t.json");
   ASSERT_EQ(timing.size(), 3u);
   EXPECT_EQ(timing[0].overruns, 2u);
   EXPECT_EQ(timing[0].lateness_p99_ns, 91000);
   EXPECT_EQ(timing[1].cycles, 0u);
+  EXPECT_EQ(timing[1].last_error, "arm fault");
+  EXPECT_EQ(timing[0].last_error, "");
   EXPECT_EQ(timing[2].state, "dead");
   EXPECT_THROW(rtm::demo::parse_timing_json("{not json", "t.json"), ReportError);
   EXPECT_THROW(rtm::demo::parse_timing_json(R"({"a":1})", "t.json"), ReportError);

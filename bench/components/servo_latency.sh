@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# End-to-end latency of the force servo: from a sensor sample's stamp to the drive command
+# handed to the arm, per run mode, measured during the force-servo demo on pa10-sim.
+#
+#   paper   sensor, controller, actuator, servo, joystick: five processes, each on its own
+#           2 ms activity, data over CORBA (examples/force-servo/system.yaml)
+#   shared  servo --shared-tick: sensor -> controller -> actuator on one 2 ms tick in one
+#           process (examples/force-servo/system-shared.yaml)
+#
+# Where it is measured: the controller stamps each command with the stamp of the sensor sample
+# it was computed from; the actuator records now - stamp (CLOCK_REALTIME) when orderVelocity
+# has returned (the joint rates are then set in the CANopen master, which writes them in its
+# next SYNC cycle, up to one period later) and logs p50/p99/max when it is turned off. Its
+# histogram has 1 us buckets below 1 ms and 1 ms buckets above (upper edges reported).
+# Loop lateness per component comes from `rtm --json ls -l` taken at the end of each run.
+#
+# Usage: bench/components/servo_latency.sh [--bin DIR] [--modes "paper shared"] [--out DIR]
+set -euo pipefail
+
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+repo=$(cd "$here/../.." && pwd)
+bin_dir=${RTM_BIN_DIR:-$repo/build/default/bin}
+modes="paper shared"
+out=""
+while (($#)); do
+  case "$1" in
+    --bin) bin_dir=$2; shift 2 ;;
+    --modes) modes=$2; shift 2 ;;
+    --out) out=$2; shift 2 ;;
+    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    *) echo "servo_latency: unknown option '$1'" >&2; exit 2 ;;
+  esac
+done
+[[ -n "$out" ]] || out=$(mktemp -d "${TMPDIR:-/tmp}/rtm-servo-latency.XXXXXX")
+mkdir -p "$out"
+
+declare -A system=([paper]=system.yaml [shared]=system-shared.yaml)
+results=()
+for mode in $modes; do
+  [[ -n "${system[$mode]:-}" ]] || { echo "servo_latency: unknown mode '$mode'" >&2; exit 2; }
+  echo "=== $mode"
+  "$repo/examples/force-servo/demo" --bin "$bin_dir" --system "$repo/examples/force-servo/${system[$mode]}" \
+    --out "$out/$mode" >"$out/$mode.log" 2>&1 || echo "servo_latency: the $mode run reported a problem (see $out/$mode.log)" >&2
+  line=$(cat "$out/$mode/raw/"*.log 2>/dev/null | grep -h 'sample-to-drive latency' | tail -n 1 || true)
+  [[ -n "$line" ]] || { echo "servo_latency: no latency line in the $mode run's logs ($out/$mode/raw)" >&2; exit 1; }
+  read -r p50 p99 max < <(sed -n 's/.*latency p50 \([0-9]*\) us p99 \([0-9]*\) us max \([0-9]*\) us.*/\1 \2 \3/p' <<<"$line")
+  commands=$(sed -n 's/.*commands \([0-9]*\),.*/\1/p' <<<"$line")
+  watchdog=$(sed -n 's/.*watchdog events \([0-9]*\),.*/\1/p' <<<"$line")
+  results+=("$(printf '| %-6s | %8s | %8s | %8s | %8s | %8s |' "$mode" "$commands" "$p50" "$p99" "$max" "$watchdog")")
+  echo "--- loop timing ($mode)"
+  sed -n '/^Loop timing/,/^$/p' "$out/$mode/summary.txt"
+done
+
+echo
+echo "Sensor sample stamp -> orderVelocity returned (us), $(nproc) CPUs, $(date -u +%Y-%m-%d)"
+echo "| mode   | commands |  p50 us  |  p99 us  |  max us  | watchdog |"
+echo "|--------|----------|----------|----------|----------|----------|"
+printf '%s\n' "${results[@]}"
+echo "(runs, logs and plots in $out)"
