@@ -33,7 +33,9 @@ ArmStatus ArmHardware::order_velocity(const std::array<float, 6>& twist_base) {
 }
 
 bool ArmHardware::in_fault() const {
-  const auto fault = arm_->fault();
+  // While the component is off nobody orders velocities, so the arm has not looked at the
+  // master since: a fault the master latched meanwhile is found here.
+  const auto fault = arm_->checkFaults();
   return fault != rtm::pa10::ArmFault::none && fault != rtm::pa10::ArmFault::not_enabled;
 }
 

@@ -66,7 +66,7 @@ class ArmHardware final : public VelocityArm {
   ArmStatus order_velocity(const std::array<float, 6>& twist_base) override;
   void stop() override;
   std::string fault_reason() const override { return arm_->faultReason(); }
-  bool in_fault() const override;
+  bool in_fault() const override;  // re-reads the master's state
   void reset() override { arm_->reset(); }
   BusPosition bus_position() const override;
 
