@@ -25,6 +25,7 @@ expect() {  # expect "<words>" "<expected completions>"
 }
 expect "rtm c" "cat connect"
 expect "rtm d" "disconnect down"
+expect "rtm r" "reset"
 expect "rtm --js" "--json"
 expect "rtm ls -" "-l --long --clean --names"
 expect "rtm --naming 127.0.0.1:2809 w" "watch"

@@ -189,6 +189,25 @@ TEST_F(RtmCli, OnAndOffChangeTheState) {
   EXPECT_EQ(rtm_json({"cat", "t"})["state"], "on");
 }
 
+TEST_F(RtmCli, ComponentInErrorRefusesOnUntilReset) {
+  talker("t", {"--fail-after", "5", "--on"});
+  json t;
+  for (int i = 0; i < 200; ++i) {  // the 5th cycle throws: wait for the state to say so
+    t = rtm_json({"cat", "t"});
+    if (t["state"] == "error") break;
+    std::this_thread::sleep_for(10ms);
+  }
+  ASSERT_EQ(t["state"], "error");
+  EXPECT_NE(t["last_error"].get<std::string>().find("failed on purpose"), std::string::npos) << t.dump();
+  auto on = rtm({"on", "t"});
+  EXPECT_EQ(on.exit_code, 1);
+  EXPECT_NE(on.err.find("`rtm reset` clears it"), std::string::npos) << on.err;
+  auto reset = rtm({"reset", "t"});
+  ASSERT_EQ(reset.exit_code, 0) << reset.err;
+  EXPECT_EQ(rtm_json({"cat", "t"})["state"], "off");
+  EXPECT_EQ(rtm({"on", "t"}).exit_code, 0);
+}
+
 TEST_F(RtmCli, GetSaysNoDataBeforeTheFirstDatumAndValuesAfter) {
   talker("t");
   auto before = rtm({"get", "t.force"});

@@ -3,7 +3,7 @@
 //   rtm ls [path] [-l] [--clean]          the naming tree: components, state, period, ports
 //   rtm cat <comp>                        one component: ports, types, subscriptions, counters
 //   rtm connect|disconnect <out> <in>     subscribe/unsubscribe (RTM.idl), --once
-//   rtm on|off <comp>...
+//   rtm on|off|reset <comp>...            reset: leave COMPONENT_ERROR (RTMExt)
 //   rtm get <comp>.<out>                  pull one datum
 //   rtm put <comp>.<in> <values>...       inject one datum
 //   rtm watch <comp>.<out>                stream a port live (--rate, --csv, --count, --duration)
@@ -333,7 +333,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> onoff_comps;
   auto* on = app.add_subcommand("on", "start components' activities");
   auto* off = app.add_subcommand("off", "stop components' activities");
-  for (auto* sub : {on, off}) sub->add_option("components", onoff_comps)->required();
+  auto* reset = app.add_subcommand("reset", "take components out of the error state (then `on`)");
+  for (auto* sub : {on, off, reset}) sub->add_option("components", onoff_comps)->required();
 
   auto* get = app.add_subcommand("get", "pull the latest datum of an OutPort");
   std::string get_port;
@@ -452,24 +453,33 @@ int main(int argc, char** argv) {
       }
       return kOk;
     }
-    if (on->parsed() || off->parsed()) {
+    if (on->parsed() || off->parsed() || reset->parsed()) {
+      const char* verb = on->parsed() ? "on" : off->parsed() ? "off" : "reset";
       int code = kOk;
       json results = json::object();
       for (const auto& name : onoff_comps) {
         try {
           auto comp = browser.component(name);
-          on->parsed() ? comp->on() : comp->off();
+          if (on->parsed()) {
+            comp->on();
+          } else if (off->parsed()) {
+            comp->off();
+          } else {
+            RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(comp);
+            if (CORBA::is_nil(ex)) throw BrowseError(name + " is a plain RtComponent: it has no reset");
+            ex->reset();
+          }
           results[name] = "ok";
-          if (!opt.json) fmt::print("{} {}\n", on->parsed() ? "on" : "off", name);
+          if (!opt.json) fmt::print("{} {}\n", verb, name);
         } catch (const CORBA::Exception& e) {
           code = kFailed;
           std::string why = corba_name(e);
           if (const auto* bio = dynamic_cast<const CORBA::BAD_INV_ORDER*>(&e);
               bio && bio->minor() == rtm::kMinorComponentError) {
-            why = "the component is in error; `rtm cat` shows why, reset it first";
+            why = "the component is in error; `rtm cat` shows why, `rtm reset` clears it";
           }
           results[name] = why;
-          if (!opt.json) fmt::print(stderr, "rtm: {} {}: {}\n", on->parsed() ? "on" : "off", name, why);
+          if (!opt.json) fmt::print(stderr, "rtm: {} {}: {}\n", verb, name, why);
         } catch (const BrowseError& e) {
           code = kFailed;
           results[name] = e.what();

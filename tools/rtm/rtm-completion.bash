@@ -13,7 +13,7 @@ _rtm_ports() {
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat connect disconnect on off get put watch up down"
+  local commands="ls cat connect disconnect on off reset get put watch up down"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
@@ -32,7 +32,7 @@ _rtm() {
   fi
   case $cmd in
     ls) COMPREPLY=($(compgen -W "-l --long --clean --names" -- "$cur")) ;;
-    cat|on|off) COMPREPLY=($(compgen -W "$(_rtm_components)" -- "$cur")) ;;
+    cat|on|off|reset) COMPREPLY=($(compgen -W "$(_rtm_components)" -- "$cur")) ;;
     connect|disconnect|get|put|watch)
       if [[ $cur == *.* ]]; then
         COMPREPLY=($(compgen -W "$(_rtm_ports "$cur")" -- "$cur"))
