@@ -34,13 +34,23 @@ bool eventually(const std::function<bool()>& condition, std::chrono::millisecond
   }
 }
 
-std::unique_ptr<rtm_test::ChildProcess> IntegrationTest::start_component(const std::string& name,
-                                                                         std::vector<std::string> extra_args) {
+rtm_test::ChildProcess& IntegrationTest::start_component(const std::string& name, std::vector<std::string> extra_args) {
   std::vector<std::string> argv{RTM_TEST_COMPONENT, "--name", name, "--naming", names_.address(), "--period", "2ms"};
   argv.insert(argv.end(), extra_args.begin(), extra_args.end());
   auto process = std::make_unique<rtm_test::ChildProcess>(std::move(argv));
   process->wait_until_bound();
-  return process;
+  components_.push_back(std::move(process));
+  return *components_.back();
+}
+
+void IntegrationTest::TearDown() {
+  for (auto& process : components_) {
+    if (!process->running()) continue;  // ended by the test itself
+    const auto status = process->stop();
+    EXPECT_TRUE(status.clean()) << process->program() << " ended with " << status.to_string() << ":\n"
+                                << process->output();
+  }
+  components_.clear();
 }
 
 RTM::RtComponentEx_var IntegrationTest::component(const std::string& name) {

@@ -34,14 +34,17 @@ class IntegrationTest : public ::testing::Test {
     return rtm::NamingClient(test_orb().orb(), rtm::NamingAddress::parse(names_.address()));
   }
 
-  // Starts rtm-test-component --name name and waits until it is bound.
-  std::unique_ptr<rtm_test::ChildProcess> start_component(const std::string& name,
-                                                          std::vector<std::string> extra_args = {});
+  // Starts rtm-test-component --name name and waits until it is bound. The fixture owns the
+  // process: TearDown stops it and expects a clean exit (status 0, so no sanitizer report
+  // and no crash on the way out) unless the test already ended it.
+  rtm_test::ChildProcess& start_component(const std::string& name, std::vector<std::string> extra_args = {});
+  void TearDown() override;
   RTM::RtComponentEx_var component(const std::string& name);
   RTM::OutPortEx_var out_port(const std::string& component_name, const std::string& port_name);
   RTM::InPortEx_var in_port(const std::string& component_name, const std::string& port_name);
 
   rtm_test::OmniNames names_;
+  std::vector<std::unique_ptr<rtm_test::ChildProcess>> components_;
 };
 
 }  // namespace rtm_it

@@ -6,7 +6,7 @@ namespace rtm_it {
 namespace {
 
 TEST_F(IntegrationTest, OnOffRepeatedLeavesTheComponentUsableAndCounting) {
-  auto process = start_component("cycler0");
+  auto& process = start_component("cycler0");
   auto c = component("cycler0");
   for (int round = 0; round < 30; ++round) {
     c->on();
@@ -26,11 +26,11 @@ TEST_F(IntegrationTest, OnOffRepeatedLeavesTheComponentUsableAndCounting) {
   const auto stopped_at = c->timing().cycles;
   std::this_thread::sleep_for(50ms);
   EXPECT_EQ(c->timing().cycles, stopped_at) << "cycles ran while off";
-  EXPECT_TRUE(process->running());
+  EXPECT_TRUE(process.running());
 }
 
 TEST_F(IntegrationTest, ComponentNameKindAndPortsAreVisibleRemotely) {
-  auto process = start_component("intro0", {"--period", "5ms"});
+  start_component("intro0", {"--period", "5ms"});
   auto c = component("intro0");
   CORBA::String_var name = c->name();
   CORBA::String_var kind = c->kind();

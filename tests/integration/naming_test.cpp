@@ -15,8 +15,8 @@ using rtm::NamingClient;
 using rtm::NamingError;
 
 TEST_F(IntegrationTest, ComponentIsBoundAtHostContextSlashNameRtc) {
-  auto process = start_component("bindme0");
-  const auto line = process->wait_until_bound();
+  auto& process = start_component("bindme0");
+  const auto line = process.wait_until_bound();
   const auto path = ComponentPath::on_this_host("bindme0");
   EXPECT_NE(line.find("bound bindme0 at " + path.to_string() + " via " + names_.address()), std::string::npos)
       << line;
@@ -28,8 +28,8 @@ TEST_F(IntegrationTest, ComponentIsBoundAtHostContextSlashNameRtc) {
 }
 
 TEST_F(IntegrationTest, ResolvesBareNameAndHostSlashNameToTheSameComponent) {
-  auto a = start_component("alpha0");
-  auto b = start_component("beta0");
+  start_component("alpha0");
+  start_component("beta0");
   auto by_name = naming().resolve_component("alpha0");
   auto by_path = naming().resolve_component(rtm::local_host_name() + "/alpha0");
   EXPECT_TRUE(by_name->_is_equivalent(by_path));
@@ -39,7 +39,7 @@ TEST_F(IntegrationTest, ResolvesBareNameAndHostSlashNameToTheSameComponent) {
 }
 
 TEST_F(IntegrationTest, ResolvingAnUnknownNameSaysWhichNameAndWhere) {
-  auto a = start_component("known0");
+  start_component("known0");
   try {
     naming().resolve_component("unknown0");
     FAIL() << "resolve of an unbound name returned";
@@ -51,22 +51,22 @@ TEST_F(IntegrationTest, ResolvingAnUnknownNameSaysWhichNameAndWhere) {
 }
 
 TEST_F(IntegrationTest, SigtermUnbindsTheNameAndExitsCleanly) {
-  auto process = start_component("leaving0");
+  auto& process = start_component("leaving0");
   const auto path = ComponentPath::on_this_host("leaving0");
   ASSERT_TRUE(naming().is_bound(path));
-  process->send_signal(SIGTERM);
-  const auto status = process->wait_for_exit(10s);
+  process.send_signal(SIGTERM);
+  const auto status = process.wait_for_exit(10s);
   ASSERT_TRUE(status.has_value()) << "no exit within 10 s after SIGTERM";
-  EXPECT_TRUE(status->clean()) << status->to_string() << "\n" << process->output();
+  EXPECT_TRUE(status->clean()) << status->to_string() << "\n" << process.output();
   EXPECT_FALSE(naming().is_bound(path));
 }
 
 TEST_F(IntegrationTest, ComponentsRebindAfterNamingServiceRestartsWithoutItsData) {
-  auto a = start_component("phoenix0");
-  auto b = start_component("phoenix1");
+  auto& a = start_component("phoenix0");
+  auto& b = start_component("phoenix1");
   names_.restart(rtm_test::OmniNames::Data::fresh);
-  a->wait_for_line("re-bound phoenix0", 10s);
-  b->wait_for_line("re-bound phoenix1", 10s);
+  a.wait_for_line("re-bound phoenix0", 10s);
+  b.wait_for_line("re-bound phoenix1", 10s);
   EXPECT_TRUE(naming().is_bound(ComponentPath::on_this_host("phoenix0")));
   EXPECT_TRUE(naming().is_bound(ComponentPath::on_this_host("phoenix1")));
   // The re-bound reference is the live component.
@@ -76,11 +76,11 @@ TEST_F(IntegrationTest, ComponentsRebindAfterNamingServiceRestartsWithoutItsData
 }
 
 TEST_F(IntegrationTest, ComponentRebindsWhenNamingServiceComesBackAfterAnOutage) {
-  auto a = start_component("patient0");
+  auto& a = start_component("patient0");
   names_.stop();
-  a->wait_for_line("unreachable", 10s);
+  a.wait_for_line("unreachable", 10s);
   names_.start(rtm_test::OmniNames::Data::keep);
-  a->wait_for_line("re-bound patient0", 10s);
+  a.wait_for_line("re-bound patient0", 10s);
   EXPECT_TRUE(naming().is_bound(ComponentPath::on_this_host("patient0")));
 }
 

@@ -42,7 +42,7 @@ RTM::TimedFloat6 from_any(const CORBA::Any& any) {
 }
 
 TEST_F(IntegrationTest, OnceSubscriptionDeliversExactlyOneDatumThenEnds) {
-  auto process = start_component("pub0", {"--on"});
+  start_component("pub0", {"--on"});
   auto out = out_port("pub0", "out0");
   Probe probe;
   ASSERT_TRUE(out->subscribe(RTM::once, probe.ref));
@@ -55,7 +55,7 @@ TEST_F(IntegrationTest, OnceSubscriptionDeliversExactlyOneDatumThenEnds) {
 }
 
 TEST_F(IntegrationTest, RepeatedSubscriptionDeliversTheRampInOrderUntilUnsubscribed) {
-  auto process = start_component("pub0", {"--on"});
+  start_component("pub0", {"--on"});
   auto out = out_port("pub0", "out0");
   Probe probe;
   ASSERT_TRUE(out->subscribe(RTM::repeated, probe.ref));
@@ -79,7 +79,7 @@ TEST_F(IntegrationTest, RepeatedSubscriptionDeliversTheRampInOrderUntilUnsubscri
 }
 
 TEST_F(IntegrationTest, GetBeforeTheFirstDatumRaisesNoDataYetAndAfterReturnsTheLatest) {
-  auto process = start_component("pub0");
+  start_component("pub0");
   auto out = out_port("pub0", "out0");
   try {
     CORBA::Any_var nothing = out->get();
@@ -107,8 +107,8 @@ TEST_F(IntegrationTest, GetBeforeTheFirstDatumRaisesNoDataYetAndAfterReturnsTheL
 }
 
 TEST_F(IntegrationTest, SubscribeOfAnInPortOfAnotherTypeIsRefusedNamingBothTypes) {
-  auto a = start_component("pub0", {"--on"});
-  auto b = start_component("sub0");
+  start_component("pub0", {"--on"});
+  start_component("sub0");
   auto out = out_port("pub0", "out0");
   auto float3_in = in_port("sub0", "in3");
   EXPECT_FALSE(out->subscribe(RTM::repeated, float3_in));
@@ -123,7 +123,7 @@ TEST_F(IntegrationTest, SubscribeOfAnInPortOfAnotherTypeIsRefusedNamingBothTypes
 }
 
 TEST_F(IntegrationTest, PutOfTheWrongTypeIsRejectedAndTheInPortKeepsItsDatum) {
-  auto process = start_component("sub0", {"--on"});
+  start_component("sub0", {"--on"});
   auto in = in_port("sub0", "in0");
   auto echo = out_port("sub0", "echo");
   const auto good = datum(42.0f);
@@ -154,8 +154,8 @@ TEST_F(IntegrationTest, PutOfTheWrongTypeIsRejectedAndTheInPortKeepsItsDatum) {
 }
 
 TEST_F(IntegrationTest, PublisherKeepsItsPeriodAndDropsASubscriberKilledMidStream) {
-  auto publisher = start_component("pub0");
-  auto subscriber = start_component("sub0");
+  start_component("pub0");
+  auto& subscriber = start_component("sub0");
   auto out = out_port("pub0", "out0");
   auto in = in_port("sub0", "in0");
   ASSERT_TRUE(out->subscribe(RTM::repeated, in));
@@ -164,7 +164,7 @@ TEST_F(IntegrationTest, PublisherKeepsItsPeriodAndDropsASubscriberKilledMidStrea
   ASSERT_TRUE(eventually([&] { return in->counters().accepted >= 100; }));
 
   const RTM::TimingStats before = pub->timing();
-  subscriber->kill_now();
+  subscriber.kill_now();
   ASSERT_TRUE(eventually([&] {
     RTM::SubscriptionInfoList_var subs = out->subscriptions();
     return subs->length() == 0;
@@ -182,8 +182,8 @@ TEST_F(IntegrationTest, PublisherKeepsItsPeriodAndDropsASubscriberKilledMidStrea
 }
 
 TEST_F(IntegrationTest, AReferenceFromAnotherProcessIsNotTakenForAnInProcessOne) {
-  auto a = start_component("pub0", {"--on"});
-  auto b = start_component("sub0");
+  start_component("pub0", {"--on"});
+  start_component("sub0");
   auto out = out_port("pub0", "out0");
   Probe probe;
   ASSERT_TRUE(out->subscribe(RTM::repeated, in_port("sub0", "in0")));

@@ -12,7 +12,7 @@ namespace {
 using Float6In = rtm::InPort<RTM::TimedFloat6>;
 
 TEST_F(IntegrationTest, SubscribeUnsubscribeHammeredFromTwoThreadsWhileRunning) {
-  auto process = start_component("pub0", {"--on"});
+  start_component("pub0", {"--on"});
   auto out = out_port("pub0", "out0");
 
   PortableServer::Servant_var<Float6In> steady(new Float6In("steady", "itest"));
