@@ -212,7 +212,7 @@ void ComponentServant::reset() {
 }
 
 RTM::TimingStats ComponentServant::timing() {
-  const Activity* source = activity_ ? activity_.get() : timing_source_;
+  const Activity* source = activity_ ? activity_.get() : timing_source_.load();
   RTM::TimingStats out{};
   if (!source) return out;
   const ActivityStats s = source->stats();

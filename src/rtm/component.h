@@ -140,7 +140,7 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   std::unique_ptr<Component> component_;
   ActivitySpec spec_;
   std::unique_ptr<Activity> activity_;
-  const Activity* timing_source_ = nullptr;
+  std::atomic<const Activity*> timing_source_{nullptr};
   std::shared_ptr<ArrivalSignal> arrival_;
   std::mutex control_mu_;  // serialises on/off/reset
   std::atomic<RTM::ComponentState> state_{RTM::COMPONENT_OFF};

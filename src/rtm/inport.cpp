@@ -59,6 +59,9 @@ InPortBase::InPortBase(std::string name, std::string owner, InPortPolicy policy)
 }
 
 InPortBase::~InPortBase() {
+  // Normally deactivate() already unregistered the port; the POA may run this destructor
+  // while holding its own locks, so the registry lock is only taken when really needed.
+  if (!active_.load()) return;
   std::lock_guard lock(registry_mu());
   auto& entries = registry();
   entries.erase(std::remove_if(entries.begin(), entries.end(), [this](const LocalEntry& e) { return e.port == this; }),
@@ -96,19 +99,26 @@ bool InPortBase::stores_without_waiting() const {
   return false;
 }
 
+// The POA is called with activation_mu_ held but never with the registry lock held, so the
+// POA's locks and the registry's are never taken in opposite orders.
 RTM::InPortEx_ptr InPortBase::activate(Orb& orb) {
-  std::lock_guard lock(registry_mu());
+  std::lock_guard activation(activation_mu_);
   if (!active_.load()) {
     CORBA::Object_var obj = orb.activate(this);
-    ref_ = RTM::InPortEx::_narrow(obj);
-    orb_ = &orb;
-    registry().push_back({this, CORBA::Object::_duplicate(ref_.in())});
-    active_.store(true, std::memory_order_release);
+    RTM::InPortEx_var ref = RTM::InPortEx::_narrow(obj);
+    {
+      std::lock_guard lock(registry_mu());
+      ref_ = RTM::InPortEx::_duplicate(ref.in());
+      orb_ = &orb;
+      registry().push_back({this, CORBA::Object::_duplicate(ref.in())});
+      active_.store(true, std::memory_order_release);
+    }
   }
-  return RTM::InPortEx::_duplicate(ref_.in());
+  return reference();
 }
 
 void InPortBase::deactivate() {
+  std::lock_guard activation(activation_mu_);
   Orb* orb = nullptr;
   {
     std::lock_guard lock(registry_mu());

@@ -156,8 +156,9 @@ class InPortBase : public virtual POA_RTM::InPortEx {
   std::atomic<std::uint64_t> callback_failures_{0};
 
  private:
-  Orb* orb_ = nullptr;
-  RTM::InPortEx_var ref_;
+  std::mutex activation_mu_;  // serialises activate()/deactivate()
+  Orb* orb_ = nullptr;        // guarded by the registry lock
+  RTM::InPortEx_var ref_;     // guarded by the registry lock
   std::atomic<bool> active_{false};
 };
 
