@@ -42,7 +42,9 @@ struct MasterConfig {
   std::chrono::milliseconds enable_timeout{2000};             // all drives operation enabled
   std::chrono::milliseconds heartbeat_timeout{300};           // node silent longer -> fault
   std::chrono::nanoseconds step_timeout{std::chrono::milliseconds(100)};  // lock-step wait
-  int missed_feedback_limit = 5;  // a drive silent for more consecutive SYNCs -> fault
+  // A drive silent for more consecutive SYNCs -> fault. 25 cycles = 50 ms: longer than the
+  // 5-40 ms host stalls a VM shows (a dead node is caught by the heartbeat after 300 ms anyway).
+  int missed_feedback_limit = 25;
   // Force sensors the master listens to (and waits for at startup and in step()).
   std::vector<ForceSensor> sensors{ForceSensor::wrist, ForceSensor::joystick};
   // run_periodic(): SCHED_FIFO priority (0 = keep SCHED_OTHER) and CPU to pin to (-1 = none).

@@ -34,6 +34,8 @@ MasterConfig test_config() {
   c.enable_timeout = 5000ms;
   c.heartbeat_timeout = 5000ms;
   c.step_timeout = 2s;
+  // A loaded machine can stall the fake for longer than a few periodic cycles.
+  c.missed_feedback_limit = 1000;
   return c;
 }
 
