@@ -4,7 +4,9 @@
 # For hosts whose kernel has no CAN stack (socket(AF_CAN) -> EAFNOSUPPORT): Debian's
 # user-mode-linux boots a Linux kernel as an ordinary process in a few seconds. The guest's root
 # is the host's filesystem (hostfs, read-only), so COMMAND runs unchanged, from the host's
-# current directory. /tmp in the guest is a fresh tmpfs. Timing inside UML is not real-time:
+# current directory. The host's /tmp is mounted writable at /tmp in the guest (so a checkout or
+# build under /tmp works, and sockets made there are seen by both). Timing inside UML is not
+# real-time:
 # use it for function, never for latency figures.
 #
 # usage: uml-vcan-run.sh [-m MEM] [-t SECONDS] [-i IFNAME]... -- COMMAND [ARGS...]
@@ -66,13 +68,14 @@ trap cleanup EXIT
   echo '#!/bin/sh'
   echo 'export PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin'
   echo 'mount -t proc proc /proc && mount -t sysfs sysfs /sys'
-  echo 'mount -t tmpfs tmpfs /tmp && mount -t tmpfs tmpfs /run && mount -t tmpfs tmpfs /dev/shm 2>/dev/null'
-  printf 'mkdir -p /tmp/out && mount -t hostfs -o %q hostfs /tmp/out || { poweroff -f; }\n' "$out"
-  echo 'fail() { echo "$1" >/tmp/out/guest-error; sync; poweroff -f; }'
+  echo 'mount -t tmpfs tmpfs /run && mount -t tmpfs tmpfs /dev/shm 2>/dev/null'
+  printf 'mkdir -p /run/out && mount -t hostfs -o %q hostfs /run/out || { poweroff -f; }\n' "$out"
+  echo 'fail() { echo "$1" >/run/out/guest-error; sync; poweroff -f; }'
+  echo 'mount -t hostfs -o /tmp hostfs /tmp || mount -t tmpfs tmpfs /tmp || fail "cannot mount /tmp"'
   echo 'M=/usr/lib/uml/modules/$(uname -r)/kernel'
   echo '[ -d "$M" ] || fail "no modules for the guest kernel $(uname -r) in /usr/lib/uml/modules"'
   for m in "${modules[@]}"; do
-    printf 'insmod "$M/%s.ko" 2>>/tmp/out/guest-error || fail "insmod %s failed"\n' "$m" "$m"
+    printf 'insmod "$M/%s.ko" 2>>/run/out/guest-error || fail "insmod %s failed"\n' "$m" "$m"
   done
   for ifname in "${interfaces[@]}"; do
     printf 'ip link add dev %q type vcan && ip link set up %q || fail "cannot create %q"\n' \
@@ -88,8 +91,8 @@ trap cleanup EXIT
   done < <(env)
   printf 'cd %q || fail "cannot enter %q in the guest"\n' "$PWD" "$PWD"
   printf '%q ' "$@"
-  echo '>/tmp/out/log 2>&1 </dev/null'
-  echo 'echo $? >/tmp/out/rc'
+  echo '>/run/out/log 2>&1 </dev/null'
+  echo 'echo $? >/run/out/rc'
   echo 'sync'
   echo 'poweroff -f'
 } >"$out/init"
