@@ -118,6 +118,24 @@ TEST_F(ComponentTest, ThrowingCycleMovesToErrorUntilReset) {
   ref->off();
 }
 
+TEST_F(ComponentTest, ThrowingOnStartRaisesAndMovesToError) {
+  auto logic = std::make_unique<Doubler>();
+  Doubler& d = *logic;
+  d.throw_on_start = true;
+  rtm::ComponentServant servant(std::move(logic), fast());
+  RTM::RtComponentEx_var ref = servant.activate(orb());
+  EXPECT_THROW(ref->on(), CORBA::BAD_INV_ORDER);
+  EXPECT_EQ(ref->state(), RTM::COMPONENT_ERROR);
+  CORBA::String_var why = ref->last_error();
+  EXPECT_STREQ(why.in(), "on_start threw: injected failure in on_start");
+  EXPECT_EQ(d.cycles.load(), 0);
+  d.throw_on_start = false;
+  ref->reset();
+  ref->on();
+  EXPECT_EQ(ref->state(), RTM::COMPONENT_ON);
+  ref->off();
+}
+
 TEST_F(ComponentTest, OnArrivalComponentCyclesWhenDataIsPut) {
   auto logic = std::make_unique<Doubler>("doubler1");
   Doubler& d = *logic;

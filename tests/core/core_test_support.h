@@ -61,7 +61,10 @@ class Doubler final : public Component {
         in(add_in_port<RTM::TimedFloat6>("in0", std::move(policy))),
         out(add_out_port<RTM::TimedFloat6>("out0")) {}
 
-  void on_start() override { starts.fetch_add(1); }
+  void on_start() override {
+    if (throw_on_start.load()) throw std::runtime_error("injected failure in on_start");
+    starts.fetch_add(1);
+  }
   void on_stop() override { stops.fetch_add(1); }
   void on_cycle(const CycleContext&) override {
     const auto n = cycles.fetch_add(1) + 1;
@@ -77,6 +80,7 @@ class Doubler final : public Component {
   OutPort<RTM::TimedFloat6>& out;
   std::atomic<long> cycles{0};
   std::atomic<long> throw_at_cycle{-1};
+  std::atomic<bool> throw_on_start{false};
   std::atomic<int> starts{0};
   std::atomic<int> stops{0};
 };

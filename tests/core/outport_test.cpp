@@ -108,6 +108,23 @@ TEST_F(OutPortTest, WithInProcessOffTheSameSubscriberGetsPutAny) {
   in->deactivate();
 }
 
+TEST_F(OutPortTest, OnewayOptionStillDeliversEveryDatum) {
+  rtm::OutPortOptions options = via_orb();
+  options.oneway = true;
+  auto out = make_out(options);
+  auto in = make_in("in0", rtm::InPortPolicy::fifo(8));
+  RTM::InPortEx_var in_ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, in_ref.in()));
+  for (std::uint64_t i = 1; i <= 3; ++i) {
+    out->write(float6(static_cast<float>(i)));
+    ASSERT_TRUE(eventually([&] { return in->counters_snapshot().accepted == i; }));
+  }
+  EXPECT_EQ(in->counters_snapshot().in_process, 0u);
+  EXPECT_EQ(out->counters_snapshot().pushed, 3u);
+  out->close();
+  in->deactivate();
+}
+
 TEST_F(OutPortTest, RepeatedPushesEveryDatumOnceTakesOnlyTheNext) {
   for (bool in_process : {true, false}) {
     SCOPED_TRACE(in_process ? "in-process" : "through the ORB");
