@@ -4,24 +4,10 @@
 
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
 
 #include "arm/can/protocol.h"
+#include "allocation_counter.h"
 #include "recording_sink.h"
-
-// Counts heap allocations of this test binary, to prove the lock-step cycle makes none.
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace pc = rtm::can;
 using rtm::sim::Pa10Simulator;
@@ -141,9 +127,9 @@ TEST_F(LockStepSimulatorTest, ASyncCycleAllocatesNothing) {
   start_up();
   cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
   out_.frames.reserve(out_.frames.size() + 10000);  // the recording sink's own growth
-  const long before = g_allocations.load();
+  const long before = rtm::sim::testing::allocations_so_far();
   for (int i = 0; i < 200; ++i) cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
-  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_EQ(rtm::sim::testing::allocations_so_far() - before, 0);
 }
 
 TEST_F(LockStepSimulatorTest, WithASeparateSensorBusTheSensorsAnswerOnlyThere) {
