@@ -199,7 +199,12 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
   std::int64_t next_step_ns = monotonic_ns() + timestep_ns;
   std::int64_t next_wall_beat_ns = monotonic_ns() + kWallHeartbeatPeriod_ns;
   std::uint64_t last_logged_sync = sim.drive(0).syncs_seen();
-  std::uint64_t late_steps = 0;
+  std::uint64_t stalls_skipped = 0;
+  std::int64_t skipped_ns = 0;
+  // How late each real-time step starts after its deadline: a fixed histogram, no allocation.
+  constexpr std::int64_t kLatenessBounds_ns[] = {100'000, 500'000, 1'000'000, 5'000'000};
+  std::uint64_t lateness_counts[5] = {0, 0, 0, 0, 0};
+  std::int64_t max_lateness_ns = 0;
 
   pollfd fds[3] = {{bus->pollable_fd(), POLLIN, 0},
                    {sensor_bus ? sensor_bus->pollable_fd() : -1, POLLIN, 0},
@@ -235,19 +240,36 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
       continue;
     }
     while (after_ns >= next_step_ns) {
+      const std::int64_t lateness_ns = after_ns - next_step_ns;
+      max_lateness_ns = std::max(max_lateness_ns, lateness_ns);
+      int bucket = 0;
+      while (bucket < 4 && lateness_ns >= kLatenessBounds_ns[bucket]) ++bucket;
+      ++lateness_counts[bucket];
       sim.step(sink);
       next_step_ns += timestep_ns;
       if (after_ns - next_step_ns > kMaxCatchUp_ns) {
-        ++late_steps;
+        ++stalls_skipped;
+        skipped_ns += after_ns - next_step_ns;
         next_step_ns = after_ns + timestep_ns;
       }
     }
   }
   if (!options.quiet) {
-    std::printf("pa10-sim: stopped at sim time %.3f s after %llu steps%s\n",
+    std::printf("pa10-sim: stopped at sim time %.3f s after %llu steps\n",
                 static_cast<double>(sim.time_ns()) * 1e-9,
-                static_cast<unsigned long long>(sim.steps()),
-                late_steps ? " (host stalls skipped)" : "");
+                static_cast<unsigned long long>(sim.steps()));
+    if (!options.lock_step)
+      std::printf("pa10-sim: step start lateness: <0.1 ms %llu, <0.5 ms %llu, <1 ms %llu, "
+                  "<5 ms %llu, >=5 ms %llu, max %.2f ms; %llu host stalls skipped (%.1f ms "
+                  "of sim time not simulated)\n",
+                  static_cast<unsigned long long>(lateness_counts[0]),
+                  static_cast<unsigned long long>(lateness_counts[1]),
+                  static_cast<unsigned long long>(lateness_counts[2]),
+                  static_cast<unsigned long long>(lateness_counts[3]),
+                  static_cast<unsigned long long>(lateness_counts[4]),
+                  static_cast<double>(max_lateness_ns) * 1e-6,
+                  static_cast<unsigned long long>(stalls_skipped),
+                  static_cast<double>(skipped_ns) * 1e-6);
     std::fflush(stdout);
   }
 }
