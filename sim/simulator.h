@@ -64,8 +64,8 @@ class Pa10Simulator {
   // SYNC flows).
   void send_heartbeats(FrameSink& out);
 
-  // Replaces the operator's wrench from the profile by `wrench` (stdin control); nullptr-like
-  // clear with clear_operator_override().
+  // Replaces the operator's wrench from the profile by `wrench` (stdin control) until
+  // clear_operator_override() gives the profile back.
   void set_operator_override(const Wrench& wrench);
   void clear_operator_override() { operator_override_ = false; }
 
