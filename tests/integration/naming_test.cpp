@@ -113,20 +113,5 @@ TEST(NamingClientTest, UnreachableServiceIsANamingErrorNamingTheAddress) {
   }
 }
 
-TEST(NamingValuesTest, AddressesAndPathsParseAndPrint) {
-  EXPECT_EQ(NamingAddress::parse("10.0.0.1:2900"), (NamingAddress{"10.0.0.1", 2900}));
-  EXPECT_EQ(NamingAddress::parse("example"), (NamingAddress{"example", 2809}));
-  EXPECT_EQ(NamingAddress::parse("[::1]:2809").to_string(), "[::1]:2809");
-  EXPECT_EQ(NamingAddress{}.corbaloc(), "corbaloc::127.0.0.1:2809/NameService");
-  EXPECT_THROW(NamingAddress::parse(":2809"), std::invalid_argument);
-  EXPECT_THROW(NamingAddress::parse("host:http"), std::invalid_argument);
-  EXPECT_THROW(NamingAddress::parse("host:70000"), std::invalid_argument);
-  EXPECT_EQ(ComponentPath::parse("vm/sensor0"), (ComponentPath{"vm", "sensor0"}));
-  EXPECT_EQ(ComponentPath::parse("sensor0"), (ComponentPath{"", "sensor0"}));
-  EXPECT_EQ((ComponentPath{"vm", "sensor0"}).to_string(), "vm.host_cxt/sensor0.rtc");
-  EXPECT_THROW(ComponentPath::parse("a/b/c"), std::invalid_argument);
-  EXPECT_THROW(ComponentPath::parse("/b"), std::invalid_argument);
-}
-
 }  // namespace
 }  // namespace rtm_it
