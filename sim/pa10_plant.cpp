@@ -51,6 +51,7 @@ Pa10Plant::Pa10Plant(const std::string& scene_path, ServoGains gains) : gains_(g
                          "' is not the scene's joint/motor number " + std::to_string(j));
     }
     joystick_body_ = require_id(model_, mjOBJ_BODY, "joystick_handle", scene_path);
+    joystick_site_ = require_id(model_, mjOBJ_SITE, "joystick_ft", scene_path);
     tool_site_ = require_id(model_, mjOBJ_SITE, "tool_tip", scene_path);
     auto sensor_adr = [&](const char* name) {
       return model_->sensor_adr[require_id(model_, mjOBJ_SENSOR, name, scene_path)];
@@ -108,10 +109,19 @@ void Pa10Plant::set_command(int joint, const JointCommand& command) {
 }
 
 void Pa10Plant::set_operator_wrench(const Wrench& wrench) {
+  // MuJoCo applies xfrc_applied at the body's centre of mass: move the torque there so the
+  // wrench about the sensor origin is the one asked for (T_com = T_site + (site - com) x F).
+  const mjtNum* com = data_->xipos + 3 * joystick_body_;
+  const mjtNum* site = data_->site_xpos + 3 * joystick_site_;
+  const mjtNum arm_m[3] = {site[0] - com[0], site[1] - com[1], site[2] - com[2]};
+  mjtNum force[3];
+  mjtNum moment[3];
+  for (int i = 0; i < 3; ++i) force[i] = wrench.force_N[static_cast<std::size_t>(i)];
+  mju_cross(moment, arm_m, force);
   mjtNum* applied = data_->xfrc_applied + 6 * joystick_body_;
   for (int i = 0; i < 3; ++i) {
-    applied[i] = wrench.force_N[static_cast<std::size_t>(i)];
-    applied[3 + i] = wrench.torque_Nm[static_cast<std::size_t>(i)];
+    applied[i] = force[i];
+    applied[3 + i] = wrench.torque_Nm[static_cast<std::size_t>(i)] + moment[i];
   }
 }
 

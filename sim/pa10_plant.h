@@ -58,7 +58,8 @@ class Pa10Plant {
 
   // What joint i's servo does from the next step on.
   void set_command(int joint, const JointCommand& command);
-  // The operator's wrench on the joystick handle (joystick frame = world frame).
+  // The operator's wrench on the joystick handle, taken at the joystick sensor's origin
+  // (joystick frame = world frame): what the joystick then reads, less the handle's weight.
   void set_operator_wrench(const Wrench& wrench);
 
   // One physics step (timestep_s()).
@@ -92,6 +93,7 @@ class Pa10Plant {
   std::array<double, kJointCount> desired_acceleration_{};  // scratch, rad/s^2
   std::array<double, kJointCount> torque_Nm_{};             // scratch
   int joystick_body_ = -1;
+  int joystick_site_ = -1;
   int tool_site_ = -1;
   int wrist_force_adr_ = -1, wrist_torque_adr_ = -1;
   int joystick_force_adr_ = -1, joystick_torque_adr_ = -1;

@@ -74,6 +74,9 @@ TEST(Pa10Plant, JoystickReportsTheOperatorsWrenchPlusTheHandleWeight) {
   EXPECT_NEAR(wrench.force_N[1], -2.0, 1e-6);
   EXPECT_NEAR(wrench.force_N[2], -3.0 - kHandleMass_kg * kGravity_m_s2, 1e-6);
   EXPECT_NEAR(wrench.torque_Nm[2], 0.4, 1e-6);
+  // The wrench is taken at the sensor origin, not where MuJoCo applies it (the handle's COM).
+  EXPECT_NEAR(wrench.torque_Nm[0], 0.0, 1e-6);
+  EXPECT_NEAR(wrench.torque_Nm[1], 0.0, 1e-6);
 }
 
 TEST(Pa10Plant, MissingOrBrokenSceneIsAClearError) {

@@ -152,6 +152,40 @@ TEST_F(LockStepSimulatorTest, WithASeparateSensorBusTheSensorsAnswerOnlyThere) {
   }
 }
 
+TEST(LockStepSimulator, JoystickReportsTheProfilesWrenchOverSimTimeThenTheOverride) {
+  SimulatorConfig config;
+  config.scene_path = RTM_PA10_SCENE;
+  config.operator_profile = rtm::sim::OperatorProfile::from_yaml(
+      "segments:\n  - hold: 0.02\n  - step: {force_N: [3, 0, -4], torque_Nm: [0, 0.5, 0]}\n",
+      "inline");
+  Pa10Simulator sim(config);
+  sim.set_mode(Pa10Simulator::Mode::lock_step);
+  RecordingSink out;
+  sim.power_on(out);
+  sim.on_frame(*pc::encode_nmt(pc::NmtCommand::start, 0), out);
+  auto joystick_after_sync = [&](std::uint8_t counter) {
+    out.clear();
+    sim.on_frame(*pc::encode_sync(counter), out);
+    const auto force = pc::decode_sensor_force(
+        out.with_id(pc::cob::kTpdo1Base + pc::kJoystickSensorNode).at(0));
+    const auto torque = pc::decode_sensor_torque(
+        out.with_id(pc::cob::kTpdo2Base + pc::kJoystickSensorNode).at(0));
+    return std::make_pair(force->force_N, torque->torque_Nm);
+  };
+  const auto [before, unused] = joystick_after_sync(1);  // t = 2 ms: hands off
+  for (double f : before) EXPECT_NEAR(f, 0.0, 0.015);
+  for (std::uint8_t counter = 2; counter < 12; ++counter) joystick_after_sync(counter);
+  const auto [force, torque] = joystick_after_sync(12);  // t = 24 ms
+  EXPECT_NEAR(force[0], 3.0, 0.015);
+  EXPECT_NEAR(force[1], 0.0, 0.015);
+  EXPECT_NEAR(force[2], -4.0, 0.015);
+  EXPECT_NEAR(torque[1], 0.5, 0.0015);
+  sim.set_operator_override(rtm::sim::Wrench{{0, 7, 0}, {0, 0, 0}});
+  const auto [overridden, unused2] = joystick_after_sync(13);
+  EXPECT_NEAR(overridden[0], 0.0, 0.015);
+  EXPECT_NEAR(overridden[1], 7.0, 0.015);
+}
+
 TEST_F(LockStepSimulatorTest, SensorsAreTaredSoTheyReadZeroAtRest) {
   start_up();
   cycle(pc::controlword::kEnableOperation);
