@@ -255,9 +255,12 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
     }
   }
   if (!options.quiet) {
-    std::printf("pa10-sim: stopped at sim time %.3f s after %llu steps\n",
+    std::printf("pa10-sim: stopped at sim time %.3f s after %llu steps; %llu frames dropped "
+                "(transmit queue full)\n",
                 static_cast<double>(sim.time_ns()) * 1e-9,
-                static_cast<unsigned long long>(sim.steps()));
+                static_cast<unsigned long long>(sim.steps()),
+                static_cast<unsigned long long>(sink.dropped() +
+                                                (sensor_sink ? sensor_sink->dropped() : 0)));
     if (!options.lock_step)
       std::printf("pa10-sim: step start lateness: <0.1 ms %llu, <0.5 ms %llu, <1 ms %llu, "
                   "<5 ms %llu, >=5 ms %llu, max %.2f ms; %llu host stalls skipped (%.1f ms "
