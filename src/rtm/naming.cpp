@@ -369,6 +369,13 @@ void NameBinding::unbind() {
   if (watcher_.joinable()) watcher_.join();
   if (!was_bound) return;
   try {
+    if (!client_.is_bound(path_)) return;  // gone already, e.g. a restarted service
+    // Another process may have taken the name since the last check: leave its binding alone.
+    CORBA::Object_var current = client_.resolve_object(path_);
+    if (!current->_is_equivalent(object_)) {
+      log(false, fmt::format("{} names another object now; left bound", path_.to_string()));
+      return;
+    }
     client_.unbind(path_);
     log(false, fmt::format("unbound {} from {} at {}", path_.name, path_.to_string(),
                            client_.address().to_string()));

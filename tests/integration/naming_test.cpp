@@ -61,6 +61,20 @@ TEST_F(IntegrationTest, SigtermUnbindsTheNameAndExitsCleanly) {
   EXPECT_FALSE(naming().is_bound(path));
 }
 
+TEST_F(IntegrationTest, ASecondComponentOfTheSameNameTakesTheNameAndTheFirstLeavesItBound) {
+  auto& first = start_component("twin0");
+  auto& second = start_component("twin0");
+  const auto path = ComponentPath::on_this_host("twin0");
+  // The first one goes away at once, most likely before its next check saw the takeover:
+  // either way the name must still lead to the second, which answers.
+  const auto status = first.stop();
+  EXPECT_TRUE(status.clean()) << status.to_string();
+  ASSERT_TRUE(naming().is_bound(path));
+  component("twin0")->on();
+  EXPECT_EQ(component("twin0")->state(), RTM::COMPONENT_ON);
+  EXPECT_TRUE(second.running());
+}
+
 TEST_F(IntegrationTest, ComponentsRebindAfterNamingServiceRestartsWithoutItsData) {
   auto& a = start_component("phoenix0");
   auto& b = start_component("phoenix1");
