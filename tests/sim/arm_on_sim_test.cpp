@@ -35,15 +35,19 @@ std::string unique_bus_path() {
 class ArmOnSimTest : public ::testing::Test {
  protected:
   void SetUp() override { start(true); }
-  void start(bool lock_step) {
+  void start(bool lock_step, bool separate_sensor_bus = false) {
     bus_spec_ = "local:" + bus_path_;
     std::vector<std::string> argv{PA10_SIM_EXE, "--bus", bus_spec_};
     if (lock_step) argv.push_back("--lockstep");
+    if (separate_sensor_bus) {
+      sensor_bus_spec_ = "local:" + unique_bus_path();
+      argv.insert(argv.end(), {"--sensor-bus", sensor_bus_spec_});
+    }
     sim_ = std::make_unique<rtm_test::ChildProcess>(argv);
     sim_->wait_for_line("pa10-sim: ready", 20s);
     pc::MasterConfig config;
     config.step_timeout = 2s;  // a loaded 2-core VM may stall; lock-step never misses a SYNC
-    master_ = std::make_unique<pc::Pa10Master>(bus_spec_, "", config);
+    master_ = std::make_unique<pc::Pa10Master>(bus_spec_, sensor_bus_spec_, config);
     master_->start();
     arm_ = std::make_unique<rtm::pa10::Pa10Arm>(RTM_PA10_URDF, *master_);
   }
@@ -68,6 +72,7 @@ class ArmOnSimTest : public ::testing::Test {
 
   std::string bus_path_ = unique_bus_path();
   std::string bus_spec_;
+  std::string sensor_bus_spec_;  // empty: the sensors share bus_spec_
   std::unique_ptr<rtm_test::ChildProcess> sim_;
   std::unique_ptr<pc::Pa10Master> master_;
   std::unique_ptr<rtm::pa10::Pa10Arm> arm_;
@@ -150,6 +155,24 @@ TEST_F(ArmOnSimTest, WithoutRpdosTheDrivesBrakeToZeroWithinThreeSyncs) {
     }
   }
   EXPECT_EQ(fault_syncs, 3);
+}
+
+// The force sensors on a second bus, as a real installation would have them (bus load).
+class ArmOnSimWithSensorBusTest : public ArmOnSimTest {
+ protected:
+  void SetUp() override { start(true, true); }
+};
+
+TEST_F(ArmOnSimWithSensorBusTest, BothSensorsAnswerEverySyncOnTheirOwnBus) {
+  EXPECT_NE(master_->sensor_bus_name(), master_->drive_bus_name());
+  cycles(20, {});
+  for (auto sensor : {pc::ForceSensor::wrist, pc::ForceSensor::joystick}) {
+    const auto wrench = master_->wrench(sensor);
+    ASSERT_TRUE(wrench.valid);
+    EXPECT_EQ(wrench.sync_counter, master_->joint_state().sync_counter);
+    for (double value : wrench.values) EXPECT_NEAR(value, 0.0, 0.05) << "tared, at rest";
+  }
+  EXPECT_FALSE(arm_->inFault()) << arm_->faultReason();
 }
 
 // Real time: pa10-sim on its own 1 ms clock, the master on its own 2 ms thread. Only loose,
