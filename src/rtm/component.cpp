@@ -69,7 +69,8 @@ void ComponentServant::deactivate() {
       orb_ = nullptr;
     }
   }
-  if (orb) orb->deactivate(this);
+  // After the Orb is gone its POA has already released every servant.
+  if (orb && Orb::instance() == orb) orb->deactivate(this);
   for (auto* port : component_->in_ports()) port->deactivate();
   for (auto* port : component_->out_ports()) port->deactivate();
 }

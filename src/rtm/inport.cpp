@@ -130,7 +130,8 @@ void InPortBase::deactivate() {
         entries.end());
     orb = orb_;
   }
-  orb->deactivate(this);
+  // After the Orb is gone its POA has already released every servant.
+  if (Orb::instance() == orb) orb->deactivate(this);
 }
 
 RTM::InPortEx_ptr InPortBase::reference() const {

@@ -14,7 +14,8 @@ namespace rtm {
 // The POA "rtm" carries omniORB's LOCAL_CALLS_SHORTCUT policy: together with the
 // -Wbshortcut stubs of rtm_idl a call on a servant of this process costs about a virtual
 // call. Construct one Orb per process (omniORB has one ORB); the destructor shuts it down and
-// destroys it, releasing what omniORB allocated.
+// destroys it, releasing what omniORB allocated. Servants may outlive it: destroying the Orb
+// releases them from its POA, and their deactivate() then does nothing.
 class Orb {
  public:
   // args: ORB options as on a command line, e.g. {"-ORBendPoint", "giop:unix:/tmp/x.sock"}.

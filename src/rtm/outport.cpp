@@ -58,7 +58,8 @@ void OutPortBase::deactivate() {
     orb = orb_;
     orb_ = nullptr;
   }
-  orb->deactivate(this);
+  // After the Orb is gone its POA has already released every servant.
+  if (Orb::instance() == orb) orb->deactivate(this);
 }
 
 RTM::OutPortEx_ptr OutPortBase::reference() const {

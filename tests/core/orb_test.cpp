@@ -1,3 +1,4 @@
+#include "rtm/component.h"
 #include "rtm/orb.h"
 
 #include <gtest/gtest.h>
@@ -21,6 +22,21 @@ TEST(Orb, RunReturnsAfterShutdownFromAnotherThreadAndInstanceTracksTheLiveOrb) {
     stopper.join();
   }
   EXPECT_EQ(rtm::Orb::instance(), nullptr);
+}
+
+TEST(Orb, ServantsMayOutliveTheOrb) {
+  class Idle final : public rtm::Component {
+   public:
+    Idle() : Component("idle0", "test") { add_in_port<RTM::TimedFloat6>("in0"); }
+    void on_cycle(const rtm::CycleContext&) override {}
+  };
+  auto servant = std::make_unique<rtm::ComponentServant>(std::make_unique<Idle>(), rtm::ExternalTick{});
+  {
+    rtm::Orb orb;
+    RTM::RtComponentEx_var ref = servant->activate(orb);
+    EXPECT_EQ(servant->component().in_ports()[0]->active(), true);
+  }
+  servant.reset();  // deactivation after the ORB is gone: nothing to do, nothing to crash
 }
 
 TEST(Orb, FromStringRefusesTextThatIsNoReference) {
