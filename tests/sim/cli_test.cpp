@@ -21,12 +21,18 @@ std::string temp_path(const std::string& name) {
       .string();
 }
 
-// Runs pa10-sim with `args`, expects exit code 1 and returns its output.
-std::string failing_run(std::vector<std::string> args) {
+// Runs pa10-sim with `args`, expects exit code 1 and returns its output once `expected` (the
+// start of the error line) has been read or the output has ended.
+std::string failing_run(std::vector<std::string> args, const std::string& expected) {
   args.insert(args.begin(), PA10_SIM_EXE);
   rtm_test::ChildProcess::Options quiet;
   quiet.echo_output = false;
   rtm_test::ChildProcess sim(args, quiet);
+  try {
+    sim.wait_for_line(expected, 30s);
+  } catch (const std::runtime_error&) {
+    // The EXPECT on the output names what is missing.
+  }
   const auto status = sim.wait_for_exit(30s);
   EXPECT_TRUE(status.has_value()) << "still running";
   if (status) {
@@ -37,20 +43,22 @@ std::string failing_run(std::vector<std::string> args) {
 }
 
 TEST(Pa10SimCli, MissingModelFileIsOneLineAndExit1) {
-  const auto output = failing_run({"--bus", "local:" + temp_path("a.bus"), "--model", "/nonexistent.xml"});
+  const auto output = failing_run(
+      {"--bus", "local:" + temp_path("a.bus"), "--model", "/nonexistent.xml"}, "pa10-sim: ");
   EXPECT_NE(output.find("pa10-sim: /nonexistent.xml: scene file not found"), std::string::npos) << output;
 }
 
 TEST(Pa10SimCli, MalformedProfileNamesFileAndSegmentAndExits1) {
   const std::string profile = temp_path("bad.yaml");
   std::ofstream(profile) << "segments:\n  - hold: 1\n  - ramp: {force_N: [1, 2, 3]}\n";
-  const auto output = failing_run({"--bus", "local:" + temp_path("b.bus"), "--profile", profile});
+  const auto output =
+      failing_run({"--bus", "local:" + temp_path("b.bus"), "--profile", profile}, "pa10-sim: ");
   EXPECT_NE(output.find(profile + ": segment 2: a ramp needs duration_s"), std::string::npos) << output;
   std::filesystem::remove(profile);
 }
 
 TEST(Pa10SimCli, UnknownBusSchemeIsOneLineAndExit1) {
-  const auto output = failing_run({"--bus", "carrier-pigeon:coop"});
+  const auto output = failing_run({"--bus", "carrier-pigeon:coop"}, "pa10-sim: ");
   EXPECT_NE(output.find("pa10-sim: CAN bus 'carrier-pigeon:coop'"), std::string::npos) << output;
 }
 
@@ -60,10 +68,10 @@ TEST(Pa10SimCli, SigtermStopsItCleanlyAndRemovesTheHubSocket) {
   sim.wait_for_line("pa10-sim: ready", 20s);
   EXPECT_TRUE(std::filesystem::exists(bus)) << "pa10-sim hosts the hub when none listens";
   sim.send_signal(SIGTERM);
+  EXPECT_NO_THROW(sim.wait_for_line("pa10-sim: stopped at sim time", 10s));
   const auto status = sim.wait_for_exit(10s);
   ASSERT_TRUE(status.has_value());
   EXPECT_TRUE(status->clean()) << status->to_string();
-  EXPECT_NE(sim.output().find("pa10-sim: stopped at sim time"), std::string::npos);
   EXPECT_FALSE(std::filesystem::exists(bus));
 }
 
