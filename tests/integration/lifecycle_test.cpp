@@ -2,6 +2,8 @@
 // extension interface.
 #include "integration_fixture.h"
 
+#include <signal.h>
+
 namespace rtm_it {
 namespace {
 
@@ -50,6 +52,35 @@ TEST_F(IntegrationTest, BadCommandLineIsOneErrorAndExitStatusTwo) {
   EXPECT_TRUE(status->exited);
   EXPECT_EQ(status->code, 2);
   EXPECT_NE(process.output().find("period 'fast'"), std::string::npos) << process.output();
+}
+
+}  // namespace
+}  // namespace rtm_it
+
+namespace rtm_it {
+namespace {
+
+TEST_F(IntegrationTest, SigintStopsTheComponentAndUnbindsItsNameLikeSigterm) {
+  auto& process = start_component("interrupted0", {"--on"});
+  process.send_signal(SIGINT);
+  const auto status = process.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value()) << "no exit within 10 s after SIGINT";
+  EXPECT_TRUE(status->clean()) << status->to_string();
+  EXPECT_NE(process.output().find("stopping interrupted0 (SIGINT)"), std::string::npos) << process.output();
+  EXPECT_FALSE(naming().is_bound(rtm::ComponentPath::on_this_host("interrupted0")));
+}
+
+TEST_F(IntegrationTest, OrbOptionsReachOmniOrbAndAnUnknownOneIsOneErrorWithExitStatusOne) {
+  // A valid option passes through (omniORB then traces) and the component comes up.
+  auto& traced = start_component("traced0", {"-ORBtraceLevel", "10"});
+  EXPECT_GT(traced.count_lines("omniORB: "), 0u) << traced.output();
+  rtm_test::ChildProcess bad({RTM_TEST_COMPONENT, "--name", "bad0", "--naming", names_.address(), "-ORBnoSuchOption", "1"});
+  const auto status = bad.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(status->exited) << status->to_string();
+  EXPECT_EQ(status->code, 1);
+  EXPECT_NE(bad.output().find("ORB initialisation failed"), std::string::npos) << bad.output();
+  EXPECT_FALSE(naming().is_bound(rtm::ComponentPath::on_this_host("bad0")));
 }
 
 }  // namespace
