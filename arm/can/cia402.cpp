@@ -119,14 +119,14 @@ std::uint16_t Cia402Enabler::next_controlword(std::uint16_t sw, bool reset_fault
       case DriveState::switch_on_disabled: next = controlword::kShutdown; break;
       case DriveState::ready_to_switch_on: next = controlword::kSwitchOn; break;
       case DriveState::switched_on:
-      case DriveState::operation_enabled: next = controlword::kEnableOperation; break;
+      case DriveState::operation_enabled:
+      case DriveState::quick_stop_active: next = controlword::kEnableOperation; break;  // 4, 16
       case DriveState::fault:
         // The reset acts on the rising edge: after a word with bit 7 comes one without.
         if (reset_faults && (last_ & controlword::kFaultResetBit) == 0) {
           next = controlword::kFaultResetBit;
         }
         break;
-      case DriveState::quick_stop_active:
       case DriveState::not_ready_to_switch_on:
       case DriveState::fault_reaction_active: break;
     }

@@ -81,7 +81,8 @@ class Cia402Enabler {
  public:
   // The controlword to send next for a drive that reports `statusword`, on the way to
   // operation enabled: disabled -> shutdown, ready -> switch on, switched on / enabled ->
-  // enable operation, quick stop active -> disable voltage, not ready / fault reaction ->
+  // enable operation, quick stop active -> enable operation (transition 16: straight back to
+  // operation enabled; the master sends quick stop itself while it wants it), not ready / fault reaction ->
   // disable voltage (wait). In fault: with `reset_faults` false, disable voltage (stay in
   // fault); with true, alternates 0x0000 / 0x0080 so the drive sees a rising edge of bit 7.
   // An unknown bit pattern gives disable voltage.

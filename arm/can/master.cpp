@@ -94,12 +94,18 @@ struct Pa10Master::Impl {
   MasterCounters counters{};
   FaultRecord fault{};       // cycle's copy, published with the rest
   std::array<double, kDriveCount> command_rad_s{};
+  bool quick_stop = false;   // this cycle sends quick stop to every drive
+  // After a quick stop ends, drives still report quick stop active until they have latched
+  // "enable operation": that state is no fault until this deadline (or all are enabled again).
+  std::optional<steady_clock::time_point> quick_stop_release_deadline;
 
   // ---- shared with other threads, under mutex ----
   mutable std::mutex mutex;
   std::array<double, kDriveCount> shared_target_rad_s{};
   bool shared_target_valid = false;
   bool shared_reset_requested = false;
+  bool shared_quick_stop_requested = false;
+  bool shared_quick_stopped = false;
   JointState shared_state{};
   std::array<Wrench, kSensorCount> shared_wrench{};
   FaultRecord shared_fault{};
@@ -283,11 +289,22 @@ struct Pa10Master::Impl {
       recovery_deadline = steady_clock::now() + config.enable_timeout;
       shared_target_valid = false;
     }
-    if (fault.kind == FaultKind::none && !enabling && shared_target_valid) {
+    const bool was_quick_stop = quick_stop;
+    quick_stop = shared_quick_stop_requested && fault.kind == FaultKind::none && !enabling;
+    if (was_quick_stop && !quick_stop) {
+      quick_stop_release_deadline = steady_clock::now() + config.enable_timeout;
+    }
+    if (quick_stop) quick_stop_release_deadline.reset();
+    if (fault.kind == FaultKind::none && !enabling && !quick_stop && shared_target_valid) {
       command_rad_s = shared_target_rad_s;
     } else {
       command_rad_s.fill(0.0);
     }
+  }
+
+  // A drive in quick stop active is where the master put it, not a drive that left by itself.
+  bool quick_stop_expected(steady_clock::time_point now) const {
+    return quick_stop || (quick_stop_release_deadline && now < *quick_stop_release_deadline);
   }
 
   void check_heartbeats(steady_clock::time_point now) {
@@ -317,6 +334,8 @@ struct Pa10Master::Impl {
       std::uint16_t cw;
       if (enabling) {
         cw = enablers[i].next_controlword(last_statusword[i], /*reset_faults=*/true);
+      } else if (quick_stop && fault.kind == FaultKind::none) {
+        cw = controlword::kQuickStop;
       } else if (fault.kind != FaultKind::none) {
         // Hold: enabled drives stay enabled at zero velocity, the others stay off.
         const auto state = state_from_statusword(last_statusword[i]);
@@ -343,6 +362,9 @@ struct Pa10Master::Impl {
   void close_window(steady_clock::time_point now) {
     window_open = false;
     bool all_enabled = true;
+    bool all_quick_stopped = quick_stop;
+    bool all_operation_enabled = true;
+    const bool quick_stop_ok = quick_stop_expected(now);
     for (int j = 0; j < kDriveCount; ++j) {
       const auto i = static_cast<std::size_t>(j);
       if (got_feedback[i]) {
@@ -355,8 +377,11 @@ struct Pa10Master::Impl {
                     missed[i]);
       }
       const auto state = state_from_statusword(last_statusword[i]);
-      const bool enabled = state == DriveState::operation_enabled;
+      const bool quick_stopped = state == DriveState::quick_stop_active;
+      const bool enabled = state == DriveState::operation_enabled || (quick_stop_ok && quick_stopped);
       all_enabled = all_enabled && enabled && got_feedback[i];
+      all_quick_stopped = all_quick_stopped && quick_stopped && got_feedback[i];
+      all_operation_enabled = all_operation_enabled && state == DriveState::operation_enabled;
       if (enabling || !started || enabled || fault.kind != FaultKind::none) continue;
       if (state == DriveState::fault || state == DriveState::fault_reaction_active) {
         latch_fault(FaultKind::drive_fault, drive_node(j), last_statusword[i],
@@ -368,6 +393,9 @@ struct Pa10Master::Impl {
                     node_description(drive_node(j)).c_str(), last_statusword[i],
                     state ? to_string(*state).data() : "unknown state");
       }
+    }
+    if (!quick_stop && quick_stop_release_deadline && all_operation_enabled) {
+      quick_stop_release_deadline.reset();
     }
     if (recovering) {
       if (all_enabled) {
@@ -387,10 +415,10 @@ struct Pa10Master::Impl {
         }
       }
     }
-    publish(all_enabled);
+    publish(all_enabled, all_quick_stopped);
   }
 
-  void publish(bool all_enabled) {
+  void publish(bool all_enabled, bool all_quick_stopped = false) {
     std::lock_guard lock(mutex);
     JointState& s = shared_state;
     for (int j = 0; j < kDriveCount; ++j) {
@@ -419,6 +447,7 @@ struct Pa10Master::Impl {
     }
     shared_fault = fault;
     shared_enabled = all_enabled && fault.kind == FaultKind::none && !enabling;
+    shared_quick_stopped = all_quick_stopped && shared_quick_stop_requested;
     shared_counters = counters;
   }
 
@@ -666,6 +695,19 @@ void Pa10Master::set_target_velocities(const std::array<double, kDriveCount>& ve
   if (impl_->shared_fault.kind != FaultKind::none) return;
   impl_->shared_target_rad_s = velocity_rad_s;
   impl_->shared_target_valid = true;
+  impl_->shared_quick_stop_requested = false;
+}
+
+void Pa10Master::quick_stop() {
+  std::lock_guard lock(impl_->mutex);
+  if (impl_->shared_fault.kind != FaultKind::none) return;
+  impl_->shared_quick_stop_requested = true;
+  impl_->shared_target_valid = false;
+}
+
+bool Pa10Master::quick_stopped() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->shared_quick_stopped;
 }
 
 JointState Pa10Master::joint_state() const {
@@ -696,6 +738,7 @@ void Pa10Master::fault_reset() {
   std::lock_guard lock(impl_->mutex);
   impl_->shared_reset_requested = true;
   impl_->shared_target_valid = false;
+  impl_->shared_quick_stop_requested = false;
 }
 
 MasterCounters Pa10Master::counters() const {

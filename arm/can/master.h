@@ -15,6 +15,12 @@
 // the heartbeat timeout, a bus error, a drive leaving operation enabled): latched with a reason;
 // the master then commands zero velocity to every drive and forgets the last target until
 // set_target_velocities() is called again after fault_reset().
+//
+// Quick stop (CiA 402): quick_stop() makes the next cycles send controlword 0x0002 with zero
+// target to every drive, which then brakes and reports "quick stop active" (0x0007); the master
+// holds them there (no fault: it asked for that state) until set_target_velocities() resumes,
+// when "enable operation" (0x000F, transition 16) takes them straight back to operation enabled
+// with the new target in the same RPDO.
 #pragma once
 
 #include <array>
@@ -137,13 +143,22 @@ class Pa10Master {
 
   // Joint velocity targets [rad/s] for the next cycle. Thread-safe, no allocation. Throws
   // std::invalid_argument for a NaN or infinite value (nothing is applied then). Ignored
-  // (zero is sent) while a fault is active.
+  // (zero is sent) while a fault is active. Ends a quick_stop().
   void set_target_velocities(const std::array<double, kDriveCount>& velocity_rad_s);
 
   JointState joint_state() const;
   Wrench wrench(ForceSensor sensor) const;
   MasterFault fault() const;
-  bool enabled() const;  // every drive in operation enabled and no fault
+  // Every drive in operation enabled (or quick stop active after quick_stop()) and no fault.
+  bool enabled() const;
+
+  // Brakes every drive (CiA 402 quick stop) from the next cycle on and keeps them braked until
+  // set_target_velocities() or fault_reset(). Thread-safe, no allocation. Ignored while a fault
+  // is active (the fault already holds zero). enabled() stays true meanwhile: the drives are
+  // ready to move again on the next target.
+  void quick_stop();
+  // True once every drive reports quick stop active for a quick_stop() still in force.
+  bool quick_stopped() const;
 
   // Clears the latched fault and makes the next cycles send the fault-reset edge and the
   // enable sequence to every drive not in operation enabled. Asynchronous: with run_periodic()

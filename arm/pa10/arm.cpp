@@ -7,9 +7,11 @@
 namespace rtm::pa10 {
 namespace {
 
-ArmFault armFaultOf(rtm::can::FaultKind kind) {
+ArmFault armFaultOf(const rtm::can::MasterFault& fault) {
   using rtm::can::FaultKind;
-  switch (kind) {
+  if (fault.kind == FaultKind::emergency && fault.code == rtm::can::emcy::kRpdoTimeout)
+    return ArmFault::command_loss;
+  switch (fault.kind) {
     case FaultKind::none: return ArmFault::none;
     case FaultKind::heartbeat_lost: return ArmFault::heartbeat_lost;
     case FaultKind::bus_error: return ArmFault::bus_error;
@@ -29,6 +31,7 @@ const char* toString(ArmFault fault) {
     case ArmFault::none: return "none";
     case ArmFault::not_enabled: return "not_enabled";
     case ArmFault::drive_fault: return "drive_fault";
+    case ArmFault::command_loss: return "command_loss";
     case ArmFault::heartbeat_lost: return "heartbeat_lost";
     case ArmFault::bus_error: return "bus_error";
     case ArmFault::ik_failed: return "ik_failed";
@@ -84,7 +87,7 @@ ArmFault Pa10Arm::checkFaults() {
   }
   const rtm::can::MasterFault master_fault = master_.fault();
   if (master_fault.active()) {
-    latch(armFaultOf(master_fault.kind), master_fault.reason.c_str());
+    latch(armFaultOf(master_fault), master_fault.reason.c_str());
     return fault();
   }
   setState(ArmFault::not_enabled, "the master has not enabled every drive");
@@ -118,6 +121,15 @@ bool Pa10Arm::orderVelocity(const std::array<float, 6>& twist_base) {
 }
 
 void Pa10Arm::stop() { commandZero(); }
+
+bool Pa10Arm::quickStop() {
+  if (checkFaults() != ArmFault::none) {
+    commandZero();
+    return false;
+  }
+  master_.quick_stop();
+  return true;
+}
 
 JointVector Pa10Arm::jointPositions() const {
   const rtm::can::JointState state = master_.joint_state();

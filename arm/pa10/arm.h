@@ -32,6 +32,9 @@ enum class ArmFault : std::uint8_t {
   not_enabled,     // not latched: the master has not (yet) enabled every drive, or no feedback
   drive_fault,     // drive fault, EMCY, drive left operation enabled, no feedback, node not
                    // operational
+  command_loss,    // a drive's RPDO timeout (EMCY 0x8250): the commands did not reach it in
+                   // time (e.g. a host stall of the master); a communication fault, not a
+                   // hardware one, which reset() clears
   heartbeat_lost,  // a node was silent longer than the master's heartbeat timeout
   bus_error,       // the CAN transport failed
   ik_failed,       // the twist (or the measured q) was not finite
@@ -61,6 +64,10 @@ class Pa10Arm {
   bool orderVelocity(const std::array<float, 6>& twist_base);
   // Commands zero joint rates (keeps the drives enabled).
   void stop();
+  // Brakes the drives (CiA 402 quick stop, see Pa10Master::quick_stop()) and keeps them braked
+  // until the next orderVelocity(). Returns false (and commands zero) when the arm is in fault.
+  // Allocates nothing; same thread as orderVelocity().
+  bool quickStop();
 
   // Latest measured joint state (from the drives' TPDOs), s1..w2.
   JointVector jointPositions() const;   // rad

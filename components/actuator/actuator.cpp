@@ -50,6 +50,7 @@ void Actuator::on_start() {
 void Actuator::on_cycle(const rtm::CycleContext&) {
   cycles_.fetch_add(1, std::memory_order_relaxed);
   bool fresh_command = false;
+  bool watchdog_fired = false;
   if (command_in_.read(command_) == rtm::ReadResult::NewData) {
     age_ = 0;
     had_command_ = true;
@@ -58,7 +59,7 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
     if (bad) {
       if (!command_bad_) {
         non_finite_events_.fetch_add(1, std::memory_order_relaxed);
-        log().warn("{}: command holds NaN/inf: zero velocity (event {})", name(), non_finite_events_.load());
+        log().warn("{}: command holds NaN/inf: quick stop (event {})", name(), non_finite_events_.load());
       }
       twist_ = {};
     } else {
@@ -79,21 +80,44 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
       twist_ = {};
     } else if (age_ >= params_.watchdog_periods && !watchdog_tripped_) {
       watchdog_tripped_ = true;
+      watchdog_fired = true;
       twist_ = {};
       watchdog_events_.fetch_add(1, std::memory_order_relaxed);
-      const VelocityArm::BusPosition bus = arm_->bus_position();
-      log().warn("{}: watchdog: no new command for {} periods: zero velocity after bus cycle {} (SYNC counter {}) "
-                 "(event {})",
-                 name(), params_.watchdog_periods, bus.cycle, bus.sync_counter, watchdog_events_.load());
     }
-    // Otherwise the last command (or zero after the watchdog) is repeated.
+    // Otherwise the last command (or the brake after the watchdog) is repeated.
   }
 
-  const ArmStatus status = arm_->order_velocity(twist_);
-  if (status == ArmStatus::fault) throw std::runtime_error("arm fault: " + arm_->fault_reason());
+  const bool brake = had_command_ && (watchdog_tripped_ || command_bad_);
+  // Where the bus is when the arm is told, for the event report (read before, so the brake
+  // leaves with the next SYNC after this position at the latest).
+  const VelocityArm::BusPosition bus = fresh_command || watchdog_fired ? arm_->bus_position() : VelocityArm::BusPosition{};
+  const ArmStatus status = brake ? arm_->quick_stop() : arm_->order_velocity(twist_);
+  if (fresh_command) last_command_bus_ = bus;
+  if (watchdog_fired) {
+    log().warn("{}: watchdog: no new command for {} periods since bus cycle {} (SYNC counter {}): quick stop "
+               "after bus cycle {} (SYNC counter {}) (event {})",
+               name(), params_.watchdog_periods, last_command_bus_.cycle, last_command_bus_.sync_counter, bus.cycle,
+               bus.sync_counter, watchdog_events_.load());
+  }
+  if (status == ArmStatus::command_loss) {
+    // The drives faulted only because commands came late: reset them and move again on the
+    // next new command, never on one from before the loss.
+    const std::uint64_t event = command_loss_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
+    log().warn("{}: {}: resetting the drives, moving again on the next command (recovery {})", name(),
+               arm_->fault_reason(), event);
+    arm_->reset();
+    had_command_ = false;
+    watchdog_tripped_ = false;
+    command_bad_ = false;
+    age_ = 0;
+    twist_ = {};
+  } else if (status == ArmStatus::fault) {
+    throw std::runtime_error("arm fault: " + arm_->fault_reason());
+  }
   if (status == ArmStatus::not_ready) not_ready_cycles_.fetch_add(1, std::memory_order_relaxed);
   if (fresh_command && status == ArmStatus::ready) latency_.record(rtm::to_ns(rtm::now()) - rtm::to_ns(command_.tm));
-  for (std::size_t i = 0; i < 6; ++i) last_twist_[i].store(status == ArmStatus::ready ? twist_[i] : 0.0f, std::memory_order_relaxed);
+  const bool moving = status == ArmStatus::ready && !brake;
+  for (std::size_t i = 0; i < 6; ++i) last_twist_[i].store(moving ? twist_[i] : 0.0f, std::memory_order_relaxed);
 }
 
 void Actuator::on_stop() {
@@ -102,8 +126,9 @@ void Actuator::on_stop() {
   const ActuatorCounters c = counters();
   log().info(
       "{}: off, zero velocity. cycles {}, commands {}, clamped {}, watchdog events {}, non-finite events {}, "
-      "not-ready cycles {}, sample-to-drive latency p50 {} us p99 {} us max {} us",
-      name(), c.cycles, c.commands, c.clamped, c.watchdog_events, c.non_finite_events, c.not_ready_cycles,
+      "command-loss recoveries {}, not-ready cycles {}, sample-to-drive latency p50 {} us p99 {} us max {} us",
+      name(), c.cycles, c.commands, c.clamped, c.watchdog_events, c.non_finite_events, c.command_loss_recoveries,
+      c.not_ready_cycles,
       c.latency_p50_ns / 1000, c.latency_p99_ns / 1000, c.latency_max_ns / 1000);
 }
 
@@ -115,6 +140,7 @@ ActuatorCounters Actuator::counters() const {
   c.watchdog_events = watchdog_events_.load();
   c.non_finite_events = non_finite_events_.load();
   c.not_ready_cycles = not_ready_cycles_.load();
+  c.command_loss_recoveries = command_loss_recoveries_.load();
   c.latency_p50_ns = latency_.percentile_ns(0.5);
   c.latency_p99_ns = latency_.percentile_ns(0.99);
   c.latency_max_ns = latency_.max_ns();

@@ -4,13 +4,21 @@
 //
 // Each cycle: take the newest command, clamp each component to ±limit[i] (Fig. 7), hand it to
 // the arm (orderVelocity). Safety beyond the paper:
-//   - watchdog: after watchdog_periods cycles without a new command the twist is zero; the
-//     cycles before repeat the last command (one late datum must not jerk the arm);
-//   - a command holding NaN/inf gives zero;
-//   each counted and logged once per event (when it starts), not per cycle;
+//   - watchdog: after watchdog_periods cycles without a new command the drives brake (CiA 402
+//     quick stop: they stop where they are, not merely ramp down to a zero command); the
+//     cycles before repeat the last command (one late datum must not jerk the arm). The
+//     watchdog arms with the first command after on(), so members turned on one after another
+//     count no event;
+//   - a command holding NaN/inf brakes the same way;
+//   each counted and logged once per event (when it starts), not per cycle; the next valid
+//   command releases the brake and moves the arm again;
 //   - off() commands zero velocity before it returns;
-//   - a latched arm fault puts the component in COMPONENT_ERROR with the reason; on() after
-//     reset() asks the arm to reset too.
+//   - a drive's RPDO timeout (EMCY 0x8250: the bus master's commands came late, e.g. a host
+//     stall) is a communication fault: the actuator resets the drives at once and moves again
+//     on the next new command, counting and logging each such recovery once;
+//   - any other latched arm fault (drive hardware EMCY, heartbeat loss, bus error, a failed
+//     recovery) puts the component in COMPONENT_ERROR with the reason; on() after reset() asks
+//     the arm to reset too.
 #pragma once
 
 #include "components/actuator/velocity_arm.h"
@@ -42,8 +50,9 @@ struct ActuatorCounters {
   std::uint64_t cycles = 0;
   std::uint64_t commands = 0;           // new finite commands applied
   std::uint64_t clamped = 0;            // of those, commands the limiter changed
-  std::uint64_t watchdog_events = 0;    // commands stopped arriving (zero velocity)
-  std::uint64_t non_finite_events = 0;  // commands started holding NaN/inf (zero velocity)
+  std::uint64_t watchdog_events = 0;    // commands stopped arriving (quick stop)
+  std::uint64_t non_finite_events = 0;  // commands started holding NaN/inf (quick stop)
+  std::uint64_t command_loss_recoveries = 0;  // drive RPDO timeouts reset and resumed from
   std::uint64_t not_ready_cycles = 0;   // the arm was not enabled (zero velocity)
   // Sample-to-drive latency: now - command stamp (the sensor sample's stamp, see the
   // controller) when the twist has been handed to the arm, CLOCK_REALTIME.
@@ -76,10 +85,11 @@ class Actuator final : public rtm::Component {
   bool had_command_ = false;     // since on()
   bool watchdog_tripped_ = false;
   bool command_bad_ = false;
+  VelocityArm::BusPosition last_command_bus_{};  // when the newest command was handed over
   std::array<std::atomic<float>, 6> last_twist_{};
   rtm::LatenessHistogram latency_;
   std::atomic<std::uint64_t> cycles_{0}, commands_{0}, clamped_{0}, watchdog_events_{0}, non_finite_events_{0},
-      not_ready_cycles_{0};
+      not_ready_cycles_{0}, command_loss_recoveries_{0};
   rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>("in0");
 };
 

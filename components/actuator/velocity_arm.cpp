@@ -29,7 +29,21 @@ ArmHardware::~ArmHardware() {
 
 ArmStatus ArmHardware::order_velocity(const std::array<float, 6>& twist_base) {
   if (arm_->orderVelocity(twist_base)) return ArmStatus::ready;
-  return arm_->fault() == rtm::pa10::ArmFault::not_enabled ? ArmStatus::not_ready : ArmStatus::fault;
+  return status_of_refusal();
+}
+
+ArmStatus ArmHardware::quick_stop() {
+  if (arm_->quickStop()) return ArmStatus::ready;
+  return status_of_refusal();
+}
+
+ArmStatus ArmHardware::status_of_refusal() const {
+  switch (arm_->fault()) {
+    case rtm::pa10::ArmFault::none:  // enabled, but no feedback yet
+    case rtm::pa10::ArmFault::not_enabled: return ArmStatus::not_ready;
+    case rtm::pa10::ArmFault::command_loss: return ArmStatus::command_loss;
+    default: return ArmStatus::fault;
+  }
 }
 
 bool ArmHardware::in_fault() const {

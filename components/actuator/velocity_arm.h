@@ -18,6 +18,10 @@ enum class ArmStatus : std::uint8_t {
   ready,      // the twist was handed to the drives
   not_ready,  // drives not (yet) enabled: zero was commanded; clears by itself
   fault,      // latched fault: zero is commanded until reset(); fault_reason() says why
+  // Latched like fault, but a communication fault: a drive's RPDO timeout (EMCY 0x8250, its
+  // commands came late, e.g. a host stall of the process running the bus master). reset()
+  // brings the drives back; nothing is broken.
+  command_loss,
 };
 
 class VelocityArm {
@@ -29,6 +33,10 @@ class VelocityArm {
   // Commands zero velocity; returns once that command has left for the bus (when the bus runs
   // on its own clock) or is set for the next cycle (lock-step).
   virtual void stop() = 0;
+  // Brakes: the drives stop where they are (CiA 402 quick stop) from the next cycle on, and
+  // stay braked until the next order_velocity(). Allocates nothing; same thread as
+  // order_velocity(). ready when the brake was commanded.
+  virtual ArmStatus quick_stop() = 0;
   virtual std::string fault_reason() const = 0;
   virtual bool in_fault() const = 0;
   virtual void reset() = 0;
@@ -65,6 +73,7 @@ class ArmHardware final : public VelocityArm {
 
   ArmStatus order_velocity(const std::array<float, 6>& twist_base) override;
   void stop() override;
+  ArmStatus quick_stop() override;
   std::string fault_reason() const override { return arm_->faultReason(); }
   bool in_fault() const override;  // re-reads the master's state
   void reset() override { arm_->reset(); }
@@ -78,6 +87,7 @@ class ArmHardware final : public VelocityArm {
   Options options_;
   std::unique_ptr<rtm::can::Pa10Master> master_;
   std::unique_ptr<rtm::pa10::Pa10Arm> arm_;
+  ArmStatus status_of_refusal() const;
 };
 
 }  // namespace rtm::comp

@@ -90,6 +90,11 @@ int main(int argc, char** argv) {
   app.add_option("--controller", controller_name, "controller member name")->capture_default_str();
   app.add_option("--actuator", actuator_name, "actuator member name")->capture_default_str();
   app.add_option("--wait", wait_s, "paper mode: seconds to wait for the members to appear")->capture_default_str();
+  double phase_offset_us = -1;
+  app.add_option("--phase-offset-us", phase_offset_us,
+                 "paper mode: turn members on sensor, controller, actuator this far apart (µs) so each cycle "
+                 "finds its input fresh; 0 = downstream first; default: a quarter of --period")
+      ->check(CLI::Range(-1.0, 1e6));
   app.add_flag("--shared-tick", shared_tick, "run the members in this process on one periodic tick");
   auto* group = app.add_option_group("shared tick", "members made by --shared-tick");
   group->add_option("--bus", hardware.bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
@@ -169,7 +174,11 @@ int main(int argc, char** argv) {
         auto sensor = wait_for_component(naming, sensor_name, wait_s);
         auto controller = wait_for_component(naming, controller_name, wait_s);
         auto actuator = wait_for_component(naming, actuator_name, wait_s);
-        auto servo = std::make_unique<rtm::comp::RemoteServo>(settings.name, sensor, controller, actuator);
+        const auto phase_offset = phase_offset_us < 0
+                                      ? std::chrono::nanoseconds(settings.period_ns / 4)
+                                      : std::chrono::nanoseconds(static_cast<std::int64_t>(phase_offset_us * 1000));
+        auto servo =
+            std::make_unique<rtm::comp::RemoteServo>(settings.name, sensor, controller, actuator, phase_offset);
         reference = servo->reference_port();
         component = std::move(servo);
       }

@@ -7,6 +7,7 @@
 #include <spdlog/logger.h>
 
 #include <stdexcept>
+#include <thread>
 
 namespace rtm::comp {
 
@@ -45,13 +46,17 @@ std::string refusal_of(RTM::OutPort_ptr port) {
 // ============================ RemoteServo =============================
 
 RemoteServo::RemoteServo(std::string name, RTM::RtComponent_ptr sensor, RTM::RtComponent_ptr controller,
-                         RTM::RtComponent_ptr actuator)
+                         RTM::RtComponent_ptr actuator, std::chrono::nanoseconds phase_offset)
     : Component(std::move(name), "servo"),
       sensor_(RTM::RtComponent::_duplicate(sensor)),
       controller_(RTM::RtComponent::_duplicate(controller)),
-      actuator_(RTM::RtComponent::_duplicate(actuator)) {
+      actuator_(RTM::RtComponent::_duplicate(actuator)),
+      phase_offset_(phase_offset) {
   if (CORBA::is_nil(sensor_) || CORBA::is_nil(controller_) || CORBA::is_nil(actuator_))
     throw std::invalid_argument("servo " + this->name() + ": a member reference is nil");
+  if (phase_offset_.count() < 0)
+    throw std::invalid_argument(fmt::format("servo {}: phase offset {} ns is negative", this->name(),
+                                            phase_offset_.count()));
 }
 
 RTM::InPort_ptr RemoteServo::reference_port() const {
@@ -116,10 +121,21 @@ void RemoteServo::on_start() {
       subscribed[i] = true;
     }
     RTM::RtComponent_ptr members[3] = {actuator_.in(), controller_.in(), sensor_.in()};
-    for (int i = 0; i < 3; ++i) {
-      step = "on() " + name_of(members[i], "member");
-      members[i]->on();
-      turned_on[i] = true;
+    if (phase_offset_.count() == 0) {
+      for (int i = 0; i < 3; ++i) {
+        step = "on() " + name_of(members[i], "member");
+        members[i]->on();
+        turned_on[i] = true;
+      }
+    } else {
+      // Upstream first, each a phase offset after the one feeding it (from the first on()).
+      const auto first = std::chrono::steady_clock::now();
+      for (int i = 2; i >= 0; --i) {
+        std::this_thread::sleep_until(first + (2 - i) * phase_offset_);
+        step = "on() " + name_of(members[i], "member");
+        members[i]->on();
+        turned_on[i] = true;
+      }
     }
   } catch (const CORBA::Exception& e) {
     undo(turned_on, subscribed);
@@ -128,7 +144,10 @@ void RemoteServo::on_start() {
     undo(turned_on, subscribed);
     throw std::runtime_error(fmt::format("servo {}: {}", name(), e.what()));
   }
-  log().info("servo {}: members connected and on", name());
+  log().info("servo {}: members connected and on ({})", name(),
+             phase_offset_.count() == 0 ? std::string("downstream first")
+                                        : fmt::format("sensor, controller, actuator {} us apart",
+                                                      phase_offset_.count() / 1000));
 }
 
 void RemoteServo::on_stop() {

@@ -1,8 +1,7 @@
 // Servo: the composite of the paper (Figs. 4, 8). It owns a sensor, a controller and an
 // actuator in their fixed pattern and hides them:
 //   on():  sensor.out0 -> controller.in0 and controller.out0 -> actuator.in0 (repeated), then
-//          on() each member (actuator, controller, sensor: downstream first, so no datum
-//          reaches a member that is not running);
+//          on() each member (see RemoteServo for the order);
 //   off(): off() each member (actuator first: the arm gets zero velocity before its command
 //          stream ends, so no watchdog fires), then the two subscriptions are removed.
 // Its own InPort 0 IS the controller's InPort 1 (the reference): the servo's servant hands out
@@ -26,6 +25,7 @@
 
 #include <RTMExt.hh>
 
+#include <chrono>
 #include <memory>
 #include <string>
 
@@ -36,9 +36,19 @@ namespace rtm::comp {
 class RemoteServo final : public rtm::Component {
  public:
   // The three members' references (e.g. from NamingClient::resolve_component). Throws
-  // std::invalid_argument when one is nil.
+  // std::invalid_argument when one is nil or phase_offset is negative.
+  //
+  // Each member's activity keeps an absolute schedule from its own on(), so the order and
+  // spacing of the on() calls set the phase between the members' cycles. With phase_offset > 0
+  // on() turns them on sensor, controller, actuator, the second phase_offset and the third
+  // 2 * phase_offset after the first: each cycle then finds the datum its upstream member
+  // produced phase_offset earlier (a sample reaches the drives within about 2 * phase_offset,
+  // not 2 periods; period/4 leaves room for the CORBA hop and wake-up jitter). The actuator's
+  // watchdog arms only with its first command, so the upstream members running first cost no
+  // event. With phase_offset 0 the order is downstream first (actuator, controller, sensor: no
+  // datum reaches a member that is not running), and each stage waits up to a period.
   RemoteServo(std::string name, RTM::RtComponent_ptr sensor, RTM::RtComponent_ptr controller,
-              RTM::RtComponent_ptr actuator);
+              RTM::RtComponent_ptr actuator, std::chrono::nanoseconds phase_offset = std::chrono::nanoseconds(0));
 
   // The controller's InPort 1, to expose as the servo's InPort 0. Throws std::runtime_error
   // when the controller has fewer than two InPorts.
@@ -61,6 +71,7 @@ class RemoteServo final : public rtm::Component {
   void undo(bool turned_on[3], bool subscribed[2]);
 
   RTM::RtComponent_var sensor_, controller_, actuator_;
+  std::chrono::nanoseconds phase_offset_;
 };
 
 // ============================ SharedTickServo =========================

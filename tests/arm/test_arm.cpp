@@ -282,7 +282,7 @@ TEST(Pa10Arm, DriveFaultLatchesZeroVelocityWithTheReasonUntilReset) {
   ASSERT_TRUE(rig.arm.orderVelocity(smallTwist()));
   rig.master.step();
   const int e1 = 3;
-  rig.drives.injectFault(e1, can::emcy::kRpdoTimeout);
+  rig.drives.injectFault(e1, can::emcy::kDeviceHardware);
   ASSERT_TRUE(rig.stepUntil(
       [&] { return !rig.arm.orderVelocity(smallTwist()) && rig.arm.inFault(); }, 50));
   EXPECT_EQ(rig.arm.fault(), ArmFault::drive_fault);
@@ -305,6 +305,47 @@ TEST(Pa10Arm, DriveFaultLatchesZeroVelocityWithTheReasonUntilReset) {
   EXPECT_EQ(rig.arm.fault(), ArmFault::none);
   rig.master.step();
   EXPECT_NE(rig.drives.lastTarget_rad_s(0), 0.0) << "motion resumes after the reset";
+}
+
+TEST(Pa10Arm, RpdoTimeoutOfADriveIsACommandLossThatResetClears) {
+  Rig rig;
+  rig.startMaster();
+  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist()));
+  rig.master.step();
+  rig.drives.injectFault(5, can::emcy::kRpdoTimeout);
+  ASSERT_TRUE(rig.stepUntil([&] { return !rig.arm.orderVelocity(smallTwist()) && rig.arm.inFault(); }, 50));
+  EXPECT_EQ(rig.arm.fault(), ArmFault::command_loss);
+  EXPECT_NE(rig.arm.faultReason().find("command_loss: drive 6 (W1): EMCY 0x8250"), std::string::npos)
+      << rig.arm.faultReason();
+  rig.arm.reset();
+  ASSERT_TRUE(rig.stepUntil([&] { return rig.arm.orderVelocity(smallTwist()); }, 1000)) << rig.arm.faultReason();
+  EXPECT_EQ(rig.arm.fault(), ArmFault::none);
+}
+
+TEST(Pa10Arm, QuickStopBrakesTheDrivesUntilTheNextOrder) {
+  Rig rig;
+  rig.startMaster();
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(rig.arm.orderVelocity(smallTwist())) << rig.arm.faultReason();
+    rig.master.step();
+  }
+  ASSERT_TRUE(rig.arm.quickStop()) << rig.arm.faultReason();
+  ASSERT_TRUE(rig.stepUntil([&] { return rig.master.quick_stopped(); }, 10));
+  const JointVector braked_rad = rig.drives.positions();
+  for (int i = 0; i < 5; ++i) {
+    ASSERT_TRUE(rig.arm.quickStop()) << rig.arm.faultReason();
+    rig.master.step();
+  }
+  EXPECT_EQ(rig.drives.positions(), braked_rad) << "the drives hold still";
+  for (int j = 0; j < kJointCount; ++j)
+    EXPECT_EQ(rig.arm.jointVelocities()[j], 0.0) << j;
+  EXPECT_EQ(rig.arm.fault(), ArmFault::none) << rig.arm.faultReason();
+
+  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist())) << rig.arm.faultReason();
+  rig.master.step();
+  rig.master.step();
+  EXPECT_NE(rig.drives.positions(), braked_rad) << "motion resumes on the next order";
+  EXPECT_FALSE(rig.master.quick_stopped());
 }
 
 TEST(Pa10Arm, HeartbeatLossLatchesAFaultNamingTheNode) {

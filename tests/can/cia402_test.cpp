@@ -150,9 +150,20 @@ TEST(Cia402Enabler, ResetsAFaultWithARisingEdgeThenEnables) {
   EXPECT_LE(cycles, 6);
 }
 
-TEST(Cia402Enabler, QuickStopAndUnknownPatternsGetDisableVoltage) {
+TEST(Cia402Enabler, QuickStopActiveGoesStraightBackToOperationEnabled) {
+  Cia402Drive drive;
   Cia402Enabler enabler;
-  EXPECT_EQ(enabler.next_controlword(statusword::kQuickStopActive, true), controlword::kDisableVoltage);
+  for (int i = 0; i < 3; ++i) drive.apply_controlword(enabler.next_controlword(drive.statusword(), false));
+  drive.apply_controlword(controlword::kQuickStop);
+  ASSERT_EQ(drive.state(), DriveState::quick_stop_active);
+  const std::uint16_t cw = enabler.next_controlword(drive.statusword(), false);
+  EXPECT_EQ(cw, controlword::kEnableOperation);
+  drive.apply_controlword(cw);
+  EXPECT_EQ(drive.state(), DriveState::operation_enabled) << "transition 16, one controlword";
+}
+
+TEST(Cia402Enabler, UnknownPatternsAndFaultReactionGetDisableVoltage) {
+  Cia402Enabler enabler;
   EXPECT_EQ(enabler.next_controlword(0x0001, true), controlword::kDisableVoltage);
   EXPECT_EQ(enabler.next_controlword(statusword::kFaultReactionActive, true), controlword::kDisableVoltage);
 }

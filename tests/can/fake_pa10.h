@@ -49,6 +49,13 @@ class FakePa10 {
     drives_[static_cast<std::size_t>(joint_index_of(drive))].cia.raise_fault();
     send(encode_emcy(drive, emcy::kDeviceHardware, 0x01));
   }
+  // The drive lost its commands (as after a host stall of the master): EMCY 0x8250 and fault
+  // from the next SYNC, as its own 3-SYNC RPDO timeout does; a fault reset clears it.
+  void inject_rpdo_timeout(std::uint8_t drive) {
+    std::lock_guard lock(mutex_);
+    drives_[static_cast<std::size_t>(joint_index_of(drive))].cia.raise_fault();
+    send(encode_emcy(drive, emcy::kRpdoTimeout, 0x01));
+  }
   // The drive's fault cannot be reset: it faults again at every SYNC (broken hardware).
   void hold_in_fault(std::uint8_t drive) {
     std::lock_guard lock(mutex_);

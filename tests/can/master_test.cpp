@@ -327,6 +327,53 @@ TEST(Pa10Master, RpdoTimeoutEmcyFromADriveIsAFaultNamingTheCause) {
   EXPECT_EQ(f.reason, "drive 2 (S2): EMCY 0x8250 RPDO timeout (command loss)");
 }
 
+TEST(Pa10Master, QuickStopBrakesEveryDriveWithoutAFaultAndATargetResumesOperation) {
+  Rig rig;
+  rig.master->start();
+  rig.master->set_target_velocities({0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5});
+  for (int i = 0; i < 3; ++i) rig.master->step();
+  ASSERT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.5);
+
+  rig.master->quick_stop();
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->quick_stopped(); }, 20));
+  for (int j = 0; j < kDriveCount; ++j) {
+    EXPECT_EQ(rig.fake->drive_state(drive_node(j)), DriveState::quick_stop_active) << joint_name(j);
+    EXPECT_EQ(rig.fake->latched_controlword(drive_node(j)), controlword::kQuickStop) << joint_name(j);
+    EXPECT_EQ(rig.fake->latched_velocity_rad_s(drive_node(j)), 0.0) << joint_name(j);
+  }
+  const double braked_at_rad = rig.fake->position_rad(drive_node(0));
+  for (int i = 0; i < 10; ++i) rig.master->step();
+  EXPECT_EQ(rig.fake->position_rad(drive_node(0)), braked_at_rad) << "held on the brake";
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+  EXPECT_TRUE(rig.master->enabled()) << "ready to move on the next target";
+  EXPECT_TRUE(rig.master->quick_stopped());
+
+  rig.master->set_target_velocities({0.25, 0, 0, 0, 0, 0, 0});
+  rig.master->step();
+  EXPECT_FALSE(rig.master->quick_stopped());
+  EXPECT_EQ(rig.fake->latched_controlword(drive_node(0)), controlword::kEnableOperation);
+  EXPECT_EQ(rig.fake->drive_state(drive_node(0)), DriveState::operation_enabled);
+  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.25) << "moves in the same cycle";
+  for (int i = 0; i < 10; ++i) rig.master->step();
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+  EXPECT_TRUE(rig.master->enabled());
+}
+
+TEST(Pa10Master, QuickStopDuringAFaultIsIgnoredAndFaultResetEndsIt) {
+  Rig rig;
+  rig.master->start();
+  rig.fake->inject_fault(drive_node(1));
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
+  rig.master->quick_stop();
+  for (int i = 0; i < 3; ++i) rig.master->step();
+  EXPECT_FALSE(rig.master->quick_stopped());
+  EXPECT_EQ(rig.fake->drive_state(drive_node(0)), DriveState::operation_enabled) << "held enabled at zero";
+  rig.master->fault_reset();
+  ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->enabled(); }));
+  EXPECT_FALSE(rig.master->quick_stopped());
+  EXPECT_EQ(rig.fake->drive_state(drive_node(1)), DriveState::operation_enabled);
+}
+
 TEST(Pa10Master, EmcyErrorResetAndOtherNodesEmcyAreNoFault) {
   Rig rig;
   rig.master->start();

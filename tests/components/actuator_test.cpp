@@ -18,7 +18,9 @@ constexpr std::array<float, 6> kZero{};
 
 class RecordingArm final : public rtm::comp::VelocityArm {
  public:
+  // One entry per cycle: the twist ordered, or zero with braked set for a quick stop.
   std::vector<std::array<float, 6>> ordered;
+  std::vector<bool> braked;
   int stops = 0;
   int resets = 0;
   rtm::comp::ArmStatus status = rtm::comp::ArmStatus::ready;
@@ -26,11 +28,19 @@ class RecordingArm final : public rtm::comp::VelocityArm {
 
   rtm::comp::ArmStatus order_velocity(const std::array<float, 6>& twist) override {
     ordered.push_back(twist);
+    braked.push_back(false);
+    return status;
+  }
+  rtm::comp::ArmStatus quick_stop() override {
+    ordered.push_back({});
+    braked.push_back(true);
     return status;
   }
   void stop() override { ++stops; }
   std::string fault_reason() const override { return reason; }
-  bool in_fault() const override { return status == rtm::comp::ArmStatus::fault; }
+  bool in_fault() const override {
+    return status == rtm::comp::ArmStatus::fault || status == rtm::comp::ArmStatus::command_loss;
+  }
   void reset() override {
     ++resets;
     status = rtm::comp::ArmStatus::ready;
@@ -91,10 +101,17 @@ TEST(Actuator, WatchdogZeroesTheArmAfterThreePeriodsAndCountsOneEvent) {
   EXPECT_EQ(t.step(cmd), cmd);
   EXPECT_EQ(t.step(), cmd) << "1 period without a command: the last one holds";
   EXPECT_EQ(t.step(), cmd) << "2 periods";
+  EXPECT_FALSE(t.arm->braked.back());
   EXPECT_EQ(t.step(), kZero) << "3 periods: watchdog";
-  for (int i = 0; i < 5; ++i) EXPECT_EQ(t.step(), kZero);
+  EXPECT_TRUE(t.arm->braked.back()) << "the watchdog brakes (quick stop), not merely zero";
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(t.step(), kZero);
+    EXPECT_TRUE(t.arm->braked.back()) << "held braked";
+  }
   EXPECT_EQ(t.actuator->counters().watchdog_events, 1u) << "one event, not one per cycle";
+  EXPECT_EQ(t.actuator->last_twist(), kZero);
   EXPECT_EQ(t.step(cmd), cmd) << "a new command ends the event";
+  EXPECT_FALSE(t.arm->braked.back()) << "and releases the brake";
   for (int i = 0; i < 3; ++i) t.step();
   EXPECT_EQ(t.actuator->counters().watchdog_events, 2u);
 }
@@ -113,8 +130,10 @@ TEST(Actuator, NonFiniteCommandGivesZeroAndCountsOneEventPerEpisode) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   t.step({0.01f, 0, 0, 0, 0, 0});
   EXPECT_EQ(t.step({nan, 0, 0, 0, 0, 0}), kZero);
+  EXPECT_TRUE(t.arm->braked.back()) << "NaN brakes (quick stop)";
   EXPECT_EQ(t.step({0, 0, std::numeric_limits<float>::infinity(), 0, 0, 0}), kZero);
   EXPECT_EQ(t.step(), kZero) << "the bad command is not repeated";
+  EXPECT_TRUE(t.arm->braked.back());
   EXPECT_EQ(t.actuator->counters().non_finite_events, 1u);
   t.step({0.01f, 0, 0, 0, 0, 0});
   t.step({nan, 0, 0, 0, 0, 0});
@@ -142,6 +161,44 @@ TEST(Actuator, ArmFaultThrowsTheReasonAndOnAfterwardsResetsTheArm) {
   }
   t.actuator->on_start();
   EXPECT_EQ(t.arm->resets, 1);
+}
+
+TEST(Actuator, WatchdogArmsOnlyWithTheFirstCommandSoMembersTurnedOnLaterCountNoEvent) {
+  ActuatorUnderTest t;
+  for (int i = 0; i < 10; ++i) {
+    EXPECT_EQ(t.step(), kZero);
+    EXPECT_FALSE(t.arm->braked.back()) << "no command yet: zero velocity, no brake";
+  }
+  const std::array<float, 6> cmd{0, 0.01f, 0, 0, 0, 0};
+  EXPECT_EQ(t.step(cmd), cmd);
+  EXPECT_EQ(t.actuator->counters().watchdog_events, 0u);
+}
+
+TEST(Actuator, DriveCommandLossResetsTheArmCountsOnceAndMovesOnlyOnTheNextCommand) {
+  ActuatorUnderTest t;
+  const std::array<float, 6> cmd{0.01f, 0, 0, 0, 0, 0};
+  t.step(cmd);
+  t.arm->status = rtm::comp::ArmStatus::command_loss;
+  t.arm->reason = "command_loss: drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)";
+  EXPECT_NO_THROW(t.step(cmd)) << "a communication fault is no component error";
+  EXPECT_EQ(t.arm->resets, 1);
+  EXPECT_EQ(t.actuator->counters().command_loss_recoveries, 1u);
+  EXPECT_EQ(t.arm->status, rtm::comp::ArmStatus::ready) << "the fake's reset clears it";
+  EXPECT_EQ(t.step(), kZero) << "the command from before the loss is not repeated";
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(t.step(), kZero);
+  EXPECT_EQ(t.actuator->counters().watchdog_events, 0u) << "no watchdog until a command arrives again";
+  EXPECT_EQ(t.step(cmd), cmd) << "moves again on the next command";
+  EXPECT_EQ(t.actuator->counters().command_loss_recoveries, 1u);
+}
+
+TEST(Actuator, OtherArmFaultsStillPutTheComponentInError) {
+  ActuatorUnderTest t;
+  t.step({0.01f, 0, 0, 0, 0, 0});
+  t.arm->status = rtm::comp::ArmStatus::fault;
+  t.arm->reason = "heartbeat_lost: drive 2 (S2): no heartbeat for 400 ms";
+  EXPECT_THROW(t.step(), std::runtime_error);
+  EXPECT_EQ(t.arm->resets, 0);
+  EXPECT_EQ(t.actuator->counters().command_loss_recoveries, 0u);
 }
 
 TEST(Actuator, ArmNotYetEnabledIsCountedNotAnError) {

@@ -38,6 +38,10 @@ class RecordingArm final : public rtm::comp::VelocityArm {
     return rtm::comp::ArmStatus::ready;
   }
   void stop() override {}
+  rtm::comp::ArmStatus quick_stop() override {
+    ordered.push_back({});
+    return rtm::comp::ArmStatus::ready;
+  }
   std::string fault_reason() const override { return ""; }
   bool in_fault() const override { return false; }
   void reset() override {}
@@ -176,6 +180,54 @@ TEST_F(ServoWiringTest, AMemberWithoutTheExpectedPortFailsOnNamingTheLinkAndTurn
   EXPECT_EQ(actuator_->current_state(), RTM::COMPONENT_OFF);
   EXPECT_EQ(controller_->current_state(), RTM::COMPONENT_OFF);
   portless->deactivate();
+}
+
+// A member that records when it is turned on; ports shaped like the member it stands for.
+class OrderProbe final : public rtm::Component {
+ public:
+  OrderProbe(std::string name, std::vector<std::string>& turned_on)
+      : Component(std::move(name), "probe"), turned_on_(turned_on) {}
+  void on_start() override { turned_on_.push_back(name()); }
+  void on_cycle(const rtm::CycleContext&) override {}
+
+ private:
+  std::vector<std::string>& turned_on_;
+  rtm::InPort<RTM::TimedFloat6>& in0_ = add_in_port<RTM::TimedFloat6>("in0");
+  rtm::InPort<RTM::TimedFloat6>& in1_ = add_in_port<RTM::TimedFloat6>("in1");
+  rtm::OutPort<RTM::TimedFloat6>& out0_ = add_out_port<RTM::TimedFloat6>("out0");
+};
+
+std::vector<std::string> order_of_on(std::chrono::nanoseconds phase_offset) {
+  std::vector<std::string> turned_on;
+  PortableServer::Servant_var<rtm::ComponentServant> members[3];
+  RTM::RtComponentEx_var refs[3];
+  const char* names[3] = {"probe_sensor", "probe_controller", "probe_actuator"};
+  for (int i = 0; i < 3; ++i) {
+    members[i] = new rtm::ComponentServant(std::make_unique<OrderProbe>(names[i], turned_on), rtm::ExternalTick{});
+    refs[i] = members[i]->activate(test_orb());
+  }
+  rtm::comp::RemoteServo servo("servo_order", refs[0], refs[1], refs[2], phase_offset);
+  servo.on_start();
+  servo.on_stop();
+  for (auto& member : members) member->deactivate();
+  return turned_on;
+}
+
+TEST(RemoteServoOrder, WithAPhaseOffsetMembersTurnOnUpstreamFirstWithoutDownstreamFirst) {
+  using namespace std::chrono_literals;
+  const std::vector<std::string> upstream_first{"probe_sensor", "probe_controller", "probe_actuator"};
+  const std::vector<std::string> downstream_first{"probe_actuator", "probe_controller", "probe_sensor"};
+  EXPECT_EQ(order_of_on(500us), upstream_first);
+  EXPECT_EQ(order_of_on(0ns), downstream_first);
+}
+
+TEST(RemoteServoOrder, ANegativePhaseOffsetIsRefused) {
+  PortableServer::Servant_var<rtm::ComponentServant> probe;
+  std::vector<std::string> turned_on;
+  probe = new rtm::ComponentServant(std::make_unique<OrderProbe>("probe_x", turned_on), rtm::ExternalTick{});
+  RTM::RtComponentEx_var ref = probe->activate(test_orb());
+  EXPECT_THROW(rtm::comp::RemoteServo("servo_bad", ref, ref, ref, std::chrono::nanoseconds(-1)), std::invalid_argument);
+  probe->deactivate();
 }
 
 }  // namespace

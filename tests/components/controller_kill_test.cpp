@@ -1,0 +1,287 @@
+// The paper's system in real time, one process per member over a real omniNames, on pa10-sim:
+// the joystick pushes the arm through free space, the controller process is killed with
+// SIGKILL, and a passive listener on the bus checks that the arm is brought to a halt.
+//
+// What "stops" means here, in bus time (SYNC periods), never wall-clock:
+//   1. the actuator's watchdog fires after `watchdog_periods` periods without a new command
+//      (it reports the bus cycle of its last command and of the firing);
+//   2. the drives are braked: the RPDOs of every drive carry controlword 0x0002 (CiA 402 quick
+//      stop) and zero target with the first SYNC the master sends after the firing: at most 2
+//      SYNCs after the one whose answers the actuator had seen (one more of slack for a
+//      preemption of the actuator's thread);
+//   3. every drive reports "quick stop active" (statusword 0x0007) and |velocity| below
+//      kStopped_rad_s within 3 SYNCs of the SYNC that carried the quick stop (pa10-sim's
+//      drives engage their brake in that state; a drive merely commanded zero would decelerate
+//      over ~50 ms through its velocity loop).
+// Until the kill the RPDOs carried non-zero targets: the arm was moving.
+#include "arm/can/bus.h"
+#include "arm/can/protocol.h"
+#include "rtm/naming.h"
+#include "rtm/orb.h"
+#include "rtm_test/child_process.h"
+#include "rtm_test/omni_names.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <optional>
+#include <regex>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using namespace std::chrono_literals;
+namespace pc = rtm::can;
+
+constexpr double kStopped_rad_s = 1e-3;
+constexpr int kWatchdogPeriods = 3;
+constexpr int kSyncsToHalt = 3;
+
+std::filesystem::path unique_path(const std::string& stem, const std::string& ext) {
+  static std::atomic<int> counter{0};
+  return std::filesystem::temp_directory_path() /
+         (stem + "-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ext);
+}
+
+// One frame of interest, as the listener saw it, in bus order.
+struct Seen {
+  enum class Kind { sync, command, feedback } kind;
+  std::uint8_t sync_counter = 0;  // sync
+  std::uint8_t node = 0;          // command, feedback
+  std::uint16_t word = 0;         // controlword or statusword
+  double velocity_rad_s = 0;      // target or actual
+};
+
+// A passive endpoint on the bus: records SYNCs, RPDO1s and TPDO1s until destroyed.
+class BusRecorder {
+ public:
+  explicit BusRecorder(const std::string& spec) : bus_(pc::open_bus(spec)) {
+    thread_ = std::thread([this] { run(); });
+  }
+  ~BusRecorder() {
+    running_ = false;
+    thread_.join();
+  }
+  std::vector<Seen> frames() const {
+    std::lock_guard lock(mutex_);
+    return frames_;
+  }
+
+ private:
+  void run() {
+    can_frame frame{};
+    while (running_) {
+      try {
+        if (!bus_->receive(frame, 20ms)) continue;
+      } catch (const pc::BusError&) {
+        return;  // the simulator (the hub) went away
+      }
+      std::optional<Seen> seen;
+      switch (pc::classify(frame).type) {
+        case pc::FrameType::sync:
+          if (auto s = pc::decode_sync(frame)) seen = Seen{Seen::Kind::sync, s->counter};
+          break;
+        case pc::FrameType::drive_command:
+          if (auto c = pc::decode_drive_command(frame))
+            seen = Seen{Seen::Kind::command, 0, c->drive, c->controlword, c->target_velocity_rad_s};
+          break;
+        case pc::FrameType::drive_feedback:
+          if (auto f = pc::decode_drive_feedback(frame))
+            seen = Seen{Seen::Kind::feedback, 0, f->drive, f->statusword, f->velocity_rad_s};
+          break;
+        default: break;
+      }
+      if (!seen) continue;
+      std::lock_guard lock(mutex_);
+      frames_.push_back(*seen);
+    }
+  }
+
+  std::unique_ptr<pc::Bus> bus_;
+  std::atomic<bool> running_{true};
+  std::thread thread_;
+  mutable std::mutex mutex_;
+  std::vector<Seen> frames_;
+};
+
+// Index of the last SYNC with this counter at or before `before`, or -1.
+long last_sync_with_counter(const std::vector<Seen>& frames, std::uint8_t counter, long before) {
+  for (long i = before; i >= 0; --i) {
+    const Seen& f = frames[static_cast<std::size_t>(i)];
+    if (f.kind == Seen::Kind::sync && f.sync_counter == counter) return i;
+  }
+  return -1;
+}
+
+long syncs_between(const std::vector<Seen>& frames, long from, long to) {
+  long n = 0;
+  for (long i = from + 1; i <= to; ++i) n += frames[static_cast<std::size_t>(i)].kind == Seen::Kind::sync;
+  return n;
+}
+
+rtm::Orb& test_orb() {
+  static rtm::Orb orb;  // omniORB: one ORB per process
+  return orb;
+}
+
+TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
+  // The operator pushes forward (free space) from 0.3 s on and keeps pushing.
+  const auto profile = unique_path("rtm-kill-profile", ".yaml");
+  std::ofstream(profile) << "segments:\n"
+                            "  - hold: 0.3\n"
+                            "  - ramp: {duration_s: 0.2, force_N: [5, 0, 0]}\n"
+                            "  - hold: 600\n";
+  const std::string bus = "local:" + unique_path("rtm-kill", ".bus").string();
+  rtm_test::OmniNames names;
+  const std::string naming = names.address();
+
+  rtm_test::ChildProcess sim({PA10_SIM_EXE, "--bus", bus, "--profile", profile.string()});
+  sim.wait_for_line("pa10-sim: ready", 30s);
+  BusRecorder recorder(bus);
+
+  rtm_test::ChildProcess actuator({RTM_ACTUATOR_EXE, "--name", "actuator0", "--naming", naming, "--bus", bus,
+                                   "--watchdog-periods", std::to_string(kWatchdogPeriods)});
+  actuator.wait_until_bound(30s);
+  rtm_test::ChildProcess sensor({RTM_SENSOR_EXE, "--name", "sensor0", "--naming", naming, "--bus", bus});
+  rtm_test::ChildProcess joystick({RTM_JOYSTICK_EXE, "--name", "joystick0", "--naming", naming, "--bus", bus});
+  rtm_test::ChildProcess controller(
+      {RTM_CONTROLLER_EXE, "--name", "controller0", "--naming", naming, "--gain", "0.003", "0.003", "0.003", "0", "0", "0"});
+  sensor.wait_until_bound(30s);
+  joystick.wait_until_bound(30s);
+  controller.wait_until_bound(30s);
+  rtm_test::ChildProcess servo({RTM_SERVO_EXE, "--name", "servo0", "--naming", naming, "--sensor", "sensor0",
+                                "--controller", "controller0", "--actuator", "actuator0"});
+  servo.wait_until_bound(30s);
+
+  // The paper's procedure: joystick.out0 -> servo.in0, then on() the servo and the joystick.
+  const rtm::NamingClient client(test_orb().orb(), rtm::NamingAddress::parse(naming));
+  RTM::RtComponent_var servo_ref = client.resolve_component("servo0");
+  RTM::RtComponent_var joystick_ref = client.resolve_component("joystick0");
+  RTM::OutPortList_var joystick_outs = joystick_ref->out_ports();
+  RTM::InPortList_var servo_ins = servo_ref->in_ports();
+  ASSERT_TRUE(joystick_outs[0]->subscribe(RTM::repeated, servo_ins[0]));
+  servo_ref->on();
+  joystick_ref->on();
+
+  // Moving: non-zero targets on the bus for a while.
+  const auto moving = [&] {
+    const auto frames = recorder.frames();
+    int nonzero = 0;
+    for (const Seen& f : frames) nonzero += f.kind == Seen::Kind::command && std::abs(f.velocity_rad_s) > 1e-4;
+    return nonzero > 7 * 100;  // 100 cycles of targets
+  };
+  const auto deadline = std::chrono::steady_clock::now() + 60s;
+  while (!moving() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(moving()) << "the arm never moved\n" << actuator.output();
+
+  // A loaded machine may have stalled the controller before (a watchdog event and a quick
+  // stop the next command released): the event that counts is the one after the kill. Every
+  // frame recorded so far was on the bus before the kill.
+  const std::string kWatchdog = "watchdog: no new command";
+  const std::size_t events_before = actuator.count_lines(kWatchdog);
+  const auto frames_before_kill = static_cast<long>(recorder.frames().size());
+  controller.kill_now();
+  const auto event_deadline = std::chrono::steady_clock::now() + 30s;
+  while (actuator.count_lines(kWatchdog) == events_before && std::chrono::steady_clock::now() < event_deadline)
+    std::this_thread::sleep_for(10ms);
+  std::string event;
+  {
+    std::istringstream lines(actuator.output());
+    std::size_t seen = 0;
+    for (std::string line; std::getline(lines, line);) {
+      if (line.find(kWatchdog) != std::string::npos && ++seen == events_before + 1) event = line;
+    }
+  }
+  ASSERT_FALSE(event.empty()) << "no watchdog event after the kill\n" << actuator.output();
+  std::this_thread::sleep_for(200ms);  // the halt and some more SYNCs reach the recorder
+  const std::vector<Seen> frames = recorder.frames();
+  joystick_ref->off();
+  servo_ref->off();
+
+  // "since bus cycle A (SYNC counter a): quick stop after bus cycle B (SYNC counter b)"
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(event, m,
+                                std::regex(R"(since bus cycle (\d+) \(SYNC counter (\d+)\).*after bus cycle (\d+) \(SYNC counter (\d+)\))")))
+      << event;
+  const long last_command_cycle = std::stol(m[1]);
+  const auto last_command_counter = static_cast<std::uint8_t>(std::stoi(m[2]));
+  const long fired_cycle = std::stol(m[3]);
+  const auto fired_counter = static_cast<std::uint8_t>(std::stoi(m[4]));
+  EXPECT_GE(fired_cycle - last_command_cycle, kWatchdogPeriods) << event;
+
+  // The firing's SYNC was sent after the kill, so after every frame recorded before it.
+  long fired_sync = -1;
+  for (long i = frames_before_kill; i < static_cast<long>(frames.size()) && fired_sync < 0; ++i) {
+    const Seen& f = frames[static_cast<std::size_t>(i)];
+    if (f.kind == Seen::Kind::sync && f.sync_counter == fired_counter) fired_sync = i;
+  }
+  ASSERT_GE(fired_sync, 0) << "the recorder missed SYNC " << int(fired_counter);
+
+  // The first SYNC after the firing before which every drive got quick stop with zero target.
+  long quick_stop_sync = -1;
+  std::array<bool, pc::kDriveCount> commanded{};
+  for (std::size_t i = static_cast<std::size_t>(fired_sync) + 1; i < frames.size() && quick_stop_sync < 0; ++i) {
+    const Seen& f = frames[i];
+    if (f.kind == Seen::Kind::command && pc::is_drive_node(f.node)) {
+      commanded[static_cast<std::size_t>(pc::joint_index_of(f.node))] =
+          f.word == pc::controlword::kQuickStop && f.velocity_rad_s == 0.0;
+    } else if (f.kind == Seen::Kind::sync && std::all_of(commanded.begin(), commanded.end(), [](bool b) { return b; })) {
+      quick_stop_sync = static_cast<long>(i);
+    }
+  }
+  ASSERT_GE(quick_stop_sync, 0) << "no quick stop reached every drive\n" << actuator.output();
+
+  // Before it, the arm was moving: the last command cycle's RPDOs were not zero.
+  bool moving_before = false;
+  for (long i = quick_stop_sync - 1; i >= 0 && i >= quick_stop_sync - 8 * 8; --i) {
+    const Seen& f = frames[static_cast<std::size_t>(i)];
+    if (f.kind == Seen::Kind::command && std::abs(f.velocity_rad_s) > 1e-4) moving_before = true;
+  }
+  EXPECT_TRUE(moving_before) << "the RPDOs before the quick stop already held zero";
+
+  const long brake_delay = syncs_between(frames, fired_sync, quick_stop_sync);
+  EXPECT_GE(brake_delay, 1);
+  // The firing's bus position is the SYNC whose answers the actuator had seen; the SYNC after
+  // it may already be on its way, so the quick stop leaves with the second one (+1 of slack
+  // for a preemption of the actuator's thread between reading the position and braking).
+  EXPECT_LE(brake_delay, 3) << "SYNCs from the watchdog firing to the one carrying the quick stop";
+  const long last_command_sync = last_sync_with_counter(frames, last_command_counter, fired_sync);
+  if (last_command_sync >= 0) {
+    // Shown, not asserted: the actuator's own thread can be preempted on a loaded machine.
+    std::fprintf(stderr, "kill test: last command after SYNC %d, watchdog after %ld SYNCs more, quick stop %ld SYNC(s) later\n",
+                 int(last_command_counter), syncs_between(frames, last_command_sync, fired_sync), brake_delay);
+  }
+
+  // Halted: every drive reports quick stop active and no motion within 3 SYNCs.
+  std::array<bool, pc::kDriveCount> halted{};
+  long syncs = 0;
+  long halted_after = -1;
+  for (std::size_t i = static_cast<std::size_t>(quick_stop_sync); i < frames.size() && syncs <= kSyncsToHalt + 1; ++i) {
+    const Seen& f = frames[i];
+    if (f.kind == Seen::Kind::sync) {
+      if (i != static_cast<std::size_t>(quick_stop_sync)) ++syncs;
+      continue;
+    }
+    if (f.kind != Seen::Kind::feedback || !pc::is_drive_node(f.node)) continue;
+    halted[static_cast<std::size_t>(pc::joint_index_of(f.node))] =
+        f.word == pc::statusword::kQuickStopActive && std::abs(f.velocity_rad_s) < kStopped_rad_s;
+    if (halted_after < 0 && std::all_of(halted.begin(), halted.end(), [](bool b) { return b; })) halted_after = syncs;
+  }
+  ASSERT_GE(halted_after, 0) << "the drives did not all report quick stop active at rest";
+  EXPECT_LE(halted_after, kSyncsToHalt) << "SYNCs after the quick stop until every drive was at rest";
+  std::fprintf(stderr, "kill test: every drive at rest %ld SYNC(s) after the one that carried the quick stop\n", halted_after);
+
+  EXPECT_EQ(actuator.count_lines(kWatchdog), events_before + 1) << "one event for the kill, logged once";
+}
+
+}  // namespace
