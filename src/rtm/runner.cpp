@@ -212,6 +212,8 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
       if (servant) servant->off();
     } catch (const CORBA::Exception& e) {
       log().warn("{}: off() raised {}", settings.name, e._name());
+    } catch (const std::exception& e) {
+      log().warn("{}: off() failed: {}", settings.name, e.what());
     }
     binding.reset();
     if (servant) servant->deactivate();
