@@ -11,7 +11,7 @@
 # it was computed from; the actuator records now - stamp (CLOCK_REALTIME) when orderVelocity
 # has returned (the joint rates are then set in the CANopen master, which writes them in its
 # next SYNC cycle, up to one period later) and logs p50/p99/max when it is turned off. Its
-# histogram has 1 us buckets below 1 ms and 1 ms buckets above (upper edges reported).
+# histogram has 1 us buckets below 1 ms, 100 us buckets to 10 ms (upper edges reported).
 # Loop lateness per component comes from `rtm --json ls -l` taken at the end of each run.
 #
 # Usage: bench/components/servo_latency.sh [--bin DIR] [--modes "paper shared"] [--out DIR]

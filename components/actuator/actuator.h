@@ -21,6 +21,7 @@
 //     the arm to reset too.
 #pragma once
 
+#include "components/actuator/latency_histogram.h"
 #include "components/actuator/velocity_arm.h"
 
 #include "rtm/activity.h"
@@ -87,7 +88,7 @@ class Actuator final : public rtm::Component {
   bool command_bad_ = false;
   VelocityArm::BusPosition last_command_bus_{};  // when the newest command was handed over
   std::array<std::atomic<float>, 6> last_twist_{};
-  rtm::LatenessHistogram latency_;
+  LatencyHistogram latency_;
   std::atomic<std::uint64_t> cycles_{0}, commands_{0}, clamped_{0}, watchdog_events_{0}, non_finite_events_{0},
       not_ready_cycles_{0}, command_loss_recoveries_{0};
   rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>("in0");

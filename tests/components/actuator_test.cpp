@@ -218,4 +218,29 @@ TEST(Actuator, NegativeLimitOrZeroWatchdogIsRefused) {
   EXPECT_THROW(rtm::comp::Actuator("a", std::make_unique<RecordingArm>(), q), std::invalid_argument);
 }
 
+TEST(LatencyHistogram, BucketsAre1usBelow1ms100usTo10msThen1ms) {
+  using H = rtm::comp::LatencyHistogram;
+  EXPECT_EQ(H::upper_edge_ns(H::bucket_of(0)), 1'000);
+  EXPECT_EQ(H::upper_edge_ns(H::bucket_of(999'999)), 1'000'000);
+  EXPECT_EQ(H::upper_edge_ns(H::bucket_of(1'000'000)), 1'100'000);
+  EXPECT_EQ(H::upper_edge_ns(H::bucket_of(4'020'000)), 4'100'000);
+  EXPECT_EQ(H::upper_edge_ns(H::bucket_of(9'999'999)), 10'000'000);
+  EXPECT_EQ(H::upper_edge_ns(H::bucket_of(10'000'000)), 11'000'000);
+  EXPECT_EQ(H::upper_edge_ns(H::bucket_of(5'000'000'000)), -1);
+  EXPECT_EQ(H::bucket_of(-5), H::bucket_of(0));
+}
+
+TEST(LatencyHistogram, PercentilesAreBucketEdgesCappedAtTheMaximum) {
+  rtm::comp::LatencyHistogram h;
+  EXPECT_EQ(h.percentile_ns(0.5), 0);
+  for (int i = 0; i < 98; ++i) h.record(1'234'000);  // 1.234 ms
+  h.record(2'950'000);
+  h.record(7'000'000);
+  EXPECT_EQ(h.count(), 100u);
+  EXPECT_EQ(h.percentile_ns(0.5), 1'300'000);
+  EXPECT_EQ(h.percentile_ns(0.99), 3'000'000);
+  EXPECT_EQ(h.percentile_ns(1.0), 7'000'000) << "capped at the largest value recorded";
+  EXPECT_EQ(h.max_ns(), 7'000'000);
+}
+
 }  // namespace
