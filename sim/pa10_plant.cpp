@@ -89,6 +89,7 @@ void Pa10Plant::set_joint_positions(const std::array<double, kJointCount>& q_rad
     commands_[static_cast<std::size_t>(j)] = {};
     hold_position_rad_[static_cast<std::size_t>(j)] = q_rad[static_cast<std::size_t>(j)];
     velocity_error_integral_rad_[static_cast<std::size_t>(j)] = 0;
+    held_load_1_s2_[static_cast<std::size_t>(j)] = 0;
   }
   mj_forward(model_, data_);
 }
@@ -100,11 +101,19 @@ void Pa10Plant::set_command(int joint, const JointCommand& command) {
   const bool releasing_brake =
       command.mode == JointCommand::Mode::velocity && commands_[j].mode == JointCommand::Mode::hold;
   if (engaging_brake) {
+    // The load the joint bears (what the integral pushed with, less the joint damping, which
+    // stops with the joint) is held by the brake and handed back to the loop on release, so
+    // a joint pushing on something neither yields nor jolts.
+    for (int i = 0; i < kJointCount; ++i)
+      scratch_torque_Nm_[static_cast<std::size_t>(i)] = model_->dof_damping[i] * data_->qvel[i];
+    mj_solveM(model_, data_, scratch_acceleration_.data(), scratch_torque_Nm_.data(), 1);
+    held_load_1_s2_[j] =
+        gains_.velocity_integral_1_s2 * velocity_error_integral_rad_[j] - scratch_acceleration_[j];
     // An ideal brake: the joint stops where it is.
     hold_position_rad_[j] = data_->qpos[joint];
     data_->qvel[joint] = 0;
   }
-  if (releasing_brake) velocity_error_integral_rad_[j] = 0;
+  if (releasing_brake) velocity_error_integral_rad_[j] = held_load_1_s2_[j] / gains_.velocity_integral_1_s2;
   commands_[j] = command;
 }
 
@@ -137,7 +146,7 @@ void Pa10Plant::compute_servo_torques() {
                                  gains_.velocity_integral_1_s2 * velocity_error_integral_rad_[k];
     } else {
       desired_acceleration_[k] = gains_.hold_stiffness_1_s2 * (hold_position_rad_[k] - data_->qpos[j]) -
-                                 gains_.hold_damping_1_s * qdot;
+                                 gains_.hold_damping_1_s * qdot + held_load_1_s2_[k];
     }
   }
   // tau = M(q) a + bias(q, qdot): decoupled joints, no sag.

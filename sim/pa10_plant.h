@@ -8,7 +8,9 @@
 // error, scaled by the joint-space inertia (computed-torque form: tau = M * a + qfrc_bias, so
 // the arm does not sag and the joints do not disturb each other), in hold mode a stiff PD on
 // the position where the brake engaged (the joint's velocity is zeroed at that instant: the
-// brake is ideal). Torques are clamped to the motors' ctrlrange (the URDF's effort limits).
+// brake is ideal) plus the load the velocity loop's integral carried then, so a braked joint
+// that pushes on something neither yields nor jolts when released. Torques are clamped to the
+// motors' ctrlrange (the URDF's effort limits).
 // Stepping allocates nothing.
 #pragma once
 
@@ -90,6 +92,11 @@ class Pa10Plant {
   std::array<JointCommand, kJointCount> commands_{};
   std::array<double, kJointCount> hold_position_rad_{};
   std::array<double, kJointCount> velocity_error_integral_rad_{};
+  // The load a braked joint bears, as the acceleration term the velocity loop's integral gave
+  // it when the brake engaged, less the joint damping that stopped with the joint.
+  std::array<double, kJointCount> held_load_1_s2_{};
+  std::array<double, kJointCount> scratch_torque_Nm_{};
+  std::array<double, kJointCount> scratch_acceleration_{};
   std::array<double, kJointCount> desired_acceleration_{};  // scratch, rad/s^2
   std::array<double, kJointCount> torque_Nm_{};             // scratch
   int joystick_body_ = -1;

@@ -52,6 +52,30 @@ TEST(Pa10Plant, BrakeStopsTheJointAtOnceAndHoldsThere) {
   EXPECT_NEAR(plant.joint_state(3).velocity_rad_s, 0.0, 1e-3);
 }
 
+TEST(Pa10Plant, BrakeHoldsTheLoadOfAJointPressingOnTheTableAndHandsItBack) {
+  Pa10Plant plant(RTM_PA10_SCENE);
+  const double weight_N = plant.wrist_wrench().force_N[2];
+  auto pressing_N = [&] { return -(plant.wrist_wrench().force_N[2] - weight_N); };
+  // E1 folds the forearm down onto the table until the tool presses with about 10 N.
+  plant.set_command(3, {JointCommand::Mode::velocity, 0.02});
+  for (int i = 0; i < 20000 && pressing_N() < 10.0; ++i) plant.step();
+  ASSERT_GE(pressing_N(), 10.0);
+  plant.set_command(3, {JointCommand::Mode::velocity, 0.0});
+  for (int i = 0; i < 1000; ++i) plant.step();
+  const double held_by_the_loop_N = pressing_N();
+  ASSERT_GT(held_by_the_loop_N, 5.0);
+  plant.set_command(3, {});
+  for (int i = 0; i < 500; ++i) plant.step();
+  EXPECT_NEAR(pressing_N(), held_by_the_loop_N, 0.5) << "the brake holds the load";
+  plant.set_command(3, {JointCommand::Mode::velocity, 0.0});
+  double worst_N = 0;
+  for (int i = 0; i < 500; ++i) {
+    plant.step();
+    worst_N = std::max(worst_N, std::abs(pressing_N() - held_by_the_loop_N));
+  }
+  EXPECT_LE(worst_N, 0.5) << "releasing the brake hands the load back without a jolt";
+}
+
 TEST(Pa10Plant, WristSensorFeelsTheToolWeightAlongItsZWhenTheToolPointsDown) {
   Pa10Plant plant(RTM_PA10_SCENE);
   for (int i = 0; i < 50; ++i) plant.step();
