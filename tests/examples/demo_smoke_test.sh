@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# Smoke test of the force-servo demo on the built tree: a short operator profile (hands off,
+# press at 10 N, 20 N, release) through examples/force-servo/demo, then: exit code 0, the
+# summary and the CSV written, both press phases found in contact, and nothing the demo started
+# still running. Figures are not checked (no --check): that is for quiet machines.
+#
+# Usage: demo_smoke_test.sh DEMO BIN_DIR
+set -euo pipefail
+
+demo=$1
+bin_dir=$2
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/rtm-demo-smoke.XXXXXX")
+
+# Every process the demo starts inherits TMPDIR=$tmp/run (its private runtime folder is made
+# there too): those are the ones that must be gone afterwards.
+leftovers() {
+  local pid
+  for environ in /proc/[0-9]*/environ; do
+    pid=${environ#/proc/}
+    pid=${pid%/environ}
+    [[ "$pid" == "$$" ]] && continue
+    if tr '\0' '\n' 2>/dev/null <"$environ" | grep -qx "TMPDIR=$tmp/run"; then
+      echo "$pid $(tr '\0' ' ' <"/proc/$pid/cmdline" 2>/dev/null)"
+    fi
+  done
+}
+cleanup() {
+  local status=$?
+  # Whatever the outcome, nothing of this run may stay behind.
+  leftovers | while read -r pid _; do kill -KILL "$pid" 2>/dev/null || true; done
+  rm -rf "$tmp"
+  exit "$status"
+}
+trap cleanup EXIT
+
+fail() {
+  echo "demo smoke test: $*" >&2
+  echo "---- demo output" >&2
+  cat "$tmp/demo.log" >&2 || true
+  exit 1
+}
+
+mkdir -p "$tmp/run"
+cat >"$tmp/profile.yaml" <<'YAML'
+segments:
+  - hold: 1.0
+  - ramp: {duration_s: 0.5, force_N: [0, 0, -10]}
+  - hold: 4.0
+  - ramp: {duration_s: 0.5, force_N: [0, 0, -20]}
+  - hold: 3.0
+  - ramp: {duration_s: 0.5, force_N: [0, 0, 3]}
+  - hold: 1.0
+YAML
+
+status=0
+TMPDIR="$tmp/run" "$demo" --bin "$bin_dir" --profile "$tmp/profile.yaml" --duration 11 --out "$tmp/out" \
+  >"$tmp/demo.log" 2>&1 || status=$?
+((status == 0)) || fail "exit code $status, want 0"
+
+for file in summary.txt force_servo.csv; do
+  [[ -s "$tmp/out/$file" ]] || fail "$file missing or empty in the output folder"
+done
+[[ $(wc -l <"$tmp/out/force_servo.csv") -gt 1000 ]] || fail "force_servo.csv holds fewer than 1000 rows"
+# A phase row: "#  start - end  reference x y z  measured x y z ... contact" (z is field 7).
+for reference in -10.0 -20.0; do
+  awk -v ref="$reference" '$NF == "contact" && $7 == ref { found = 1 } END { exit !found }' \
+    "$tmp/out/summary.txt" || fail "no press phase at $reference N in contact in summary.txt:
+$(cat "$tmp/out/summary.txt")"
+done
+
+# The bus and naming port of this run, from the demo's own lines.
+bus=$(sed -n 's/^demo: pa10-sim on local:\([^ ]*\) playing.*/\1/p' "$tmp/demo.log")
+naming=$(sed -n 's/^demo: omniNames on \(.*\)$/\1/p' "$tmp/demo.log")
+[[ -n "$bus" && -n "$naming" ]] || fail "the demo did not name its bus and naming service"
+left=$(leftovers)
+if [[ -z "$left" ]]; then
+  left=$(pgrep -af -- "$bus|-start ${naming##*:}" || true)
+fi
+[[ -z "$left" ]] || fail "processes of the demo still running after it returned:
+$left"
+echo "demo smoke test: ok (bus $bus, naming $naming)"
