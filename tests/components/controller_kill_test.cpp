@@ -33,7 +33,6 @@
 #include <fstream>
 #include <mutex>
 #include <optional>
-#include <regex>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -209,14 +208,17 @@ TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
   servo_ref->off();
 
   // "since bus cycle A (SYNC counter a): quick stop after bus cycle B (SYNC counter b)"
-  std::smatch m;
-  ASSERT_TRUE(std::regex_search(event, m,
-                                std::regex(R"(since bus cycle (\d+) \(SYNC counter (\d+)\).*after bus cycle (\d+) \(SYNC counter (\d+)\))")))
+  long last_command_cycle = 0, fired_cycle = 0;
+  int last_command_counter_value = 0, fired_counter_value = 0;
+  const std::size_t since = event.find("since bus cycle");
+  ASSERT_NE(since, std::string::npos) << event;
+  ASSERT_EQ(std::sscanf(event.c_str() + since,
+                        "since bus cycle %ld (SYNC counter %d): quick stop after bus cycle %ld (SYNC counter %d)",
+                        &last_command_cycle, &last_command_counter_value, &fired_cycle, &fired_counter_value),
+            4)
       << event;
-  const long last_command_cycle = std::stol(m[1]);
-  const auto last_command_counter = static_cast<std::uint8_t>(std::stoi(m[2]));
-  const long fired_cycle = std::stol(m[3]);
-  const auto fired_counter = static_cast<std::uint8_t>(std::stoi(m[4]));
+  const auto last_command_counter = static_cast<std::uint8_t>(last_command_counter_value);
+  const auto fired_counter = static_cast<std::uint8_t>(fired_counter_value);
   EXPECT_GE(fired_cycle - last_command_cycle, kWatchdogPeriods) << event;
 
   // The firing's SYNC was sent after the kill, so after every frame recorded before it.
