@@ -183,21 +183,17 @@ TEST_F(ClosedLoopTest, ChangingConnectionsWhileRunningNeitherCrashesNorJumps) {
   run_and_watch(50);
   ASSERT_TRUE(joystick_->out().connect(controller_->reference_in()));
   EXPECT_FALSE(joystick_->out().connect(controller_->reference_in()));
-  EXPECT_LE(largest_step_N, 1.0f) << "no jump in the contact force from one period to the next";
-  EXPECT_NEAR(measured()[2], 10.0f, 0.5f) << "still at the reference";
-  EXPECT_EQ(actuator_->counters().watchdog_events, 0u) << "sensor and reference changes do not trip the watchdog";
   // The command link too: the actuator's watchdog brakes the drives (quick stop) meanwhile and
-  // the next command releases them. The contact force across the brake is not compared:
-  // pa10-sim's brake holds the joints' positions but not the torque they bore (its hold law has
-  // no load feed-forward and releasing it clears the velocity loop's integral), so pressing
-  // force drops while braked and is built up again by the force loop afterwards.
+  // the next command releases them; the brake holds the load the joints bore, so the contact
+  // force neither drops while braked nor jumps when released.
   ASSERT_TRUE(controller_->command_out().disconnect(actuator_->command_in()));
   run_and_watch(50);
   EXPECT_TRUE(hardware_->master().quick_stopped()) << "braked while no command arrives";
   ASSERT_TRUE(controller_->command_out().connect(actuator_->command_in()));
   run_and_watch(10);
   EXPECT_FALSE(hardware_->master().quick_stopped()) << "released by the next command";
-  run_and_watch(2000);
+  run_and_watch(500);
+  EXPECT_LE(largest_step_N, 1.0f) << "no jump in the contact force from one period to the next";
   EXPECT_NEAR(measured()[2], 10.0f, 0.5f) << "back at the reference after the changes";
   EXPECT_EQ(actuator_->counters().watchdog_events, 1u) << "only the cut command link trips the watchdog";
 }
