@@ -196,16 +196,19 @@ void OutPortBase::delivery_loop(Subscription* sub) {
   for (;;) {
     sub->slot_cv.wait(lock, [&] { return sub->stop || sub->written_seq != sub->delivered_seq; });
     if (sub->stop) return;
-    const std::uint64_t seq = sub->written_seq;
-    const std::uint64_t missed = seq - sub->delivered_seq - 1;
-    if (missed > 0) {
+    // Oldest first; what the ring no longer holds was overwritten: count it as dropped.
+    const std::uint64_t behind = sub->written_seq - sub->delivered_seq;
+    const std::uint64_t capacity = ring_size(*sub);
+    if (behind > capacity) {
+      const std::uint64_t missed = behind - capacity;
       sub->dropped.fetch_add(missed, std::memory_order_relaxed);
       dropped_.fetch_add(missed, std::memory_order_relaxed);
+      sub->delivered_seq += missed;
     }
-    sub->delivered_seq = seq;
+    const std::uint64_t seq = ++sub->delivered_seq;
     bool drop = false;
     try {
-      deliver_slot(*sub, lock);
+      deliver_slot(*sub, seq, lock);
       sub->failures.store(0, std::memory_order_relaxed);
       sub->pushed.fetch_add(1, std::memory_order_relaxed);
       pushed_.fetch_add(1, std::memory_order_relaxed);

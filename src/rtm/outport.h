@@ -30,6 +30,10 @@ struct OutPortOptions {
   // To RTM::InPortEx subscribers use the oneway push() instead of put(): more throughput,
   // but a dead subscriber is only detected by COMM_FAILURE / TRANSIENT.
   bool oneway = false;
+  // Data a delivery thread may fall behind by before the oldest are dropped (counted): rides
+  // out a subscriber's or the host's short stall without loss, and lets one wake-up deliver
+  // a batch. 1 = latest value only. Pre-allocated per subscription.
+  std::uint32_t queue_depth = 8;
 };
 
 // Counters of one OutPort (same meaning as RTM::PortCounters).
@@ -45,11 +49,11 @@ struct OutPortCounters {
 
 // The type-independent part: subscriptions, delivery threads, counters, IDL attributes.
 //
-// Each subscription has one pre-allocated slot holding the newest datum not yet delivered.
-// write() copies into the slots and wakes the delivery threads (one per remote subscription)
-// and never makes a CORBA call; a delivery thread takes the datum and calls put() with no
-// lock held. A subscriber slower than the writer sees only the newest data; what it missed is
-// counted as dropped. In-process subscribers whose policy stores without waiting are filled
+// Each subscription has a pre-allocated ring of options().queue_depth data not yet delivered.
+// write() copies into the rings and wakes the delivery threads (one per remote subscription)
+// and never makes a CORBA call; a delivery thread takes the data oldest first and calls put()
+// with no lock held. A subscriber that falls further behind than the ring loses the oldest
+// data, counted as dropped: it only ever misses stale data. In-process subscribers whose policy stores without waiting are filled
 // directly by write() (a copy under the InPort's lock, no thread hand-off).
 class OutPortBase : public virtual POA_RTM::OutPortEx {
  public:
@@ -115,7 +119,10 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void delivery_loop(Subscription* sub);
   // Type-specific delivery of the slot's datum: copies it out under slot_lock, delivers with
   // the lock released, and returns with it held again. Throws what the delivery raised.
-  virtual void deliver_slot(Subscription& sub, std::unique_lock<std::mutex>& slot_lock) = 0;
+  virtual void deliver_slot(Subscription& sub, std::uint64_t seq,
+                            std::unique_lock<std::mutex>& slot_lock) = 0;
+  // How many data the subscription's ring holds (options().queue_depth, at least 1).
+  virtual std::uint64_t ring_size(const Subscription& sub) const = 0;
   // Counts a failed delivery; true when sub must be dropped as dead. Logs the drop once.
   bool count_failure(Subscription& sub, const char* exception_name, bool dead_kind);
   // Removes the subscriptions matching (under mu_) and stops/joins them (without it).
@@ -183,10 +190,15 @@ class OutPort final : public OutPortBase {
 
  private:
   struct TypedSubscription : Subscription {
-    T slot{};     // newest datum not yet delivered (guarded by slot_mu)
+    // Datum number s (1-based) is ring[(s - 1) % ring.size()] (guarded by slot_mu).
+    std::vector<T> ring;
     T sending{};  // the datum being delivered (delivery thread only)
   };
-  void deliver_slot(Subscription& sub, std::unique_lock<std::mutex>& slot_lock) override;
+  void deliver_slot(Subscription& sub, std::uint64_t seq, std::unique_lock<std::mutex>& slot_lock) override;
+  std::uint64_t ring_size(const Subscription& sub) const override {
+    return static_cast<const TypedSubscription&>(sub).ring.size();
+  }
+  std::unique_ptr<TypedSubscription> new_subscription() const;
   T latest_{};
   bool has_latest_ = false;
 };

@@ -48,7 +48,7 @@ void OutPort<T>::write(const T& value) {
         std::lock_guard slot_lock(sub.slot_mu);
         // A once-subscription takes exactly the first datum written after it was made.
         if (!(sub.req_type == RTM::once && sub.written_seq > 0)) {
-          sub.slot = value;
+          sub.ring[sub.written_seq % sub.ring.size()] = value;
           ++sub.written_seq;
           wake = true;
         }
@@ -68,9 +68,17 @@ bool OutPort<T>::latest(T& out) const {
 }
 
 template <PortData T>
-void OutPort<T>::deliver_slot(Subscription& base, std::unique_lock<std::mutex>& slot_lock) {
+std::unique_ptr<typename OutPort<T>::TypedSubscription> OutPort<T>::new_subscription() const {
+  auto sub = std::make_unique<TypedSubscription>();
+  sub->ring.resize(std::max<std::uint32_t>(options_.queue_depth, 1));
+  return sub;
+}
+
+template <PortData T>
+void OutPort<T>::deliver_slot(Subscription& base, std::uint64_t seq,
+                              std::unique_lock<std::mutex>& slot_lock) {
   auto& sub = static_cast<TypedSubscription&>(base);
-  sub.sending = sub.slot;
+  sub.sending = sub.ring[(seq - 1) % sub.ring.size()];
   slot_lock.unlock();
   struct Relock {
     std::unique_lock<std::mutex>& lock;
@@ -90,7 +98,7 @@ void OutPort<T>::deliver_slot(Subscription& base, std::unique_lock<std::mutex>& 
 template <PortData T>
 bool OutPort<T>::connect(InPort<T>& in, RTM::ReqType type) {
   reap_retired();
-  auto sub = std::make_unique<TypedSubscription>();
+  auto sub = new_subscription();
   sub->req_type = type;
   in._add_ref();
   sub->local = &in;
@@ -135,7 +143,7 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
     refuse(full_name() + ": nil InPort reference");
     return false;
   }
-  auto sub = std::make_unique<TypedSubscription>();
+  auto sub = new_subscription();
   sub->req_type = r_type;
   sub->port = RTM::InPort::_duplicate(i_port);
   // Remote calls: made before any lock is taken.

@@ -296,12 +296,26 @@ TEST_F(OutPortTest, DirectConnectNeedsNoOrb) {
   EXPECT_EQ(in->read(got), ReadResult::OldData);
 }
 
-TEST_F(OutPortTest, SlowSubscriberLosesOnlyStaleDataAndItIsCounted) {
+// A subscriber stuck in its first delivery while the writer writes 2..10: with a ring of
+// `depth` data it later receives the newest `depth` of them, oldest first; the rest are
+// counted as dropped, and the fast subscriber beside it is never delayed.
+class SlowSubscriberTest : public OutPortTest {
+ protected:
+  void check_slow_subscriber(std::uint32_t depth);
+};
+
+void SlowSubscriberTest::check_slow_subscriber(std::uint32_t depth) {
   std::atomic<bool> release{false};
-  std::atomic<int> calls{0};
-  auto out = make_out();
-  auto slow = make_in("slow", rtm::InPortPolicy::callback<RTM::TimedFloat6>([&](const RTM::TimedFloat6&) {
-    ++calls;
+  std::vector<float> received;
+  std::mutex received_mu;
+  rtm::OutPortOptions options;
+  options.queue_depth = depth;
+  auto out = make_out(options);
+  auto slow = make_in("slow", rtm::InPortPolicy::callback<RTM::TimedFloat6>([&](const RTM::TimedFloat6& d) {
+    {
+      std::lock_guard lock(received_mu);
+      received.push_back(d.val[0]);
+    }
     while (!release.load()) std::this_thread::sleep_for(std::chrono::microseconds(200));
   }));
   auto fast = make_in("fast", rtm::InPortPolicy::fifo(64));
@@ -313,20 +327,34 @@ TEST_F(OutPortTest, SlowSubscriberLosesOnlyStaleDataAndItIsCounted) {
   RTM::InPortEx_var fast_ref = fast->activate(orb());
   ASSERT_TRUE(out->subscribe(RTM::repeated, slow_ref.in()));
   ASSERT_TRUE(out->subscribe(RTM::repeated, fast_ref.in()));
+  auto received_count = [&] {
+    std::lock_guard lock(received_mu);
+    return received.size();
+  };
   out->write(float6(1.0f));
-  ASSERT_TRUE(eventually([&] { return calls.load() == 1; }));  // the slow one is now stuck
+  ASSERT_TRUE(eventually([&] { return received_count() == 1; }));  // the slow one is now stuck
   for (int i = 2; i <= 10; ++i) out->write(float6(static_cast<float>(i)));
   EXPECT_EQ(fast->counters_snapshot().accepted, 10u);  // never delayed by the slow one
   release = true;
-  ASSERT_TRUE(eventually([&] { return calls.load() == 2; }));  // gets the newest, 10
-  RTM::TimedFloat6 got{};
-  ASSERT_EQ(slow->read(got), ReadResult::NewData);
-  EXPECT_FLOAT_EQ(got.val[0], 10.0f);
-  EXPECT_EQ(out->counters_snapshot().dropped, 8u);  // 2..9
+  const std::size_t kept = std::min<std::size_t>(depth, 9);
+  ASSERT_TRUE(eventually([&] { return received_count() == 1 + kept; }));
+  std::vector<float> expected{1.0f};
+  for (int i = static_cast<int>(10 - kept + 1); i <= 10; ++i) expected.push_back(static_cast<float>(i));
+  {
+    std::lock_guard lock(received_mu);
+    EXPECT_EQ(received, expected) << "the newest data, oldest first";
+  }
+  EXPECT_EQ(out->counters_snapshot().dropped, 9u - kept);
   out->close();
   slow->deactivate();
   fast->deactivate();
 }
+
+TEST_F(SlowSubscriberTest, WithARingOfOneGetsOnlyTheNewest) { check_slow_subscriber(1); }
+
+TEST_F(SlowSubscriberTest, CatchesUpFromItsRingAndLosesOnlyTheOldest) { check_slow_subscriber(4); }
+
+TEST_F(SlowSubscriberTest, RingDeeperThanTheBacklogLosesNothing) { check_slow_subscriber(16); }
 
 // ---- a reference from another process is never taken for a local one ----
 
