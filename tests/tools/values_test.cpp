@@ -106,4 +106,13 @@ TEST(RtmValues, UnitsFollowThePortName) {
   EXPECT_TRUE(rtm::cli::units_for_port("force", 3).empty());
 }
 
+TEST(RtmValues, UnitsOfIndexedPortsFollowTheForceServoKinds) {
+  EXPECT_EQ(rtm::cli::units_for_port("out0", 6, "sensor", false)[0], "N");
+  EXPECT_EQ(rtm::cli::units_for_port("out0", 6, "joystick", false)[3], "N·m");
+  EXPECT_EQ(rtm::cli::units_for_port("in1", 6, "controller", true)[0], "N");
+  EXPECT_EQ(rtm::cli::units_for_port("out0", 6, "controller", false)[0], "m/s");
+  EXPECT_EQ(rtm::cli::units_for_port("in0", 6, "actuator", true)[5], "rad/s");
+  EXPECT_TRUE(rtm::cli::units_for_port("out0", 6, "talker", false).empty());
+}
+
 }  // namespace

@@ -213,7 +213,7 @@ ComponentInfo Browser::describe(std::string_view name) const {
 
 ResolvedPort Browser::port(const PortAddress& address) const {
   RTM::RtComponent_var comp = component(address.component);
-  ResolvedPort found{address.to_string(), Direction::in, {}, {}, {}};
+  ResolvedPort found{address.to_string(), Direction::in, {}, {}, {}, {}};
   auto dead = dead_if_unreachable([&] {
     RTM::InPortList_var ins = comp->in_ports();
     RTM::OutPortList_var outs = comp->out_ports();
@@ -264,6 +264,11 @@ ResolvedPort Browser::port(const PortAddress& address) const {
   if (dead) {
     throw BrowseError(fmt::format("{} does not answer ({}): its process is gone?",
                                   address.component, *dead));
+  }
+  RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(comp);
+  if (!CORBA::is_nil(ex)) {
+    CORBA::String_var kind = ex->kind();
+    found.component_kind = kind.in();
   }
   return found;
 }

@@ -71,6 +71,7 @@ struct ResolvedPort {
   std::string name;
   CORBA::Object_var object;      // RTM::InPort or RTM::OutPort
   CORBA::TypeCode_var type;
+  std::string component_kind;    // "" for a seed component
 };
 
 class Browser {

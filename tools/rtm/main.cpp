@@ -218,7 +218,7 @@ int watch(const Browser& browser, rtm::Orb& orb, const std::string& address, dou
   }
   bool csv_header_done = csv_path.empty();
   const bool live_table = !as_json && ::isatty(STDOUT_FILENO) && count <= 0;
-  const auto units = units_for_port(port.name, 6);
+  const auto units = units_for_port(port.name, 6, port.component_kind, false);
   const auto start = Clock::now();
   const auto refresh = std::chrono::duration<double>(1.0 / std::max(rate_hz, 0.1));
   auto next_refresh = start;
@@ -505,7 +505,7 @@ int main(int argc, char** argv) {
         j["port"] = p.address;
         fmt::print("{}\n", j.dump());
       } else {
-        fmt::print("{}\n", format_text(value.in(), units_for_port(p.name, 6)));
+        fmt::print("{}\n", format_text(value.in(), units_for_port(p.name, 6, p.component_kind, false)));
       }
       return kOk;
     }

@@ -89,14 +89,18 @@ std::vector<double> parse_numbers(const std::vector<std::string>& words, std::si
 
 }  // namespace
 
-std::vector<std::string> units_for_port(const std::string& port_name, std::size_t count) {
+std::vector<std::string> units_for_port(const std::string& port_name, std::size_t count,
+                                        const std::string& component_kind, bool is_input) {
+  static const std::vector<std::string> wrench{"N", "N", "N", "N·m", "N·m", "N·m"};
+  static const std::vector<std::string> twist{"m/s", "m/s", "m/s", "rad/s", "rad/s", "rad/s"};
   if (count != 6) return {};
-  if (contains_any(port_name, {"force", "wrench", "ft", "joystick", "reference", "ref"})) {
-    return {"N", "N", "N", "N·m", "N·m", "N·m"};
+  if (contains_any(port_name, {"force", "wrench", "reference"})) return wrench;
+  if (contains_any(port_name, {"velocity", "twist", "command"})) return twist;
+  if (component_kind == "sensor" || component_kind == "joystick" || component_kind == "servo") {
+    return wrench;
   }
-  if (contains_any(port_name, {"velocity", "twist", "vel", "command", "cmd"})) {
-    return {"m/s", "m/s", "m/s", "rad/s", "rad/s", "rad/s"};
-  }
+  if (component_kind == "controller") return is_input ? wrench : twist;
+  if (component_kind == "actuator") return twist;
   return {};
 }
 
