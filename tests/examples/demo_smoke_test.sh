@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Smoke test of the force-servo demo on the built tree: a short operator profile (hands off,
 # press at 10 N, 20 N, release) through examples/force-servo/demo, then: exit code 0, the
-# summary and the CSV written, both press phases found in contact, and nothing the demo started
-# still running. Figures are not checked (no --check): that is for quiet machines.
+# summary and the CSV written, both press phases found in contact, no sanitizer report in the
+# processes' logs, and nothing the demo started still running. Figures are not checked (no --check): that is for quiet machines.
 #
 # Usage: demo_smoke_test.sh DEMO BIN_DIR
 set -euo pipefail
@@ -67,6 +67,11 @@ for reference in -10.0 -20.0; do
     "$tmp/out/summary.txt" || fail "no press phase at $reference N in contact in summary.txt:
 $(cat "$tmp/out/summary.txt")"
 done
+
+# A sanitizer build: no process of the run may have reported an error (they keep running).
+if grep -l -E "ERROR: (Address|Leak|Thread|UndefinedBehavior)Sanitizer|runtime error:" "$tmp/out/raw/"* >/dev/null 2>&1; then
+  fail "a sanitizer report in the run's logs: $(grep -l -E "Sanitizer|runtime error:" "$tmp/out/raw/"*)"
+fi
 
 # The bus and naming port of this run, from the demo's own lines.
 bus=$(sed -n 's/^demo: pa10-sim on local:\([^ ]*\) playing.*/\1/p' "$tmp/demo.log")
