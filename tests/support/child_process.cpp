@@ -199,6 +199,7 @@ std::optional<ExitStatus> ChildProcess::wait_for_exit(std::chrono::milliseconds 
     const pid_t result = ::waitpid(pid_, &status, WNOHANG);
     if (result == pid_) {
       status_ = decode(status);
+      await_output_end();
       return status_;
     }
     if (result < 0 && errno != EINTR) {
@@ -225,7 +226,16 @@ ExitStatus ChildProcess::kill_now() {
   while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
   }
   status_ = decode(status);
+  await_output_end();
   return *status_;
+}
+
+void ChildProcess::await_output_end() {
+  // The reader may not have read the last lines when waitpid reports the exit; a caller that
+  // saw the exit must also see everything printed before it. Bounded: a grandchild that
+  // inherited the pipe may keep it open.
+  std::unique_lock lock(mutex_);
+  line_added_.wait_for(lock, std::chrono::seconds(2), [this] { return output_closed_; });
 }
 
 }  // namespace rtm_test

@@ -56,7 +56,8 @@ class ChildProcess {
   std::string output() const;
 
   void send_signal(int signal_number);
-  // Exit status once the child has ended within timeout (and reaps it), else nullopt.
+  // Exit status once the child has ended within timeout (and reaps it), else nullopt. Once it
+  // returns a status, output() holds everything the child printed.
   std::optional<ExitStatus> wait_for_exit(std::chrono::milliseconds timeout);
   bool running();
   // SIGTERM, then SIGKILL after the grace period; reaps. Idempotent.
@@ -66,6 +67,7 @@ class ChildProcess {
 
  private:
   void read_output(int fd);
+  void await_output_end();  // after the child was reaped: until the reader saw EOF (bounded)
 
   std::vector<std::string> argv_;
   Options options_;
