@@ -12,7 +12,7 @@
 
 #include "arm/can/local_bus.h"
 #include "arm/can/sensor_listener.h"
-#include "allocation_counter.h"
+#include "rtm_test/allocation_counter.h"
 #include "fake_pa10.h"
 #include "test_paths.h"
 
@@ -155,10 +155,10 @@ TEST(Pa10Master, ACycleAllocatesNothing) {
   Rig rig;
   rig.master->start();
   for (int i = 0; i < 10; ++i) rig.master->step();  // warm-up
-  const std::size_t probe = testing::allocations_on_this_thread();
+  const std::size_t probe = rtm_test::allocations_on_this_thread();
   { std::vector<int> counted(100); }
-  ASSERT_EQ(testing::allocations_on_this_thread() - probe, 1u) << "the counter must see allocations";
-  const std::size_t before = testing::allocations_on_this_thread();
+  ASSERT_EQ(rtm_test::allocations_on_this_thread() - probe, 1u) << "the counter must see allocations";
+  const std::size_t before = rtm_test::allocations_on_this_thread();
   for (int i = 0; i < 200; ++i) {
     rig.master->set_target_velocities({0.01 * i, 0, 0, 0, 0, 0, -0.01 * i});
     ASSERT_TRUE(rig.master->step());
@@ -166,7 +166,7 @@ TEST(Pa10Master, ACycleAllocatesNothing) {
     const Wrench w = rig.master->wrench(ForceSensor::wrist);
     ASSERT_TRUE(s.complete && w.valid);
   }
-  EXPECT_EQ(testing::allocations_on_this_thread() - before, 0u);
+  EXPECT_EQ(rtm_test::allocations_on_this_thread() - before, 0u);
 }
 
 TEST(Pa10Master, SyncCounterWrapsFrom240To1) {

@@ -1,4 +1,4 @@
-#include "alloc_counter.h"
+#include "rtm_test/allocation_counter.h"
 
 #include "rtm/inport.h"
 #include "rtm/outport.h"
@@ -20,7 +20,7 @@ TEST(Allocation, WriteAndReadOfAFixedSizeTypeAllocateNothing) {
   latest->read(got);
   fifo->read(got);
 
-  const std::uint64_t before = rtm::test::allocations();
+  const std::uint64_t before = rtm_test::allocations_total();
   for (int i = 0; i < 1000; ++i) {
     datum.val[0] = static_cast<float>(i);
     out.write(datum);
@@ -29,16 +29,16 @@ TEST(Allocation, WriteAndReadOfAFixedSizeTypeAllocateNothing) {
     EXPECT_EQ(latest->read(got), rtm::ReadResult::NewData);
     latest->deliver(datum);
   }
-  const std::uint64_t during = rtm::test::allocations() - before;
+  const std::uint64_t during = rtm_test::allocations_total() - before;
   EXPECT_EQ(during, 0u);
   EXPECT_FLOAT_EQ(got.val[0], 999.0f);
   EXPECT_GT(fifo->counters_snapshot().dropped, 0u);  // the full-FIFO path ran too
 }
 
 TEST(Allocation, TheCounterSeesAnAllocation) {
-  const std::uint64_t before = rtm::test::allocations();
+  const std::uint64_t before = rtm_test::allocations_total();
   auto* p = new int(4);
-  EXPECT_EQ(rtm::test::allocations(), before + 1);
+  EXPECT_EQ(rtm_test::allocations_total(), before + 1);
   delete p;
 }
 

@@ -6,7 +6,7 @@
 
 
 #include "arm/can/protocol.h"
-#include "allocation_counter.h"
+#include "rtm_test/allocation_counter.h"
 #include "recording_sink.h"
 
 namespace pc = rtm::can;
@@ -127,9 +127,9 @@ TEST_F(LockStepSimulatorTest, ASyncCycleAllocatesNothing) {
   start_up();
   cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
   out_.frames.reserve(out_.frames.size() + 10000);  // the recording sink's own growth
-  const long before = rtm::sim::testing::allocations_so_far();
+  const auto before = rtm_test::allocations_total();
   for (int i = 0; i < 200; ++i) cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
-  EXPECT_EQ(rtm::sim::testing::allocations_so_far() - before, 0);
+  EXPECT_EQ(rtm_test::allocations_total() - before, 0u);
 }
 
 TEST_F(LockStepSimulatorTest, WithASeparateSensorBusTheSensorsAnswerOnlyThere) {
