@@ -48,7 +48,7 @@ extern "C" void on_interrupt(int) { g_interrupted.store(true); }
 struct Options {
   std::string naming;
   bool json = false;
-  int timeout_ms = 2000;
+  int timeout_ms = 5000;  // on() of a composite makes several remote calls of its own
 };
 
 // Turns any failure into a one-line message and the exit code.
