@@ -94,6 +94,7 @@ struct Pa10Master::Impl {
   MasterCounters counters{};
   FaultRecord fault{};       // cycle's copy, published with the rest
   std::array<double, kDriveCount> command_rad_s{};
+  std::uint64_t command_sequence = 0;  // of the target in command_rad_s; 0 = zero, not a target
   bool quick_stop = false;   // this cycle sends quick stop to every drive
   // After a quick stop ends, drives still report quick stop active until they have latched
   // "enable operation": that state is no fault until this deadline (or all are enabled again).
@@ -103,6 +104,8 @@ struct Pa10Master::Impl {
   mutable std::mutex mutex;
   std::array<double, kDriveCount> shared_target_rad_s{};
   bool shared_target_valid = false;
+  std::uint64_t shared_target_sequence = 0;
+  SentTarget shared_last_sent{};
   bool shared_reset_requested = false;
   bool shared_quick_stop_requested = false;
   bool shared_quick_stopped = false;
@@ -297,8 +300,10 @@ struct Pa10Master::Impl {
     if (quick_stop) quick_stop_release_deadline.reset();
     if (fault.kind == FaultKind::none && !enabling && !quick_stop && shared_target_valid) {
       command_rad_s = shared_target_rad_s;
+      command_sequence = shared_target_sequence;
     } else {
       command_rad_s.fill(0.0);
+      command_sequence = 0;
     }
   }
 
@@ -346,6 +351,7 @@ struct Pa10Master::Impl {
       }
       send(*drive_bus, encode_drive_command(DriveCommand{drive_node(j), cw, command_rad_s[i]}));
     }
+    if (command_sequence != 0) publish_sent(command_sequence);
     sync_counter = next_sync_counter(sync_counter);
     sync_time = steady_clock::now();
     send(*drive_bus, encode_sync(sync_counter));
@@ -449,6 +455,15 @@ struct Pa10Master::Impl {
     shared_enabled = all_enabled && fault.kind == FaultKind::none && !enabling;
     shared_quick_stopped = all_quick_stopped && shared_quick_stop_requested;
     shared_counters = counters;
+  }
+
+  // Right after the RPDOs of target `sequence` were written: the end of the sample-to-bus path.
+  void publish_sent(std::uint64_t sequence) {
+    timespec realtime{};
+    clock_gettime(CLOCK_REALTIME, &realtime);
+    const std::int64_t sent_ns = std::int64_t{realtime.tv_sec} * 1'000'000'000 + realtime.tv_nsec;
+    std::lock_guard lock(mutex);
+    shared_last_sent = SentTarget{sequence, sent_ns};
   }
 
   void bus_failure(const std::exception& e) {
@@ -655,6 +670,8 @@ void Pa10Master::run_periodic() {
       pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);  // best effort: needs rights
     }
     auto next = steady_clock::now();
+    next_cycle_deadline_ns_.store(std::chrono::duration_cast<nanoseconds>(next.time_since_epoch()).count(),
+                                  std::memory_order_relaxed);
     while (running_.load(std::memory_order_relaxed)) {
       try {
         m.periodic_cycle();
@@ -667,6 +684,8 @@ void Pa10Master::run_periodic() {
         ++m.counters.overruns;
         while (next <= now) next += m.config.period;  // skip, do not burst to catch up
       }
+      next_cycle_deadline_ns_.store(std::chrono::duration_cast<nanoseconds>(next.time_since_epoch()).count(),
+                                    std::memory_order_relaxed);
       sleep_until(next);
     }
   });
@@ -682,9 +701,26 @@ void Pa10Master::run_periodic(std::chrono::nanoseconds period) {
 void Pa10Master::stop() {
   if (!running_.exchange(false)) return;
   if (thread_.joinable()) thread_.join();
+  next_cycle_deadline_ns_.store(0, std::memory_order_relaxed);
 }
 
-void Pa10Master::set_target_velocities(const std::array<double, kDriveCount>& velocity_rad_s) {
+std::int64_t Pa10Master::next_cycle_deadline_ns() const {
+  return next_cycle_deadline_ns_.load(std::memory_order_relaxed);
+}
+
+std::chrono::nanoseconds Pa10Master::period() const { return impl_->config.period; }
+
+std::uint64_t Pa10Master::target_sequence() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->shared_target_sequence;
+}
+
+Pa10Master::SentTarget Pa10Master::last_sent() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->shared_last_sent;
+}
+
+std::uint64_t Pa10Master::set_target_velocities(const std::array<double, kDriveCount>& velocity_rad_s) {
   for (int j = 0; j < kDriveCount; ++j) {
     if (!std::isfinite(velocity_rad_s[static_cast<std::size_t>(j)])) {
       throw std::invalid_argument("Pa10Master::set_target_velocities: joint " +
@@ -692,10 +728,11 @@ void Pa10Master::set_target_velocities(const std::array<double, kDriveCount>& ve
     }
   }
   std::lock_guard lock(impl_->mutex);
-  if (impl_->shared_fault.kind != FaultKind::none) return;
+  if (impl_->shared_fault.kind != FaultKind::none) return 0;
   impl_->shared_target_rad_s = velocity_rad_s;
   impl_->shared_target_valid = true;
   impl_->shared_quick_stop_requested = false;
+  return ++impl_->shared_target_sequence;
 }
 
 void Pa10Master::quick_stop() {

@@ -143,8 +143,28 @@ class Pa10Master {
 
   // Joint velocity targets [rad/s] for the next cycle. Thread-safe, no allocation. Throws
   // std::invalid_argument for a NaN or infinite value (nothing is applied then). Ignored
-  // (zero is sent) while a fault is active. Ends a quick_stop().
-  void set_target_velocities(const std::array<double, kDriveCount>& velocity_rad_s);
+  // (zero is sent) while a fault is active. Ends a quick_stop(). Each accepted target gets the
+  // next target sequence number (from 1), returned; 0 when ignored.
+  std::uint64_t set_target_velocities(const std::array<double, kDriveCount>& velocity_rad_s);
+  // Sequence number of the last accepted target (0 = none yet).
+  std::uint64_t target_sequence() const;
+
+  // The last target that left for the bus: published by the cycle right after it has written
+  // the seven RPDOs carrying it, with the CLOCK_REALTIME time of that write (the clock sensor
+  // samples are stamped with), so sent_realtime_ns - a sample's stamp is the end-to-end
+  // latency. {0, 0} until a target has been sent; cycles sending zero instead (fault, quick
+  // stop, enabling) leave it unchanged.
+  struct SentTarget {
+    std::uint64_t sequence = 0;
+    std::int64_t sent_realtime_ns = 0;
+  };
+  SentTarget last_sent() const;
+
+  // run_periodic()'s grid: the CLOCK_MONOTONIC deadline [ns] of its next cycle (cycles follow
+  // every period from there); 0 when the periodic thread does not run. For phasing another
+  // periodic activity against the SYNC cycles.
+  std::int64_t next_cycle_deadline_ns() const;
+  std::chrono::nanoseconds period() const;
 
   JointState joint_state() const;
   Wrench wrench(ForceSensor sensor) const;
@@ -174,6 +194,7 @@ class Pa10Master {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::atomic<bool> running_{false};
+  std::atomic<std::int64_t> next_cycle_deadline_ns_{0};
   std::thread thread_;
 };
 

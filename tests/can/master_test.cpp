@@ -6,6 +6,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <time.h>
+
 #include <chrono>
 #include <thread>
 #include <vector>
@@ -427,6 +429,89 @@ TEST(Pa10Master, PeriodicThreadCyclesAndFollowsTargets) {
   EXPECT_GT(rig.fake->position_rad(drive_node(0)), start_rad);
   EXPECT_LT(rig.fake->position_rad(drive_node(6)), 0.0);
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+}
+
+std::int64_t realtime_now_ns() {
+  timespec t{};
+  clock_gettime(CLOCK_REALTIME, &t);
+  return std::int64_t{t.tv_sec} * 1'000'000'000 + t.tv_nsec;
+}
+
+TEST(Pa10Master, EachTargetGetsTheNextSequenceNumber) {
+  Rig rig;
+  rig.master->start();
+  EXPECT_EQ(rig.master->target_sequence(), 0u);
+  EXPECT_EQ(rig.master->set_target_velocities({0.1, 0, 0, 0, 0, 0, 0}), 1u);
+  EXPECT_EQ(rig.master->set_target_velocities({0.2, 0, 0, 0, 0, 0, 0}), 2u);
+  EXPECT_EQ(rig.master->target_sequence(), 2u);
+}
+
+TEST(Pa10Master, LastSentIsPublishedByTheCycleThatWroteTheTargetNeverBefore) {
+  Rig rig;
+  rig.master->start();
+  ASSERT_TRUE(rig.master->step());
+  EXPECT_EQ(rig.master->last_sent().sequence, 0u) << "no target set yet";
+  EXPECT_EQ(rig.master->last_sent().sent_realtime_ns, 0);
+
+  const std::array<double, kDriveCount> first = {0.1, -0.1, 0.1, -0.1, 0.1, -0.1, 0.1};
+  const std::uint64_t first_seq = rig.master->set_target_velocities(first);
+  EXPECT_EQ(rig.master->last_sent().sequence, 0u) << "set, but no cycle has written it yet";
+  const std::int64_t before_ns = realtime_now_ns();
+  ASSERT_TRUE(rig.master->step());
+  const std::int64_t after_ns = realtime_now_ns();
+  const Pa10Master::SentTarget sent = rig.master->last_sent();
+  EXPECT_EQ(sent.sequence, first_seq);
+  EXPECT_GE(sent.sent_realtime_ns, before_ns);
+  EXPECT_LE(sent.sent_realtime_ns, after_ns);
+  // The drives did receive that target in this cycle's RPDOs.
+  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), first[0]);
+
+  const std::uint64_t second_seq = rig.master->set_target_velocities({0.3, 0, 0, 0, 0, 0, 0});
+  EXPECT_EQ(second_seq, first_seq + 1);
+  EXPECT_EQ(rig.master->last_sent().sequence, first_seq) << "the second target has not been written yet";
+  ASSERT_TRUE(rig.master->step());
+  const Pa10Master::SentTarget second = rig.master->last_sent();
+  EXPECT_EQ(second.sequence, second_seq);
+  EXPECT_GE(second.sent_realtime_ns, sent.sent_realtime_ns);
+  ASSERT_TRUE(rig.master->step());
+  EXPECT_EQ(rig.master->last_sent().sequence, second_seq) << "a repeated target keeps its sequence";
+}
+
+TEST(Pa10Master, CyclesSendingZeroInsteadOfTheTargetDoNotPublishItAsSent) {
+  Rig rig;
+  rig.master->start();
+  const std::uint64_t seq = rig.master->set_target_velocities({0.1, 0, 0, 0, 0, 0, 0});
+  ASSERT_TRUE(rig.master->step());
+  ASSERT_EQ(rig.master->last_sent().sequence, seq);
+  const std::int64_t sent_ns = rig.master->last_sent().sent_realtime_ns;
+  rig.master->quick_stop();
+  for (int i = 0; i < 3; ++i) rig.master->step();
+  EXPECT_EQ(rig.master->last_sent().sequence, seq);
+  EXPECT_EQ(rig.master->last_sent().sent_realtime_ns, sent_ns) << "quick stop cycles send zero, not the target";
+}
+
+TEST(Pa10Master, PeriodicGridDeadlinesAreWholePeriodsApartAndZeroWhenStopped) {
+  Rig rig;
+  rig.master->start();
+  EXPECT_EQ(rig.master->next_cycle_deadline_ns(), 0);
+  rig.master->run_periodic();
+  const auto wait_cycles = [&](std::uint64_t n) {
+    const std::uint64_t start = rig.master->counters().cycles;
+    const auto deadline = std::chrono::steady_clock::now() + 20s;
+    while (rig.master->counters().cycles < start + n && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(1ms);
+  };
+  wait_cycles(2);
+  const std::int64_t first_ns = rig.master->next_cycle_deadline_ns();
+  wait_cycles(5);
+  const std::int64_t later_ns = rig.master->next_cycle_deadline_ns();
+  rig.master->stop();
+  const std::int64_t period_ns = rig.master->period().count();
+  ASSERT_GT(first_ns, 0);
+  EXPECT_GT(later_ns, first_ns);
+  // Overruns skip whole periods: the grid never shifts.
+  EXPECT_EQ((later_ns - first_ns) % period_ns, 0) << "first " << first_ns << " later " << later_ns;
+  EXPECT_EQ(rig.master->next_cycle_deadline_ns(), 0);
 }
 
 TEST(Pa10Master, PeriodicThreadCountsOverrunsWhenCyclesOutlastThePeriod) {
