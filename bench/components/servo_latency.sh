@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # End-to-end latency of the force servo: from a sensor sample's stamp to the drive command
-# handed to the arm, per run mode, measured during the force-servo demo on pa10-sim.
+# leaving for the bus, per run mode, measured during the force-servo demo on pa10-sim.
 #
 #   paper   sensor, controller, actuator, servo, joystick: five processes, each on its own
 #           2 ms activity, data over CORBA (examples/force-servo/system.yaml)
@@ -8,10 +8,14 @@
 #           process (examples/force-servo/system-shared.yaml)
 #
 # Where it is measured: the controller stamps each command with the stamp of the sensor sample
-# it was computed from; the actuator records now - stamp (CLOCK_REALTIME) when orderVelocity
-# has returned (the joint rates are then set in the CANopen master, which writes them in its
-# next SYNC cycle, up to one period later) and logs p50/p99/max when it is turned off. Its
-# histogram has 1 us buckets below 1 ms, 100 us buckets to 10 ms (upper edges reported).
+# it was computed from; the actuator hands the joint rates to the CANopen master (a target
+# sequence number) and, on a later cycle, reads the master's last sent target: once that has
+# reached its command it records sent time - stamp (CLOCK_REALTIME; the sent time is taken by
+# the master's cycle right after writing the seven RPDOs carrying the command, just before
+# SYNC). "handover" is the older, shorter span: stamp -> orderVelocity returned. Both are logged
+# as p50/p99/max when the actuator is turned off; 1 us buckets below 1 ms, 100 us buckets to
+# 10 ms (upper edges reported). In shared mode the tick runs --tick-lead-us (300 us) before the
+# master's SYNC cycles.
 # Loop lateness per component comes from `rtm --json ls -l` taken at the end of each run.
 #
 # Usage: bench/components/servo_latency.sh [--bin DIR] [--modes "paper shared"] [--out DIR]
@@ -44,16 +48,18 @@ for mode in $modes; do
   line=$(cat "$out/$mode/raw/"*.log 2>/dev/null | grep -h 'sample-to-drive latency' | tail -n 1 || true)
   [[ -n "$line" ]] || { echo "servo_latency: no latency line in the $mode run's logs ($out/$mode/raw)" >&2; exit 1; }
   read -r p50 p99 max < <(sed -n 's/.*latency p50 \([0-9]*\) us p99 \([0-9]*\) us max \([0-9]*\) us.*/\1 \2 \3/p' <<<"$line")
+  read -r h50 h99 < <(sed -n 's/.*handover p50 \([0-9]*\) us p99 \([0-9]*\) us.*/\1 \2/p' <<<"$line") || true
   commands=$(sed -n 's/.*commands \([0-9]*\),.*/\1/p' <<<"$line")
   watchdog=$(sed -n 's/.*watchdog events \([0-9]*\),.*/\1/p' <<<"$line")
-  results+=("$(printf '| %-6s | %8s | %8s | %8s | %8s | %8s |' "$mode" "$commands" "$p50" "$p99" "$max" "$watchdog")")
+  results+=("$(printf '| %-6s | %8s | %8s | %8s | %8s | %8s | %11s |' "$mode" "$commands" "$p50" "$p99" "$max" "$watchdog" \
+    "${h50:-?}/${h99:-?}")")
   echo "--- loop timing ($mode)"
   sed -n '/^Loop timing/,/^$/p' "$out/$mode/summary.txt"
 done
 
 echo
-echo "Sensor sample stamp -> orderVelocity returned (us), $(nproc) CPUs, $(date -u +%Y-%m-%d)"
-echo "| mode   | commands |  p50 us  |  p99 us  |  max us  | watchdog |"
-echo "|--------|----------|----------|----------|----------|----------|"
+echo "Sensor sample stamp -> drive command RPDOs written by the bus master (us), $(nproc) CPUs, $(date -u +%Y-%m-%d)"
+echo "| mode   | commands |  p50 us  |  p99 us  |  max us  | watchdog | handover p50/p99 us |"
+echo "|--------|----------|----------|----------|----------|----------|---------------------|"
 printf '%s\n' "${results[@]}"
 echo "(runs, logs and plots in $out)"

@@ -47,8 +47,18 @@ void Actuator::on_start() {
   twist_ = {};
 }
 
+void Actuator::record_sent_latency() {
+  if (pending_sequence_ == 0) return;
+  const VelocityArm::SentCommand sent = arm_->last_sent();
+  if (sent.sequence < pending_sequence_) return;
+  latency_.record(sent.sent_realtime_ns - pending_stamp_ns_);
+  pending_sequence_ = 0;
+}
+
 void Actuator::on_cycle(const rtm::CycleContext&) {
   cycles_.fetch_add(1, std::memory_order_relaxed);
+  // The bus master sends on its own cycle: the command of an earlier cycle has left by now.
+  record_sent_latency();
   bool fresh_command = false;
   bool watchdog_fired = false;
   if (command_in_.read(command_) == rtm::ReadResult::NewData) {
@@ -115,7 +125,14 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
     throw std::runtime_error("arm fault: " + arm_->fault_reason());
   }
   if (status == ArmStatus::not_ready) not_ready_cycles_.fetch_add(1, std::memory_order_relaxed);
-  if (fresh_command && status == ArmStatus::ready) latency_.record(rtm::to_ns(rtm::now()) - rtm::to_ns(command_.tm));
+  if (fresh_command && status == ArmStatus::ready) {
+    const std::int64_t stamp_ns = rtm::to_ns(command_.tm);
+    handover_latency_.record(rtm::to_ns(rtm::now()) - stamp_ns);
+    pending_sequence_ = arm_->command_sequence();
+    pending_stamp_ns_ = stamp_ns;
+  } else if (brake || status != ArmStatus::ready) {
+    pending_sequence_ = 0;  // that command will not leave as such
+  }
   const bool moving = status == ArmStatus::ready && !brake;
   for (std::size_t i = 0; i < 6; ++i) last_twist_[i].store(moving ? twist_[i] : 0.0f, std::memory_order_relaxed);
 }
@@ -126,10 +143,11 @@ void Actuator::on_stop() {
   const ActuatorCounters c = counters();
   log().info(
       "{}: off, zero velocity. cycles {}, commands {}, clamped {}, watchdog events {}, non-finite events {}, "
-      "command-loss recoveries {}, not-ready cycles {}, sample-to-drive latency p50 {} us p99 {} us max {} us",
+      "command-loss recoveries {}, not-ready cycles {}, sample-to-master handover p50 {} us p99 {} us max {} us, "
+      "sample-to-drive latency p50 {} us p99 {} us max {} us ({} commands seen leaving for the bus)",
       name(), c.cycles, c.commands, c.clamped, c.watchdog_events, c.non_finite_events, c.command_loss_recoveries,
-      c.not_ready_cycles,
-      c.latency_p50_ns / 1000, c.latency_p99_ns / 1000, c.latency_max_ns / 1000);
+      c.not_ready_cycles, c.handover_p50_ns / 1000, c.handover_p99_ns / 1000, c.handover_max_ns / 1000,
+      c.latency_p50_ns / 1000, c.latency_p99_ns / 1000, c.latency_max_ns / 1000, c.latency_samples);
 }
 
 ActuatorCounters Actuator::counters() const {
@@ -144,6 +162,10 @@ ActuatorCounters Actuator::counters() const {
   c.latency_p50_ns = latency_.percentile_ns(0.5);
   c.latency_p99_ns = latency_.percentile_ns(0.99);
   c.latency_max_ns = latency_.max_ns();
+  c.latency_samples = latency_.count();
+  c.handover_p50_ns = handover_latency_.percentile_ns(0.5);
+  c.handover_p99_ns = handover_latency_.percentile_ns(0.99);
+  c.handover_max_ns = handover_latency_.max_ns();
   return c;
 }
 

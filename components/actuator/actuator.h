@@ -55,11 +55,18 @@ struct ActuatorCounters {
   std::uint64_t non_finite_events = 0;  // commands started holding NaN/inf (quick stop)
   std::uint64_t command_loss_recoveries = 0;  // drive RPDO timeouts reset and resumed from
   std::uint64_t not_ready_cycles = 0;   // the arm was not enabled (zero velocity)
-  // Sample-to-drive latency: now - command stamp (the sensor sample's stamp, see the
-  // controller) when the twist has been handed to the arm, CLOCK_REALTIME.
+  // Sample-to-drive latency, CLOCK_REALTIME, from the command stamp (the sensor sample's stamp,
+  // see the controller) to the moment the bus master wrote the RPDOs carrying that command
+  // (VelocityArm::last_sent); 0 when the arm cannot tell.
   std::int64_t latency_p50_ns = 0;
   std::int64_t latency_p99_ns = 0;
   std::int64_t latency_max_ns = 0;
+  std::uint64_t latency_samples = 0;
+  // The earlier, shorter span: stamp to the twist handed to the arm (order_velocity returned);
+  // the bus master sends it on its own cycle after that.
+  std::int64_t handover_p50_ns = 0;
+  std::int64_t handover_p99_ns = 0;
+  std::int64_t handover_max_ns = 0;
 };
 
 class Actuator final : public rtm::Component {
@@ -88,7 +95,12 @@ class Actuator final : public rtm::Component {
   bool command_bad_ = false;
   VelocityArm::BusPosition last_command_bus_{};  // when the newest command was handed over
   std::array<std::atomic<float>, 6> last_twist_{};
-  LatencyHistogram latency_;
+  LatencyHistogram latency_;           // stamp -> RPDOs written
+  LatencyHistogram handover_latency_;  // stamp -> handed to the arm
+  // The last command handed over whose RPDO write is still to be seen (sequence 0 = none).
+  std::uint64_t pending_sequence_ = 0;
+  std::int64_t pending_stamp_ns_ = 0;
+  void record_sent_latency();
   std::atomic<std::uint64_t> cycles_{0}, commands_{0}, clamped_{0}, watchdog_events_{0}, non_finite_events_{0},
       not_ready_cycles_{0}, command_loss_recoveries_{0};
   rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>("in0");

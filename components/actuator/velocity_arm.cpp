@@ -58,6 +58,11 @@ VelocityArm::BusPosition ArmHardware::bus_position() const {
   return {state.cycle, state.sync_counter};
 }
 
+VelocityArm::SentCommand ArmHardware::last_sent() const {
+  const pc::Pa10Master::SentTarget sent = master_->last_sent();
+  return {sent.sequence, sent.sent_realtime_ns};
+}
+
 void ArmHardware::stop() {
   arm_->stop();
   if (!master_->running()) return;  // lock-step: the next step() sends it

@@ -47,6 +47,15 @@ class VelocityArm {
     std::uint8_t sync_counter = 0;
   };
   virtual BusPosition bus_position() const = 0;
+  // Sample-to-bus measurement: the sequence number of the target the last ready
+  // order_velocity() handed to the bus master, and the last target that has left for the bus
+  // (sequence, CLOCK_REALTIME ns of the RPDO write). 0 / {0, 0} when the arm cannot tell.
+  struct SentCommand {
+    std::uint64_t sequence = 0;
+    std::int64_t sent_realtime_ns = 0;
+  };
+  virtual std::uint64_t command_sequence() const { return 0; }
+  virtual SentCommand last_sent() const { return {}; }
 };
 
 // The PA10 behind its CANopen master: owns the master (NMT master, SYNC producer) and the arm
@@ -78,6 +87,8 @@ class ArmHardware final : public VelocityArm {
   bool in_fault() const override;  // re-reads the master's state
   void reset() override { arm_->reset(); }
   BusPosition bus_position() const override;
+  std::uint64_t command_sequence() const override { return master_->target_sequence(); }
+  SentCommand last_sent() const override;
 
   rtm::can::Pa10Master& master() { return *master_; }
   rtm::pa10::Pa10Arm& arm() { return *arm_; }

@@ -27,6 +27,7 @@ class RecordingArm final : public rtm::comp::VelocityArm {
   std::string reason;
 
   rtm::comp::ArmStatus order_velocity(const std::array<float, 6>& twist) override {
+    if (status == rtm::comp::ArmStatus::ready) ++sequence;
     ordered.push_back(twist);
     braked.push_back(false);
     return status;
@@ -46,6 +47,12 @@ class RecordingArm final : public rtm::comp::VelocityArm {
     status = rtm::comp::ArmStatus::ready;
   }
   BusPosition bus_position() const override { return {}; }
+  // A bus master in miniature: each ready order is target sequence n; the test says when the
+  // bus "sent" which one.
+  std::uint64_t sequence = 0;
+  SentCommand sent{};
+  std::uint64_t command_sequence() const override { return sequence; }
+  SentCommand last_sent() const override { return sent; }
 };
 
 struct ActuatorUnderTest {
@@ -216,6 +223,53 @@ TEST(Actuator, NegativeLimitOrZeroWatchdogIsRefused) {
   rtm::comp::ActuatorParams q;
   q.watchdog_periods = 0;
   EXPECT_THROW(rtm::comp::Actuator("a", std::make_unique<RecordingArm>(), q), std::invalid_argument);
+}
+
+TEST(ActuatorLatency, SampleToDriveIsTheBusSendTimeOfThatCommandMinusItsStamp) {
+  ActuatorUnderTest t;
+  const std::int64_t stamp_ns = 1'700'000'000'000'000'000;
+  t.actuator->command_in().deliver(float6({0.01f, 0, 0, 0, 0, 0}, stamp_ns));
+  t.step();
+  const std::uint64_t handed = t.arm->sequence;
+  ASSERT_GT(handed, 0u);
+  EXPECT_EQ(t.actuator->counters().latency_samples, 0u) << "not sent yet: nothing to record";
+  EXPECT_GT(t.actuator->counters().handover_max_ns, 0) << "the hand-over is recorded at once";
+
+  t.arm->sent = {handed - 1, stamp_ns + 100'000};  // an older command left: not this one
+  t.step();
+  EXPECT_EQ(t.actuator->counters().latency_samples, 0u);
+
+  t.arm->sent = {handed, stamp_ns + 450'000};  // this command's RPDOs were written 450 us on
+  t.step();
+  const rtm::comp::ActuatorCounters c = t.actuator->counters();
+  EXPECT_EQ(c.latency_samples, 1u);
+  EXPECT_EQ(c.latency_max_ns, 450'000);
+  EXPECT_EQ(c.latency_p99_ns, 450'000);
+  t.step();
+  EXPECT_EQ(t.actuator->counters().latency_samples, 1u) << "each command is recorded once";
+}
+
+TEST(ActuatorLatency, ACommandOvertakenByALaterOneStillCountsWhenTheLaterLeaves) {
+  ActuatorUnderTest t;
+  const std::int64_t stamp_ns = 1'700'000'000'000'000'000;
+  t.actuator->command_in().deliver(float6({0.01f, 0, 0, 0, 0, 0}, stamp_ns));
+  t.step();
+  t.actuator->command_in().deliver(float6({0.02f, 0, 0, 0, 0, 0}, stamp_ns + 2'000'000));
+  t.step();
+  t.arm->sent = {t.arm->sequence, stamp_ns + 2'300'000};
+  t.step();
+  const rtm::comp::ActuatorCounters c = t.actuator->counters();
+  EXPECT_EQ(c.latency_samples, 1u) << "only the newest command is followed";
+  EXPECT_EQ(c.latency_max_ns, 300'000) << "measured from the newest command's stamp";
+}
+
+TEST(ActuatorLatency, AnArmThatCannotTellRecordsNoBusLatency) {
+  ActuatorUnderTest t;
+  t.arm->status = rtm::comp::ArmStatus::not_ready;  // no sequence handed out
+  t.step({0.01f, 0, 0, 0, 0, 0});
+  t.arm->sent = {5, 1};
+  t.step();
+  EXPECT_EQ(t.actuator->counters().latency_samples, 0u);
 }
 
 TEST(LatencyHistogram, BucketsAre1usBelow1ms100usTo10msThen1ms) {
