@@ -63,6 +63,7 @@ int main(int argc, char** argv) {
   std::string naming_text;
   std::string period_text = "2ms";
   bool shared_tick = false;
+  double tick_lead_us = 300;
   double wait_s = 10;
   std::string sensor_name = "sensor0", controller_name = "controller0", actuator_name = "actuator0";
   rtm::comp::ArmHardware::Options hardware;
@@ -97,6 +98,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(-1.0, 1e6));
   app.add_flag("--shared-tick", shared_tick, "run the members in this process on one periodic tick");
   auto* group = app.add_option_group("shared tick", "members made by --shared-tick");
+  group->add_option("--tick-lead-us", tick_lead_us,
+                    "the tick's cycles fall this long before the bus master's SYNC cycles, so a command leaves "
+                    "with the next SYNC (0 <= lead < --period)")
+      ->capture_default_str();
   group->add_option("--bus", hardware.bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
   group->add_option("--sensor-bus", hardware.sensor_bus, "separate bus of the force sensors (default: --bus)");
   group->add_option("--urdf", hardware.urdf, "arm model")->capture_default_str();
@@ -157,6 +162,10 @@ int main(int argc, char** argv) {
         hardware.rt_priority = settings.rt_priority;
         hardware.cpu = settings.cpu;
         auto arm = std::make_unique<rtm::comp::ArmHardware>(hardware);
+        rtm::can::Pa10Master* master = &arm->master();  // owned by the actuator, outlives the tick
+        rtm::comp::TickPhase phase;
+        phase.next_reference_deadline_ns = [master] { return master->next_cycle_deadline_ns(); };
+        phase.lead_ns = static_cast<std::int64_t>(tick_lead_us * 1000);
         auto sensor = std::make_unique<rtm::comp::Sensor>(
             sensor_name, std::make_unique<rtm::comp::MasterWristSource>(arm->master()),
             rtm::pa10::Kinematics::fromUrdfFile(hardware.urdf));
@@ -164,7 +173,7 @@ int main(int argc, char** argv) {
         auto actuator = std::make_unique<rtm::comp::Actuator>(actuator_name, std::move(arm), actuator_params);
         auto servo = std::make_unique<rtm::comp::SharedTickServo>(settings.name, std::move(sensor),
                                                                   std::move(controller), std::move(actuator),
-                                                                  settings.periodic_options());
+                                                                  settings.periodic_options(), std::move(phase));
         shared = servo.get();
         shared->activate_members(*orb);
         reference = shared->reference_port();

@@ -159,16 +159,27 @@ void RemoteServo::on_stop() {
 
 // ============================ SharedTickServo =========================
 
+std::int64_t phased_first_deadline(std::int64_t reference_ns, std::int64_t lead_ns, std::int64_t period_ns) {
+  if (lead_ns < 0 || lead_ns >= period_ns)
+    throw std::invalid_argument("tick lead " + std::to_string(lead_ns) + " ns: want 0 <= lead < the period (" +
+                                std::to_string(period_ns) + " ns)");
+  if (reference_ns <= 0) return 0;
+  // A reference earlier than one lead after the clock's origin: its previous cycle's lead point.
+  return reference_ns > lead_ns ? reference_ns - lead_ns : reference_ns - lead_ns + period_ns;
+}
+
 SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> sensor,
                                  std::unique_ptr<Controller> controller, std::unique_ptr<Actuator> actuator,
-                                 rtm::PeriodicOptions tick)
+                                 rtm::PeriodicOptions tick, TickPhase phase)
     : Component(std::move(name), "servo"),
       sensor_logic_(sensor.get()),
       controller_logic_(controller.get()),
       actuator_logic_(actuator.get()),
-      tick_(std::move(tick)) {
+      tick_(std::move(tick)),
+      phase_(std::move(phase)) {
   if (!sensor || !controller || !actuator)
     throw std::invalid_argument("servo " + this->name() + ": a member is missing");
+  phased_first_deadline(0, phase_.lead_ns, tick_.options().period_ns);  // validates the lead
   sensor_ = new rtm::ComponentServant(std::move(sensor), rtm::ExternalTick{});
   controller_ = new rtm::ComponentServant(std::move(controller), rtm::ExternalTick{});
   actuator_ = new rtm::ComponentServant(std::move(actuator), rtm::ExternalTick{});
@@ -235,8 +246,16 @@ void SharedTickServo::on_start() {
     }
     throw std::runtime_error("servo " + name() + ": turning the members on failed:" + why);
   }
+  std::int64_t first_ns = 0;
+  if (phase_.next_reference_deadline_ns)
+    first_ns = phased_first_deadline(phase_.next_reference_deadline_ns(), phase_.lead_ns, tick_.options().period_ns);
+  tick_.set_first_deadline_ns(first_ns);
   tick_.start();
-  log().info("servo {}: shared tick running sensor -> controller -> actuator", name());
+  if (first_ns != 0)
+    log().info("servo {}: shared tick running sensor -> controller -> actuator, {} us before each bus cycle", name(),
+               phase_.lead_ns / 1000);
+  else
+    log().info("servo {}: shared tick running sensor -> controller -> actuator", name());
 }
 
 void SharedTickServo::on_cycle(const rtm::CycleContext&) {

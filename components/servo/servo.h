@@ -26,6 +26,7 @@
 #include <RTMExt.hh>
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -76,13 +77,27 @@ class RemoteServo final : public rtm::Component {
 
 // ============================ SharedTickServo =========================
 
+// Where the shared tick's cycles fall: lead_ns before the cycles of a reference grid (the bus
+// master's SYNC cycles), so a command computed in the tick leaves with the very next SYNC
+// instead of up to a period later. next_reference_deadline_ns returns the reference's next
+// CLOCK_MONOTONIC deadline on the tick's period, 0 when it has none (the tick then starts at once).
+struct TickPhase {
+  std::function<std::int64_t()> next_reference_deadline_ns;
+  std::int64_t lead_ns = 300'000;
+};
+
+// The tick's first deadline for a reference grid whose next deadline is reference_ns: lead_ns
+// earlier (PeriodicActivity moves a deadline already past onto the same grid). 0 (start at
+// once) when there is no reference. Throws std::invalid_argument unless 0 <= lead_ns < period_ns.
+std::int64_t phased_first_deadline(std::int64_t reference_ns, std::int64_t lead_ns, std::int64_t period_ns);
+
 class SharedTickServo final : public rtm::Component {
  public:
   // Members become ExternalTick servants run by one SharedTick with `tick` (period, priority,
   // CPU). The actuator's arm must outlive nothing else here: members are destroyed sensor
   // first, actuator last (a sensor may read the actuator's master).
   SharedTickServo(std::string name, std::unique_ptr<Sensor> sensor, std::unique_ptr<Controller> controller,
-                  std::unique_ptr<Actuator> actuator, rtm::PeriodicOptions tick);
+                  std::unique_ptr<Actuator> actuator, rtm::PeriodicOptions tick, TickPhase phase = {});
   ~SharedTickServo() override;
 
   // Activates the three members in orb (their ports become reachable; the servo exposes the
@@ -110,6 +125,7 @@ class SharedTickServo final : public rtm::Component {
   Controller* controller_logic_;
   Actuator* actuator_logic_;
   rtm::SharedTick tick_;
+  TickPhase phase_;
 };
 
 }  // namespace rtm::comp

@@ -25,6 +25,22 @@ ScheduleStep next_deadline(std::int64_t deadline_ns, std::int64_t period_ns, std
   return {deadline_ns + (missed + 1) * period_ns, static_cast<std::uint64_t>(missed), true};
 }
 
+std::int64_t grid_point_at_or_after(std::int64_t origin_ns, std::int64_t period_ns, std::int64_t now_ns) {
+  if (period_ns <= 0) throw std::invalid_argument("grid_point_at_or_after: period_ns must be > 0");
+  // Floor division, so an origin after now_ns steps back as well as forward.
+  const std::int64_t offset = now_ns - origin_ns;
+  std::int64_t periods = offset / period_ns;
+  if (offset % period_ns != 0 && offset < 0) --periods;
+  std::int64_t point = origin_ns + periods * period_ns;
+  if (point < now_ns) point += period_ns;
+  return point;
+}
+
+std::int64_t first_deadline(std::int64_t requested_ns, std::int64_t period_ns, std::int64_t now_ns) {
+  if (requested_ns == 0 || requested_ns >= now_ns) return requested_ns == 0 ? now_ns : requested_ns;
+  return grid_point_at_or_after(requested_ns, period_ns, now_ns);
+}
+
 // ============================ histogram ===============================
 
 void LatenessHistogram::record(std::int64_t lateness_ns) {
@@ -152,9 +168,21 @@ PeriodicActivity::PeriodicActivity(CycleFunction cycle, PeriodicOptions options)
   if (!cycle_) throw std::invalid_argument("PeriodicActivity: empty cycle function");
   if (options_.period_ns <= 0)
     throw std::invalid_argument("PeriodicActivity: period_ns must be > 0, got " + std::to_string(options_.period_ns));
+  if (options_.first_deadline_ns < 0)
+    throw std::invalid_argument("PeriodicActivity: first_deadline_ns must be >= 0 (0: at once), got " +
+                                std::to_string(options_.first_deadline_ns));
 }
 
 PeriodicActivity::~PeriodicActivity() { stop(); }
+
+void PeriodicActivity::set_first_deadline_ns(std::int64_t first_deadline_ns) {
+  if (first_deadline_ns < 0)
+    throw std::invalid_argument("PeriodicActivity: first_deadline_ns must be >= 0 (0: at once), got " +
+                                std::to_string(first_deadline_ns));
+  std::lock_guard lock(control_mu_);
+  if (running_.load()) throw std::logic_error("PeriodicActivity::set_first_deadline_ns while running; stop it first");
+  options_.first_deadline_ns = first_deadline_ns;
+}
 
 void PeriodicActivity::start() {
   start_thread(control_mu_, thread_, stop_requested_, running_, [this] { loop(); });
@@ -192,7 +220,7 @@ void PeriodicActivity::loop() {
   own_thread_id_.store(std::this_thread::get_id());
   apply_periodic_settings(options_);
   const std::int64_t period = options_.period_ns;
-  std::int64_t deadline = monotonic_ns();
+  std::int64_t deadline = first_deadline(options_.first_deadline_ns, period, monotonic_ns());
   std::int64_t previous_wake = -1;
   std::uint64_t previous_skipped = 0;
   std::uint64_t cycle = 0;

@@ -44,6 +44,16 @@ struct ScheduleStep {
 };
 ScheduleStep next_deadline(std::int64_t deadline_ns, std::int64_t period_ns, std::int64_t now_ns);
 
+// The first point of the grid origin_ns + k * period_ns (k any integer) at or after now_ns:
+// how an activity joins another one's grid (e.g. the bus master's SYNC cycles) whenever it
+// starts. period_ns > 0.
+std::int64_t grid_point_at_or_after(std::int64_t origin_ns, std::int64_t period_ns, std::int64_t now_ns);
+
+// A periodic activity's first deadline: now_ns when requested_ns is 0 (start at once),
+// requested_ns when it is still ahead, otherwise the first point at or after now_ns on the grid
+// requested_ns + k * period_ns (a start that came too late keeps the requested phase).
+std::int64_t first_deadline(std::int64_t requested_ns, std::int64_t period_ns, std::int64_t now_ns);
+
 // ============================ statistics ==============================
 
 // A snapshot of an activity's timing (units in the names).
@@ -99,6 +109,9 @@ struct PeriodicOptions {
   int cpu = -1;                        // pin the thread to this CPU; -1: no affinity
   bool lock_memory = false;            // mlockall(MCL_CURRENT | MCL_FUTURE) at start
   std::string thread_name = "rtm-periodic";  // pthread name, cut to 15 characters
+  // CLOCK_MONOTONIC deadline of the first cycle, which fixes the phase of every later one (see
+  // first_deadline()); 0: the first cycle runs at once.
+  std::int64_t first_deadline_ns = 0;
 };
 
 // Runs cycle on an absolute schedule: clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME) to
@@ -113,6 +126,10 @@ class PeriodicActivity final : public Activity {
   bool running() const override;
   ActivityStats stats() const override;
   const PeriodicOptions& options() const { return options_; }
+  // Sets PeriodicOptions::first_deadline_ns for the next start(), e.g. from another activity's
+  // grid known only then. Only while stopped: std::logic_error otherwise; std::invalid_argument
+  // when negative.
+  void set_first_deadline_ns(std::int64_t first_deadline_ns);
 
  private:
   void loop();
@@ -182,6 +199,9 @@ class SharedTick final : public Activity {
   ~SharedTick() override;
   // Only while stopped; throws std::logic_error otherwise.
   void add(CycleFunction cycle);
+  // See PeriodicActivity::set_first_deadline_ns.
+  void set_first_deadline_ns(std::int64_t first_deadline_ns) { activity_.set_first_deadline_ns(first_deadline_ns); }
+  const PeriodicOptions& options() const { return activity_.options(); }
   void start() override;
   void stop() override;
   bool running() const override;

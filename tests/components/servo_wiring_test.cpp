@@ -230,4 +230,27 @@ TEST(RemoteServoOrder, ANegativePhaseOffsetIsRefused) {
   probe->deactivate();
 }
 
+TEST(SharedTickPhase, TheTickStartsTheLeadBeforeTheBusMastersNextCycle) {
+  constexpr std::int64_t kPeriod_ns = 2'000'000;
+  const std::int64_t master_next_ns = 1'000 * kPeriod_ns + 456'789;
+  const std::int64_t first = rtm::comp::phased_first_deadline(master_next_ns, 300'000, kPeriod_ns);
+  EXPECT_EQ(first, master_next_ns - 300'000);
+  // Whichever cycle the tick actually starts on, it stays on that grid (first_deadline()).
+  const std::int64_t now = master_next_ns + 3 * kPeriod_ns;
+  const std::int64_t started = rtm::first_deadline(first, kPeriod_ns, now);
+  EXPECT_GE(started, now);
+  EXPECT_LT(started, now + kPeriod_ns);
+  EXPECT_EQ(((started + 300'000) - master_next_ns) % kPeriod_ns, 0) << "the lead holds for every later cycle";
+}
+
+TEST(SharedTickPhase, WithoutAReferenceTheTickStartsAtOnce) {
+  EXPECT_EQ(rtm::comp::phased_first_deadline(0, 300'000, 2'000'000), 0);
+}
+
+TEST(SharedTickPhase, ALeadOfAPeriodOrMoreOrNegativeIsRefused) {
+  EXPECT_THROW(rtm::comp::phased_first_deadline(5'000'000, 2'000'000, 2'000'000), std::invalid_argument);
+  EXPECT_THROW(rtm::comp::phased_first_deadline(5'000'000, -1, 2'000'000), std::invalid_argument);
+  EXPECT_EQ(rtm::comp::phased_first_deadline(5'000'000, 0, 2'000'000), 5'000'000);
+}
+
 }  // namespace

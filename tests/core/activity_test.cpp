@@ -1,10 +1,12 @@
 #include "core_test_support.h"
 
 #include "rtm/activity.h"
+#include "rtm/data.h"
 
 #include <gtest/gtest.h>
 
 #include <mutex>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -106,6 +108,45 @@ TEST(PeriodicActivity, ContextCountsCyclesAndCarriesThePeriod) {
     EXPECT_GE(seen[i].wake_ns, seen[i].deadline_ns);
   }
   EXPECT_EQ(activity.stats().cycles, 5u);
+}
+
+TEST(PeriodicActivity, FirstDeadlineFixesThePhaseOfEveryCycle) {
+  constexpr std::int64_t kPeriod_ns = 1'000'000;
+  // Ahead of now by far more than a start takes; should the start still come later, the first
+  // cycle falls on the same grid (first_deadline()), which is what is checked.
+  const std::int64_t requested_ns = rtm::monotonic_ns() + 50 * kPeriod_ns + 123'456;
+  std::mutex mu;
+  std::vector<std::int64_t> deadlines;
+  rtm::PeriodicOptions options = fast(kPeriod_ns);
+  options.first_deadline_ns = requested_ns;
+  rtm::PeriodicActivity activity(
+      [&](const rtm::CycleContext& ctx) {
+        std::lock_guard lock(mu);
+        deadlines.push_back(ctx.deadline_ns);
+        return true;
+      },
+      options);
+  activity.start();
+  ASSERT_TRUE(eventually([&] {
+    std::lock_guard lock(mu);
+    return deadlines.size() >= 3;
+  }));
+  activity.stop();
+  std::lock_guard lock(mu);
+  EXPECT_GE(deadlines.front(), requested_ns);
+  for (const std::int64_t d : deadlines) EXPECT_EQ((d - requested_ns) % kPeriod_ns, 0) << d;
+}
+
+TEST(PeriodicActivity, FirstDeadlineIsSetOnlyWhileStoppedAndNeverNegative) {
+  rtm::PeriodicActivity activity([](const rtm::CycleContext&) { return true; }, fast());
+  EXPECT_THROW(activity.set_first_deadline_ns(-1), std::invalid_argument);
+  activity.set_first_deadline_ns(0);
+  activity.start();
+  EXPECT_THROW(activity.set_first_deadline_ns(rtm::monotonic_ns()), std::logic_error);
+  activity.stop();
+  rtm::PeriodicOptions negative = fast();
+  negative.first_deadline_ns = -5;
+  EXPECT_THROW(rtm::PeriodicActivity([](const rtm::CycleContext&) { return true; }, negative), std::invalid_argument);
 }
 
 TEST(PeriodicActivity, StopFromInsideACycleDoesNotDeadlock) {

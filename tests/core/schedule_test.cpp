@@ -2,9 +2,46 @@
 
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+
 namespace {
 
 constexpr std::int64_t kPeriod_ns = 2'000'000;
+
+TEST(Schedule, GridPointAtOrAfterStepsForwardFromAnEarlierOrigin) {
+  const std::int64_t origin = 7 * kPeriod_ns + 123;
+  EXPECT_EQ(rtm::grid_point_at_or_after(origin, kPeriod_ns, origin + 5 * kPeriod_ns + 1), origin + 6 * kPeriod_ns);
+  EXPECT_EQ(rtm::grid_point_at_or_after(origin, kPeriod_ns, origin + 5 * kPeriod_ns), origin + 5 * kPeriod_ns)
+      << "a point exactly at now is taken";
+}
+
+TEST(Schedule, GridPointAtOrAfterStepsBackFromALaterOrigin) {
+  const std::int64_t origin = 100 * kPeriod_ns + 700'000;
+  const std::int64_t now = 90 * kPeriod_ns;
+  const std::int64_t point = rtm::grid_point_at_or_after(origin, kPeriod_ns, now);
+  EXPECT_EQ(point, 90 * kPeriod_ns + 700'000);
+  EXPECT_EQ((origin - point) % kPeriod_ns, 0);
+}
+
+TEST(Schedule, GridPointRefusesANonPositivePeriod) {
+  EXPECT_THROW(rtm::grid_point_at_or_after(0, 0, 5), std::invalid_argument);
+}
+
+TEST(Schedule, FirstDeadlineZeroMeansNow) { EXPECT_EQ(rtm::first_deadline(0, kPeriod_ns, 42 * kPeriod_ns), 42 * kPeriod_ns); }
+
+TEST(Schedule, FirstDeadlineAheadIsTakenAsIs) {
+  const std::int64_t now = 42 * kPeriod_ns;
+  EXPECT_EQ(rtm::first_deadline(now + 5 * kPeriod_ns + 17, kPeriod_ns, now), now + 5 * kPeriod_ns + 17);
+}
+
+TEST(Schedule, FirstDeadlineAlreadyPastKeepsItsPhase) {
+  // Asked for 300 us before a cycle that has gone by 2.4 periods: the next point of that grid.
+  const std::int64_t requested = 50 * kPeriod_ns - 300'000;
+  const std::int64_t now = requested + 2 * kPeriod_ns + 800'000;
+  const std::int64_t first = rtm::first_deadline(requested, kPeriod_ns, now);
+  EXPECT_EQ(first, requested + 3 * kPeriod_ns);
+  EXPECT_GE(first, now);
+}
 
 TEST(Schedule, OnTimeCycleTakesTheNextGridPoint) {
   const auto step = rtm::next_deadline(10 * kPeriod_ns, kPeriod_ns, 10 * kPeriod_ns + 300'000);
