@@ -14,7 +14,7 @@
 # the master's cycle right after writing the seven RPDOs carrying the command, just before
 # SYNC). "handover" is the older, shorter span: stamp -> orderVelocity returned. Both are logged
 # as p50/p99/max when the actuator is turned off; 1 us buckets below 1 ms, 100 us buckets to
-# 10 ms (upper edges reported). In shared mode the tick runs --tick-lead-us (300 us) before the
+# 10 ms (upper edges reported). In shared mode the tick runs --tick-lead-us (default 100 us) before the
 # master's SYNC cycles.
 # Loop lateness per component comes from `rtm --json ls -l` taken at the end of each run.
 #

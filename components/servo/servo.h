@@ -83,7 +83,7 @@ class RemoteServo final : public rtm::Component {
 // CLOCK_MONOTONIC deadline on the tick's period, 0 when it has none (the tick then starts at once).
 struct TickPhase {
   std::function<std::int64_t()> next_reference_deadline_ns;
-  std::int64_t lead_ns = 300'000;
+  std::int64_t lead_ns = 100'000;
 };
 
 // The tick's first deadline for a reference grid whose next deadline is reference_ns: lead_ns
