@@ -16,3 +16,23 @@ function(rtm_add_subdirectories)
     endif()
   endforeach()
 endfunction()
+
+# rtm_enabled_areas(<out-var> <always...>)
+#
+# The per-area folder names (as in tests/ and bench/) of the parts this configuration builds:
+# the given ones, then can and arm (RTM_WITH_ARM), sim (with RTM_WITH_SIM), and components,
+# tools and examples (RTM_WITH_COMPONENTS). A preset that leaves a part out (tsan) thus never
+# adds folders whose targets do not exist.
+function(rtm_enabled_areas out)
+  set(areas ${ARGN})
+  if(RTM_WITH_ARM)
+    list(APPEND areas can arm)
+  endif()
+  if(RTM_WITH_ARM AND RTM_WITH_SIM)
+    list(APPEND areas sim)
+  endif()
+  if(RTM_WITH_COMPONENTS)
+    list(APPEND areas components tools examples)
+  endif()
+  set(${out} ${areas} PARENT_SCOPE)
+endfunction()
