@@ -486,14 +486,21 @@ struct Pa10Master::Impl {
     return complete;
   }
 
-  // One periodic cycle: the window of the previous SYNC closes now.
-  void periodic_cycle() {
+  // One periodic cycle, in two halves. Receive: the window of the previous SYNC closes now
+  // and what arrived is published. Transmit: the latest target goes out with the next SYNC.
+  void periodic_receive() {
     drain();
     const auto now = steady_clock::now();
     if (cycle > 0) close_window(now);
     check_heartbeats(now);
+  }
+  void periodic_transmit() {
     take_requests();
     send_cycle();
+  }
+  void periodic_cycle() {
+    periodic_receive();
+    periodic_transmit();
   }
 
   // ---- startup ---------------------------------------------------------------------------
@@ -643,6 +650,7 @@ void Pa10Master::start() { impl_->start(); }
 
 bool Pa10Master::step() {
   if (running_.load()) throw std::logic_error("Pa10Master::step() while run_periodic() runs");
+  if (external_.load()) throw std::logic_error("Pa10Master::step() while its cycles are taken over");
   if (!impl_->started) throw std::logic_error("Pa10Master::step() before start()");
   try {
     return impl_->step();
@@ -654,6 +662,10 @@ bool Pa10Master::step() {
 
 void Pa10Master::run_periodic() {
   if (!impl_->started) throw std::logic_error("Pa10Master::run_periodic() before start()");
+  {
+    std::lock_guard lock(handover_mutex_);
+    if (handover_ != Handover::own) throw std::logic_error("Pa10Master::run_periodic() while its cycles are taken over");
+  }
   if (running_.exchange(true)) return;
   thread_ = std::thread([this] {
     Impl& m = *impl_;
@@ -670,8 +682,7 @@ void Pa10Master::run_periodic() {
       pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);  // best effort: needs rights
     }
     auto next = steady_clock::now();
-    next_cycle_deadline_ns_.store(std::chrono::duration_cast<nanoseconds>(next.time_since_epoch()).count(),
-                                  std::memory_order_relaxed);
+    publish_deadline(next);
     while (running_.load(std::memory_order_relaxed)) {
       try {
         m.periodic_cycle();
@@ -684,11 +695,93 @@ void Pa10Master::run_periodic() {
         ++m.counters.overruns;
         while (next <= now) next += m.config.period;  // skip, do not burst to catch up
       }
-      next_cycle_deadline_ns_.store(std::chrono::duration_cast<nanoseconds>(next.time_since_epoch()).count(),
-                                    std::memory_order_relaxed);
+      publish_deadline(next);
+      if (!idle_while_taken_over(next)) break;
       sleep_until(next);
     }
   });
+}
+
+void Pa10Master::publish_deadline(SteadyTime next) {
+  next_cycle_deadline_ns_.store(duration_cast<nanoseconds>(next.time_since_epoch()).count(), std::memory_order_relaxed);
+}
+
+// On the periodic thread, between two cycles: when take_over_cycles() asks, parks until the
+// cycles are handed back (next becomes the deadline they were handed back with) or stop().
+// False when the thread is to end.
+bool Pa10Master::idle_while_taken_over(SteadyTime& next) {
+  std::unique_lock lock(handover_mutex_);
+  if (handover_ != Handover::requested) return true;
+  handover_deadline_ns_ = duration_cast<nanoseconds>(next.time_since_epoch()).count();
+  handover_ = Handover::external;
+  external_.store(true, std::memory_order_release);
+  next_cycle_deadline_ns_.store(0, std::memory_order_relaxed);
+  handover_cv_.notify_all();
+  handover_cv_.wait(lock, [this] { return handover_ == Handover::returning || !running_.load(); });
+  if (handover_ != Handover::returning) return false;  // stop(): the caller keeps the cycles
+  // Back on the grid of the deadline handed back, skipping whole periods already past (the
+  // cycle due now, if any, runs at once).
+  next = SteadyTime(nanoseconds(handover_deadline_ns_));
+  const auto now = steady_clock::now();
+  while (next + impl_->config.period <= now) next += impl_->config.period;
+  handover_ = Handover::own;
+  handover_cv_.notify_all();
+  publish_deadline(next);
+  return true;
+}
+
+std::int64_t Pa10Master::take_over_cycles() {
+  if (!impl_->started) throw std::logic_error("Pa10Master::take_over_cycles() before start()");
+  std::unique_lock lock(handover_mutex_);
+  if (handover_ == Handover::external) return handover_deadline_ns_;
+  if (handover_ != Handover::own) throw std::logic_error("Pa10Master::take_over_cycles() from two threads at once");
+  handover_ = Handover::requested;
+  handover_cv_.wait(lock, [this] { return handover_ == Handover::external || !running_.load(); });
+  if (handover_ != Handover::external) {
+    // No periodic thread (never started, or stopped meanwhile): nothing to wait for.
+    handover_ = Handover::external;
+    handover_deadline_ns_ = 0;
+    external_.store(true, std::memory_order_release);
+  }
+  return handover_deadline_ns_;
+}
+
+void Pa10Master::hand_back_cycles(std::int64_t next_deadline_ns) {
+  std::unique_lock lock(handover_mutex_);
+  if (handover_ != Handover::external) return;
+  external_.store(false, std::memory_order_release);
+  if (!running_.load()) {  // nobody parked: the cycles simply stop being the caller's
+    handover_ = Handover::own;
+    return;
+  }
+  handover_deadline_ns_ = next_deadline_ns > 0 ? next_deadline_ns
+                                               : duration_cast<nanoseconds>(steady_clock::now().time_since_epoch()).count();
+  handover_ = Handover::returning;
+  handover_cv_.notify_all();
+  handover_cv_.wait(lock, [this] { return handover_ == Handover::own || !running_.load(); });
+  handover_ = Handover::own;
+}
+
+bool Pa10Master::cycles_taken_over() const { return external_.load(std::memory_order_acquire); }
+
+void Pa10Master::receive_cycle() {
+  if (!external_.load(std::memory_order_acquire))
+    throw std::logic_error("Pa10Master::receive_cycle() without take_over_cycles()");
+  try {
+    impl_->periodic_receive();
+  } catch (const BusError& e) {
+    impl_->bus_failure(e);
+  }
+}
+
+void Pa10Master::transmit_cycle() {
+  if (!external_.load(std::memory_order_acquire))
+    throw std::logic_error("Pa10Master::transmit_cycle() without take_over_cycles()");
+  try {
+    impl_->periodic_transmit();
+  } catch (const BusError& e) {
+    impl_->bus_failure(e);
+  }
 }
 
 void Pa10Master::run_periodic(std::chrono::nanoseconds period) {
@@ -699,7 +792,11 @@ void Pa10Master::run_periodic(std::chrono::nanoseconds period) {
 }
 
 void Pa10Master::stop() {
-  if (!running_.exchange(false)) return;
+  {
+    std::lock_guard lock(handover_mutex_);  // a parked thread or a waiting hand-over sees it
+    if (!running_.exchange(false)) return;
+    handover_cv_.notify_all();
+  }
   if (thread_.joinable()) thread_.join();
   next_cycle_deadline_ns_.store(0, std::memory_order_relaxed);
 }

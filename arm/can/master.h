@@ -3,8 +3,9 @@
 //
 // Use: construct (buses open), start() (startup sequence, blocking, throws on failure), then
 // either run_periodic() (own thread, absolute 2 ms schedule) or step() per cycle (lock-step:
-// e.g. driven by a simulator clock). From any thread: set_target_velocities(), joint_state(),
-// wrench(), fault(), fault_reset(), counters().
+// e.g. driven by a simulator clock); a periodic caller may take run_periodic()'s cycles over
+// and run them itself (take_over_cycles(), receive_cycle(), transmit_cycle()). From any
+// thread: set_target_velocities(), joint_state(), wrench(), fault(), fault_reset(), counters().
 //
 // One cycle: read what arrived for the previous SYNC, publish it, check faults and
 // heartbeats, write the 7 RPDOs (controlword + target velocity), send SYNC. The cycle does no
@@ -26,6 +27,7 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -160,9 +162,34 @@ class Pa10Master {
   };
   SentTarget last_sent() const;
 
+  // ---- Cycles run by another thread ----------------------------------------------------
+  // A caller with a periodic thread of its own (a shared tick running sensor -> controller ->
+  // actuator) can run the SYNC cycle in two halves around its work, so a command computed from
+  // the freshest answers leaves with the very next SYNC, with no second thread to wake:
+  //   receive_cycle()   the answers to the previous SYNC are closed and published
+  //                     (joint_state(), wrench(), fault()), heartbeats checked;
+  //   transmit_cycle()  the latest target goes out in the 7 RPDOs (last_sent() published),
+  //                     then SYNC.
+  // Call them in that order once per period, from one thread. A bus error latches a fault
+  // (they do not throw it); calling them without the cycles taken over is a std::logic_error.
+  //
+  // take_over_cycles(): run_periodic()'s thread finishes the cycle it is in and idles; returns
+  // the CLOCK_MONOTONIC deadline [ns] it would have cycled next: the caller's first cycle is
+  // due then, so no SYNC is lost or doubled. Waits at most one period; returns 0 at once when
+  // no periodic thread runs. Idempotent.
+  // hand_back_cycles(next_deadline_ns): the thread cycles again, first at next_deadline_ns
+  // (0 = now; a deadline more than a period past moves forward on its grid). Waits until the
+  // thread has it. No-op unless taken over.
+  // If the caller stops cycling without handing back, the drives' RPDO timeout brakes them.
+  std::int64_t take_over_cycles();
+  void hand_back_cycles(std::int64_t next_deadline_ns);
+  bool cycles_taken_over() const;
+  void receive_cycle();
+  void transmit_cycle();
+
   // run_periodic()'s grid: the CLOCK_MONOTONIC deadline [ns] of its next cycle (cycles follow
-  // every period from there); 0 when the periodic thread does not run. For phasing another
-  // periodic activity against the SYNC cycles.
+  // every period from there); 0 when the periodic thread does not run or its cycles are taken
+  // over. For phasing another periodic activity against the SYNC cycles.
   std::int64_t next_cycle_deadline_ns() const;
   std::chrono::nanoseconds period() const;
 
@@ -196,6 +223,17 @@ class Pa10Master {
   std::atomic<bool> running_{false};
   std::atomic<std::int64_t> next_cycle_deadline_ns_{0};
   std::thread thread_;
+
+  // Who runs the cycles: own -> requested (take_over waits) -> external (the thread idles) ->
+  // returning (hand_back waits) -> own.
+  enum class Handover : std::uint8_t { own, requested, external, returning };
+  std::mutex handover_mutex_;
+  std::condition_variable handover_cv_;
+  Handover handover_ = Handover::own;
+  std::int64_t handover_deadline_ns_ = 0;
+  std::atomic<bool> external_{false};
+  void publish_deadline(SteadyTime next);
+  bool idle_while_taken_over(SteadyTime& next);
 };
 
 }  // namespace rtm::can

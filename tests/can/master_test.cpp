@@ -9,6 +9,7 @@
 #include <time.h>
 
 #include <chrono>
+#include <functional>
 #include <thread>
 #include <vector>
 
@@ -512,6 +513,134 @@ TEST(Pa10Master, PeriodicGridDeadlinesAreWholePeriodsApartAndZeroWhenStopped) {
   // Overruns skip whole periods: the grid never shifts.
   EXPECT_EQ((later_ns - first_ns) % period_ns, 0) << "first " << first_ns << " later " << later_ns;
   EXPECT_EQ(rig.master->next_cycle_deadline_ns(), 0);
+}
+
+// Runs the cycle as a shared tick would: receive, (work), transmit, then waits for every
+// answer to that SYNC so the next receive finds them (the fake answers on its own thread).
+bool external_cycle(Pa10Master& m, FakePa10& fake, const std::function<void()>& work = [] {}) {
+  m.receive_cycle();
+  work();
+  const std::uint64_t syncs = fake.syncs_seen();
+  m.transmit_cycle();
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (fake.syncs_seen() <= syncs && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(100us);
+  std::this_thread::sleep_for(1ms);  // the TPDOs follow the SYNC
+  return fake.syncs_seen() > syncs;
+}
+
+TEST(Pa10MasterTakeOver, ATargetSetBetweenReceiveAndTransmitLeavesWithThatCyclesSync) {
+  Rig rig;
+  rig.master->start();
+  EXPECT_EQ(rig.master->take_over_cycles(), 0) << "no periodic thread: nothing to wait for";
+  EXPECT_TRUE(rig.master->cycles_taken_over());
+  ASSERT_TRUE(external_cycle(*rig.master, *rig.fake));
+  for (int k = 1; k <= 5; ++k) {
+    const double v = 0.05 * k;
+    std::uint64_t seq = 0;
+    std::uint8_t answered = 0;
+    ASSERT_TRUE(external_cycle(*rig.master, *rig.fake, [&] {
+      answered = rig.master->joint_state().sync_counter;
+      seq = rig.master->set_target_velocities({v, 0, 0, 0, 0, 0, -v});
+    }));
+    // receive_cycle() published the answers to the SYNC the previous transmit sent...
+    EXPECT_EQ(next_sync_counter(answered), rig.fake->last_sync_counter()) << "cycle " << k;
+    // ...and transmit_cycle() sent the target set after it, in this cycle's RPDOs.
+    EXPECT_EQ(rig.master->last_sent().sequence, seq) << "cycle " << k;
+    EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), v) << "cycle " << k;
+    EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(6)), -v) << "cycle " << k;
+  }
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+}
+
+TEST(Pa10MasterTakeOver, CycleHalvesWithoutTakeOverAreALogicErrorAndStepIsRefusedWhileTakenOver) {
+  Rig rig;
+  EXPECT_THROW(rig.master->take_over_cycles(), std::logic_error) << "before start()";
+  rig.master->start();
+  EXPECT_THROW(rig.master->receive_cycle(), std::logic_error);
+  EXPECT_THROW(rig.master->transmit_cycle(), std::logic_error);
+  rig.master->take_over_cycles();
+  EXPECT_THROW(rig.master->step(), std::logic_error);
+  EXPECT_THROW(rig.master->run_periodic(), std::logic_error);
+  rig.master->hand_back_cycles(0);
+  EXPECT_FALSE(rig.master->cycles_taken_over());
+  EXPECT_THROW(rig.master->receive_cycle(), std::logic_error) << "handed back";
+  EXPECT_TRUE(rig.master->step());
+}
+
+// Waits until the periodic thread has sent n more SYNCs.
+void wait_cycles(Pa10Master& m, std::uint64_t n) {
+  const std::uint64_t start = m.counters().cycles;
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (m.counters().cycles < start + n && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(1ms);
+}
+
+TEST(Pa10MasterTakeOver, ThePeriodicThreadIdlesWhileTakenOverAndResumesOnTheDeadlineHandedBack) {
+  Rig rig;
+  rig.master->start();
+  rig.master->run_periodic();
+  wait_cycles(*rig.master, 3);
+  const std::int64_t grid_ns = rig.master->next_cycle_deadline_ns();
+  const std::int64_t period_ns = rig.master->period().count();
+  const std::int64_t first_ns = rig.master->take_over_cycles();
+  ASSERT_GT(first_ns, 0);
+  EXPECT_EQ((first_ns - grid_ns) % period_ns, 0) << "the caller's first cycle is due on the thread's grid";
+  EXPECT_EQ(rig.master->take_over_cycles(), first_ns) << "idempotent";
+  EXPECT_EQ(rig.master->next_cycle_deadline_ns(), 0);
+
+  // The thread sends nothing now: only the caller's cycles reach the drives. (Its last SYNC,
+  // sent just before it idled, may still be on its way to the fake.)
+  std::this_thread::sleep_for(5ms);
+  const std::uint64_t syncs = rig.fake->syncs_seen();
+  std::this_thread::sleep_for(20ms);
+  EXPECT_EQ(rig.fake->syncs_seen(), syncs) << "the idle thread sent SYNCs";
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(external_cycle(*rig.master, *rig.fake));
+  EXPECT_EQ(rig.fake->syncs_seen(), syncs + 3);
+
+  // Handed back 50 ms ahead: the thread's next cycle is due exactly then, and it cycles again.
+  timespec now{};
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  const std::int64_t back_ns = std::int64_t{now.tv_sec} * 1'000'000'000 + now.tv_nsec + 50'000'000;
+  rig.master->hand_back_cycles(back_ns);
+  EXPECT_FALSE(rig.master->cycles_taken_over());
+  EXPECT_EQ(rig.master->next_cycle_deadline_ns(), back_ns);
+  wait_cycles(*rig.master, 5);
+  EXPECT_GE(rig.fake->syncs_seen(), syncs + 3 + 5);
+  EXPECT_EQ((rig.master->next_cycle_deadline_ns() - back_ns) % period_ns, 0) << "on the grid handed back";
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+  rig.master->stop();
+}
+
+TEST(Pa10MasterTakeOver, StopWhileTakenOverEndsTheIdleThreadAndTheCallerKeepsTheCycles) {
+  Rig rig;
+  rig.master->start();
+  rig.master->run_periodic();
+  wait_cycles(*rig.master, 2);
+  rig.master->take_over_cycles();
+  rig.master->stop();  // must not hang on the idle thread
+  EXPECT_FALSE(rig.master->running());
+  EXPECT_TRUE(rig.master->cycles_taken_over());
+  EXPECT_TRUE(external_cycle(*rig.master, *rig.fake));
+  rig.master->hand_back_cycles(0);  // nobody to hand back to: the cycles are simply released
+  EXPECT_FALSE(rig.master->cycles_taken_over());
+  EXPECT_TRUE(rig.master->step());
+}
+
+TEST(Pa10MasterTakeOver, RepeatedTakeOverAndHandBackNeverLeavesTwoThreadsCycling) {
+  Rig rig;
+  rig.master->start();
+  rig.master->run_periodic();
+  for (int round = 0; round < 20; ++round) {
+    rig.master->take_over_cycles();
+    std::this_thread::sleep_for(5ms);  // the thread's last SYNC reaches the fake
+    const std::uint64_t syncs = rig.fake->syncs_seen();
+    ASSERT_TRUE(external_cycle(*rig.master, *rig.fake)) << "round " << round;
+    EXPECT_EQ(rig.fake->syncs_seen(), syncs + 1) << "round " << round << ": the idle thread sent a SYNC";
+    rig.master->hand_back_cycles(0);
+  }
+  wait_cycles(*rig.master, 3);
+  rig.master->stop();
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
 }
 
 TEST(Pa10Master, PeriodicThreadCountsOverrunsWhenCyclesOutlastThePeriod) {
