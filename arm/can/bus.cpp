@@ -62,6 +62,34 @@ bool wait_writable(int fd, std::chrono::steady_clock::time_point deadline) {
   return true;
 }
 
+// Sends frames with sendmmsg(MSG_DONTWAIT), up to kBatchChunk per call; returns how many the
+// kernel took (a short count: the queue is full or a call was interrupted). `error` gets the
+// errno of a failed call, 0 otherwise.
+constexpr std::size_t kBatchChunk = 16;
+std::size_t send_nonblocking(int fd, std::span<const can_frame> frames, int flags, int& error) {
+  error = 0;
+  std::size_t sent = 0;
+  while (sent < frames.size()) {
+    const std::size_t count = std::min(kBatchChunk, frames.size() - sent);
+    mmsghdr messages[kBatchChunk]{};
+    iovec parts[kBatchChunk];
+    for (std::size_t i = 0; i < count; ++i) {
+      parts[i].iov_base = const_cast<can_frame*>(&frames[sent + i]);
+      parts[i].iov_len = sizeof(can_frame);
+      messages[i].msg_hdr.msg_iov = &parts[i];
+      messages[i].msg_hdr.msg_iovlen = 1;
+    }
+    const int n = ::sendmmsg(fd, messages, static_cast<unsigned>(count), flags | MSG_DONTWAIT);
+    if (n < 0) {
+      error = errno;
+      return sent;
+    }
+    sent += static_cast<std::size_t>(n);
+    if (static_cast<std::size_t>(n) < count) return sent;
+  }
+  return sent;
+}
+
 class FdOwner {
  public:
   explicit FdOwner(int fd) : fd_(fd) {}
@@ -100,6 +128,15 @@ class SocketCanBus final : public Bus {
       }
       fail(name_, "send", n < 0 ? errno : EIO);
     }
+  }
+
+  std::size_t send_batch(std::span<const can_frame> frames) override {
+    int error = 0;
+    std::size_t sent = send_nonblocking(fd_.get(), frames, 0, error);
+    if (error != 0 && error != EAGAIN && error != ENOBUFS && error != EINTR) fail(name_, "sendmmsg", error);
+    // The queue filled up: the rest one by one, each waiting as send() does.
+    while (sent < frames.size() && send(frames[sent])) ++sent;
+    return sent;
   }
 
   bool receive(can_frame& frame, std::chrono::nanoseconds timeout) override {
@@ -192,6 +229,15 @@ class LocalBus final : public Bus {
     }
   }
 
+  std::size_t send_batch(std::span<const can_frame> frames) override {
+    int error = 0;
+    std::size_t sent = send_nonblocking(fd_.get(), frames, MSG_NOSIGNAL, error);
+    if (error == EPIPE || error == ECONNRESET) throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
+    if (error != 0 && error != EAGAIN && error != ENOBUFS && error != EINTR) fail(name_, "sendmmsg", error);
+    while (sent < frames.size() && send(frames[sent])) ++sent;
+    return sent;
+  }
+
   bool receive(can_frame& frame, std::chrono::nanoseconds timeout) override {
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     for (;;) {
@@ -244,6 +290,12 @@ class LocalBus final : public Bus {
 };
 
 }  // namespace
+
+std::size_t Bus::send_batch(std::span<const can_frame> frames) {
+  std::size_t sent = 0;
+  while (sent < frames.size() && send(frames[sent])) ++sent;
+  return sent;
+}
 
 bool passes(const can_frame& frame, std::span<const FrameFilter> filters) noexcept {
   if (filters.empty()) return true;

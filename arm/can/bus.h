@@ -9,6 +9,7 @@
 #include <linux/can.h>
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -48,6 +49,13 @@ class Bus {
   // was dropped (what an overloaded CAN controller does); throws BusError on a hard failure
   // (interface gone, hub gone). Blocks at most that 1 ms.
   virtual bool send(const can_frame& frame) = 0;
+
+  // Queues frames in order, in as few system calls as the transport allows (sendmmsg: one
+  // for a cycle's RPDOs and SYNC), so the sender hands a whole cycle to the bus at once and a
+  // receiver woken by the first frame cannot delay the rest. Returns how many were queued: a
+  // frame that finds the transmit queue full waits as in send(), and the frames from the
+  // first one dropped on are not sent. Throws BusError as send(). No allocation.
+  virtual std::size_t send_batch(std::span<const can_frame> frames);
 
   // Waits up to `timeout` for one frame (0 = just poll). Returns false on timeout. Frames not
   // passing the filters are skipped without counting against the caller. Throws BusError when

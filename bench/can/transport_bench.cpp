@@ -3,12 +3,16 @@
 // usage: can_transport_bench [BUS]   BUS = "local" (default: starts its own hub in a temporary
 //        directory) or a spec such as "socketcan:vcan0" (run inside UML with
 //        tests/can/uml-vcan-run.sh; UML is not real-time: its figures are functional only).
-// Prints: one-way burst throughput (frames/s), ping-pong round trip (p50/p99/max), and the
-// lock-step master cycle (RPDOs + SYNC + 7 drive and 4 sensor TPDOs) rate.
+// Prints: one-way burst throughput (frames/s), ping-pong round trip (p50/p99/max), a cycle's
+// 8 frames written by 8 send() calls vs one send_batch(), and the lock-step master cycle
+// (RPDOs + SYNC + 7 drive and 4 sensor TPDOs) rate.
+#include <pthread.h>
+#include <sched.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -120,6 +124,76 @@ void ping_pong(const std::string& spec) {
               rtt_us.size(), p.p50_us, p.p99_us, p.max_us);
 }
 
+// Puts the calling thread on `cpu` at SCHED_FIFO `priority`; false when not allowed.
+bool realtime_on(int cpu, int priority) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  sched_param param{};
+  param.sched_priority = priority;
+  return pthread_setaffinity_np(pthread_self(), sizeof set, &set) == 0 &&
+         pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0;
+}
+
+// One cycle's frames (7 RPDOs + SYNC) handed to the bus: eight send() calls against one
+// send_batch(), alternating in one run, with a reader draining the other end. The figure is
+// the sender's time in the calls: what the cycle spends before its command has left.
+// contended: the reader runs at a higher SCHED_FIFO priority on the sender's CPU, as a
+// simulator or another node's process can (pa10-sim's hub at 30 against the servo at 20).
+void cycle_write(const std::string& spec, bool contended) {
+  auto tx = open_bus(spec);
+  auto rx = open_bus(spec);
+  std::atomic<bool> done{false};
+  std::atomic<int> ready{0};
+  std::thread reader([&] {
+    if (contended && !realtime_on(0, 30)) {
+      ready.store(-1);
+      return;
+    }
+    ready.store(1);
+    can_frame f{};
+    while (!done.load(std::memory_order_relaxed)) rx->receive(f, std::chrono::milliseconds(20));
+  });
+  while (ready.load() == 0) std::this_thread::yield();
+  if (ready.load() < 0 || (contended && !realtime_on(0, 20))) {
+    done.store(true);
+    reader.join();
+    std::printf("cycle   %-22s contended: skipped (SCHED_FIFO not allowed)\n", spec.c_str());
+    return;
+  }
+  std::array<can_frame, 8> frames{};
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    frames[i].can_id = i < 7 ? static_cast<canid_t>(0x201 + i) : 0x080;
+    frames[i].can_dlc = i < 7 ? 6 : 1;
+  }
+  constexpr int kRounds = 5000;
+  std::vector<double> single_us, batch_us;
+  single_us.reserve(kRounds);
+  batch_us.reserve(kRounds);
+  for (int i = 0; i < kRounds; ++i) {
+    auto t0 = Clock::now();
+    for (const auto& f : frames) tx->send(f);
+    single_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+    std::this_thread::sleep_for(std::chrono::microseconds(500));  // the receivers go back to sleep
+    t0 = Clock::now();
+    tx->send_batch(frames);
+    batch_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  done.store(true);
+  reader.join();
+  if (contended) {  // back to normal for the rest of the run
+    sched_param normal{};
+    pthread_setschedparam(pthread_self(), SCHED_OTHER, &normal);
+  }
+  const auto s = percentiles(single_us);
+  const auto b = percentiles(batch_us);
+  std::printf("cycle   %-22s %s7 RPDOs + SYNC, n=%d: 8 x send p50 %.1f us, p99 %.1f us, max %.1f us; "
+              "send_batch p50 %.1f us, p99 %.1f us, max %.1f us\n",
+              spec.c_str(), contended ? "contended, " : "", kRounds, s.p50_us, s.p99_us, s.max_us, b.p50_us,
+              b.p99_us, b.max_us);
+}
+
 void lock_step(const std::string& spec) {
   MasterConfig config;
   config.heartbeat_timeout = std::chrono::milliseconds(5000);
@@ -164,6 +238,8 @@ int main(int argc, char** argv) {
   try {
     burst(spec);
     ping_pong(spec);
+    cycle_write(spec, false);
+    cycle_write(spec, true);
     lock_step(spec);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "can_transport_bench: %s\n", e.what());

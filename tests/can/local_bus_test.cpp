@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cstring>
 #include <thread>
+#include <vector>
 
 #include "arm/can/bus.h"
 #include "arm/can/local_bus.h"
@@ -78,6 +79,43 @@ TEST(CanLocalBus, KeepsTheOrderOfOneSendersFrames) {
   for (int i = 0; i < 100; ++i) {
     ASSERT_TRUE(b->receive(got, kArrives));
     EXPECT_EQ(got.data[0], i);
+  }
+}
+
+TEST(CanLocalBus, ABatchArrivesWholeAndInOrderAcrossSeveralSystemCalls) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto a = open_local(dir.file("bus"));
+  auto b = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 2; }));
+  // 40 frames: more than one sendmmsg chunk (16).
+  std::vector<can_frame> batch;
+  for (int i = 0; i < 40; ++i) batch.push_back(frame(static_cast<canid_t>(0x200 + i), static_cast<std::uint8_t>(i)));
+  EXPECT_EQ(a->send_batch(batch), batch.size());
+  EXPECT_EQ(a->send_batch({}), 0u);
+  can_frame got{};
+  for (int i = 0; i < 40; ++i) {
+    ASSERT_TRUE(b->receive(got, kArrives)) << "frame " << i;
+    EXPECT_EQ(got.can_id, static_cast<canid_t>(0x200 + i));
+    EXPECT_EQ(got.data[0], i);
+  }
+  EXPECT_FALSE(b->receive(got, kAbsent)) << "a frame sent twice";
+  EXPECT_FALSE(a->receive(got, kAbsent)) << "the sender heard its own batch";
+}
+
+TEST(CanLocalBus, ABatchToAStoppedHubThrowsHubClosed) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto a = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 1; }));
+  hub.stop();
+  const std::vector<can_frame> batch(3, frame(0x100, 1));
+  try {
+    // The first write may still land in the socket's buffer; a later one sees the close.
+    for (int i = 0; i < 100; ++i) a->send_batch(batch);
+    FAIL() << "no BusError";
+  } catch (const BusError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("hub closed the connection"));
   }
 }
 

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <vector>
 
 #include "arm/can/bus.h"
 #include "arm/can/master.h"
@@ -52,6 +53,25 @@ TEST_F(SocketCan, TwoSocketsExchangeFramesAndTheSenderDoesNotHearItself) {
   ASSERT_TRUE(b->send(frame(0x080, 1)));
   ASSERT_TRUE(a->receive(got, 5s));
   EXPECT_EQ(got.can_id, 0x080u);
+}
+
+TEST_F(SocketCan, ABatchArrivesWholeAndInOrder) {
+  auto a = open_bus("socketcan:vcan0");
+  auto b = open_bus("socketcan:vcan0");
+  std::vector<can_frame> batch;
+  for (int i = 0; i < 8; ++i) {
+    can_frame f = frame(static_cast<canid_t>(0x201 + i), 8);
+    f.data[0] = static_cast<std::uint8_t>(i);
+    batch.push_back(f);
+  }
+  EXPECT_EQ(a->send_batch(batch), batch.size());
+  can_frame got{};
+  for (int i = 0; i < 8; ++i) {
+    ASSERT_TRUE(b->receive(got, 5s)) << "frame " << i;
+    EXPECT_EQ(got.can_id, static_cast<canid_t>(0x201 + i));
+    EXPECT_EQ(got.data[0], i);
+  }
+  EXPECT_FALSE(b->receive(got, 100ms)) << "a frame sent twice";
 }
 
 TEST_F(SocketCan, KernelFiltersPassOnlyMatchingIds) {
