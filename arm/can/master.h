@@ -8,7 +8,8 @@
 // thread: set_target_velocities(), joint_state(), wrench(), fault(), fault_reset(), counters().
 //
 // One cycle: read what arrived for the previous SYNC, publish it, check faults and
-// heartbeats, write the 7 RPDOs (controlword + target velocity), send SYNC. The cycle does no
+// heartbeats, write the 7 RPDOs (controlword + target velocity) and SYNC in one
+// Bus::send_batch(). The cycle does no
 // allocation, no logging, no I/O other than the CAN frames; the shared state is guarded by a
 // mutex held only for copies, never across a send or a wait.
 //
@@ -152,7 +153,8 @@ class Pa10Master {
   std::uint64_t target_sequence() const;
 
   // The last target that left for the bus: published by the cycle right after it has written
-  // the seven RPDOs carrying it, with the CLOCK_REALTIME time of that write (the clock sensor
+  // the seven RPDOs carrying it (one write with the SYNC behind them), with the CLOCK_REALTIME
+  // time of that write (the clock sensor
   // samples are stamped with), so sent_realtime_ns - a sample's stamp is the end-to-end
   // latency. {0, 0} until a target has been sent; cycles sending zero instead (fault, quick
   // stop, enabling) leave it unchanged.
