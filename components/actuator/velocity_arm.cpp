@@ -65,7 +65,9 @@ VelocityArm::SentCommand ArmHardware::last_sent() const {
 
 void ArmHardware::stop() {
   arm_->stop();
-  if (!master_->running()) return;  // lock-step: the next step() sends it
+  // Lock-step: the next step() sends it; cycles taken over (a shared tick runs them): the
+  // next transmit_cycle() or the master's thread, once they are handed back.
+  if (!master_->running() || master_->cycles_taken_over()) return;
   // Wait until two SYNC cycles have passed: the zero targets were in the RPDOs of the second.
   const std::uint64_t start = master_->counters().cycles;
   const auto deadline = std::chrono::steady_clock::now() + 20 * options_.period + std::chrono::milliseconds(50);

@@ -31,7 +31,8 @@ class VelocityArm {
   // Allocates nothing; one thread at a time.
   virtual ArmStatus order_velocity(const std::array<float, 6>& twist_base) = 0;
   // Commands zero velocity; returns once that command has left for the bus (when the bus runs
-  // on its own clock) or is set for the next cycle (lock-step).
+  // on its own clock) or is set for the next cycle (lock-step, or the bus cycle run by the
+  // caller's tick).
   virtual void stop() = 0;
   // Brakes: the drives stop where they are (CiA 402 quick stop) from the next cycle on, and
   // stay braked until the next order_velocity(). Allocates nothing; same thread as

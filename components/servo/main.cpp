@@ -98,10 +98,18 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(-1.0, 1e6));
   app.add_flag("--shared-tick", shared_tick, "run the members in this process on one periodic tick");
   auto* group = app.add_option_group("shared tick", "members made by --shared-tick");
-  group->add_option("--tick-lead-us", tick_lead_us,
-                    "the tick's cycles fall this long before the bus master's SYNC cycles, so a command leaves "
-                    "with the next SYNC (0 <= lead < --period)")
+  std::string bus_cycle = "tick";
+  group->add_option("--bus-cycle", bus_cycle,
+                    "who runs the CAN master's SYNC cycle: 'tick' (the tick itself: receive, sensor -> controller -> "
+                    "actuator, transmit; a sample reaches the drives in the same cycle) or 'master' (its own thread; "
+                    "the tick runs --tick-lead-us before it)")
+      ->check(CLI::IsMember({"tick", "master"}))
       ->capture_default_str();
+  auto* lead_option =
+      group->add_option("--tick-lead-us", tick_lead_us,
+                        "--bus-cycle master: the tick's cycles fall this long before the master's SYNC cycles, so a "
+                        "command leaves with the next SYNC (0 <= lead < --period)")
+          ->capture_default_str();
   group->add_option("--bus", hardware.bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
   group->add_option("--sensor-bus", hardware.sensor_bus, "separate bus of the force sensors (default: --bus)");
   group->add_option("--urdf", hardware.urdf, "arm model")->capture_default_str();
@@ -122,6 +130,8 @@ int main(int argc, char** argv) {
   for (const auto& arg : split.own) own_argv.push_back(arg.c_str());
   try {
     app.parse(static_cast<int>(own_argv.size()), own_argv.data());
+    if (lead_option->count() > 0 && bus_cycle != "master")
+      throw CLI::ValidationError("--tick-lead-us", "applies to --bus-cycle master only");
     settings.period_ns = rtm::parse_period_ns(period_text);
     settings.naming = naming_text.empty() ? rtm::NamingAddress::from_environment() : rtm::NamingAddress::parse(naming_text);
     for (std::size_t i = 0; i < 6; ++i) {
@@ -164,8 +174,16 @@ int main(int argc, char** argv) {
         auto arm = std::make_unique<rtm::comp::ArmHardware>(hardware);
         rtm::can::Pa10Master* master = &arm->master();  // owned by the actuator, outlives the tick
         rtm::comp::TickPhase phase;
-        phase.next_reference_deadline_ns = [master] { return master->next_cycle_deadline_ns(); };
-        phase.lead_ns = static_cast<std::int64_t>(tick_lead_us * 1000);
+        rtm::comp::TickBusCycle bus;
+        if (bus_cycle == "tick") {
+          bus.take_over = [master] { return master->take_over_cycles(); };
+          bus.hand_back = [master](std::int64_t next_ns) { master->hand_back_cycles(next_ns); };
+          bus.receive = [master] { master->receive_cycle(); };
+          bus.transmit = [master] { master->transmit_cycle(); };
+        } else {
+          phase.next_reference_deadline_ns = [master] { return master->next_cycle_deadline_ns(); };
+          phase.lead_ns = static_cast<std::int64_t>(tick_lead_us * 1000);
+        }
         auto sensor = std::make_unique<rtm::comp::Sensor>(
             sensor_name, std::make_unique<rtm::comp::MasterWristSource>(arm->master()),
             rtm::pa10::Kinematics::fromUrdfFile(hardware.urdf));
@@ -173,7 +191,8 @@ int main(int argc, char** argv) {
         auto actuator = std::make_unique<rtm::comp::Actuator>(actuator_name, std::move(arm), actuator_params);
         auto servo = std::make_unique<rtm::comp::SharedTickServo>(settings.name, std::move(sensor),
                                                                   std::move(controller), std::move(actuator),
-                                                                  settings.periodic_options(), std::move(phase));
+                                                                  settings.periodic_options(), std::move(phase),
+                                                                  std::move(bus));
         shared = servo.get();
         shared->activate_members(*orb);
         reference = shared->reference_port();

@@ -170,15 +170,22 @@ std::int64_t phased_first_deadline(std::int64_t reference_ns, std::int64_t lead_
 
 SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> sensor,
                                  std::unique_ptr<Controller> controller, std::unique_ptr<Actuator> actuator,
-                                 rtm::PeriodicOptions tick, TickPhase phase)
+                                 rtm::PeriodicOptions tick, TickPhase phase, TickBusCycle bus)
     : Component(std::move(name), "servo"),
       sensor_logic_(sensor.get()),
       controller_logic_(controller.get()),
       actuator_logic_(actuator.get()),
       tick_(std::move(tick)),
-      phase_(std::move(phase)) {
+      phase_(std::move(phase)),
+      bus_(std::move(bus)) {
   if (!sensor || !controller || !actuator)
     throw std::invalid_argument("servo " + this->name() + ": a member is missing");
+  if ((bus_.take_over || bus_.hand_back || bus_.receive || bus_.transmit) &&
+      !(bus_.take_over && bus_.hand_back && bus_.receive && bus_.transmit))
+    throw std::invalid_argument("servo " + this->name() + ": the bus cycle needs take_over, hand_back, receive and transmit");
+  if (bus_.set() && phase_.next_reference_deadline_ns)
+    throw std::invalid_argument("servo " + this->name() +
+                                ": a tick that runs the bus cycle cannot also be phased against it");
   phased_first_deadline(0, phase_.lead_ns, tick_.options().period_ns);  // validates the lead
   sensor_ = new rtm::ComponentServant(std::move(sensor), rtm::ExternalTick{});
   controller_ = new rtm::ComponentServant(std::move(controller), rtm::ExternalTick{});
@@ -192,13 +199,39 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
       return true;
     };
   };
+  if (bus_.set()) {
+    tick_.add([this](const rtm::CycleContext&) {
+      bus_.receive();
+      return true;
+    });
+  }
   tick_.add(keep_going(sensor_->cycle_function()));
   tick_.add(keep_going(controller_->cycle_function()));
-  tick_.add(actuator_->cycle_function());
+  tick_.add(handing_back_on_stop(actuator_->cycle_function(), false));
+  if (bus_.set()) {
+    tick_.add([this](const rtm::CycleContext& ctx) {
+      bus_.transmit();
+      last_transmit_deadline_ns_.store(ctx.deadline_ns, std::memory_order_relaxed);
+      return true;
+    });
+  }
+}
+
+rtm::CycleFunction SharedTickServo::handing_back_on_stop(rtm::CycleFunction cycle, bool after_transmit) {
+  return [this, cycle = std::move(cycle), after_transmit](const rtm::CycleContext& ctx) {
+    if (cycle(ctx)) return true;
+    hand_back_bus(after_transmit ? ctx.deadline_ns + ctx.period_ns : ctx.deadline_ns);
+    return false;
+  };
+}
+
+void SharedTickServo::hand_back_bus(std::int64_t next_deadline_ns) {
+  if (bus_taken_.exchange(false)) bus_.hand_back(next_deadline_ns);
 }
 
 SharedTickServo::~SharedTickServo() {
   tick_.stop();
+  hand_back_bus(0);
   // Sensor first: it may read the master the actuator owns.
   for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) {
     try {
@@ -247,11 +280,24 @@ void SharedTickServo::on_start() {
     throw std::runtime_error("servo " + name() + ": turning the members on failed:" + why);
   }
   std::int64_t first_ns = 0;
-  if (phase_.next_reference_deadline_ns)
+  if (bus_.set()) {
+    first_ns = bus_.take_over();  // the bus master's thread idles from its next deadline on
+    bus_taken_.store(true);
+    last_transmit_deadline_ns_.store(0, std::memory_order_relaxed);
+  } else if (phase_.next_reference_deadline_ns) {
     first_ns = phased_first_deadline(phase_.next_reference_deadline_ns(), phase_.lead_ns, tick_.options().period_ns);
+  }
   tick_.set_first_deadline_ns(first_ns);
-  tick_.start();
-  if (first_ns != 0)
+  try {
+    tick_.start();
+  } catch (...) {
+    hand_back_bus(first_ns);
+    throw;
+  }
+  if (bus_.set())
+    log().info("servo {}: shared tick running the bus cycle: receive, sensor -> controller -> actuator, transmit",
+               name());
+  else if (first_ns != 0)
     log().info("servo {}: shared tick running sensor -> controller -> actuator, {} us before each bus cycle", name(),
                phase_.lead_ns / 1000);
   else
@@ -267,6 +313,11 @@ void SharedTickServo::on_cycle(const rtm::CycleContext&) {
 
 void SharedTickServo::on_stop() {
   tick_.stop();
+  // Joined (or, from the tick's own thread, its last cycle has run): the bus master's thread
+  // takes the cycles back on the tick's grid, before the actuator's off() waits for its zero
+  // command to leave.
+  const std::int64_t last_ns = last_transmit_deadline_ns_.load(std::memory_order_relaxed);
+  hand_back_bus(last_ns > 0 ? last_ns + tick_.options().period_ns : 0);
   actuator_->off();
   controller_->off();
   sensor_->off();

@@ -13,7 +13,8 @@
 //                     its own periodic activity;
 //   SharedTickServo   members live in this process as ExternalTick components and one
 //                     SharedTick runs sensor -> controller -> actuator in that order every
-//                     period, so a sensor sample reaches the drives in the same cycle.
+//                     period, between the bus master's receive and transmit, so a sensor
+//                     sample reaches the drives with the SYNC of the same cycle.
 #pragma once
 
 #include "components/actuator/actuator.h"
@@ -25,6 +26,7 @@
 
 #include <RTMExt.hh>
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <memory>
@@ -86,6 +88,19 @@ struct TickPhase {
   std::int64_t lead_ns = 100'000;
 };
 
+// The bus master's SYNC cycle run by the tick itself (Pa10Master::take_over_cycles()): the
+// tick receives before the sensor and transmits after the actuator, so a command computed from
+// a sample leaves with the very next SYNC, in the same cycle and on the same thread, with no
+// second thread to wake. take_over returns the deadline of the tick's first cycle (0: at once);
+// hand_back(next_deadline_ns) gives the cycles back to the bus master's own thread.
+struct TickBusCycle {
+  std::function<std::int64_t()> take_over;
+  std::function<void(std::int64_t)> hand_back;
+  std::function<void()> receive;
+  std::function<void()> transmit;
+  bool set() const { return static_cast<bool>(take_over); }
+};
+
 // The tick's first deadline for a reference grid whose next deadline is reference_ns: lead_ns
 // earlier (PeriodicActivity moves a deadline already past onto the same grid). 0 (start at
 // once) when there is no reference. Throws std::invalid_argument unless 0 <= lead_ns < period_ns.
@@ -96,8 +111,16 @@ class SharedTickServo final : public rtm::Component {
   // Members become ExternalTick servants run by one SharedTick with `tick` (period, priority,
   // CPU). The actuator's arm must outlive nothing else here: members are destroyed sensor
   // first, actuator last (a sensor may read the actuator's master).
+  //
+  // Where the bus cycle happens: with `bus` set the tick runs it (bus receive, sensor,
+  // controller, actuator, bus transmit), taking it over in on_start() and handing it back in
+  // on_stop() or as soon as a stage stops the tick; otherwise the tick runs on its own,
+  // phased by `phase` against the bus master's cycles. Throws std::invalid_argument when a
+  // member is missing, when `bus` lacks one of its four functions, or when both `bus` and a
+  // phase reference are given.
   SharedTickServo(std::string name, std::unique_ptr<Sensor> sensor, std::unique_ptr<Controller> controller,
-                  std::unique_ptr<Actuator> actuator, rtm::PeriodicOptions tick, TickPhase phase = {});
+                  std::unique_ptr<Actuator> actuator, rtm::PeriodicOptions tick, TickPhase phase = {},
+                  TickBusCycle bus = {});
   ~SharedTickServo() override;
 
   // Activates the three members in orb (their ports become reachable; the servo exposes the
@@ -105,9 +128,10 @@ class SharedTickServo final : public rtm::Component {
   void activate_members(rtm::Orb& orb);
   RTM::InPort_ptr reference_port() const;  // after activate_members()
 
-  // Appended to the tick after the three members (e.g. the servo servant's own
-  // cycle_function(), so a failed member puts the servo in error). Only while off.
-  void add_to_tick(rtm::CycleFunction cycle) { tick_.add(std::move(cycle)); }
+  // Appended to the tick after the three members and the bus transmit (e.g. the servo
+  // servant's own cycle_function(), so a failed member puts the servo in error). Only while off.
+  void add_to_tick(rtm::CycleFunction cycle) { tick_.add(handing_back_on_stop(std::move(cycle), true)); }
+  bool runs_bus_cycle() const { return bus_.set(); }
 
   void on_start() override;
   // Runs in the tick after the members: a member in COMPONENT_ERROR fails the servo.
@@ -126,6 +150,14 @@ class SharedTickServo final : public rtm::Component {
   Actuator* actuator_logic_;
   rtm::SharedTick tick_;
   TickPhase phase_;
+  TickBusCycle bus_;
+  std::atomic<bool> bus_taken_{false};
+  std::atomic<std::int64_t> last_transmit_deadline_ns_{0};
+
+  // A stage that stops the tick gives the bus cycles back first, due at once when this cycle
+  // has not transmitted yet, else on the next deadline: the drives miss no SYNC.
+  rtm::CycleFunction handing_back_on_stop(rtm::CycleFunction cycle, bool after_transmit);
+  void hand_back_bus(std::int64_t next_deadline_ns);
 };
 
 }  // namespace rtm::comp

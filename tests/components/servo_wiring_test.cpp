@@ -11,6 +11,12 @@
 
 #include <gtest/gtest.h>
 
+#include <time.h>
+
+#include <atomic>
+#include <chrono>
+#include <string>
+#include <thread>
 #include <vector>
 
 namespace {
@@ -251,6 +257,155 @@ TEST(SharedTickPhase, ALeadOfAPeriodOrMoreOrNegativeIsRefused) {
   EXPECT_THROW(rtm::comp::phased_first_deadline(5'000'000, 2'000'000, 2'000'000), std::invalid_argument);
   EXPECT_THROW(rtm::comp::phased_first_deadline(5'000'000, -1, 2'000'000), std::invalid_argument);
   EXPECT_EQ(rtm::comp::phased_first_deadline(5'000'000, 0, 2'000'000), 5'000'000);
+}
+
+// ---- the shared tick running the bus master's cycle -------------------------------------
+
+// The bus cycle and the arm write into one log, so the order of receive, the actuator's
+// command and transmit within each tick is visible. Written on the tick's thread, read after
+// on_stop() has joined it.
+struct BusLog {
+  std::vector<std::string> events;
+  std::vector<std::int64_t> hand_backs;
+  std::int64_t take_over_ns = 0;
+  std::int64_t first_receive_ns = 0;
+  int fail_on_order = -1;  // the arm throws on this order (0-based); -1 never
+  int orders = 0;
+  std::atomic<int> transmits{0};
+};
+
+class LoggingArm final : public rtm::comp::VelocityArm {
+ public:
+  explicit LoggingArm(BusLog& log) : log_(log) {}
+  rtm::comp::ArmStatus order_velocity(const std::array<float, 6>&) override {
+    if (log_.orders++ == log_.fail_on_order) throw std::runtime_error("drive bus gone");
+    log_.events.push_back("order");
+    return rtm::comp::ArmStatus::ready;
+  }
+  void stop() override {}
+  rtm::comp::ArmStatus quick_stop() override { return order_velocity({}); }
+  std::string fault_reason() const override { return ""; }
+  bool in_fault() const override { return false; }
+  void reset() override {}
+  BusPosition bus_position() const override { return {}; }
+
+ private:
+  BusLog& log_;
+};
+
+std::int64_t monotonic_ns() {
+  timespec t{};
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return std::int64_t{t.tv_sec} * 1'000'000'000 + t.tv_nsec;
+}
+
+rtm::comp::TickBusCycle logging_bus(BusLog& log) {
+  rtm::comp::TickBusCycle bus;
+  bus.take_over = [&log] {
+    log.events.push_back("take_over");
+    log.take_over_ns = monotonic_ns() + 20'000'000;  // the bus's next cycle: 20 ms from now
+    return log.take_over_ns;
+  };
+  bus.hand_back = [&log](std::int64_t next_ns) {
+    log.events.push_back("hand_back");
+    log.hand_backs.push_back(next_ns);
+  };
+  bus.receive = [&log] {
+    if (log.first_receive_ns == 0) log.first_receive_ns = monotonic_ns();
+    log.events.push_back("receive");
+  };
+  bus.transmit = [&log] {
+    log.events.push_back("transmit");
+    log.transmits.fetch_add(1);
+  };
+  return bus;
+}
+
+std::unique_ptr<rtm::comp::SharedTickServo> make_shared_servo(const std::string& name, BusLog& log,
+                                                              rtm::comp::TickBusCycle bus, rtm::comp::TickPhase phase = {}) {
+  auto source = std::make_unique<FakeWristSource>();
+  source->sample.q_rad = {0, 0.360534478941, 0, 1.828143726078, 0, 0.952914448571, 0};
+  source->sample.sequence = 1;
+  source->sample.valid = true;
+  rtm::comp::ControllerParams gains;
+  rtm::comp::ActuatorParams limits;
+  return std::make_unique<rtm::comp::SharedTickServo>(
+      name,
+      std::make_unique<rtm::comp::Sensor>(name + "_sensor", std::move(source),
+                                          rtm::pa10::Kinematics::fromUrdfFile(RTM_PA10_URDF)),
+      std::make_unique<rtm::comp::Controller>(name + "_controller", gains),
+      std::make_unique<rtm::comp::Actuator>(name + "_actuator", std::make_unique<LoggingArm>(log), limits),
+      rtm::PeriodicOptions{}, std::move(phase), std::move(bus));
+}
+
+void wait_for_transmits(BusLog& log, int n) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (log.transmits.load() < n && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+}
+
+TEST(SharedTickBusCycle, EachTickReceivesThenCommandsThenTransmitsFromTheDeadlineTakenOver) {
+  BusLog log;
+  auto servo = make_shared_servo("servo_bus", log, logging_bus(log));
+  servo->activate_members(test_orb());
+  ASSERT_TRUE(servo->runs_bus_cycle());
+  servo->on_start();
+  wait_for_transmits(log, 10);
+  servo->on_stop();
+
+  ASSERT_GE(log.events.size(), 4u);
+  EXPECT_EQ(log.events.front(), "take_over");
+  EXPECT_EQ(log.events.back(), "hand_back");
+  EXPECT_GE(log.first_receive_ns, log.take_over_ns) << "the tick's first cycle is the bus's next one, not earlier";
+  // Between take-over and hand-back: receive, order, transmit, again and again.
+  int transmits = 0;
+  for (std::size_t i = 1; i + 1 < log.events.size(); i += 3) {
+    ASSERT_LE(i + 2, log.events.size() - 1) << "a tick cut short";
+    EXPECT_EQ(log.events[i], "receive") << "event " << i;
+    EXPECT_EQ(log.events[i + 1], "order") << "event " << i + 1;
+    EXPECT_EQ(log.events[i + 2], "transmit") << "event " << i + 2;
+    ++transmits;
+  }
+  EXPECT_GE(transmits, 10);
+  // Handed back once, due one period after a tick on the grid taken over.
+  ASSERT_EQ(log.hand_backs.size(), 1u);
+  const std::int64_t period_ns = servo->tick().options().period_ns;
+  EXPECT_EQ((log.hand_backs[0] - log.take_over_ns) % period_ns, 0);
+  EXPECT_GE(log.hand_backs[0], log.take_over_ns + transmits * period_ns);
+  EXPECT_EQ(servo->actuator().current_state(), RTM::COMPONENT_OFF);
+}
+
+TEST(SharedTickBusCycle, AFailingActuatorStopsTheTickAndHandsTheBusBackDueAtOnceWithoutATransmit) {
+  BusLog log;
+  log.fail_on_order = 4;
+  auto servo = make_shared_servo("servo_fail", log, logging_bus(log));
+  servo->activate_members(test_orb());
+  servo->on_start();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (servo->tick().running() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ASSERT_FALSE(servo->tick().running()) << "the actuator's failure must stop the tick";
+  EXPECT_EQ(servo->actuator().current_state(), RTM::COMPONENT_ERROR);
+  EXPECT_EQ(log.transmits.load(), 4) << "the failing cycle transmits nothing";
+  ASSERT_EQ(log.hand_backs.size(), 1u);
+  // Due at the failing tick's own deadline: the bus's thread sends that cycle's SYNC at once.
+  const std::int64_t period_ns = servo->tick().options().period_ns;
+  EXPECT_EQ((log.hand_backs[0] - log.take_over_ns) % period_ns, 0);
+  EXPECT_GE(log.hand_backs[0], log.take_over_ns + 4 * period_ns);
+  EXPECT_EQ(log.events.back(), "hand_back");
+  servo->on_stop();
+  EXPECT_EQ(log.hand_backs.size(), 1u) << "handed back twice";
+}
+
+TEST(SharedTickBusCycle, AnIncompleteBusCycleOrOneWithAPhaseReferenceIsRefused) {
+  BusLog log;
+  rtm::comp::TickBusCycle partial = logging_bus(log);
+  partial.transmit = nullptr;
+  EXPECT_THROW(make_shared_servo("servo_partial", log, partial), std::invalid_argument);
+  rtm::comp::TickPhase phase;
+  phase.next_reference_deadline_ns = [] { return std::int64_t{0}; };
+  EXPECT_THROW(make_shared_servo("servo_both", log, logging_bus(log), phase), std::invalid_argument);
+  EXPECT_FALSE(make_shared_servo("servo_plain", log, {})->runs_bus_cycle());
 }
 
 }  // namespace
