@@ -4,11 +4,14 @@
 # summary and the CSV written, both press phases found in contact, no sanitizer report in the
 # processes' logs, and nothing the demo started still running. Figures are not checked (no --check): that is for quiet machines.
 #
-# Usage: demo_smoke_test.sh DEMO BIN_DIR
+# Usage: demo_smoke_test.sh DEMO BIN_DIR [SYSTEM_FILE]   (default: the demo's own, the paper's
+# five processes; examples/force-servo/system-shared.yaml runs the servo's shared tick)
 set -euo pipefail
 
 demo=$1
 bin_dir=$2
+system_args=()
+[[ -n "${3:-}" ]] && system_args=(--system "$3")
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/rtm-demo-smoke.XXXXXX")
 
 # Every process the demo starts inherits TMPDIR=$tmp/run (its private runtime folder is made
@@ -53,7 +56,7 @@ segments:
 YAML
 
 status=0
-TMPDIR="$tmp/run" "$demo" --bin "$bin_dir" --profile "$tmp/profile.yaml" --duration 11 --out "$tmp/out" \
+TMPDIR="$tmp/run" "$demo" --bin "$bin_dir" "${system_args[@]}" --profile "$tmp/profile.yaml" --duration 11 --out "$tmp/out" \
   >"$tmp/demo.log" 2>&1 || status=$?
 ((status == 0)) || fail "exit code $status, want 0"
 
