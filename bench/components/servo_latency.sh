@@ -4,8 +4,11 @@
 #
 #   paper   sensor, controller, actuator, servo, joystick: five processes, each on its own
 #           2 ms activity, data over CORBA (examples/force-servo/system.yaml)
-#   shared  servo --shared-tick: sensor -> controller -> actuator on one 2 ms tick in one
-#           process (examples/force-servo/system-shared.yaml)
+#   shared  servo --shared-tick: one 2 ms tick in one process runs the CAN master's receive,
+#           sensor -> controller -> actuator, the master's transmit (RPDOs + SYNC)
+#           (examples/force-servo/system-shared.yaml)
+#   shared-master  the same members on one tick, but the master keeps its own thread and the
+#           tick runs --tick-lead-us (100 us) before each of its cycles (--bus-cycle master)
 #
 # Where it is measured: the controller stamps each command with the stamp of the sensor sample
 # it was computed from; the actuator hands the joint rates to the CANopen master (a target
@@ -14,36 +17,38 @@
 # the master's cycle right after writing the seven RPDOs carrying the command, just before
 # SYNC). "handover" is the older, shorter span: stamp -> orderVelocity returned. Both are logged
 # as p50/p99/max when the actuator is turned off; 1 us buckets below 1 ms, 100 us buckets to
-# 10 ms (upper edges reported). In shared mode the tick runs --tick-lead-us (default 100 us) before the
-# master's SYNC cycles.
+# 10 ms (upper edges reported).
 # Loop lateness per component comes from `rtm --json ls -l` taken at the end of each run.
 #
-# Usage: bench/components/servo_latency.sh [--bin DIR] [--modes "paper shared"] [--out DIR]
+# Usage: bench/components/servo_latency.sh [--bin DIR] [--modes "paper shared shared-master"] [--out DIR]
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/../.." && pwd)
 bin_dir=${RTM_BIN_DIR:-$repo/build/default/bin}
-modes="paper shared"
+modes="paper shared shared-master"
 out=""
 while (($#)); do
   case "$1" in
     --bin) bin_dir=$2; shift 2 ;;
     --modes) modes=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
     *) echo "servo_latency: unknown option '$1'" >&2; exit 2 ;;
   esac
 done
 [[ -n "$out" ]] || out=$(mktemp -d "${TMPDIR:-/tmp}/rtm-servo-latency.XXXXXX")
 mkdir -p "$out"
 
-declare -A system=([paper]=system.yaml [shared]=system-shared.yaml)
+examples=$repo/examples/force-servo
+sed 's/--shared-tick,/--shared-tick, --bus-cycle, master,/' "$examples/system-shared.yaml" >"$out/system-shared-master.yaml"
+declare -A system=([paper]=$examples/system.yaml [shared]=$examples/system-shared.yaml
+                   [shared-master]=$out/system-shared-master.yaml)
 results=()
 for mode in $modes; do
   [[ -n "${system[$mode]:-}" ]] || { echo "servo_latency: unknown mode '$mode'" >&2; exit 2; }
   echo "=== $mode"
-  "$repo/examples/force-servo/demo" --bin "$bin_dir" --system "$repo/examples/force-servo/${system[$mode]}" \
+  "$repo/examples/force-servo/demo" --bin "$bin_dir" --system "${system[$mode]}" \
     --out "$out/$mode" >"$out/$mode.log" 2>&1 || echo "servo_latency: the $mode run reported a problem (see $out/$mode.log)" >&2
   line=$(cat "$out/$mode/raw/"*.log 2>/dev/null | grep -h 'sample-to-drive latency' | tail -n 1 || true)
   [[ -n "$line" ]] || { echo "servo_latency: no latency line in the $mode run's logs ($out/$mode/raw)" >&2; exit 1; }
@@ -51,7 +56,7 @@ for mode in $modes; do
   read -r h50 h99 < <(sed -n 's/.*handover p50 \([0-9]*\) us p99 \([0-9]*\) us.*/\1 \2/p' <<<"$line") || true
   commands=$(sed -n 's/.*commands \([0-9]*\),.*/\1/p' <<<"$line")
   watchdog=$(sed -n 's/.*watchdog events \([0-9]*\),.*/\1/p' <<<"$line")
-  results+=("$(printf '| %-6s | %8s | %8s | %8s | %8s | %8s | %11s |' "$mode" "$commands" "$p50" "$p99" "$max" "$watchdog" \
+  results+=("$(printf '| %-13s | %8s | %8s | %8s | %8s | %8s | %11s |' "$mode" "$commands" "$p50" "$p99" "$max" "$watchdog" \
     "${h50:-?}/${h99:-?}")")
   echo "--- loop timing ($mode)"
   sed -n '/^Loop timing/,/^$/p' "$out/$mode/summary.txt"
@@ -59,7 +64,7 @@ done
 
 echo
 echo "Sensor sample stamp -> drive command RPDOs written by the bus master (us), $(nproc) CPUs, $(date -u +%Y-%m-%d)"
-echo "| mode   | commands |  p50 us  |  p99 us  |  max us  | watchdog | handover p50/p99 us |"
-echo "|--------|----------|----------|----------|----------|----------|---------------------|"
+echo "| mode          | commands |  p50 us  |  p99 us  |  max us  | watchdog | handover p50/p99 us |"
+echo "|---------------|----------|----------|----------|----------|----------|---------------------|"
 printf '%s\n' "${results[@]}"
 echo "(runs, logs and plots in $out)"
