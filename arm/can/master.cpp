@@ -778,25 +778,18 @@ void Pa10Master::hand_back_cycles(std::int64_t next_deadline_ns) {
 
 bool Pa10Master::cycles_taken_over() const { return external_.load(std::memory_order_acquire); }
 
-void Pa10Master::receive_cycle() {
+void Pa10Master::run_half_cycle(const char* what, void (Impl::*half)()) {
   if (!external_.load(std::memory_order_acquire))
-    throw std::logic_error("Pa10Master::receive_cycle() without take_over_cycles()");
+    throw std::logic_error(std::string("Pa10Master::") + what + "() without take_over_cycles()");
   try {
-    impl_->periodic_receive();
+    (impl_.get()->*half)();
   } catch (const BusError& e) {
     impl_->bus_failure(e);
   }
 }
 
-void Pa10Master::transmit_cycle() {
-  if (!external_.load(std::memory_order_acquire))
-    throw std::logic_error("Pa10Master::transmit_cycle() without take_over_cycles()");
-  try {
-    impl_->periodic_transmit();
-  } catch (const BusError& e) {
-    impl_->bus_failure(e);
-  }
-}
+void Pa10Master::receive_cycle() { run_half_cycle("receive_cycle", &Impl::periodic_receive); }
+void Pa10Master::transmit_cycle() { run_half_cycle("transmit_cycle", &Impl::periodic_transmit); }
 
 void Pa10Master::run_periodic(std::chrono::nanoseconds period) {
   if (period <= nanoseconds(0)) throw std::invalid_argument("Pa10Master::run_periodic: period must be > 0");

@@ -236,6 +236,7 @@ class Pa10Master {
   std::atomic<bool> external_{false};
   void publish_deadline(SteadyTime next);
   bool idle_while_taken_over(SteadyTime& next);
+  void run_half_cycle(const char* what, void (Impl::*half)());
 };
 
 }  // namespace rtm::can
