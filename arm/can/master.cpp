@@ -30,6 +30,7 @@ std::string_view to_string(FaultKind kind) {
     case FaultKind::bus_error: return "bus error";
     case FaultKind::missing_feedback: return "missing feedback";
     case FaultKind::node_not_operational: return "node not operational";
+    case FaultKind::cycle_owner_lost: return "cycle owner lost";
   }
   return "invalid";
 }
@@ -698,10 +699,13 @@ void Pa10Master::run_periodic() {
     auto next = steady_clock::now();
     publish_deadline(next);
     while (running_.load(std::memory_order_relaxed)) {
-      try {
-        m.periodic_cycle();
-      } catch (const BusError& e) {
-        m.bus_failure(e);
+      {
+        std::lock_guard cycle(cycle_mutex_);
+        try {
+          m.periodic_cycle();
+        } catch (const BusError& e) {
+          m.bus_failure(e);
+        }
       }
       next += m.config.period;
       const auto now = steady_clock::now();
@@ -720,24 +724,59 @@ void Pa10Master::publish_deadline(SteadyTime next) {
   next_cycle_deadline_ns_.store(duration_cast<nanoseconds>(next.time_since_epoch()).count(), std::memory_order_relaxed);
 }
 
-// On the periodic thread, between two cycles: when take_over_cycles() asks, parks until the
-// cycles are handed back (next becomes the deadline they were handed back with) or stop().
-// False when the thread is to end.
+// On the periodic thread, between two cycles: when take_over_cycles() asks, idles until the
+// cycles are handed back (next becomes the deadline they were handed back with), stop(), or
+// the owner falls silent (then takes them back: next is now). False when the thread is to end.
 bool Pa10Master::idle_while_taken_over(SteadyTime& next) {
   std::unique_lock lock(handover_mutex_);
   if (handover_ != Handover::requested) return true;
   handover_deadline_ns_ = duration_cast<nanoseconds>(next.time_since_epoch()).count();
   handover_ = Handover::external;
+  reclaimed_.store(false);
   external_.store(true, std::memory_order_release);
   next_cycle_deadline_ns_.store(0, std::memory_order_relaxed);
   handover_cv_.notify_all();
-  handover_cv_.wait(lock, [this] { return handover_ == Handover::returning || !running_.load(); });
+
+  // Watch the owner on the grid: one check per period, from one period after its first cycle.
+  const auto period = impl_->config.period;
+  std::uint64_t seen = transmits_.load();
+  int silent = 0;
+  auto check = next + period;
+  const auto handed_back = [this] { return handover_ == Handover::returning || !running_.load(); };
+  for (;;) {
+    if (handover_cv_.wait_until(lock, check, handed_back)) break;
+    const auto now = steady_clock::now();
+    const std::uint64_t transmits = transmits_.load();
+    if (transmits != seen) {
+      seen = transmits;
+      silent = 0;
+    } else if (now - check < period / 2) {
+      ++silent;
+    } else {
+      silent = 0;  // this thread was late too: the process or the host stalled, not the owner alone
+    }
+    check += period;
+    while (check <= now) check += period;
+    if (impl_->config.taken_over_timeout_periods <= 0 || silent < impl_->config.taken_over_timeout_periods) continue;
+    std::unique_lock cycle(cycle_mutex_, std::try_to_lock);
+    if (!cycle.owns_lock()) continue;  // the owner is inside a half cycle: let it finish
+    external_.store(false, std::memory_order_release);
+    reclaimed_.store(true);
+    handover_ = Handover::own;
+    impl_->latch_fault(FaultKind::cycle_owner_lost, 0, 0,
+                       "the thread running the bus cycles sent no SYNC for %d periods: the master's own thread "
+                       "took them back",
+                       silent);
+    next = now;
+    publish_deadline(next);
+    return true;
+  }
   if (handover_ != Handover::returning) return false;  // stop(): the caller keeps the cycles
   // Back on the grid of the deadline handed back, skipping whole periods already past (the
   // cycle due now, if any, runs at once).
   next = SteadyTime(nanoseconds(handover_deadline_ns_));
   const auto now = steady_clock::now();
-  while (next + impl_->config.period <= now) next += impl_->config.period;
+  while (next + period <= now) next += period;
   handover_ = Handover::own;
   handover_cv_.notify_all();
   publish_deadline(next);
@@ -778,18 +817,27 @@ void Pa10Master::hand_back_cycles(std::int64_t next_deadline_ns) {
 
 bool Pa10Master::cycles_taken_over() const { return external_.load(std::memory_order_acquire); }
 
-void Pa10Master::run_half_cycle(const char* what, void (Impl::*half)()) {
-  if (!external_.load(std::memory_order_acquire))
+bool Pa10Master::run_half_cycle(const char* what, void (Impl::*half)()) {
+  std::lock_guard cycle(cycle_mutex_);
+  if (!external_.load(std::memory_order_acquire)) {
+    if (reclaimed_.load()) return false;
     throw std::logic_error(std::string("Pa10Master::") + what + "() without take_over_cycles()");
+  }
   try {
     (impl_.get()->*half)();
   } catch (const BusError& e) {
     impl_->bus_failure(e);
   }
+  return true;
 }
 
-void Pa10Master::receive_cycle() { run_half_cycle("receive_cycle", &Impl::periodic_receive); }
-void Pa10Master::transmit_cycle() { run_half_cycle("transmit_cycle", &Impl::periodic_transmit); }
+bool Pa10Master::receive_cycle() { return run_half_cycle("receive_cycle", &Impl::periodic_receive); }
+
+bool Pa10Master::transmit_cycle() {
+  const bool mine = run_half_cycle("transmit_cycle", &Impl::periodic_transmit);
+  if (mine) transmits_.fetch_add(1);
+  return mine;
+}
 
 void Pa10Master::run_periodic(std::chrono::nanoseconds period) {
   if (period <= nanoseconds(0)) throw std::invalid_argument("Pa10Master::run_periodic: period must be > 0");

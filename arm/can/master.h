@@ -56,6 +56,12 @@ struct MasterConfig {
   int missed_feedback_limit = 25;
   // Force sensors the master listens to (and waits for at startup and in step()).
   std::vector<ForceSensor> sensors{ForceSensor::wrist, ForceSensor::joystick};
+  // While another thread runs the cycles (take_over_cycles()): if it sends no SYNC for this
+  // many periods in a row in which run_periodic()'s idle thread itself woke on time (so not a
+  // stall of the whole process or host), that thread takes the cycles back and latches
+  // FaultKind::cycle_owner_lost (zero velocity). Without it a hung owner would leave each drive
+  // at its last latched velocity: the drives' RPDO timeout counts SYNCs, and none come.
+  int taken_over_timeout_periods = 5;
   // run_periodic(): SCHED_FIFO priority (0 = keep SCHED_OTHER) and CPU to pin to (-1 = none).
   int realtime_priority = 0;
   int cpu = -1;
@@ -88,6 +94,7 @@ enum class FaultKind : std::uint8_t {
   bus_error,          // the transport failed
   missing_feedback,   // a drive did not answer several SYNCs in a row
   node_not_operational,  // a heartbeat reports boot-up/stopped/pre-operational after start
+  cycle_owner_lost,   // the thread that took the cycles over stopped running them
 };
 std::string_view to_string(FaultKind kind);
 
@@ -174,6 +181,8 @@ class Pa10Master {
   //                     then SYNC.
   // Call them in that order once per period, from one thread. A bus error latches a fault
   // (they do not throw it); calling them without the cycles taken over is a std::logic_error.
+  // They return false, doing nothing, once run_periodic()'s thread has taken the cycles back
+  // because the caller stopped sending SYNC (MasterConfig::taken_over_timeout_periods).
   //
   // take_over_cycles(): run_periodic()'s thread finishes the cycle it is in and idles; returns
   // the CLOCK_MONOTONIC deadline [ns] it would have cycled next: the caller's first cycle is
@@ -186,8 +195,8 @@ class Pa10Master {
   std::int64_t take_over_cycles();
   void hand_back_cycles(std::int64_t next_deadline_ns);
   bool cycles_taken_over() const;
-  void receive_cycle();
-  void transmit_cycle();
+  bool receive_cycle();
+  bool transmit_cycle();
 
   // run_periodic()'s grid: the CLOCK_MONOTONIC deadline [ns] of its next cycle (cycles follow
   // every period from there); 0 when the periodic thread does not run or its cycles are taken
@@ -234,9 +243,12 @@ class Pa10Master {
   Handover handover_ = Handover::own;
   std::int64_t handover_deadline_ns_ = 0;
   std::atomic<bool> external_{false};
+  std::atomic<bool> reclaimed_{false};          // taken back from a silent owner
+  std::atomic<std::uint64_t> transmits_{0};     // transmit_cycle() calls, for the idle thread
+  std::mutex cycle_mutex_;  // whoever runs (half) a cycle; uncontended unless taking back
   void publish_deadline(SteadyTime next);
   bool idle_while_taken_over(SteadyTime& next);
-  void run_half_cycle(const char* what, void (Impl::*half)());
+  bool run_half_cycle(const char* what, void (Impl::*half)());
 };
 
 }  // namespace rtm::can

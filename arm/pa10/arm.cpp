@@ -14,7 +14,8 @@ ArmFault armFaultOf(const rtm::can::MasterFault& fault) {
   switch (fault.kind) {
     case FaultKind::none: return ArmFault::none;
     case FaultKind::heartbeat_lost: return ArmFault::heartbeat_lost;
-    case FaultKind::bus_error: return ArmFault::bus_error;
+    case FaultKind::bus_error:
+    case FaultKind::cycle_owner_lost: return ArmFault::bus_error;
     case FaultKind::drive_fault:
     case FaultKind::drive_disabled:
     case FaultKind::emergency:

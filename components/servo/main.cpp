@@ -178,8 +178,8 @@ int main(int argc, char** argv) {
         if (bus_cycle == "tick") {
           bus.take_over = [master] { return master->take_over_cycles(); };
           bus.hand_back = [master](std::int64_t next_ns) { master->hand_back_cycles(next_ns); };
-          bus.receive = [master] { master->receive_cycle(); };
-          bus.transmit = [master] { master->transmit_cycle(); };
+          bus.receive = [master] { return master->receive_cycle(); };
+          bus.transmit = [master] { return master->transmit_cycle(); };
         } else {
           phase.next_reference_deadline_ns = [master] { return master->next_cycle_deadline_ns(); };
           phase.lead_ns = static_cast<std::int64_t>(tick_lead_us * 1000);

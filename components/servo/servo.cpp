@@ -201,7 +201,7 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
   };
   if (bus_.set()) {
     tick_.add([this](const rtm::CycleContext&) {
-      bus_.receive();
+      if (!bus_.receive()) bus_lost_.store(true);
       return true;
     });
   }
@@ -210,8 +210,10 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
   tick_.add(handing_back_on_stop(actuator_->cycle_function(), false));
   if (bus_.set()) {
     tick_.add([this](const rtm::CycleContext& ctx) {
-      bus_.transmit();
-      last_transmit_deadline_ns_.store(ctx.deadline_ns, std::memory_order_relaxed);
+      if (bus_.transmit())
+        last_transmit_deadline_ns_.store(ctx.deadline_ns, std::memory_order_relaxed);
+      else
+        bus_lost_.store(true);
       return true;
     });
   }
@@ -283,6 +285,7 @@ void SharedTickServo::on_start() {
   if (bus_.set()) {
     first_ns = bus_.take_over();  // the bus master's thread idles from its next deadline on
     bus_taken_.store(true);
+    bus_lost_.store(false);
     last_transmit_deadline_ns_.store(0, std::memory_order_relaxed);
   } else if (phase_.next_reference_deadline_ns) {
     first_ns = phased_first_deadline(phase_.next_reference_deadline_ns(), phase_.lead_ns, tick_.options().period_ns);
@@ -305,6 +308,11 @@ void SharedTickServo::on_start() {
 }
 
 void SharedTickServo::on_cycle(const rtm::CycleContext&) {
+  if (bus_lost_.load()) {
+    bus_taken_.store(false);  // nothing to hand back: the bus master's thread runs the cycles
+    throw std::runtime_error(
+        "the bus master took its cycles back: this tick sent no SYNC for too long (see the actuator's fault)");
+  }
   for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) {
     if (member->current_state() == RTM::COMPONENT_ERROR)
       throw std::runtime_error("member " + member->component().name() + " failed: " + member->error_text());

@@ -92,12 +92,14 @@ struct TickPhase {
 // tick receives before the sensor and transmits after the actuator, so a command computed from
 // a sample leaves with the very next SYNC, in the same cycle and on the same thread, with no
 // second thread to wake. take_over returns the deadline of the tick's first cycle (0: at once);
-// hand_back(next_deadline_ns) gives the cycles back to the bus master's own thread.
+// hand_back(next_deadline_ns) gives the cycles back to the bus master's own thread. receive and
+// transmit return false once the bus master has taken its cycles back because the tick fell
+// silent (Pa10Master: taken_over_timeout_periods); the servo then fails with that reason.
 struct TickBusCycle {
   std::function<std::int64_t()> take_over;
   std::function<void(std::int64_t)> hand_back;
-  std::function<void()> receive;
-  std::function<void()> transmit;
+  std::function<bool()> receive;
+  std::function<bool()> transmit;
   bool set() const { return static_cast<bool>(take_over); }
 };
 
@@ -134,7 +136,8 @@ class SharedTickServo final : public rtm::Component {
   bool runs_bus_cycle() const { return bus_.set(); }
 
   void on_start() override;
-  // Runs in the tick after the members: a member in COMPONENT_ERROR fails the servo.
+  // Runs in the tick after the members: a member in COMPONENT_ERROR, or a bus master that
+  // took its cycles back from the tick, fails the servo.
   void on_cycle(const rtm::CycleContext&) override;
   void on_stop() override;
 
@@ -152,6 +155,7 @@ class SharedTickServo final : public rtm::Component {
   TickPhase phase_;
   TickBusCycle bus_;
   std::atomic<bool> bus_taken_{false};
+  std::atomic<bool> bus_lost_{false};  // the bus master took its cycles back from the tick
   std::atomic<std::int64_t> last_transmit_deadline_ns_{0};
 
   // A stage that stops the tick gives the bus cycles back first, due at once when this cycle

@@ -575,8 +575,15 @@ void wait_cycles(Pa10Master& m, std::uint64_t n) {
     std::this_thread::sleep_for(1ms);
 }
 
+// These tests pause the owner on purpose: the take-back of a silent owner is off.
+MasterConfig patient_config() {
+  MasterConfig c = test_config();
+  c.taken_over_timeout_periods = 0;
+  return c;
+}
+
 TEST(Pa10MasterTakeOver, ThePeriodicThreadIdlesWhileTakenOverAndResumesOnTheDeadlineHandedBack) {
-  Rig rig;
+  Rig rig({}, patient_config());
   rig.master->start();
   rig.master->run_periodic();
   wait_cycles(*rig.master, 3);
@@ -629,8 +636,48 @@ TEST(Pa10MasterTakeOver, StopWhileTakenOverEndsTheIdleThreadAndTheCallerKeepsThe
   EXPECT_TRUE(rig.master->step());
 }
 
-TEST(Pa10MasterTakeOver, RepeatedTakeOverAndHandBackNeverLeavesTwoThreadsCycling) {
+TEST(Pa10MasterTakeOver, ASilentOwnerLosesTheCyclesToTheMastersThreadWithAFaultAndZeroVelocity) {
   Rig rig;
+  rig.master->start();
+  rig.master->run_periodic();
+  wait_cycles(*rig.master, 2);
+  rig.master->take_over_cycles();
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(external_cycle(*rig.master, *rig.fake, [&] { rig.master->set_target_velocities({0.3, 0, 0, 0, 0, 0, 0}); }));
+  }
+  ASSERT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.3);
+  // The owner stops: no more receive/transmit. The idle thread must notice and take over.
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (!rig.master->fault().active() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
+  const MasterFault f = rig.master->fault();
+  EXPECT_EQ(f.kind, FaultKind::cycle_owner_lost) << f.reason;
+  EXPECT_THAT(f.reason, HasSubstr("took them back"));
+  EXPECT_FALSE(rig.master->cycles_taken_over());
+  wait_cycles(*rig.master, 3);
+  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.0) << "the master's thread sends zero";
+  EXPECT_FALSE(rig.master->receive_cycle()) << "the cycles are no longer the caller's";
+  EXPECT_FALSE(rig.master->transmit_cycle());
+  rig.master->hand_back_cycles(0);  // nothing to hand back
+  EXPECT_GT(rig.master->next_cycle_deadline_ns(), 0) << "the master's thread runs the grid";
+  rig.master->stop();
+}
+
+TEST(Pa10MasterTakeOver, WithTheTimeoutOffASilentOwnerKeepsTheCycles) {
+  Rig rig({}, patient_config());
+  rig.master->start();
+  rig.master->run_periodic();
+  wait_cycles(*rig.master, 2);
+  rig.master->take_over_cycles();
+  std::this_thread::sleep_for(50ms);  // 25 periods without a transmit
+  EXPECT_TRUE(rig.master->cycles_taken_over());
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+  EXPECT_TRUE(rig.master->receive_cycle());
+  rig.master->hand_back_cycles(0);
+  rig.master->stop();
+}
+
+TEST(Pa10MasterTakeOver, RepeatedTakeOverAndHandBackNeverLeavesTwoThreadsCycling) {
+  Rig rig({}, patient_config());
   rig.master->start();
   rig.master->run_periodic();
   for (int round = 0; round < 20; ++round) {

@@ -272,6 +272,7 @@ struct BusLog {
   int fail_on_order = -1;  // the arm throws on this order (0-based); -1 never
   int orders = 0;
   std::atomic<int> transmits{0};
+  std::atomic<bool> bus_lost{false};  // the bus master has taken its cycles back
 };
 
 class LoggingArm final : public rtm::comp::VelocityArm {
@@ -313,10 +314,12 @@ rtm::comp::TickBusCycle logging_bus(BusLog& log) {
   bus.receive = [&log] {
     if (log.first_receive_ns == 0) log.first_receive_ns = monotonic_ns();
     log.events.push_back("receive");
+    return !log.bus_lost.load();
   };
   bus.transmit = [&log] {
     log.events.push_back("transmit");
     log.transmits.fetch_add(1);
+    return !log.bus_lost.load();
   };
   return bus;
 }
@@ -395,6 +398,26 @@ TEST(SharedTickBusCycle, AFailingActuatorStopsTheTickAndHandsTheBusBackDueAtOnce
   EXPECT_EQ(log.events.back(), "hand_back");
   servo->on_stop();
   EXPECT_EQ(log.hand_backs.size(), 1u) << "handed back twice";
+}
+
+TEST(SharedTickBusCycle, CyclesTakenBackByTheBusMasterFailTheServoWithoutAHandBack) {
+  BusLog log;
+  auto servo = make_shared_servo("servo_lost", log, logging_bus(log));
+  servo->activate_members(test_orb());
+  servo->on_start();
+  wait_for_transmits(log, 3);
+  const rtm::CycleContext ctx = comp_test::cycle(1);
+  EXPECT_NO_THROW(servo->on_cycle(ctx)) << "the bus is still the tick's";
+  log.bus_lost.store(true);
+  wait_for_transmits(log, log.transmits.load() + 2);  // the tick has seen receive/transmit refused
+  try {
+    servo->on_cycle(ctx);
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("took its cycles back"), std::string::npos) << e.what();
+  }
+  servo->on_stop();
+  EXPECT_TRUE(log.hand_backs.empty()) << "the cycles were not the tick's to hand back";
 }
 
 TEST(SharedTickBusCycle, AnIncompleteBusCycleOrOneWithAPhaseReferenceIsRefused) {
