@@ -191,8 +191,9 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
   controller_ = new rtm::ComponentServant(std::move(controller), rtm::ExternalTick{});
   actuator_ = new rtm::ComponentServant(std::move(actuator), rtm::ExternalTick{});
   for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) member->set_timing_source(&tick_);
-  // A failed sensor or controller must not stop the tick: the actuator still has to run (its
-  // watchdog zeroes the arm) and this servo's own cycle reports the failure.
+  // A failed member must not stop the tick by itself: the actuator still has to run (its
+  // watchdog zeroes the arm), the bus cycle to carry its command, and this servo's own cycle
+  // (added after them, see add_to_tick) reports the failure and stops the tick.
   auto keep_going = [](rtm::CycleFunction f) {
     return [f = std::move(f)](const rtm::CycleContext& ctx) {
       f(ctx);
@@ -205,9 +206,11 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
       return true;
     });
   }
+  // The actuator too: in error it has commanded zero (its on_stop), which the bus transmit
+  // below still sends; the servo's own cycle then reports the failed member and stops the tick.
   tick_.add(keep_going(sensor_->cycle_function()));
   tick_.add(keep_going(controller_->cycle_function()));
-  tick_.add(handing_back_on_stop(actuator_->cycle_function(), false));
+  tick_.add(keep_going(actuator_->cycle_function()));
   if (bus_.set()) {
     tick_.add([this](const rtm::CycleContext& ctx) {
       if (bus_.transmit())
@@ -219,10 +222,10 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
   }
 }
 
-rtm::CycleFunction SharedTickServo::handing_back_on_stop(rtm::CycleFunction cycle, bool after_transmit) {
-  return [this, cycle = std::move(cycle), after_transmit](const rtm::CycleContext& ctx) {
+rtm::CycleFunction SharedTickServo::handing_back_on_stop(rtm::CycleFunction cycle) {
+  return [this, cycle = std::move(cycle)](const rtm::CycleContext& ctx) {
     if (cycle(ctx)) return true;
-    hand_back_bus(after_transmit ? ctx.deadline_ns + ctx.period_ns : ctx.deadline_ns);
+    hand_back_bus(ctx.deadline_ns + ctx.period_ns);
     return false;
   };
 }

@@ -132,7 +132,7 @@ class SharedTickServo final : public rtm::Component {
 
   // Appended to the tick after the three members and the bus transmit (e.g. the servo
   // servant's own cycle_function(), so a failed member puts the servo in error). Only while off.
-  void add_to_tick(rtm::CycleFunction cycle) { tick_.add(handing_back_on_stop(std::move(cycle), true)); }
+  void add_to_tick(rtm::CycleFunction cycle) { tick_.add(handing_back_on_stop(std::move(cycle))); }
   bool runs_bus_cycle() const { return bus_.set(); }
 
   void on_start() override;
@@ -158,9 +158,9 @@ class SharedTickServo final : public rtm::Component {
   std::atomic<bool> bus_lost_{false};  // the bus master took its cycles back from the tick
   std::atomic<std::int64_t> last_transmit_deadline_ns_{0};
 
-  // A stage that stops the tick gives the bus cycles back first, due at once when this cycle
-  // has not transmitted yet, else on the next deadline: the drives miss no SYNC.
-  rtm::CycleFunction handing_back_on_stop(rtm::CycleFunction cycle, bool after_transmit);
+  // A stage after the bus transmit that stops the tick gives the bus cycles back first, due
+  // on the next deadline: the drives miss no SYNC.
+  rtm::CycleFunction handing_back_on_stop(rtm::CycleFunction cycle);
   void hand_back_bus(std::int64_t next_deadline_ns);
 };
 

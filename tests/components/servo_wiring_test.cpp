@@ -378,26 +378,41 @@ TEST(SharedTickBusCycle, EachTickReceivesThenCommandsThenTransmitsFromTheDeadlin
   EXPECT_EQ(servo->actuator().current_state(), RTM::COMPONENT_OFF);
 }
 
-TEST(SharedTickBusCycle, AFailingActuatorStopsTheTickAndHandsTheBusBackDueAtOnceWithoutATransmit) {
+TEST(SharedTickBusCycle, AFailingActuatorPutsTheServoInErrorAndHandsTheBusBackAfterItsZeroCommandLeft) {
   BusLog log;
   log.fail_on_order = 4;
-  auto servo = make_shared_servo("servo_fail", log, logging_bus(log));
-  servo->activate_members(test_orb());
-  servo->on_start();
+  auto component = make_shared_servo("servo_fail", log, logging_bus(log));
+  rtm::comp::SharedTickServo* shared = component.get();
+  shared->activate_members(test_orb());
+  // As rtm-servo does: the servo's own servant runs last in the tick and reports members.
+  PortableServer::Servant_var<rtm::ComponentServant> servo =
+      new rtm::ComponentServant(std::move(component), rtm::ExternalTick{});
+  servo->set_timing_source(&shared->tick());
+  shared->add_to_tick(servo->cycle_function());
+  RTM::RtComponentEx_var ref = servo->activate(test_orb());
+  servo->on();
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (servo->tick().running() && std::chrono::steady_clock::now() < deadline)
+  while ((servo->current_state() != RTM::COMPONENT_ERROR || shared->tick().running()) &&
+         std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  ASSERT_FALSE(servo->tick().running()) << "the actuator's failure must stop the tick";
-  EXPECT_EQ(servo->actuator().current_state(), RTM::COMPONENT_ERROR);
-  EXPECT_EQ(log.transmits.load(), 4) << "the failing cycle transmits nothing";
+  ASSERT_EQ(servo->current_state(), RTM::COMPONENT_ERROR) << "the servo must not stay on with a failed member";
+  EXPECT_NE(servo->error_text().find("servo_fail_actuator failed"), std::string::npos) << servo->error_text();
+  EXPECT_FALSE(shared->tick().running());
+  EXPECT_EQ(shared->actuator().current_state(), RTM::COMPONENT_ERROR);
+  // The failing cycle still transmits (the actuator's on_stop set zero), then the cycles go
+  // back once, due one period after that cycle: the drives miss no SYNC.
+  EXPECT_EQ(log.transmits.load(), 5);
   ASSERT_EQ(log.hand_backs.size(), 1u);
-  // Due at the failing tick's own deadline: the bus's thread sends that cycle's SYNC at once.
-  const std::int64_t period_ns = servo->tick().options().period_ns;
+  const std::int64_t period_ns = shared->tick().options().period_ns;
   EXPECT_EQ((log.hand_backs[0] - log.take_over_ns) % period_ns, 0);
-  EXPECT_GE(log.hand_backs[0], log.take_over_ns + 4 * period_ns);
+  EXPECT_GE(log.hand_backs[0], log.take_over_ns + 5 * period_ns);
+  ASSERT_GE(log.events.size(), 3u);
+  EXPECT_EQ(log.events[log.events.size() - 3], "receive") << "the failing cycle ordered nothing";
+  EXPECT_EQ(log.events[log.events.size() - 2], "transmit");
   EXPECT_EQ(log.events.back(), "hand_back");
-  servo->on_stop();
+  servo->off();
   EXPECT_EQ(log.hand_backs.size(), 1u) << "handed back twice";
+  servo->deactivate();
 }
 
 TEST(SharedTickBusCycle, CyclesTakenBackByTheBusMasterFailTheServoWithoutAHandBack) {
