@@ -21,11 +21,11 @@
 //     the arm to reset too.
 #pragma once
 
-#include "components/actuator/latency_histogram.h"
 #include "components/actuator/velocity_arm.h"
 
 #include "rtm/activity.h"
 #include "rtm/component.h"
+#include "rtm/histogram.h"
 
 #include <array>
 #include <atomic>
@@ -95,8 +95,8 @@ class Actuator final : public rtm::Component {
   bool command_bad_ = false;
   VelocityArm::BusPosition last_command_bus_{};  // when the newest command was handed over
   std::array<std::atomic<float>, 6> last_twist_{};
-  LatencyHistogram latency_;           // stamp -> RPDOs written
-  LatencyHistogram handover_latency_;  // stamp -> handed to the arm
+  rtm::LatencyHistogram latency_;           // stamp -> RPDOs written
+  rtm::LatencyHistogram handover_latency_;  // stamp -> handed to the arm
   // The last command handed over whose RPDO write is still to be seen (sequence 0 = none).
   std::uint64_t pending_sequence_ = 0;
   std::int64_t pending_stamp_ns_ = 0;

@@ -10,7 +10,6 @@
 #include <time.h>
 
 #include <cerrno>
-#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
@@ -39,50 +38,6 @@ std::int64_t grid_point_at_or_after(std::int64_t origin_ns, std::int64_t period_
 std::int64_t first_deadline(std::int64_t requested_ns, std::int64_t period_ns, std::int64_t now_ns) {
   if (requested_ns == 0 || requested_ns >= now_ns) return requested_ns == 0 ? now_ns : requested_ns;
   return grid_point_at_or_after(requested_ns, period_ns, now_ns);
-}
-
-// ============================ histogram ===============================
-
-void LatenessHistogram::record(std::int64_t lateness_ns) {
-  if (lateness_ns < 0) lateness_ns = 0;
-  std::size_t index;
-  if (lateness_ns < 1'000'000) {
-    index = static_cast<std::size_t>(lateness_ns / 1'000);
-  } else if (lateness_ns < 1'000'000'000) {
-    index = kFineBuckets + static_cast<std::size_t>(lateness_ns / 1'000'000) - 1;
-  } else {
-    index = kBuckets - 1;
-  }
-  buckets_[index].fetch_add(1, std::memory_order_relaxed);
-  count_.fetch_add(1, std::memory_order_relaxed);
-  std::int64_t seen = max_ns_.load(std::memory_order_relaxed);
-  while (lateness_ns > seen && !max_ns_.compare_exchange_weak(seen, lateness_ns, std::memory_order_relaxed)) {
-  }
-}
-
-std::int64_t LatenessHistogram::percentile_ns(double q) const {
-  const std::uint64_t total = count_.load(std::memory_order_relaxed);
-  if (total == 0) return 0;
-  const auto target = static_cast<std::uint64_t>(std::ceil(q * static_cast<double>(total)));
-  const std::int64_t max = max_ns();
-  std::uint64_t cumulative = 0;
-  for (std::size_t i = 0; i < kBuckets; ++i) {
-    cumulative += buckets_[i].load(std::memory_order_relaxed);
-    if (cumulative >= target && cumulative > 0) {
-      std::int64_t upper;
-      if (i < kFineBuckets) upper = static_cast<std::int64_t>(i + 1) * 1'000;
-      else if (i < kBuckets - 1) upper = static_cast<std::int64_t>(i - kFineBuckets + 2) * 1'000'000;
-      else upper = max;
-      return upper < max ? upper : max;
-    }
-  }
-  return max;
-}
-
-void LatenessHistogram::clear() {
-  for (auto& b : buckets_) b.store(0, std::memory_order_relaxed);
-  count_.store(0, std::memory_order_relaxed);
-  max_ns_.store(0, std::memory_order_relaxed);
 }
 
 // ============================ thread settings =========================

@@ -5,7 +5,6 @@
 // SharedTick        one periodic thread running several cycles in order (composites)
 #pragma once
 
-#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -15,6 +14,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "rtm/histogram.h"
 
 namespace rtm {
 
@@ -66,25 +67,6 @@ struct ActivityStats {
   std::int64_t lateness_p99_ns = 0;
   std::int64_t lateness_max_ns = 0;  // exact
   double mean_period_error_ns = 0;   // mean(actual wake-to-wake interval - period_ns)
-};
-
-// Lock-free, allocation-free histogram of wake lateness: 1 us buckets below 1 ms, 1 ms buckets
-// up to 1 s, one overflow bucket. record() from the activity thread, snapshot from any thread.
-class LatenessHistogram {
- public:
-  void record(std::int64_t lateness_ns);
-  std::int64_t percentile_ns(double q) const;  // q in [0,1]; 0 when empty
-  std::int64_t max_ns() const { return max_ns_.load(std::memory_order_relaxed); }
-  std::uint64_t count() const { return count_.load(std::memory_order_relaxed); }
-  void clear();  // not concurrently with record()
-
- private:
-  static constexpr std::size_t kFineBuckets = 1000;    // [0, 1 ms) by 1 us
-  static constexpr std::size_t kCoarseBuckets = 999;   // [1 ms, 1 s) by 1 ms
-  static constexpr std::size_t kBuckets = kFineBuckets + kCoarseBuckets + 1;
-  std::array<std::atomic<std::uint64_t>, kBuckets> buckets_{};
-  std::atomic<std::uint64_t> count_{0};
-  std::atomic<std::int64_t> max_ns_{0};
 };
 
 // ============================ activities ==============================

@@ -273,7 +273,7 @@ TEST(ActuatorLatency, AnArmThatCannotTellRecordsNoBusLatency) {
 }
 
 TEST(LatencyHistogram, BucketsAre1usBelow1ms100usTo10msThen1ms) {
-  using H = rtm::comp::LatencyHistogram;
+  using H = rtm::LatencyHistogram;
   EXPECT_EQ(H::upper_edge_ns(H::bucket_of(0)), 1'000);
   EXPECT_EQ(H::upper_edge_ns(H::bucket_of(999'999)), 1'000'000);
   EXPECT_EQ(H::upper_edge_ns(H::bucket_of(1'000'000)), 1'100'000);
@@ -285,7 +285,7 @@ TEST(LatencyHistogram, BucketsAre1usBelow1ms100usTo10msThen1ms) {
 }
 
 TEST(LatencyHistogram, PercentilesAreBucketEdgesCappedAtTheMaximum) {
-  rtm::comp::LatencyHistogram h;
+  rtm::LatencyHistogram h;
   EXPECT_EQ(h.percentile_ns(0.5), 0);
   for (int i = 0; i < 98; ++i) h.record(1'234'000);  // 1.234 ms
   h.record(2'950'000);
