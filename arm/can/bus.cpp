@@ -62,12 +62,29 @@ bool wait_writable(int fd, std::chrono::steady_clock::time_point deadline) {
   return true;
 }
 
-// Sends frames with sendmmsg(MSG_DONTWAIT), up to kBatchChunk per call; returns how many the
-// kernel took (a short count: the queue is full or a call was interrupted). `error` gets the
-// errno of a failed call, 0 otherwise.
-constexpr std::size_t kBatchChunk = 16;
-std::size_t send_nonblocking(int fd, std::span<const can_frame> frames, int flags, int& error) {
-  error = 0;
+// Sending on a socket that carries one frame per datagram (CAN_RAW; the hub's SOCK_SEQPACKET).
+// A full transmit queue is waited on for kSendPatience, then the frame counts as dropped
+// (false); any other error goes to fail_with(errno, call), which throws.
+template <class Fail>
+bool send_frame(int fd, const can_frame& frame, int flags, const Fail& fail_with) {
+  const auto deadline = std::chrono::steady_clock::now() + kSendPatience;
+  for (;;) {
+    const ssize_t n = ::send(fd, &frame, sizeof frame, flags | MSG_DONTWAIT);
+    if (n == static_cast<ssize_t>(sizeof frame)) return true;
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == ENOBUFS || errno == EAGAIN)) {
+      if (wait_writable(fd, deadline)) continue;
+      return false;
+    }
+    fail_with(n < 0 ? errno : EIO, "send");
+  }
+}
+
+// The same for several frames: sendmmsg, up to kBatchChunk per call, and what a full queue
+// did not take one by one through send_frame(). Returns how many were queued.
+template <class Fail>
+std::size_t send_frames(int fd, std::span<const can_frame> frames, int flags, const Fail& fail_with) {
+  constexpr std::size_t kBatchChunk = 16;
   std::size_t sent = 0;
   while (sent < frames.size()) {
     const std::size_t count = std::min(kBatchChunk, frames.size() - sent);
@@ -80,12 +97,13 @@ std::size_t send_nonblocking(int fd, std::span<const can_frame> frames, int flag
       messages[i].msg_hdr.msg_iovlen = 1;
     }
     const int n = ::sendmmsg(fd, messages, static_cast<unsigned>(count), flags | MSG_DONTWAIT);
-    if (n < 0) {
-      error = errno;
+    if (n < 0 && errno != EAGAIN && errno != ENOBUFS && errno != EINTR) fail_with(errno, "sendmmsg");
+    if (n < static_cast<int>(count)) {  // the queue is full (or a signal came): the rest waits
+      if (n > 0) sent += static_cast<std::size_t>(n);
+      while (sent < frames.size() && send_frame(fd, frames[sent], flags, fail_with)) ++sent;
       return sent;
     }
-    sent += static_cast<std::size_t>(n);
-    if (static_cast<std::size_t>(n) < count) return sent;
+    sent += count;
   }
   return sent;
 }
@@ -112,31 +130,18 @@ class FdOwner {
 // ---- SocketCAN ---------------------------------------------------------------------------
 
 class SocketCanBus final : public Bus {
+  // What a failed system call throws (send_frame, send_frames).
+  auto failure() const {
+    return [this](int error, const char* call) { fail(name_, call, error); };
+  }
+
  public:
   SocketCanBus(std::string_view ifname, std::span<const FrameFilter> filters)
       : name_("socketcan:" + std::string(ifname)), fd_(open_socket(ifname, filters, name_)) {}
 
-  bool send(const can_frame& frame) override {
-    const auto deadline = std::chrono::steady_clock::now() + kSendPatience;
-    for (;;) {
-      const ssize_t n = ::send(fd_.get(), &frame, sizeof frame, MSG_DONTWAIT);
-      if (n == static_cast<ssize_t>(sizeof frame)) return true;
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0 && (errno == ENOBUFS || errno == EAGAIN)) {
-        if (wait_writable(fd_.get(), deadline)) continue;
-        return false;
-      }
-      fail(name_, "send", n < 0 ? errno : EIO);
-    }
-  }
-
+  bool send(const can_frame& frame) override { return send_frame(fd_.get(), frame, 0, failure()); }
   std::size_t send_batch(std::span<const can_frame> frames) override {
-    int error = 0;
-    std::size_t sent = send_nonblocking(fd_.get(), frames, 0, error);
-    if (error != 0 && error != EAGAIN && error != ENOBUFS && error != EINTR) fail(name_, "sendmmsg", error);
-    // The queue filled up: the rest one by one, each waiting as send() does.
-    while (sent < frames.size() && send(frames[sent])) ++sent;
-    return sent;
+    return send_frames(fd_.get(), frames, 0, failure());
   }
 
   bool receive(can_frame& frame, std::chrono::nanoseconds timeout) override {
@@ -206,36 +211,23 @@ class SocketCanBus final : public Bus {
 // ---- local bus endpoint ------------------------------------------------------------------
 
 class LocalBus final : public Bus {
+  // What a failed system call throws (send_frame, send_frames).
+  auto failure() const {
+    return [this](int error, const char* call) {
+      if (error == EPIPE || error == ECONNRESET) throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
+      fail(name_, call, error);
+    };
+  }
+
  public:
   LocalBus(std::string_view path, std::span<const FrameFilter> filters)
       : name_("local:" + std::string(path)),
         filters_(filters.begin(), filters.end()),
         fd_(connect_hub(path, name_)) {}
 
-  bool send(const can_frame& frame) override {
-    const auto deadline = std::chrono::steady_clock::now() + kSendPatience;
-    for (;;) {
-      const ssize_t n = ::send(fd_.get(), &frame, sizeof frame, MSG_DONTWAIT | MSG_NOSIGNAL);
-      if (n == static_cast<ssize_t>(sizeof frame)) return true;
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0 && (errno == EAGAIN || errno == ENOBUFS)) {
-        if (wait_writable(fd_.get(), deadline)) continue;
-        return false;
-      }
-      if (n < 0 && (errno == EPIPE || errno == ECONNRESET)) {
-        throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
-      }
-      fail(name_, "send", n < 0 ? errno : EIO);
-    }
-  }
-
+  bool send(const can_frame& frame) override { return send_frame(fd_.get(), frame, MSG_NOSIGNAL, failure()); }
   std::size_t send_batch(std::span<const can_frame> frames) override {
-    int error = 0;
-    std::size_t sent = send_nonblocking(fd_.get(), frames, MSG_NOSIGNAL, error);
-    if (error == EPIPE || error == ECONNRESET) throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
-    if (error != 0 && error != EAGAIN && error != ENOBUFS && error != EINTR) fail(name_, "sendmmsg", error);
-    while (sent < frames.size() && send(frames[sent])) ++sent;
-    return sent;
+    return send_frames(fd_.get(), frames, MSG_NOSIGNAL, failure());
   }
 
   bool receive(can_frame& frame, std::chrono::nanoseconds timeout) override {
@@ -290,12 +282,6 @@ class LocalBus final : public Bus {
 };
 
 }  // namespace
-
-std::size_t Bus::send_batch(std::span<const can_frame> frames) {
-  std::size_t sent = 0;
-  while (sent < frames.size() && send(frames[sent])) ++sent;
-  return sent;
-}
 
 bool passes(const can_frame& frame, std::span<const FrameFilter> filters) noexcept {
   if (filters.empty()) return true;

@@ -55,7 +55,7 @@ class Bus {
   // receiver woken by the first frame cannot delay the rest. Returns how many were queued: a
   // frame that finds the transmit queue full waits as in send(), and the frames from the
   // first one dropped on are not sent. Throws BusError as send(). No allocation.
-  virtual std::size_t send_batch(std::span<const can_frame> frames);
+  virtual std::size_t send_batch(std::span<const can_frame> frames) = 0;
 
   // Waits up to `timeout` for one frame (0 = just poll). Returns false on timeout. Frames not
   // passing the filters are skipped without counting against the caller. Throws BusError when
