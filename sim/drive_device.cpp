@@ -6,22 +6,10 @@ namespace rtm::sim {
 
 namespace pc = rtm::can;
 
-namespace {
-
-void send_if_ok(const pc::Result<can_frame>& frame, FrameSink& out) {
-  // An encoder refuses only out-of-range node ids or NaN: both are impossible here by
-  // construction, so a refusal is silently not sent rather than thrown into the bus loop.
-  if (frame.ok()) out.send(*frame);
-}
-
-}  // namespace
-
-DriveDevice::DriveDevice(DriveConfig config) : config_(config) {}
+DriveDevice::DriveDevice(DriveConfig config) : config_(config), nmt_(config.node_id, config.heartbeat_period_ns) {}
 
 void DriveDevice::power_on(std::int64_t now_ns, FrameSink& out) {
-  nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::boot_up);
-  send_if_ok(pc::encode_heartbeat(config_.node_id, pc::NmtState::boot_up), out);
-  nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::pre_operational);
+  nmt_.power_on(now_ns, out);
   drive_.reset();
   mode_ = 0;
   rpdo_pending_ = false;
@@ -30,7 +18,6 @@ void DriveDevice::power_on(std::int64_t now_ns, FrameSink& out) {
   target_velocity_rad_s_ = 0;
   syncs_without_rpdo_ = 0;
   tpdo_due_ = false;
-  next_heartbeat_ns_ = now_ns + config_.heartbeat_period_ns;
 }
 
 void DriveDevice::on_frame(const can_frame& frame, std::int64_t now_ns, FrameSink& out) {
@@ -54,20 +41,14 @@ void DriveDevice::on_frame(const can_frame& frame, std::int64_t now_ns, FrameSin
 }
 
 void DriveDevice::handle_nmt(const can_frame& frame, std::int64_t now_ns, FrameSink& out) {
-  const auto nmt = pc::decode_nmt(frame);
-  if (!nmt.ok()) return;
-  if (nmt->node != pc::kNmtAllNodes && nmt->node != config_.node_id) return;
-  switch (nmt->command) {
+  const auto command = nmt_.on_nmt(frame);
+  if (!command) return;
+  switch (*command) {
     case pc::NmtCommand::start:
-      nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::operational);
       break;
     case pc::NmtCommand::stop:
-      nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::stopped);
-      // A stopped node takes no PDOs: the drive must not keep moving on an old target.
-      if (drive_.follows_target_velocity()) drive_.apply_controlword(pc::controlword::kSwitchOn);
-      break;
     case pc::NmtCommand::enter_pre_operational:
-      nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::pre_operational);
+      // A node out of operational takes no PDOs: the drive must not keep moving on an old target.
       if (drive_.follows_target_velocity()) drive_.apply_controlword(pc::controlword::kSwitchOn);
       break;
     case pc::NmtCommand::reset_node:
@@ -78,7 +59,7 @@ void DriveDevice::handle_nmt(const can_frame& frame, std::int64_t now_ns, FrameS
 }
 
 void DriveDevice::handle_rpdo(const can_frame& frame, std::int64_t now_ns) {
-  if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::operational)) return;
+  if (!nmt_.is(pc::NmtState::operational)) return;
   const auto command = pc::decode_drive_command(frame);
   if (!command.ok()) return;
   last_rpdo_ns_ = now_ns;
@@ -89,7 +70,7 @@ void DriveDevice::handle_rpdo(const can_frame& frame, std::int64_t now_ns) {
 
 void DriveDevice::handle_sync(std::int64_t now_ns, FrameSink& out) {
   ++syncs_seen_;
-  if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::operational)) return;
+  if (!nmt_.is(pc::NmtState::operational)) return;
   tpdo_due_ = true;
   if (rpdo_pending_) {
     rpdo_pending_ = false;
@@ -123,7 +104,7 @@ void DriveDevice::send_emcy(std::uint16_t code, FrameSink& out) {
 void DriveDevice::send_tpdo(const JointState& state, FrameSink& out) {
   if (!tpdo_due_) return;
   tpdo_due_ = false;
-  if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::operational)) return;
+  if (!nmt_.is(pc::NmtState::operational)) return;
   pc::DriveFeedback feedback{};
   feedback.drive = config_.node_id;
   feedback.statusword = drive_.statusword();
@@ -133,24 +114,16 @@ void DriveDevice::send_tpdo(const JointState& state, FrameSink& out) {
 }
 
 void DriveDevice::tick(std::int64_t now_ns, FrameSink& out) {
-  if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::boot_up)) return;
+  if (!nmt_.powered()) return;
   if (drive_.follows_target_velocity() && config_.rpdo_silence_timeout_ns > 0 &&
       now_ns - last_rpdo_ns_ > config_.rpdo_silence_timeout_ns)
     enter_fault(pc::emcy::kRpdoTimeout, out);
-  if (now_ns < next_heartbeat_ns_) return;
-  send_heartbeat(out);
-  // Catch up without a burst when the clock jumped by several periods.
-  while (next_heartbeat_ns_ <= now_ns) next_heartbeat_ns_ += config_.heartbeat_period_ns;
-}
-
-void DriveDevice::send_heartbeat(FrameSink& out) {
-  if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::boot_up)) return;
-  send_if_ok(pc::encode_heartbeat(config_.node_id, static_cast<pc::NmtState>(nmt_state_)), out);
+  nmt_.tick(now_ns, out);
 }
 
 JointCommand DriveDevice::command() const {
   const bool moving = drive_.follows_target_velocity() &&
-                      nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::operational);
+                      nmt_.is(pc::NmtState::operational);
   if (!moving) return {};
   return {JointCommand::Mode::velocity, target_velocity_rad_s_};
 }
@@ -159,7 +132,7 @@ void DriveDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
   const auto request = pc::decode_sdo_request(frame);
   if (!request.ok()) return;
   // SDO is served in pre-operational and operational (CiA 301), not in stopped.
-  if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::stopped)) return;
+  if (nmt_.is(pc::NmtState::stopped)) return;
   pc::SdoResponse response{};
   response.node = config_.node_id;
   response.index = request->index;
@@ -182,7 +155,7 @@ void DriveDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
     switch (request->index) {
       case pc::object::kModesOfOperation: {
         if (request->data_size != 1) return abort(pc::sdo::kAbortLengthMismatch);
-        if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::pre_operational))
+        if (!nmt_.is(pc::NmtState::pre_operational))
           return abort(pc::sdo::kAbortWrongState);
         const auto mode = static_cast<std::int8_t>(request->data & 0xFF);
         if (mode != pc::object::kCyclicSynchronousVelocityMode)
@@ -192,8 +165,8 @@ void DriveDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
       }
       case 0x1017: {
         if (request->data_size != 2) return abort(pc::sdo::kAbortLengthMismatch);
-        config_.heartbeat_period_ns = static_cast<std::int64_t>(request->data) * 1'000'000;
-        if (config_.heartbeat_period_ns == 0) return abort(pc::sdo::kAbortValueRange);
+        if (request->data == 0) return abort(pc::sdo::kAbortValueRange);
+        nmt_.set_heartbeat_period_ns(static_cast<std::int64_t>(request->data) * 1'000'000);
         break;
       }
       case pc::object::kModesOfOperationDisplay:
@@ -218,7 +191,7 @@ void DriveDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
     case pc::object::kStatusword:
       return upload(drive_.statusword(), 2);
     case 0x1017:
-      return upload(static_cast<std::uint32_t>(config_.heartbeat_period_ns / 1'000'000), 2);
+      return upload(static_cast<std::uint32_t>(nmt_.heartbeat_period_ns() / 1'000'000), 2);
     case pc::object::kPositionActual:
     case pc::object::kVelocityActual:
       // Served by TPDO1 only: the device class does not hold the joint state between SYNCs.

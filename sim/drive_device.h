@@ -30,6 +30,7 @@
 
 #include "arm/can/cia402.h"
 #include "sim/frame_sink.h"
+#include "sim/nmt_node.h"
 
 namespace rtm::sim {
 
@@ -81,13 +82,13 @@ class DriveDevice {
 
   // Sends a heartbeat now (pa10-sim's lock-step mode also beats on the wall clock, so a
   // master that watches heartbeats in real time is served while no SYNC flows).
-  void send_heartbeat(FrameSink& out);
+  void send_heartbeat(FrameSink& out) { nmt_.send_heartbeat(out); }
 
   // What the joint servo must do now.
   JointCommand command() const;
 
   std::uint8_t node_id() const { return config_.node_id; }
-  std::uint8_t nmt_state() const { return nmt_state_; }          // 0x04/0x05/0x7F
+  std::uint8_t nmt_state() const { return nmt_.state(); }          // 0x04/0x05/0x7F
   std::uint16_t statusword() const { return drive_.statusword(); }  // 0x6041
   rtm::can::DriveState drive_state() const { return drive_.state(); }
   std::int8_t mode_of_operation() const { return mode_; }          // 0x6060/0x6061
@@ -104,7 +105,7 @@ class DriveDevice {
   void send_emcy(std::uint16_t code, FrameSink& out);
 
   DriveConfig config_;
-  std::uint8_t nmt_state_ = 0x00;
+  NmtNode nmt_;
   rtm::can::Cia402Drive drive_;
   std::int8_t mode_ = 0;
   // RPDO1 as received, and as latched at the last SYNC.
@@ -116,7 +117,6 @@ class DriveDevice {
   std::int64_t last_rpdo_ns_ = 0;  // device time of the last RPDO1 (or of enabling)
   bool tpdo_due_ = false;
   std::uint32_t syncs_seen_ = 0;
-  std::int64_t next_heartbeat_ns_ = 0;
 };
 
 }  // namespace rtm::sim

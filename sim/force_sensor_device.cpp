@@ -11,10 +11,6 @@ namespace pc = rtm::can;
 
 namespace {
 
-void send_if_ok(const pc::Result<can_frame>& frame, FrameSink& out) {
-  if (frame.ok()) out.send(*frame);
-}
-
 std::int16_t saturate_counts(double value, double unit, bool& saturated) {
   const double counts = std::round(value / unit);
   constexpr double kMax = std::numeric_limits<std::int16_t>::max();
@@ -32,21 +28,18 @@ std::int16_t saturate_counts(double value, double unit, bool& saturated) {
 
 }  // namespace
 
-ForceSensorDevice::ForceSensorDevice(ForceSensorConfig config) : config_(config) {}
+ForceSensorDevice::ForceSensorDevice(ForceSensorConfig config)
+    : config_(config), nmt_(config.node_id, config.heartbeat_period_ns) {}
 
 void ForceSensorDevice::power_on(std::int64_t now_ns, FrameSink& out) {
-  send_if_ok(pc::encode_heartbeat(config_.node_id, pc::NmtState::boot_up), out);
-  nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::pre_operational);
+  nmt_.power_on(now_ns, out);
   tpdo_due_ = false;
-  next_heartbeat_ns_ = now_ns + config_.heartbeat_period_ns;
 }
 
 void ForceSensorDevice::on_frame(const can_frame& frame, std::int64_t now_ns, FrameSink& out) {
   const pc::Classified kind = pc::classify(frame);
   if (kind.type == pc::FrameType::sync) {
-    if (pc::decode_sync(frame).ok() &&
-        nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::operational))
-      tpdo_due_ = true;
+    if (pc::decode_sync(frame).ok() && nmt_.is(pc::NmtState::operational)) tpdo_due_ = true;
     return;
   }
   if (kind.type == pc::FrameType::sdo_request && kind.node == config_.node_id) {
@@ -54,18 +47,13 @@ void ForceSensorDevice::on_frame(const can_frame& frame, std::int64_t now_ns, Fr
     return;
   }
   if (kind.type != pc::FrameType::nmt) return;
-  const auto nmt = pc::decode_nmt(frame);
-  if (!nmt.ok() || (nmt->node != pc::kNmtAllNodes && nmt->node != config_.node_id)) return;
-  switch (nmt->command) {
+  const auto command = nmt_.on_nmt(frame);
+  if (!command) return;
+  switch (*command) {
     case pc::NmtCommand::start:
-      nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::operational);
       break;
     case pc::NmtCommand::stop:
-      nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::stopped);
-      tpdo_due_ = false;
-      break;
     case pc::NmtCommand::enter_pre_operational:
-      nmt_state_ = static_cast<std::uint8_t>(pc::NmtState::pre_operational);
       tpdo_due_ = false;
       break;
     case pc::NmtCommand::reset_node:
@@ -90,7 +78,7 @@ ForceSensorDevice::Counts ForceSensorDevice::to_counts(const Wrench& raw) const 
 void ForceSensorDevice::send_tpdo(const Wrench& raw, FrameSink& out) {
   if (!tpdo_due_) return;
   tpdo_due_ = false;
-  if (nmt_state_ != static_cast<std::uint8_t>(pc::NmtState::operational)) return;
+  if (!nmt_.is(pc::NmtState::operational)) return;
   const Counts counts = to_counts(raw);
   pc::SensorForce force{};
   pc::SensorTorque torque{};
@@ -107,17 +95,7 @@ void ForceSensorDevice::send_tpdo(const Wrench& raw, FrameSink& out) {
   }
 }
 
-void ForceSensorDevice::tick(std::int64_t now_ns, FrameSink& out) {
-  if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::boot_up)) return;
-  if (now_ns < next_heartbeat_ns_) return;
-  send_heartbeat(out);
-  while (next_heartbeat_ns_ <= now_ns) next_heartbeat_ns_ += config_.heartbeat_period_ns;
-}
-
-void ForceSensorDevice::send_heartbeat(FrameSink& out) {
-  if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::boot_up)) return;
-  send_if_ok(pc::encode_heartbeat(config_.node_id, static_cast<pc::NmtState>(nmt_state_)), out);
-}
+void ForceSensorDevice::tick(std::int64_t now_ns, FrameSink& out) { nmt_.tick(now_ns, out); }
 
 void ForceSensorDevice::add_tare_sample(const Wrench& raw) {
   if (tared()) return;
@@ -140,7 +118,7 @@ void ForceSensorDevice::send_emcy(std::uint16_t code, FrameSink& out) {
 void ForceSensorDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
   const auto request = pc::decode_sdo_request(frame);
   if (!request.ok()) return;
-  if (nmt_state_ == static_cast<std::uint8_t>(pc::NmtState::stopped)) return;
+  if (nmt_.is(pc::NmtState::stopped)) return;
   pc::SdoResponse response{};
   response.node = config_.node_id;
   response.index = request->index;
@@ -148,7 +126,7 @@ void ForceSensorDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
   if (request->kind == pc::SdoRequestKind::upload && request->index == 0x1017 &&
       request->subindex == 0) {
     response.kind = pc::SdoResponseKind::upload_data;
-    response.data = static_cast<std::uint32_t>(config_.heartbeat_period_ns / 1'000'000);
+    response.data = static_cast<std::uint32_t>(nmt_.heartbeat_period_ns() / 1'000'000);
     response.data_size = 2;
   } else {
     response.kind = pc::SdoResponseKind::abort;

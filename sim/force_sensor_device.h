@@ -17,6 +17,7 @@
 #include <cstdint>
 
 #include "sim/frame_sink.h"
+#include "sim/nmt_node.h"
 #include "sim/wrench.h"
 
 namespace rtm::sim {
@@ -44,7 +45,7 @@ class ForceSensorDevice {
   // from outside, in the sensor frame.
   void send_tpdo(const Wrench& raw, FrameSink& out);
   void tick(std::int64_t now_ns, FrameSink& out);
-  void send_heartbeat(FrameSink& out);
+  void send_heartbeat(FrameSink& out) { nmt_.send_heartbeat(out); }
 
   // Taring: averages the first config.tare_samples samples; later samples are ignored.
   void add_tare_sample(const Wrench& raw);
@@ -60,20 +61,19 @@ class ForceSensorDevice {
   Counts to_counts(const Wrench& raw) const;
 
   std::uint8_t node_id() const { return config_.node_id; }
-  std::uint8_t nmt_state() const { return nmt_state_; }
+  std::uint8_t nmt_state() const { return nmt_.state(); }
 
  private:
   void handle_sdo(const can_frame& frame, FrameSink& out);
   void send_emcy(std::uint16_t code, FrameSink& out);
 
   ForceSensorConfig config_;
-  std::uint8_t nmt_state_ = 0x00;
+  NmtNode nmt_;
   bool tpdo_due_ = false;
   bool overload_reported_ = false;
   int tare_count_ = 0;
   Wrench tare_sum_{};
   Wrench offset_{};
-  std::int64_t next_heartbeat_ns_ = 0;
 };
 
 }  // namespace rtm::sim
