@@ -25,3 +25,26 @@ function(rtm_add_gtest name)
     "endforeach()\n")
   set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${props})
 endfunction()
+
+# rtm_add_vcan_test(<name> COMMAND <command...> [TIMEOUT s])
+#
+# A test that needs a kernel with SocketCAN: scripts/vm-vcan-run boots Debian's kernel under
+# QEMU with vcan0 up and runs COMMAND there, from this host's filesystem. Labels socketcan and
+# integration in every preset (ASan and TSan builds run in the guest too). It is skipped
+# (SKIP_RETURN_CODE 77) only when no guest can be started on this host at all, saying why;
+# a guest that boots and fails, or a command that fails, fails the test.
+function(rtm_add_vcan_test name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "COMMAND" ${ARGN})
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 420)
+  endif()
+  math(EXPR guest_timeout "${ARG_TIMEOUT} - 30")
+  add_test(NAME ${name}
+    COMMAND ${PROJECT_SOURCE_DIR}/scripts/vm-vcan-run --skip-code 77 -t ${guest_timeout} --
+            ${ARG_COMMAND})
+  set_tests_properties(${name} PROPERTIES
+    LABELS "socketcan;integration"
+    SKIP_RETURN_CODE 77
+    TIMEOUT ${ARG_TIMEOUT}
+    ENVIRONMENT "RTM_BUILD_DIR=${CMAKE_BINARY_DIR};RTM_SOURCE_DIR=${CMAKE_SOURCE_DIR}")
+endfunction()

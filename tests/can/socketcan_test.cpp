@@ -1,5 +1,6 @@
-// The SocketCAN transport and the master over a real kernel CAN stack (vcan0). Run inside
-// User-Mode Linux by uml-vcan-run.sh (CTest label socketcan); skips where the kernel has no CAN.
+// The SocketCAN transport and the master over a real kernel CAN stack (vcan0). CTest runs it in
+// a QEMU guest through scripts/vm-vcan-run (label socketcan). Without a CAN stack or vcan0 every
+// test fails, never skips: where it runs, both must be there.
 #include <net/if.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -25,9 +26,9 @@ class SocketCan : public ::testing::Test {
  protected:
   void SetUp() override {
     const int probe = ::socket(PF_CAN, SOCK_RAW, CAN_RAW);
-    if (probe < 0) GTEST_SKIP() << "no SocketCAN in this kernel: run through tests/can/uml-vcan-run.sh";
+    if (probe < 0) GTEST_FAIL() << "no SocketCAN in this kernel: run it through scripts/vm-vcan-run";
     ::close(probe);
-    if (::if_nametoindex("vcan0") == 0) GTEST_SKIP() << "no vcan0 interface";
+    if (::if_nametoindex("vcan0") == 0) GTEST_FAIL() << "no vcan0 interface: run it through scripts/vm-vcan-run";
   }
 };
 
@@ -95,7 +96,7 @@ TEST_F(SocketCan, MissingInterfaceIsNamedInTheError) {
 
 TEST_F(SocketCan, MasterStartsTheFakePa10AndExchangesPdos) {
   MasterConfig config;
-  config.heartbeat_timeout = 5000ms;  // UML time is not real time
+  config.heartbeat_timeout = 5000ms;  // the guest's time is not real time
   config.step_timeout = 2s;
   config.enable_timeout = 10000ms;
   Pa10Master master("socketcan:vcan0", "", config);

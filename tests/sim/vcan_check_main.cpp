@@ -1,7 +1,7 @@
-// Runs inside User-Mode Linux (tests/can/uml-vcan-run.sh) where vcan0 exists: pa10-sim and the
+// Runs in a QEMU guest (scripts/vm-vcan-run) where vcan0 exists: pa10-sim and the
 // arm library talk over real SocketCAN in lock-step while candump watches the bus.
 // usage: sim_vcan_check <pa10-sim> <pa10.urdf>; prints "vcan check passed" and exits 0, or
-// prints what failed and exits 1. Functional only: UML does not keep real time.
+// prints what failed and exits 1. Functional only: the guest does not keep real time.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     config.boot_timeout = 30s;
     config.sdo_timeout = 5s;
     config.enable_timeout = 30s;
-    config.heartbeat_timeout = 10s;  // UML's clock is not real time
+    config.heartbeat_timeout = 10s;  // the guest's clock is not real time
     double moved_rad = 0;
     {
       rtm::can::Pa10Master master("socketcan:vcan0", "", config);
