@@ -1,6 +1,10 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages RTM needs to build, test and run: only those missing.
-# Runs apt-get as root (directly, or through sudo when not root). Idempotent.
+# Installs the Debian 12 packages RTM needs: only those missing. Idempotent.
+#   scripts/deps.sh        what building and running the demo needs
+#   scripts/deps.sh test   that, and what the test suite needs besides (QEMU and busybox for the
+#                          SocketCAN tests' guest, can-utils and kmod)
+# Runs apt-get as root (directly, or through sudo when not root). Installs no kernel: the
+# SocketCAN tests' guest kernel is fetched into a cache by scripts/vm-vcan-run, never installed.
 set -euo pipefail
 
 packages=(
@@ -10,9 +14,13 @@ packages=(
   libmujoco-dev libqhull-dev
   libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  user-mode-linux kmod iproute2 can-utils
-  gnuplot-nox procps
+  gnuplot-nox procps iproute2
 )
+case "${1:-}" in
+  "") ;;
+  test) packages+=(qemu-system-x86 busybox-static kmod xz-utils util-linux can-utils) ;;
+  *) echo "usage: $0 [test]" >&2; exit 2 ;;
+esac
 
 missing=()
 for p in "${packages[@]}"; do

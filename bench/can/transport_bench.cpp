@@ -1,8 +1,8 @@
 // Frames through a CAN transport, and the master's lock-step cycle against the fake PA10.
 //
 // usage: can_transport_bench [BUS]   BUS = "local" (default: starts its own hub in a temporary
-//        directory) or a spec such as "socketcan:vcan0" (run inside UML with
-//        tests/can/uml-vcan-run.sh; UML is not real-time: its figures are functional only).
+//        directory) or a spec such as "socketcan:vcan0" (run in a QEMU guest with
+//        scripts/vm-vcan-run; the guest is not real-time: its figures are functional only).
 // Prints: one-way burst throughput (frames/s), ping-pong round trip (p50/p99/max), a cycle's
 // 8 frames written by 8 send() calls vs one send_batch(), and the lock-step master cycle
 // (RPDOs + SYNC + 7 drive and 4 sensor TPDOs) rate.

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The guest runner (scripts/vm-vcan-run) reports what the guest did: the command's exit code and
 # output, the caller's environment and directory, the vcan interfaces asked for, modules loaded
-# on demand, writes that vanish unless written through, a timeout (124) and bad usage (2).
+# on demand, writes that vanish unless written through, a timeout (124), bad usage (2), and a
+# host where no guest can start (a skip that says why, or 125).
 # Exits 77 (skipped) only when no guest can be started on this host, saying why.
 # usage: vm_runner_test.sh <path to vm-vcan-run>
 set -uo pipefail
@@ -65,6 +66,16 @@ check "no command is a usage error (2)" test $? -eq 2
 check "a timeout that is not a number is a usage error (2)" test $? -eq 2
 "$runner" -w "$scratch/does-not-exist" -- true >/dev/null 2>&1
 check "a -w directory that does not exist is a usage error (2)" test $? -eq 2
+
+# Where no guest can start, --skip-code turns that into a skip that says why, and without it the
+# runner fails (125) with the same reason; --probe says so too.
+output=$(RTM_VM_QEMU=/nonexistent/qemu "$runner" --skip-code 77 -- true 2>&1)
+check "no QEMU: --skip-code's code (77)" test $? -eq 77
+check "no QEMU: the skip says why" grep -q "SKIPPED.*qemu-system-x86_64 not found" <<<"$output"
+output=$(RTM_VM_QEMU=/nonexistent/qemu "$runner" -- true 2>&1)
+check "no QEMU and no --skip-code: the guest could not run it (125)" test $? -eq 125
+RTM_VM_QEMU=/nonexistent/qemu "$runner" --probe >/dev/null 2>&1
+check "no QEMU: --probe fails (1)" test $? -eq 1
 
 if ((failures)); then echo "$failures check(s) failed"; exit 1; fi
 echo "all checks passed"
