@@ -2,6 +2,7 @@
 
 #include "rtm/data.h"
 #include "rtm/log.h"
+#include "rtm/runner.h"
 
 #include <fmt/format.h>
 #include <spdlog/logger.h>
@@ -11,6 +12,12 @@
 #include <stdexcept>
 
 namespace rtm::comp {
+
+void ActuatorParams::add_options(CLI::App& app) {
+  rtm::add_array_option(app, "--limit", limit, "6 limits: vx vy vz in m/s, wx wy wz in rad/s");
+  app.add_option("--watchdog-periods", watchdog_periods, "cycles without a new command before zero velocity")
+      ->capture_default_str();
+}
 
 void ActuatorParams::validate() const {
   for (std::size_t i = 0; i < limit.size(); ++i) {

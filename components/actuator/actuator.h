@@ -42,6 +42,9 @@ struct ActuatorParams {
 
   // Throws std::invalid_argument for a negative or non-finite limit, or watchdog_periods 0.
   void validate() const;
+  // Registers --limit and --watchdog-periods on app, bound to these fields (rtm-actuator and
+  // rtm-servo share them); call validate() after parsing.
+  void add_options(CLI::App& app);
 };
 
 // Fig. 7: each component clamped to [-limit[i], +limit[i]].

@@ -5,13 +5,10 @@
 
 #include "rtm/runner.h"
 
-#include <vector>
-
 int main(int argc, char** argv) {
   rtm::comp::ArmHardware::Options hardware;
   hardware.urdf = RTM_PA10_URDF;
   rtm::comp::ActuatorParams params;
-  std::vector<float> limit(params.limit.begin(), params.limit.end());
   return rtm::run_component(argc, argv, {
       .kind = "actuator",
       .description =
@@ -20,21 +17,12 @@ int main(int argc, char** argv) {
           "while the component is off",
       .add_options =
           [&](CLI::App& app) {
-            app.add_option("--bus", hardware.bus, "the arm's CAN bus: local:<path> or socketcan:<if>")
-                ->capture_default_str();
-            app.add_option("--sensor-bus", hardware.sensor_bus, "separate bus of the force sensors (default: --bus)");
-            app.add_option("--urdf", hardware.urdf, "arm model for the velocity IK")->capture_default_str();
-            app.add_option("--limit", limit, "6 limits: vx vy vz in m/s, wx wy wz in rad/s")
-                ->expected(6)
-                ->capture_default_str();
-            app.add_option("--watchdog-periods", params.watchdog_periods,
-                           "cycles without a new command before zero velocity")
-                ->capture_default_str();
+            hardware.add_options(app);
+            params.add_options(app);
           },
+      .validate = [&](const rtm::RunSettings&) { params.validate(); },
       .create =
           [&](const rtm::RunSettings& settings) {
-            for (std::size_t i = 0; i < 6; ++i) params.limit[i] = limit[i];
-            params.validate();
             hardware.period = std::chrono::nanoseconds(settings.period_ns);
             hardware.rt_priority = settings.rt_priority;
             hardware.cpu = settings.cpu;

@@ -12,6 +12,10 @@
 #include <memory>
 #include <string>
 
+namespace CLI {
+class App;
+}
+
 namespace rtm::comp {
 
 enum class ArmStatus : std::uint8_t {
@@ -74,6 +78,9 @@ class ArmHardware final : public VelocityArm {
     int rt_priority = 0;  // of the master's thread; 0 = SCHED_OTHER
     int cpu = -1;
     std::chrono::nanoseconds step_timeout{std::chrono::seconds(2)};  // lock-step wait per SYNC
+
+    // Registers --bus, --sensor-bus and --urdf on app, bound to these fields.
+    void add_options(CLI::App& app);
   };
 
   // Opens the buses and starts the master (blocks until every drive is enabled). Throws

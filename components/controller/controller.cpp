@@ -2,6 +2,7 @@
 
 #include "rtm/data.h"
 #include "rtm/log.h"
+#include "rtm/runner.h"
 
 #include <fmt/format.h>
 #include <spdlog/logger.h>
@@ -10,6 +11,12 @@
 #include <stdexcept>
 
 namespace rtm::comp {
+
+void ControllerParams::add_options(CLI::App& app) {
+  rtm::add_array_option(app, "--gain", gain, "6 gains: x y z in (m/s)/N, rx ry rz in (rad/s)/(N·m)");
+  app.add_option("--stale-periods", stale_periods, "cycles without a new input datum before the command is zero")
+      ->capture_default_str();
+}
 
 void ControllerParams::validate() const {
   for (std::size_t i = 0; i < gain.size(); ++i) {

@@ -19,6 +19,10 @@
 #include <cstdint>
 #include <string>
 
+namespace CLI {
+class App;
+}
+
 namespace rtm::comp {
 
 struct ControllerParams {
@@ -29,6 +33,9 @@ struct ControllerParams {
 
   // Throws std::invalid_argument naming the bad value (NaN/inf gain, stale_periods 0).
   void validate() const;
+  // Registers --gain and --stale-periods on app, bound to these fields (rtm-controller and
+  // rtm-servo share them); call validate() after parsing.
+  void add_options(CLI::App& app);
 };
 
 // Fig. 6: out[i] = gain[i] * (ref[i] + sen[i]).

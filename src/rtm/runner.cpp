@@ -116,17 +116,13 @@ SplitArguments split_orb_arguments(int argc, const char* const* argv) {
   return split;
 }
 
-int run_component(int argc, char** argv, const ComponentMain& main) {
-  const char* program = program_name(argc > 0 ? argv[0] : "rtm-component");
-  if (!main.create) {
-    std::fprintf(stderr, "%s: no component factory given\n", program);
-    return 1;
-  }
-  TerminationSignals signals;
+namespace {
 
-  // ---- command line ----
+// Parses the command line into settings; returns an exit status when the process should stop
+// here (--help, or a bad command line: 2).
+std::optional<int> parse_command_line(int argc, char** argv, const char* program, const ComponentMain& main,
+                                      RunSettings& settings) {
   auto split = split_orb_arguments(argc, argv);
-  RunSettings settings;
   settings.name = (main.kind.empty() ? std::string("component") : main.kind) + "0";
   settings.orb_args = std::move(split.orb);
   std::string naming_text;
@@ -140,7 +136,9 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   app.add_option("--period", period_text, "cycle period: 2ms, 500us, 1000ns, 0.002s")->capture_default_str();
   app.add_option("--rt-priority", settings.rt_priority, "SCHED_FIFO priority of the activity (1..99)")
       ->check(CLI::Range(0, 99));
-  app.add_option("--cpu", settings.cpu, "pin the process to this CPU")->check(CLI::NonNegativeNumber);
+  app.add_option("--cpu", settings.cpu,
+                 main.pin_process_to_cpu ? "pin the process to this CPU" : "pin the component's threads to this CPU")
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--mlock", settings.lock_memory, "lock the process's memory (mlockall)");
   app.add_option("--endpoint", settings.endpoints,
                  "omniORB endpoint, repeatable (default: giop:tcp:127.0.0.1: and giop:unix:)");
@@ -158,16 +156,55 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
     app.parse(static_cast<int>(own_argv.size()), own_argv.data());
     settings.period_ns = parse_period_ns(period_text);
     settings.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
+    if (main.validate) main.validate(settings);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return app.exit(e) == 0 ? 0 : 2;  // --help: 0; CLI11's own codes (105, 114, ...) are all "bad command line"
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "%s: %s\n", program, e.what());
     return 2;
   }
   if (settings.endpoints.empty()) settings.endpoints = {"giop:tcp:127.0.0.1:", "giop:unix:"};
-  if (settings.cpu >= 0) pin_process_to_cpu(settings.cpu);
+  return std::nullopt;
+}
 
-  // ---- bring up: ORB, component, servant, name ----
+// Builds the component and its servant, activates it and binds its names; turns it on when
+// asked. Throws what the component's factory or the ORB throws; what was made by then is in
+// servant and bindings, for the caller's ordered shutdown.
+void bring_up(const ComponentMain& main, const RunContext& context, PortableServer::Servant_var<ComponentServant>& servant,
+              std::vector<std::unique_ptr<NameBinding>>& bindings) {
+  const RunSettings& settings = context.settings;
+  auto component = main.create_with_orb ? main.create_with_orb(context) : main.create(settings);
+  if (!component) throw std::runtime_error("the factory made no component");
+  ActivitySpec activity =
+      main.activity ? main.activity(settings, *component) : ActivitySpec{settings.periodic_options()};
+  servant = new ComponentServant(std::move(component), std::move(activity));
+  RTM::RtComponentEx_var reference = servant->activate(context.orb);
+  std::vector<ExtraName> extra_names;
+  if (main.on_activated) extra_names = main.on_activated(*servant, context);
+  bindings.push_back(std::make_unique<NameBinding>(context.orb.orb(), settings.naming,
+                                                   ComponentPath::on_this_host(settings.name), reference));
+  for (const auto& extra : extra_names) {
+    bindings.push_back(std::make_unique<NameBinding>(context.orb.orb(), settings.naming,
+                                                     ComponentPath::on_this_host(extra.name), extra.reference));
+  }
+  if (settings.turn_on) servant->on();
+}
+
+}  // namespace
+
+int run_component(int argc, char** argv, const ComponentMain& main) {
+  const char* program = program_name(argc > 0 ? argv[0] : "rtm-component");
+  if (!main.create && !main.create_with_orb) {
+    std::fprintf(stderr, "%s: no component factory given\n", program);
+    return 1;
+  }
+  TerminationSignals signals;
+
+  RunSettings settings;
+  if (auto exit_status = parse_command_line(argc, argv, program, main, settings)) return *exit_status;
+  if (settings.cpu >= 0 && main.pin_process_to_cpu) pin_process_to_cpu(settings.cpu);
+
+  // ---- bring up: ORB, component, servant, names ----
   std::vector<std::string> orb_args;
   for (const auto& endpoint : settings.endpoints) orb_args.insert(orb_args.end(), {"-ORBendPoint", endpoint});
   orb_args.insert(orb_args.end(), settings.orb_args.begin(), settings.orb_args.end());
@@ -183,17 +220,9 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   int status = 0;
   {
     PortableServer::Servant_var<ComponentServant> servant;
-    std::unique_ptr<NameBinding> binding;
+    std::vector<std::unique_ptr<NameBinding>> bindings;
     try {
-      auto component = main.create(settings);
-      if (!component) throw std::runtime_error("the factory made no component");
-      ActivitySpec activity = main.activity ? main.activity(settings, *component)
-                                            : ActivitySpec{settings.periodic_options()};
-      servant = new ComponentServant(std::move(component), std::move(activity));
-      RTM::RtComponentEx_var reference = servant->activate(*orb);
-      binding = std::make_unique<NameBinding>(orb->orb(), settings.naming,
-                                              ComponentPath::on_this_host(settings.name), reference);
-      if (settings.turn_on) servant->on();
+      bring_up(main, RunContext{settings, *orb}, servant, bindings);
     } catch (const CORBA::Exception& e) {
       log().error("{} could not start: CORBA {}", settings.name, e._name());
       status = 1;
@@ -207,7 +236,7 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
       log().info("stopping {} ({})", settings.name, received == SIGINT ? "SIGINT" : "SIGTERM");
     }
 
-    // ---- shut down in order: no more cycles, no more name, no more servants ----
+    // ---- shut down in order: no more cycles, no more names, no more servants ----
     try {
       if (servant) servant->off();
     } catch (const CORBA::Exception& e) {
@@ -215,7 +244,7 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
     } catch (const std::exception& e) {
       log().warn("{}: off() failed: {}", settings.name, e.what());
     }
-    binding.reset();
+    bindings.clear();
     if (servant) servant->deactivate();
   }
   orb.reset();

@@ -34,9 +34,12 @@
 
 #include <CLI/App.hpp>
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -59,22 +62,61 @@ struct RunSettings {
   PeriodicOptions periodic_options() const;
 };
 
+// What a component's main has at hand once the ORB is up.
+struct RunContext {
+  const RunSettings& settings;
+  Orb& orb;
+};
+
+// A further name bound beside the component's own while it runs (a composite's members).
+struct ExtraName {
+  std::string name;  // bound as <host>.host_cxt/<name>.rtc
+  CORBA::Object_var reference;
+};
+
 // How to make one kind of component.
 struct ComponentMain {
   std::string kind = {};    // "sensor", "controller", ...: default name <kind>0
   std::string description = {};  // one line for --help
   // Adds the component's own options to app (bound to variables the caller owns). Optional.
   std::function<void(CLI::App& app)> add_options = {};
+  // Checks the parsed command line as a whole: parameter ranges, options that apply only
+  // together. std::invalid_argument or CLI::ValidationError: one error line, exit status 2.
+  std::function<void(const RunSettings&)> validate = {};
   // Builds the component after the command line is parsed. An exception becomes one error
   // line and exit status 1.
   std::function<std::unique_ptr<Component>(const RunSettings&)> create = {};
+  // Instead of create, for a component that needs the ORB to be built: a composite that
+  // activates its members, or finds them through the naming service.
+  std::function<std::unique_ptr<Component>(const RunContext&)> create_with_orb = {};
   // The activity that runs it; default: periodic with the settings' period, priority, CPU.
   std::function<ActivitySpec(const RunSettings&, Component&)> activity = {};
+  // After the servant is activated, before its name is bound: e.g. a composite hands out a
+  // member's port (ComponentServant::expose_in_port). Returns names to bind beside its own.
+  std::function<std::vector<ExtraName>(ComponentServant&, const RunContext&)> on_activated = {};
+  // --cpu pins the whole process before any thread starts (true), or is left to the component,
+  // which pins the threads it runs from RunSettings::cpu (false).
+  bool pin_process_to_cpu = true;
 };
 
 // Runs one component until SIGINT/SIGTERM. Returns the process exit status: 0 after a clean
 // shutdown, 1 when the component could not start, 2 for a bad command line.
 int run_component(int argc, char** argv, const ComponentMain& main);
+
+// Adds an option that takes exactly N numbers into values (six gains, six limits), with the
+// current values shown as its default in --help.
+template <typename T, std::size_t N>
+CLI::Option* add_array_option(CLI::App& app, const std::string& name, std::array<T, N>& values,
+                              const std::string& description) {
+  std::ostringstream shown;
+  for (std::size_t i = 0; i < N; ++i) shown << (i == 0 ? "" : " ") << values[i];
+  return app
+      .add_option_function<std::vector<T>>(
+          name, [&values](const std::vector<T>& given) { std::copy_n(given.begin(), N, values.begin()); },
+          description)
+      ->expected(static_cast<int>(N))
+      ->default_str(shown.str());
+}
 
 // Parses a period: "2ms", "500us", "250000ns", "0.002s" or "0.002" (seconds). Throws
 // std::invalid_argument naming the text when it is not a positive duration.

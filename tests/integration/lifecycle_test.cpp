@@ -54,6 +54,44 @@ TEST_F(IntegrationTest, BadCommandLineIsOneErrorAndExitStatusTwo) {
   EXPECT_NE(process.output().find("period 'fast'"), std::string::npos) << process.output();
 }
 
+TEST_F(IntegrationTest, AnUnknownOptionIsOneErrorAndExitStatusTwo) {
+  rtm_test::ChildProcess process({RTM_TEST_COMPONENT, "--no-such-option", "--naming", names_.address()});
+  const auto status = process.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(status->exited);
+  EXPECT_EQ(status->code, 2) << process.output();
+  EXPECT_NE(process.output().find("--no-such-option"), std::string::npos) << process.output();
+}
+
+TEST_F(IntegrationTest, TheValidateHookRefusesTheCommandLineWithExitStatusTwoBeforeAnythingStarts) {
+  rtm_test::ChildProcess process(
+      {RTM_TEST_COMPONENT, "--name", "twice0", "--also-bind", "twice0", "--naming", names_.address()});
+  const auto status = process.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_EQ(status->code, 2) << process.output();
+  EXPECT_NE(process.output().find("--also-bind twice0 is the component's own name"), std::string::npos)
+      << process.output();
+  EXPECT_FALSE(naming().is_bound(rtm::ComponentPath::on_this_host("twice0")));
+}
+
+TEST_F(IntegrationTest, NamesFromTheOnActivatedHookAreBoundBesideTheOwnAndUnboundAtExit) {
+  auto& process = start_component("main0", {"--also-bind", "alias0", "--also-bind", "alias1"});
+  process.wait_for_line("bound alias1", 10s);  // bound in order: main0, alias0, alias1
+  for (const char* name : {"main0", "alias0", "alias1"}) {
+    EXPECT_TRUE(naming().is_bound(rtm::ComponentPath::on_this_host(name))) << name;
+  }
+  auto alias = component("alias1");
+  CORBA::String_var name = alias->name();
+  EXPECT_STREQ(name.in(), "main0");  // the same component under another name
+  process.send_signal(SIGTERM);
+  const auto status = process.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(status->clean()) << status->to_string();
+  for (const char* gone : {"main0", "alias0", "alias1"}) {
+    EXPECT_FALSE(naming().is_bound(rtm::ComponentPath::on_this_host(gone))) << gone;
+  }
+}
+
 }  // namespace
 }  // namespace rtm_it
 

@@ -5,8 +5,14 @@
 //   echo  OutPort  TimedFloat6  each new datum read from in0, written back unchanged
 //   in0   InPort   TimedFloat6  latest value
 //   in3   InPort   TimedFloat3  latest value (for type-mismatch checks)
+// --also-bind NAME (repeatable): the runner's on_activated hook binds the component under NAME
+// too; a NAME equal to --name is refused by its validate hook.
 #include "rtm/data.h"
 #include "rtm/runner.h"
+
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace {
 
@@ -37,9 +43,24 @@ class TestComponent final : public rtm::Component {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::vector<std::string> also_bind;
   return rtm::run_component(argc, argv, {
       .kind = "test",
       .description = "rtm-test-component: ramp on out0, in0 echoed on echo, in3 takes TimedFloat3",
+      .add_options =
+          [&](CLI::App& app) { app.add_option("--also-bind", also_bind, "bind the component under this name too"); },
+      .validate =
+          [&](const rtm::RunSettings& settings) {
+            for (const auto& name : also_bind) {
+              if (name == settings.name) throw std::invalid_argument("--also-bind " + name + " is the component's own name");
+            }
+          },
       .create = [](const rtm::RunSettings& settings) { return std::make_unique<TestComponent>(settings.name); },
+      .on_activated =
+          [&](rtm::ComponentServant& servant, const rtm::RunContext&) {
+            std::vector<rtm::ExtraName> names;
+            for (const auto& name : also_bind) names.push_back({name, servant.reference()});
+            return names;
+          },
   });
 }
