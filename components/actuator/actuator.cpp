@@ -47,9 +47,7 @@ void Actuator::on_start() {
   // A command that arrived while off is not one to act on.
   RTM::TimedFloat6 discard;
   command_in_.read(discard);
-  age_ = 0;
-  had_command_ = false;
-  watchdog_tripped_ = false;
+  command_freshness_.reset();
   command_bad_ = false;
   twist_ = {};
 }
@@ -68,10 +66,9 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
   record_sent_latency();
   bool fresh_command = false;
   bool watchdog_fired = false;
-  if (command_in_.read(command_) == rtm::ReadResult::NewData) {
-    age_ = 0;
-    had_command_ = true;
-    watchdog_tripped_ = false;
+  const bool new_command = command_in_.read(command_) == rtm::ReadResult::NewData;
+  const bool went_stale = command_freshness_.tick(new_command) == rtm::Freshness::Change::went_stale;
+  if (new_command) {
     const bool bad = rtm::has_non_finite(command_);
     if (bad) {
       if (!command_bad_) {
@@ -91,20 +88,16 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
       fresh_command = true;
     }
     command_bad_ = bad;
-  } else {
-    if (age_ < params_.watchdog_periods) ++age_;
-    if (!had_command_) {
-      twist_ = {};
-    } else if (age_ >= params_.watchdog_periods && !watchdog_tripped_) {
-      watchdog_tripped_ = true;
-      watchdog_fired = true;
-      twist_ = {};
-      watchdog_events_.fetch_add(1, std::memory_order_relaxed);
-    }
-    // Otherwise the last command (or the brake after the watchdog) is repeated.
+  } else if (!command_freshness_.seen()) {
+    twist_ = {};
+  } else if (went_stale) {
+    watchdog_fired = true;
+    twist_ = {};
+    watchdog_events_.fetch_add(1, std::memory_order_relaxed);
   }
+  // Otherwise the last command (or the brake after the watchdog) is repeated.
 
-  const bool brake = had_command_ && (watchdog_tripped_ || command_bad_);
+  const bool brake = command_freshness_.seen() && (!command_freshness_.fresh() || command_bad_);
   // Where the bus is when the arm is told, for the event report (read before, so the brake
   // leaves with the next SYNC after this position at the latest).
   const VelocityArm::BusPosition bus = fresh_command || watchdog_fired ? arm_->bus_position() : VelocityArm::BusPosition{};
@@ -123,10 +116,8 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
     log().warn("{}: {}: resetting the drives, moving again on the next command (recovery {})", name(),
                arm_->fault_reason(), event);
     arm_->reset();
-    had_command_ = false;
-    watchdog_tripped_ = false;
+    command_freshness_.reset();
     command_bad_ = false;
-    age_ = 0;
     twist_ = {};
   } else if (status == ArmStatus::fault) {
     throw std::runtime_error("arm fault: " + arm_->fault_reason());

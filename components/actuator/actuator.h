@@ -25,6 +25,7 @@
 
 #include "rtm/activity.h"
 #include "rtm/component.h"
+#include "rtm/freshness.h"
 #include "rtm/histogram.h"
 
 #include <array>
@@ -92,9 +93,7 @@ class Actuator final : public rtm::Component {
   const ActuatorParams params_;
   RTM::TimedFloat6 command_{};
   std::array<float, 6> twist_{};
-  std::uint32_t age_ = 0;        // cycles since the newest command
-  bool had_command_ = false;     // since on()
-  bool watchdog_tripped_ = false;
+  rtm::Freshness command_freshness_{params_.watchdog_periods};  // the watchdog; seen(): a command since on()
   bool command_bad_ = false;
   VelocityArm::BusPosition last_command_bus_{};  // when the newest command was handed over
   std::array<std::atomic<float>, 6> last_twist_{};

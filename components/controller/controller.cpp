@@ -40,31 +40,24 @@ Controller::Controller(std::string name, ControllerParams params)
 
 void Controller::on_start() {
   // Data that arrived while off is not fresh: a restart begins stale until new data comes.
-  sensor_ = Input{};
-  reference_ = Input{};
+  sensor_ = Input{params_.stale_periods};
+  reference_ = Input{params_.stale_periods};
   RTM::TimedFloat6 discard;
   sensor_in_.read(discard);
   reference_in_.read(discard);
 }
 
 void Controller::update(rtm::InPort<RTM::TimedFloat6>& port, Input& input) {
-  if (port.read(input.datum) == rtm::ReadResult::NewData) {
-    input.age = 0;
-    input.seen = true;
-  } else if (input.age < params_.stale_periods) {
-    ++input.age;
-  }
+  input.change = input.freshness.tick(port.read(input.datum) == rtm::ReadResult::NewData);
 }
 
 // Fresh and finite; counts and logs (once per event) an input going stale or bad.
 bool Controller::usable(Input& input, const char* what) {
-  const bool fresh = input.seen && input.age < params_.stale_periods;
-  if (input.was_fresh && !fresh) {
+  if (input.change == rtm::Freshness::Change::went_stale) {
     stale_events_.fetch_add(1, std::memory_order_relaxed);
     log().warn("{}: {} input stale (no new datum for {} periods): zero command", name(), what, params_.stale_periods);
   }
-  input.was_fresh = fresh;
-  if (!fresh) return false;
+  if (!input.freshness.fresh()) return false;
   const bool bad = rtm::has_non_finite(input.datum);
   if (bad && !input.was_bad) {
     non_finite_events_.fetch_add(1, std::memory_order_relaxed);

@@ -13,6 +13,7 @@
 #pragma once
 
 #include "rtm/component.h"
+#include "rtm/freshness.h"
 
 #include <array>
 #include <atomic>
@@ -64,20 +65,20 @@ class Controller final : public rtm::Component {
   ControllerCounters counters() const;
 
  private:
-  // Age in cycles of the newest datum of one input; the input is fresh below stale_periods.
+  // One input's newest datum; fresh for stale_periods cycles after it came.
   struct Input {
+    explicit Input(std::uint32_t stale_periods) : freshness(stale_periods) {}
     RTM::TimedFloat6 datum{};
-    std::uint32_t age = 0;
-    bool seen = false;
-    bool was_fresh = false;
+    rtm::Freshness freshness;
+    rtm::Freshness::Change change = rtm::Freshness::Change::none;  // this cycle's
     bool was_bad = false;
   };
   void update(rtm::InPort<RTM::TimedFloat6>& port, Input& input);
   bool usable(Input& input, const char* what);
 
   const ControllerParams params_;
-  Input sensor_;
-  Input reference_;
+  Input sensor_{params_.stale_periods};
+  Input reference_{params_.stale_periods};
   RTM::TimedFloat6 command_{};
   std::atomic<std::uint64_t> cycles_{0}, commands_{0}, zero_commands_{0}, stale_events_{0}, non_finite_events_{0};
   rtm::InPort<RTM::TimedFloat6>& sensor_in_ = add_in_port<RTM::TimedFloat6>("in0");
