@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# The project's layering, checked on its #include lines (see docs/architecture.md):
+#   src/         the framework core: no robot code (arm/, sim/, components/) and no tools/
+#   arm/         the arm and CAN library: no CORBA (omniORB, the IDL stubs, the core rtm/),
+#                no simulator, no component
+#   sim/         the simulator: no CORBA, no component
+#   tools/       the component browser: no robot code
+#   components/  included only by components (a composite includes its members) and tests
+# usage: check_includes.sh SOURCE_DIR   prints each violation as file:line: rule: the #include;
+#        exits 1 if there is any
+set -uo pipefail
+root=${1:?usage: check_includes.sh SOURCE_DIR}
+cd "$root" || exit 2
+
+violations=0
+# rule: a folder's sources must not include headers matching a pattern
+forbid() { # folder, extended regex of the included path, what the rule says
+  local folder=$1 pattern=$2 rule=$3 file line text
+  [[ -d $folder ]] || return 0
+  while IFS=: read -r file line text; do
+    text=${text#"${text%%[![:space:]]*}"}
+    echo "$file:$line: $rule: $text"
+    violations=$((violations + 1))
+  done < <(grep -rnE --include='*.h' --include='*.hpp' --include='*.cpp' --include='*.cc' \
+    "^[[:space:]]*#[[:space:]]*include[[:space:]]*[<\"]($pattern)" "$folder" 2>/dev/null)
+}
+
+robot='arm/|sim/|components/'
+corba='omniORB4/|omnithread|omniORB|RTM\.hh|RTMExt\.hh|RTMData\.hh|rtm/'
+forbid src "$robot|tools/" "the core knows nothing of robots or tools"
+forbid arm "$corba" "the arm/CAN library knows nothing of CORBA"
+forbid arm "sim/|components/" "the arm/CAN library includes no simulator or component"
+forbid sim "$corba" "the simulator knows nothing of CORBA"
+forbid sim "components/" "the simulator includes no component"
+forbid tools "$robot" "tools include no robot code"
+for folder in bench examples scripts src arm sim tools; do
+  forbid "$folder" "components/" "nothing outside components/ and tests/ includes a component"
+done
+
+if ((violations)); then
+  echo "$violations layering violation(s)"
+  exit 1
+fi
+echo "layering: every #include follows the rules"

@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# check_includes.sh finds each kind of violation in a small tree made here, names the file,
+# line and rule, and passes a tree that keeps the rules.
+# usage: check_includes_test.sh <check_includes.sh>
+set -uo pipefail
+check=$1
+tree=$(mktemp -d "${TMPDIR:-/tmp}/layering-test.XXXXXX")
+trap 'rm -rf "$tree"' EXIT
+failures=0
+expect() { # what, command...
+  if "${@:2}"; then echo "ok   $1"; else echo "FAIL $1"; failures=$((failures + 1)); fi
+}
+
+mkdir -p "$tree"/{src/rtm,arm/can,sim,tools/rtm,components/controller,components/servo,tests/components}
+echo '#include "rtm/component.h"' >"$tree/components/controller/controller.h"
+echo '#include "components/controller/controller.h"' >"$tree/components/servo/servo.h"
+echo '#include "components/controller/controller.h"' >"$tree/tests/components/controller_test.cpp"
+echo '#include "arm/can/bus.h"' >"$tree/sim/drive.cpp"
+printf '#include <vector>\n#include "rtm/orb.h"\n' >"$tree/tools/rtm/main.cpp"
+output=$("$check" "$tree")
+expect "a tree that keeps the rules passes" test $? -eq 0
+
+printf '#include <string>\n#include "arm/can/bus.h"\n' >"$tree/src/rtm/runner.cpp"
+echo '  #  include <omniORB4/CORBA.h>' >"$tree/arm/can/master.cpp"
+echo '#include "RTMExt.hh"' >"$tree/sim/runner.h"
+echo '#include "components/actuator/velocity_arm.h"' >"$tree/tools/rtm/units.cpp"
+echo '#include "sim/wrench.h"' >"$tree/arm/can/sensor.h"
+output=$("$check" "$tree")
+status=$?
+echo "$output" | sed 's/^/  check: /'
+expect "violations fail the check" test $status -eq 1
+expect "the core including robot code is named with its line" grep -q "^src/rtm/runner.cpp:2: the core knows nothing of robots" <<<"$output"
+expect "the CAN library including omniORB is found (indented, spaced #include)" grep -q "^arm/can/master.cpp:1: the arm/CAN library knows nothing of CORBA" <<<"$output"
+expect "the simulator including the IDL stubs is found" grep -q "^sim/runner.h:1: the simulator knows nothing of CORBA" <<<"$output"
+expect "tools including a component is found twice (robot code, a component)" test "$(grep -c '^tools/rtm/units.cpp:1:' <<<"$output")" -eq 2
+expect "the CAN library including the simulator is found" grep -q "^arm/can/sensor.h:1: the arm/CAN library includes no simulator" <<<"$output"
+expect "the count is given" grep -q "^6 layering violation(s)" <<<"$output"
+
+if ((failures)); then echo "$failures check(s) failed"; exit 1; fi
+echo "all checks passed"
