@@ -27,7 +27,7 @@ ArmFault armFaultOf(const rtm::can::MasterFault& fault) {
 
 }  // namespace
 
-const char* toString(ArmFault fault) {
+const char* to_string(ArmFault fault) {
   switch (fault) {
     case ArmFault::none: return "none";
     case ArmFault::not_enabled: return "not_enabled";
@@ -41,7 +41,7 @@ const char* toString(ArmFault fault) {
 }
 
 Pa10Arm::Pa10Arm(const std::string& urdf_path, rtm::can::Pa10Master& master, ArmOptions options)
-    : kinematics_(Kinematics::fromUrdfFile(urdf_path)),
+    : kinematics_(Kinematics::from_urdf_file(urdf_path)),
       ik_(kinematics_, options.ik),
       master_(master),
       options_(options) {
@@ -49,39 +49,39 @@ Pa10Arm::Pa10Arm(const std::string& urdf_path, rtm::can::Pa10Master& master, Arm
     throw std::invalid_argument("Pa10Arm: period_s must be positive (the master's SYNC period)");
 }
 
-void Pa10Arm::setState(ArmFault state, const char* detail) {
+void Pa10Arm::set_state(ArmFault state, const char* detail) {
   if (fault_.load(std::memory_order_relaxed) == state) return;
   {
     std::lock_guard lock(reason_mutex_);
     if (state == ArmFault::none)
       fault_reason_[0] = '\0';
     else
-      std::snprintf(fault_reason_.data(), fault_reason_.size(), "%s: %s", toString(state), detail);
+      std::snprintf(fault_reason_.data(), fault_reason_.size(), "%s: %s", to_string(state), detail);
   }
   fault_.store(state, std::memory_order_release);
 }
 
 void Pa10Arm::latch(ArmFault fault, const char* detail) {
   latched_ = true;
-  setState(fault, detail);
-  commandZero();
+  set_state(fault, detail);
+  command_zero();
 }
 
-void Pa10Arm::commandZero() { master_.set_target_velocities({}); }
+void Pa10Arm::command_zero() { master_.set_target_velocities({}); }
 
-ArmFault Pa10Arm::checkFaults() {
+ArmFault Pa10Arm::check_faults() {
   if (latched_) return fault();
   // enabled() is the cheap check; fault() copies a reason string, so it is read only when the
   // master is not enabled.
   if (master_.enabled()) {
-    setState(ArmFault::none, "");
+    set_state(ArmFault::none, "");
     return ArmFault::none;
   }
   // Pa10Master::fault_reset() is taken up by the master's next cycle: until a state from that
   // cycle is published, fault() still shows the fault being reset.
   if (reset_pending_.load(std::memory_order_acquire)) {
     if (master_.joint_state().cycle <= cycle_at_reset_.load(std::memory_order_acquire)) {
-      setState(ArmFault::not_enabled, "fault reset requested, waiting for the master");
+      set_state(ArmFault::not_enabled, "fault reset requested, waiting for the master");
       return ArmFault::not_enabled;
     }
     reset_pending_.store(false, std::memory_order_release);
@@ -91,18 +91,18 @@ ArmFault Pa10Arm::checkFaults() {
     latch(armFaultOf(master_fault), master_fault.reason.c_str());
     return fault();
   }
-  setState(ArmFault::not_enabled, "the master has not enabled every drive");
+  set_state(ArmFault::not_enabled, "the master has not enabled every drive");
   return ArmFault::not_enabled;
 }
 
-bool Pa10Arm::orderVelocity(const std::array<float, 6>& twist_base) {
-  if (checkFaults() != ArmFault::none) {
-    commandZero();
+bool Pa10Arm::order_velocity(const std::array<float, 6>& twist_base) {
+  if (check_faults() != ArmFault::none) {
+    command_zero();
     return false;
   }
   const rtm::can::JointState state = master_.joint_state();
   if (state.cycle == 0) {  // enabled but no feedback yet: q unknown, do not move
-    commandZero();
+    command_zero();
     return false;
   }
   JointVector q_rad;
@@ -121,46 +121,46 @@ bool Pa10Arm::orderVelocity(const std::array<float, 6>& twist_base) {
   return true;
 }
 
-void Pa10Arm::stop() { commandZero(); }
+void Pa10Arm::stop() { command_zero(); }
 
-bool Pa10Arm::quickStop() {
-  if (checkFaults() != ArmFault::none) {
-    commandZero();
+bool Pa10Arm::quick_stop() {
+  if (check_faults() != ArmFault::none) {
+    command_zero();
     return false;
   }
   master_.quick_stop();
   return true;
 }
 
-JointVector Pa10Arm::jointPositions() const {
+JointVector Pa10Arm::joint_positions() const {
   const rtm::can::JointState state = master_.joint_state();
   JointVector q_rad;
   for (int j = 0; j < kJointCount; ++j) q_rad[j] = state.position_rad[j];
   return q_rad;
 }
 
-JointVector Pa10Arm::jointVelocities() const {
+JointVector Pa10Arm::joint_velocities() const {
   const rtm::can::JointState state = master_.joint_state();
   JointVector qdot_rad_s;
   for (int j = 0; j < kJointCount; ++j) qdot_rad_s[j] = state.velocity_rad_s[j];
   return qdot_rad_s;
 }
 
-Eigen::Isometry3d Pa10Arm::toolPose() { return kinematics_.toolPose(jointPositions()); }
+Eigen::Isometry3d Pa10Arm::tool_pose() { return kinematics_.tool_pose(joint_positions()); }
 
-std::string Pa10Arm::faultReason() const {
+std::string Pa10Arm::fault_reason() const {
   std::lock_guard lock(reason_mutex_);
   return std::string(fault_reason_.data());
 }
 
 void Pa10Arm::reset() {
-  commandZero();
+  command_zero();
   cycle_at_reset_.store(master_.joint_state().cycle, std::memory_order_release);
   reset_pending_.store(true, std::memory_order_release);
   master_.fault_reset();
   latched_ = false;
   last_ik_ = VelocityIkResult{};
-  setState(ArmFault::not_enabled, "fault reset requested, waiting for the drives");
+  set_state(ArmFault::not_enabled, "fault reset requested, waiting for the drives");
 }
 
 }  // namespace rtm::pa10

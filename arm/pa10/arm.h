@@ -1,10 +1,10 @@
 // Pa10Arm: the arm as the force servo's actuator sees it (the paper's `palib`).
-// orderVelocity() takes a Cartesian twist in the base frame, runs the velocity IK and hands
+// order_velocity() takes a Cartesian twist in the base frame, runs the velocity IK and hands
 // the joint rates to the CANopen master; joint state and the tool pose come back from the
 // drives' TPDOs. The same code drives the real PA10 and pa10-sim: only the bus differs.
 //
 // Faults (drive fault, heartbeat loss, bus error, IK failure) latch: from then on the arm
-// commands zero velocity and faultReason() says why, until reset(). While the master is not
+// commands zero velocity and fault_reason() says why, until reset(). While the master is not
 // (yet, or again after a reset) enabling every drive, the arm reports not_enabled and commands
 // zero; that state is not latched and clears by itself once the master is enabled.
 //
@@ -41,7 +41,7 @@ enum class ArmFault : std::uint8_t {
 };
 
 // Short fixed name of a fault kind ("drive_fault", ...).
-const char* toString(ArmFault fault);
+const char* to_string(ArmFault fault);
 
 struct ArmOptions {
   // How long a commanded rate is applied: the master's SYNC period.
@@ -53,7 +53,7 @@ class Pa10Arm {
  public:
   // Loads the model from `urdf_path` (throws ModelError naming the file). `master` must
   // outlive the arm; the arm does not start, stop or step it (call master.start() first, then
-  // either master.run_periodic() or master.step() after each orderVelocity()).
+  // either master.run_periodic() or master.step() after each order_velocity()).
   Pa10Arm(const std::string& urdf_path, rtm::can::Pa10Master& master, ArmOptions options = {});
   Pa10Arm(const Pa10Arm&) = delete;
   Pa10Arm& operator=(const Pa10Arm&) = delete;
@@ -61,48 +61,48 @@ class Pa10Arm {
   // Commands a tool0 twist (vx, vy, vz m/s, wx, wy, wz rad/s; base frame) for the next
   // period. Returns false (and commands zero joint rates) when the arm is in fault, including
   // a fault found by this call. Allocates nothing; call from one thread.
-  bool orderVelocity(const std::array<float, 6>& twist_base);
+  bool order_velocity(const std::array<float, 6>& twist_base);
   // Commands zero joint rates (keeps the drives enabled).
   void stop();
   // Brakes the drives (CiA 402 quick stop, see Pa10Master::quick_stop()) and keeps them braked
-  // until the next orderVelocity(). Returns false (and commands zero) when the arm is in fault.
-  // Allocates nothing; same thread as orderVelocity().
-  bool quickStop();
+  // until the next order_velocity(). Returns false (and commands zero) when the arm is in fault.
+  // Allocates nothing; same thread as order_velocity().
+  bool quick_stop();
 
   // Latest measured joint state (from the drives' TPDOs), s1..w2.
-  JointVector jointPositions() const;   // rad
-  JointVector jointVelocities() const;  // rad/s
+  JointVector joint_positions() const;   // rad
+  JointVector joint_velocities() const;  // rad/s
   // Tool pose in the base frame from the measured joint positions. Same thread as
-  // orderVelocity() (uses the kinematics' scratch).
-  Eigen::Isometry3d toolPose();
+  // order_velocity() (uses the kinematics' scratch).
+  Eigen::Isometry3d tool_pose();
 
   // Re-reads the master's state; latches a fault if it finds one and returns the arm's state
-  // (none when ready to move). orderVelocity() does this every call.
-  ArmFault checkFaults();
-  // The latched fault, or not_enabled / none as last seen by orderVelocity()/checkFaults().
+  // (none when ready to move). order_velocity() does this every call.
+  ArmFault check_faults();
+  // The latched fault, or not_enabled / none as last seen by order_velocity()/check_faults().
   // Thread-safe.
   ArmFault fault() const { return fault_.load(std::memory_order_acquire); }
   // True while the arm will not move: a latched fault or not_enabled.
-  bool inFault() const { return fault() != ArmFault::none; }
+  bool in_fault() const { return fault() != ArmFault::none; }
   // Human-readable reason ("" when none), e.g.
   // "drive_fault: drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)". Thread-safe.
-  std::string faultReason() const;
+  std::string fault_reason() const;
 
   // Clears the latched fault and asks the master for a fault reset and re-enable of the
   // drives; returns at once. The arm reports not_enabled (zero rates) until the master is
   // enabled again, or latches the master's new fault if the drives do not come back.
-  // Call from the thread that calls orderVelocity().
+  // Call from the thread that calls order_velocity().
   void reset();
 
   // The last IK result (scale applied, singularity, held joints) for diagnostics.
-  const VelocityIkResult& lastIk() const { return last_ik_; }
+  const VelocityIkResult& last_ik() const { return last_ik_; }
   Kinematics& kinematics() { return kinematics_; }
   const ArmOptions& options() const { return options_; }
 
  private:
   void latch(ArmFault fault, const char* detail);
-  void setState(ArmFault state, const char* detail);
-  void commandZero();
+  void set_state(ArmFault state, const char* detail);
+  void command_zero();
 
   Kinematics kinematics_;
   VelocityIk ik_;
@@ -112,7 +112,7 @@ class Pa10Arm {
   std::atomic<bool> latched_{false};       // fault_ holds a latched fault
   std::atomic<bool> reset_pending_{false};  // reset() sent, master not yet past that cycle
   std::atomic<std::uint64_t> cycle_at_reset_{0};  // master cycle published when reset() ran
-  mutable std::mutex reason_mutex_;        // taken only on a state change and by faultReason()
+  mutable std::mutex reason_mutex_;        // taken only on a state change and by fault_reason()
   std::array<char, 256> fault_reason_{};  // fixed buffer: no allocation on the cycle path
   VelocityIkResult last_ik_{};
 };

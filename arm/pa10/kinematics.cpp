@@ -68,16 +68,16 @@ const char* typeName(int urdf_type) {
 
 // ---------------------------------------------------------------- Kinematics
 
-Kinematics Kinematics::fromUrdfFile(const std::string& urdf_path, const std::string& base_link,
+Kinematics Kinematics::from_urdf_file(const std::string& urdf_path, const std::string& base_link,
                                     const std::string& tip_link) {
   std::ifstream file(urdf_path);
   if (!file) fail(urdf_path, "cannot open the URDF file");
   std::ostringstream text;
   text << file.rdbuf();
-  return fromUrdfString(text.str(), urdf_path, base_link, tip_link);
+  return from_urdf_string(text.str(), urdf_path, base_link, tip_link);
 }
 
-Kinematics Kinematics::fromUrdfString(const std::string& urdf_xml, const std::string& source_name,
+Kinematics Kinematics::from_urdf_string(const std::string& urdf_xml, const std::string& source_name,
                                       const std::string& base_link, const std::string& tip_link) {
   const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(urdf_xml);
   if (!model) fail(source_name, "not a valid URDF (urdfdom could not parse it)");
@@ -150,7 +150,7 @@ Kinematics::Kinematics(Kinematics&&) noexcept = default;
 Kinematics& Kinematics::operator=(Kinematics&&) noexcept = default;
 Kinematics::~Kinematics() = default;
 
-Eigen::Isometry3d Kinematics::toolPose(const JointVector& q_rad) {
+Eigen::Isometry3d Kinematics::tool_pose(const JointVector& q_rad) {
   q_scratch_->data = q_rad;
   KDL::Frame tool;
   fk_solver_->JntToCart(*q_scratch_, tool);
@@ -173,7 +173,7 @@ Jacobian Kinematics::jacobian(const JointVector& q_rad) {
 VelocityIk::VelocityIk(Kinematics& kinematics, VelocityIkOptions options)
     : kinematics_(kinematics), options_(options) {}
 
-JointVector VelocityIk::dampedSolve(const Jacobian& jacobian, const Twist& twist,
+JointVector VelocityIk::damped_solve(const Jacobian& jacobian, const Twist& twist,
                                     std::uint8_t held, VelocityIkResult& result) const {
   Jacobian reduced = jacobian;
   for (int j = 0; j < kJointCount; ++j)
@@ -241,7 +241,7 @@ VelocityIkResult VelocityIk::solve(const Twist& twist_base, const JointVector& q
   };
 
   const Jacobian jacobian = kinematics_.jacobian(q_rad);
-  JointVector qdot = dampedSolve(jacobian, twist_base, 0, result);
+  JointVector qdot = damped_solve(jacobian, twist_base, 0, result);
 
   // 1. Position limits: hold the joints that would cross, re-solve with the others.
   std::uint8_t held = 0;
@@ -252,7 +252,7 @@ VelocityIkResult VelocityIk::solve(const Twist& twist_base, const JointVector& q
     JointVector held_qdot = qdot;
     for (int attempt = 0; attempt < kJointCount && crossing_joints != 0; ++attempt) {
       held |= crossing_joints;
-      held_qdot = dampedSolve(jacobian, twist_base, held, held_result);
+      held_qdot = damped_solve(jacobian, twist_base, held, held_result);
       crossing_joints = crossing(held_qdot, held);
     }
     const double held_residual = (jacobian * held_qdot - twist_base).norm();

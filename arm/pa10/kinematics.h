@@ -56,15 +56,15 @@ struct JointLimits {
 
 // The chain base_link -> tool0 (by default) built from a URDF with urdfdom (no kdl_parser,
 // which pulls ROS in on Debian). Fixed joints become KDL segments without a joint.
-// Not thread-safe: toolPose()/jacobian() use pre-allocated scratch. Movable, not copyable.
+// Not thread-safe: tool_pose()/jacobian() use pre-allocated scratch. Movable, not copyable.
 class Kinematics {
  public:
   // Loads the URDF file at `urdf_path`. Throws ModelError naming the file on any problem.
-  static Kinematics fromUrdfFile(const std::string& urdf_path,
+  static Kinematics from_urdf_file(const std::string& urdf_path,
                                  const std::string& base_link = "base_link",
                                  const std::string& tip_link = "tool0");
   // Same from URDF text; `source_name` stands for the file name in error messages.
-  static Kinematics fromUrdfString(const std::string& urdf_xml, const std::string& source_name,
+  static Kinematics from_urdf_string(const std::string& urdf_xml, const std::string& source_name,
                                    const std::string& base_link = "base_link",
                                    const std::string& tip_link = "tool0");
 
@@ -79,7 +79,7 @@ class Kinematics {
   const std::string& source() const { return source_; }  // file name (for messages)
 
   // Pose of the tip link (tool0) in the base frame. Allocates nothing.
-  Eigen::Isometry3d toolPose(const JointVector& q_rad);
+  Eigen::Isometry3d tool_pose(const JointVector& q_rad);
   // Geometric Jacobian: columns map qdot to the tool0 twist in the base frame. Allocates
   // nothing.
   Jacobian jacobian(const JointVector& q_rad);
@@ -151,7 +151,7 @@ class VelocityIk {
 
  private:
   // DLS solve with the columns in `held` removed; fills result's damping/singular fields.
-  JointVector dampedSolve(const Jacobian& jacobian, const Twist& twist, std::uint8_t held,
+  JointVector damped_solve(const Jacobian& jacobian, const Twist& twist, std::uint8_t held,
                           VelocityIkResult& result) const;
 
   Kinematics& kinematics_;

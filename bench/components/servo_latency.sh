@@ -15,7 +15,7 @@
 # sequence number) and, on a later cycle, reads the master's last sent target: once that has
 # reached its command it records sent time - stamp (CLOCK_REALTIME; the sent time is taken by
 # the master's cycle right after writing the seven RPDOs carrying the command, just before
-# SYNC). "handover" is the older, shorter span: stamp -> orderVelocity returned. Both are logged
+# SYNC). "handover" is the older, shorter span: stamp -> order_velocity returned. Both are logged
 # as p50/p99/max when the actuator is turned off; 1 us buckets below 1 ms, 100 us buckets to
 # 10 ms (upper edges reported).
 # Loop lateness per component comes from `rtm --json ls -l` taken at the end of each run.

@@ -3,7 +3,7 @@
 //   InPort 0 "in0"  velocity command (TimedFloat6 twist, BASE frame: vx vy vz m/s, wx wy wz rad/s)
 //
 // Each cycle: take the newest command, clamp each component to ±limit[i] (Fig. 7), hand it to
-// the arm (orderVelocity). Safety beyond the paper:
+// the arm (order_velocity). Safety beyond the paper:
 //   - watchdog: after watchdog_periods cycles without a new command the drives brake (CiA 402
 //     quick stop: they stop where they are, not merely ramp down to a zero command); the
 //     cycles before repeat the last command (one late datum must not jerk the arm). The

@@ -36,12 +36,12 @@ ArmHardware::~ArmHardware() {
 }
 
 ArmStatus ArmHardware::order_velocity(const std::array<float, 6>& twist_base) {
-  if (arm_->orderVelocity(twist_base)) return ArmStatus::ready;
+  if (arm_->order_velocity(twist_base)) return ArmStatus::ready;
   return status_of_refusal();
 }
 
 ArmStatus ArmHardware::quick_stop() {
-  if (arm_->quickStop()) return ArmStatus::ready;
+  if (arm_->quick_stop()) return ArmStatus::ready;
   return status_of_refusal();
 }
 
@@ -57,7 +57,7 @@ ArmStatus ArmHardware::status_of_refusal() const {
 bool ArmHardware::in_fault() const {
   // While the component is off nobody orders velocities, so the arm has not looked at the
   // master since: a fault the master latched meanwhile is found here.
-  const auto fault = arm_->checkFaults();
+  const auto fault = arm_->check_faults();
   return fault != rtm::pa10::ArmFault::none && fault != rtm::pa10::ArmFault::not_enabled;
 }
 

@@ -91,7 +91,7 @@ class ArmHardware final : public VelocityArm {
   ArmStatus order_velocity(const std::array<float, 6>& twist_base) override;
   void stop() override;
   ArmStatus quick_stop() override;
-  std::string fault_reason() const override { return arm_->faultReason(); }
+  std::string fault_reason() const override { return arm_->fault_reason(); }
   bool in_fault() const override;  // re-reads the master's state
   void reset() override { arm_->reset(); }
   BusPosition bus_position() const override;

@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
           [&](const rtm::RunSettings& settings) {
             return std::make_unique<rtm::comp::Sensor>(
                 settings.name, std::make_unique<rtm::comp::BusWristSource>(bus, sensor_bus),
-                rtm::pa10::Kinematics::fromUrdfFile(urdf));
+                rtm::pa10::Kinematics::from_urdf_file(urdf));
           },
   });
 }

@@ -35,7 +35,7 @@ void Sensor::on_cycle(const rtm::CycleContext&) {
   }
   last_sequence_ = sample.sequence;
   for (int j = 0; j < rtm::pa10::kJointCount; ++j) q_rad_[j] = sample.q_rad[static_cast<std::size_t>(j)];
-  const Eigen::Isometry3d tool = kinematics_.toolPose(q_rad_);
+  const Eigen::Isometry3d tool = kinematics_.tool_pose(q_rad_);
   const auto wrench_base = wrench_sensor_to_base(tool.linear(), sample.wrench_sensor);
   for (CORBA::ULong i = 0; i < 6; ++i) datum_.val[i] = static_cast<float>(wrench_base[i]);
   datum_.tm = rtm::now();

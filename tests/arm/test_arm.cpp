@@ -227,32 +227,32 @@ std::array<float, 6> smallTwist() { return {0.01f, -0.02f, 0.015f, 0.0f, 0.05f, 
 
 TEST(Pa10Arm, ReportsNotEnabledBeforeTheMasterHasStarted) {
   Rig rig;
-  EXPECT_FALSE(rig.arm.orderVelocity(smallTwist()));
+  EXPECT_FALSE(rig.arm.order_velocity(smallTwist()));
   EXPECT_EQ(rig.arm.fault(), ArmFault::not_enabled);
-  EXPECT_NE(rig.arm.faultReason().find("not enabled"), std::string::npos) << rig.arm.faultReason();
+  EXPECT_NE(rig.arm.fault_reason().find("not enabled"), std::string::npos) << rig.arm.fault_reason();
   // Not latched: once the master is up, the arm moves without a reset.
   rig.startMaster();
-  EXPECT_TRUE(rig.arm.orderVelocity(smallTwist())) << rig.arm.faultReason();
+  EXPECT_TRUE(rig.arm.order_velocity(smallTwist())) << rig.arm.fault_reason();
   EXPECT_EQ(rig.arm.fault(), ArmFault::none);
-  EXPECT_EQ(rig.arm.faultReason(), "");
+  EXPECT_EQ(rig.arm.fault_reason(), "");
 }
 
 TEST(Pa10Arm, OrderVelocityMovesTheToolAlongTheCommandedTwist) {
   Rig rig;
   rig.startMaster();
-  const Eigen::Isometry3d start = rig.arm.toolPose();
+  const Eigen::Isometry3d start = rig.arm.tool_pose();
   const std::array<float, 6> twist{0.02f, -0.01f, 0.015f, 0.0f, 0.0f, 0.0f};
   const int cycles = 100;
   for (int i = 0; i < cycles; ++i) {
-    ASSERT_TRUE(rig.arm.orderVelocity(twist)) << rig.arm.faultReason();
+    ASSERT_TRUE(rig.arm.order_velocity(twist)) << rig.arm.fault_reason();
     ASSERT_TRUE(rig.master.step());
   }
   // The drives got the IK's rates (to the protocol's 1 urad/s resolution).
   for (int j = 0; j < kJointCount; ++j)
-    EXPECT_NEAR(rig.drives.lastTarget_rad_s(j), rig.arm.lastIk().qdot_rad_s[j], 1e-6) << j;
-  EXPECT_DOUBLE_EQ(rig.arm.lastIk().twist_scale, 1.0);
+    EXPECT_NEAR(rig.drives.lastTarget_rad_s(j), rig.arm.last_ik().qdot_rad_s[j], 1e-6) << j;
+  EXPECT_DOUBLE_EQ(rig.arm.last_ik().twist_scale, 1.0);
 
-  const Eigen::Isometry3d end = rig.arm.toolPose();
+  const Eigen::Isometry3d end = rig.arm.tool_pose();
   const Eigen::Vector3d moved_m = end.translation() - start.translation();
   // The first order is applied from the SYNC after it, so count whole periods loosely.
   const Eigen::Vector3d expected_m =
@@ -261,16 +261,16 @@ TEST(Pa10Arm, OrderVelocityMovesTheToolAlongTheCommandedTwist) {
   EXPECT_NEAR(moved_m.norm(), expected_m.norm(), 0.05 * expected_m.norm());
   EXPECT_LE(Eigen::AngleAxisd(end.linear() * start.linear().transpose()).angle(), 1e-3);
   // The arm reads back what the drives report.
-  EXPECT_LE((rig.arm.jointPositions() - rig.drives.positions()).norm(), 1e-5);
+  EXPECT_LE((rig.arm.joint_positions() - rig.drives.positions()).norm(), 1e-5);
 }
 
 TEST(Pa10Arm, TooFastATwistIsScaledAndTheDrivesStayWithinTheirVelocityLimits) {
   Rig rig;
   rig.startMaster();
   const std::array<float, 6> fast{1.5f, -1.0f, 1.2f, 0.0f, 0.0f, 0.0f};  // m/s
-  ASSERT_TRUE(rig.arm.orderVelocity(fast)) << rig.arm.faultReason();
+  ASSERT_TRUE(rig.arm.order_velocity(fast)) << rig.arm.fault_reason();
   ASSERT_TRUE(rig.master.step());
-  EXPECT_LT(rig.arm.lastIk().twist_scale, 1.0);
+  EXPECT_LT(rig.arm.last_ik().twist_scale, 1.0);
   const JointLimits& limits = rig.arm.kinematics().limits();
   for (int j = 0; j < kJointCount; ++j)
     EXPECT_LE(std::abs(rig.drives.lastTarget_rad_s(j)), limits.velocity_rad_s[j] + 1e-6) << j;
@@ -279,20 +279,20 @@ TEST(Pa10Arm, TooFastATwistIsScaledAndTheDrivesStayWithinTheirVelocityLimits) {
 TEST(Pa10Arm, DriveFaultLatchesZeroVelocityWithTheReasonUntilReset) {
   Rig rig;
   rig.startMaster();
-  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist()));
+  ASSERT_TRUE(rig.arm.order_velocity(smallTwist()));
   rig.master.step();
   const int e1 = 3;
   rig.drives.injectFault(e1, can::emcy::kDeviceHardware);
   ASSERT_TRUE(rig.stepUntil(
-      [&] { return !rig.arm.orderVelocity(smallTwist()) && rig.arm.inFault(); }, 50));
+      [&] { return !rig.arm.order_velocity(smallTwist()) && rig.arm.in_fault(); }, 50));
   EXPECT_EQ(rig.arm.fault(), ArmFault::drive_fault);
-  const std::string reason = rig.arm.faultReason();
+  const std::string reason = rig.arm.fault_reason();
   EXPECT_NE(reason.find("drive_fault"), std::string::npos) << reason;
   EXPECT_NE(reason.find("E1"), std::string::npos) << reason;
 
   // Latched: further orders are refused and every drive is commanded zero.
   for (int i = 0; i < 5; ++i) {
-    EXPECT_FALSE(rig.arm.orderVelocity(smallTwist()));
+    EXPECT_FALSE(rig.arm.order_velocity(smallTwist()));
     rig.master.step();
   }
   EXPECT_EQ(rig.arm.fault(), ArmFault::drive_fault);
@@ -300,8 +300,8 @@ TEST(Pa10Arm, DriveFaultLatchesZeroVelocityWithTheReasonUntilReset) {
 
   rig.arm.reset();
   EXPECT_NE(rig.arm.fault(), ArmFault::drive_fault);
-  ASSERT_TRUE(rig.stepUntil([&] { return rig.arm.orderVelocity(smallTwist()); }, 1000))
-      << rig.arm.faultReason();
+  ASSERT_TRUE(rig.stepUntil([&] { return rig.arm.order_velocity(smallTwist()); }, 1000))
+      << rig.arm.fault_reason();
   EXPECT_EQ(rig.arm.fault(), ArmFault::none);
   rig.master.step();
   EXPECT_NE(rig.drives.lastTarget_rad_s(0), 0.0) << "motion resumes after the reset";
@@ -310,15 +310,15 @@ TEST(Pa10Arm, DriveFaultLatchesZeroVelocityWithTheReasonUntilReset) {
 TEST(Pa10Arm, RpdoTimeoutOfADriveIsACommandLossThatResetClears) {
   Rig rig;
   rig.startMaster();
-  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist()));
+  ASSERT_TRUE(rig.arm.order_velocity(smallTwist()));
   rig.master.step();
   rig.drives.injectFault(5, can::emcy::kRpdoTimeout);
-  ASSERT_TRUE(rig.stepUntil([&] { return !rig.arm.orderVelocity(smallTwist()) && rig.arm.inFault(); }, 50));
+  ASSERT_TRUE(rig.stepUntil([&] { return !rig.arm.order_velocity(smallTwist()) && rig.arm.in_fault(); }, 50));
   EXPECT_EQ(rig.arm.fault(), ArmFault::command_loss);
-  EXPECT_NE(rig.arm.faultReason().find("command_loss: drive 6 (W1): EMCY 0x8250"), std::string::npos)
-      << rig.arm.faultReason();
+  EXPECT_NE(rig.arm.fault_reason().find("command_loss: drive 6 (W1): EMCY 0x8250"), std::string::npos)
+      << rig.arm.fault_reason();
   rig.arm.reset();
-  ASSERT_TRUE(rig.stepUntil([&] { return rig.arm.orderVelocity(smallTwist()); }, 1000)) << rig.arm.faultReason();
+  ASSERT_TRUE(rig.stepUntil([&] { return rig.arm.order_velocity(smallTwist()); }, 1000)) << rig.arm.fault_reason();
   EXPECT_EQ(rig.arm.fault(), ArmFault::none);
 }
 
@@ -326,22 +326,22 @@ TEST(Pa10Arm, QuickStopBrakesTheDrivesUntilTheNextOrder) {
   Rig rig;
   rig.startMaster();
   for (int i = 0; i < 3; ++i) {
-    ASSERT_TRUE(rig.arm.orderVelocity(smallTwist())) << rig.arm.faultReason();
+    ASSERT_TRUE(rig.arm.order_velocity(smallTwist())) << rig.arm.fault_reason();
     rig.master.step();
   }
-  ASSERT_TRUE(rig.arm.quickStop()) << rig.arm.faultReason();
+  ASSERT_TRUE(rig.arm.quick_stop()) << rig.arm.fault_reason();
   ASSERT_TRUE(rig.stepUntil([&] { return rig.master.quick_stopped(); }, 10));
   const JointVector braked_rad = rig.drives.positions();
   for (int i = 0; i < 5; ++i) {
-    ASSERT_TRUE(rig.arm.quickStop()) << rig.arm.faultReason();
+    ASSERT_TRUE(rig.arm.quick_stop()) << rig.arm.fault_reason();
     rig.master.step();
   }
   EXPECT_EQ(rig.drives.positions(), braked_rad) << "the drives hold still";
   for (int j = 0; j < kJointCount; ++j)
-    EXPECT_EQ(rig.arm.jointVelocities()[j], 0.0) << j;
-  EXPECT_EQ(rig.arm.fault(), ArmFault::none) << rig.arm.faultReason();
+    EXPECT_EQ(rig.arm.joint_velocities()[j], 0.0) << j;
+  EXPECT_EQ(rig.arm.fault(), ArmFault::none) << rig.arm.fault_reason();
 
-  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist())) << rig.arm.faultReason();
+  ASSERT_TRUE(rig.arm.order_velocity(smallTwist())) << rig.arm.fault_reason();
   rig.master.step();
   rig.master.step();
   EXPECT_NE(rig.drives.positions(), braked_rad) << "motion resumes on the next order";
@@ -357,14 +357,14 @@ TEST(Pa10Arm, HeartbeatLossLatchesAFaultNamingTheNode) {
   const auto deadline = std::chrono::steady_clock::now() + 10s;
   bool faulted = false;
   while (!faulted && std::chrono::steady_clock::now() < deadline) {
-    faulted = !rig.arm.orderVelocity(smallTwist()) && rig.arm.inFault();
+    faulted = !rig.arm.order_velocity(smallTwist()) && rig.arm.in_fault();
     rig.master.step();
     std::this_thread::sleep_for(2ms);
   }
   ASSERT_TRUE(faulted) << "no fault while drive 6 was silent";
   EXPECT_EQ(rig.arm.fault(), ArmFault::heartbeat_lost);
-  EXPECT_NE(rig.arm.faultReason().find("W1"), std::string::npos) << rig.arm.faultReason();
-  EXPECT_FALSE(rig.arm.orderVelocity(smallTwist()));
+  EXPECT_NE(rig.arm.fault_reason().find("W1"), std::string::npos) << rig.arm.fault_reason();
+  EXPECT_FALSE(rig.arm.order_velocity(smallTwist()));
   rig.master.step();
   for (int j = 0; j < kJointCount; ++j) EXPECT_EQ(rig.drives.lastTarget_rad_s(j), 0.0) << j;
 }
@@ -372,22 +372,22 @@ TEST(Pa10Arm, HeartbeatLossLatchesAFaultNamingTheNode) {
 TEST(Pa10Arm, NanTwistLatchesIkFailureAndCommandsZeroUntilReset) {
   Rig rig;
   rig.startMaster();
-  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist()));
+  ASSERT_TRUE(rig.arm.order_velocity(smallTwist()));
   rig.master.step();
   std::array<float, 6> bad = smallTwist();
   bad[2] = std::nanf("");
-  EXPECT_FALSE(rig.arm.orderVelocity(bad));
+  EXPECT_FALSE(rig.arm.order_velocity(bad));
   EXPECT_EQ(rig.arm.fault(), ArmFault::ik_failed);
-  EXPECT_NE(rig.arm.faultReason().find("NaN"), std::string::npos) << rig.arm.faultReason();
+  EXPECT_NE(rig.arm.fault_reason().find("NaN"), std::string::npos) << rig.arm.fault_reason();
   rig.master.step();
   for (int j = 0; j < kJointCount; ++j) EXPECT_EQ(rig.drives.lastTarget_rad_s(j), 0.0) << j;
   // A good twist does not clear the fault by itself.
-  EXPECT_FALSE(rig.arm.orderVelocity(smallTwist()));
+  EXPECT_FALSE(rig.arm.order_velocity(smallTwist()));
   EXPECT_EQ(rig.arm.fault(), ArmFault::ik_failed);
 
   rig.arm.reset();
-  ASSERT_TRUE(rig.stepUntil([&] { return rig.arm.orderVelocity(smallTwist()); }, 1000))
-      << rig.arm.faultReason();
+  ASSERT_TRUE(rig.stepUntil([&] { return rig.arm.order_velocity(smallTwist()); }, 1000))
+      << rig.arm.fault_reason();
   EXPECT_EQ(rig.arm.fault(), ArmFault::none);
 }
 
@@ -398,17 +398,17 @@ TEST(Pa10Arm, WorksWithTheMastersOwnPeriodicThread) {
   rig.master.start();
   rig.master.run_periodic();
   const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (rig.arm.jointPositions() == JointVector::Zero() &&
+  while (rig.arm.joint_positions() == JointVector::Zero() &&
          std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(2ms);  // wait for the first feedback
-  const Eigen::Isometry3d start = rig.arm.toolPose();
+  const Eigen::Isometry3d start = rig.arm.tool_pose();
   const std::array<float, 6> twist{0.0f, 0.03f, -0.02f, 0.0f, 0.0f, 0.0f};
   const double wanted_m = 0.003;
   Eigen::Vector3d moved_m = Eigen::Vector3d::Zero();
   while (moved_m.norm() < wanted_m && std::chrono::steady_clock::now() < deadline) {
-    ASSERT_TRUE(rig.arm.orderVelocity(twist)) << rig.arm.faultReason();
+    ASSERT_TRUE(rig.arm.order_velocity(twist)) << rig.arm.fault_reason();
     std::this_thread::sleep_for(2ms);
-    moved_m = rig.arm.toolPose().translation() - start.translation();
+    moved_m = rig.arm.tool_pose().translation() - start.translation();
   }
   rig.arm.stop();
   ASSERT_GE(moved_m.norm(), wanted_m) << "the tool did not move";
@@ -419,25 +419,25 @@ TEST(Pa10Arm, WorksWithTheMastersOwnPeriodicThread) {
   rig.drives.injectFault(0, rtm::can::emcy::kDeviceHardware);
   bool faulted = false;
   while (!faulted && std::chrono::steady_clock::now() < deadline) {
-    faulted = !rig.arm.orderVelocity(twist) && rig.arm.fault() == ArmFault::drive_fault;
+    faulted = !rig.arm.order_velocity(twist) && rig.arm.fault() == ArmFault::drive_fault;
     std::this_thread::sleep_for(2ms);
   }
-  EXPECT_TRUE(faulted) << rig.arm.faultReason();
-  EXPECT_NE(rig.arm.faultReason().find("S1"), std::string::npos) << rig.arm.faultReason();
+  EXPECT_TRUE(faulted) << rig.arm.fault_reason();
+  EXPECT_NE(rig.arm.fault_reason().find("S1"), std::string::npos) << rig.arm.fault_reason();
   rig.master.stop();
 }
 
 TEST(Pa10Arm, OrderVelocityAllocatesNothing) {
   Rig rig;
   rig.startMaster();
-  ASSERT_TRUE(rig.arm.orderVelocity(smallTwist()));
+  ASSERT_TRUE(rig.arm.order_velocity(smallTwist()));
   rig.master.step();
   std::uint64_t allocations = 0;
   for (int i = 0; i < 50; ++i) {
     const auto before = rtm_test::allocations_on_this_thread();
-    const bool ok = rig.arm.orderVelocity(smallTwist());
+    const bool ok = rig.arm.order_velocity(smallTwist());
     allocations += rtm_test::allocations_on_this_thread() - before;
-    ASSERT_TRUE(ok) << rig.arm.faultReason();
+    ASSERT_TRUE(ok) << rig.arm.fault_reason();
     rig.master.step();
   }
   EXPECT_EQ(allocations, 0u);

@@ -37,7 +37,7 @@ Eigen::Isometry3d dhToolPose(const JointVector& q) {
   return pose * Eigen::Translation3d(0, 0, kFlangeToTool_m);
 }
 
-Kinematics loadModel() { return Kinematics::fromUrdfFile(RTM_PA10_URDF_PATH); }
+Kinematics loadModel() { return Kinematics::from_urdf_file(RTM_PA10_URDF_PATH); }
 
 JointVector randomJoints(std::mt19937& rng, const JointLimits& limits, double fraction = 1.0) {
   JointVector q;
@@ -87,7 +87,7 @@ TEST(Pa10Model, JointLimitsComeFromTheUrdf) {
 
 TEST(Pa10Model, ToolIsStraightAbove1457mmAtZeroJoints) {
   Kinematics kinematics = loadModel();
-  const Eigen::Isometry3d pose = kinematics.toolPose(JointVector::Zero());
+  const Eigen::Isometry3d pose = kinematics.tool_pose(JointVector::Zero());
   EXPECT_NEAR(pose.translation().x(), 0, 1e-12);
   EXPECT_NEAR(pose.translation().y(), 0, 1e-12);
   EXPECT_NEAR(pose.translation().z(), 0.317 + 0.450 + 0.480 + 0.070 + 0.14, 1e-12);
@@ -99,7 +99,7 @@ TEST(Pa10Model, ForwardKinematicsMatchesAnIndependentDhProduct) {
   std::mt19937 rng(20041);
   for (int sample = 0; sample < 500; ++sample) {
     const JointVector q = randomJoints(rng, kinematics.limits());
-    const Eigen::Isometry3d kdl = kinematics.toolPose(q);
+    const Eigen::Isometry3d kdl = kinematics.tool_pose(q);
     const Eigen::Isometry3d dh = dhToolPose(q);
     ASSERT_LE((kdl.translation() - dh.translation()).norm(), 1e-12) << q.transpose();
     ASSERT_LE((kdl.linear() - dh.linear()).norm(), 1e-12) << q.transpose();
@@ -110,12 +110,12 @@ TEST(Pa10Model, JacobianMatchesFiniteDifferencesOfTheToolPose) {
   Kinematics kinematics = loadModel();
   const JointVector q = generalPose();
   const Jacobian jacobian = kinematics.jacobian(q);
-  const Eigen::Isometry3d pose = kinematics.toolPose(q);
+  const Eigen::Isometry3d pose = kinematics.tool_pose(q);
   const double step = 1e-7;
   for (int j = 0; j < 7; ++j) {
     JointVector moved = q;
     moved[j] += step;
-    const Eigen::Isometry3d next = kinematics.toolPose(moved);
+    const Eigen::Isometry3d next = kinematics.tool_pose(moved);
     const Eigen::Vector3d linear = (next.translation() - pose.translation()) / step;
     const Eigen::AngleAxisd rotation(next.linear() * pose.linear().transpose());
     const Eigen::Vector3d angular = rotation.axis() * rotation.angle() / step;
@@ -126,9 +126,9 @@ TEST(Pa10Model, JacobianMatchesFiniteDifferencesOfTheToolPose) {
 
 TEST(Pa10Model, MovedModelStillComputesTheSamePoses) {
   Kinematics original = loadModel();
-  const Eigen::Isometry3d before = original.toolPose(generalPose());
+  const Eigen::Isometry3d before = original.tool_pose(generalPose());
   Kinematics moved = std::move(original);
-  EXPECT_TRUE(moved.toolPose(generalPose()).isApprox(before, 1e-15));
+  EXPECT_TRUE(moved.tool_pose(generalPose()).isApprox(before, 1e-15));
   VelocityIk ik(moved);
   EXPECT_EQ(ik.solve(Twist::Constant(0.01), generalPose(), kDt_s).status, IkStatus::ok);
 }
@@ -138,7 +138,7 @@ TEST(Pa10Model, MovedModelStillComputesTheSamePoses) {
 TEST(Pa10ModelErrors, MalformedUrdfFileGivesAnErrorNamingTheFile) {
   const auto path = writeTempFile("malformed_pa10.urdf", "<robot name=\"x\"><link name=");
   try {
-    Kinematics::fromUrdfFile(path.string());
+    Kinematics::from_urdf_file(path.string());
     FAIL() << "expected ModelError";
   } catch (const ModelError& error) {
     EXPECT_NE(std::string(error.what()).find(path.string()), std::string::npos) << error.what();
@@ -148,7 +148,7 @@ TEST(Pa10ModelErrors, MalformedUrdfFileGivesAnErrorNamingTheFile) {
 TEST(Pa10ModelErrors, MissingFileGivesAnErrorNamingTheFile) {
   const std::string path = "/nonexistent/dir/pa10.urdf";
   try {
-    Kinematics::fromUrdfFile(path);
+    Kinematics::from_urdf_file(path);
     FAIL() << "expected ModelError";
   } catch (const ModelError& error) {
     EXPECT_NE(std::string(error.what()).find(path), std::string::npos) << error.what();
@@ -165,7 +165,7 @@ TEST(Pa10ModelErrors, ChainWithoutSevenRevoluteJointsIsRejected) {
       <axis xyz="0 1 0"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
   </robot>)";
   try {
-    Kinematics::fromUrdfString(two_joints, "short.urdf");
+    Kinematics::from_urdf_string(two_joints, "short.urdf");
     FAIL() << "expected ModelError";
   } catch (const ModelError& error) {
     EXPECT_NE(std::string(error.what()).find("short.urdf"), std::string::npos) << error.what();
@@ -179,7 +179,7 @@ TEST(Pa10ModelErrors, MissingTipLinkIsNamed) {
   EXPECT_THROW(
       {
         try {
-          Kinematics::fromUrdfString(urdf, "pa10.urdf", "base_link", "gripper");
+          Kinematics::from_urdf_string(urdf, "pa10.urdf", "base_link", "gripper");
         } catch (const ModelError& error) {
           EXPECT_NE(std::string(error.what()).find("'gripper'"), std::string::npos);
           throw;
@@ -424,7 +424,7 @@ TEST(Pa10VelocityIk, SolveAllocatesNothing) {
     sink += ik.solve(twist * 20, generalPose(), kDt_s).qdot_rad_s[0];    // velocity scaling
     sink += ik.solve(twist, JointVector::Zero(), kDt_s).qdot_rad_s[0];   // singular
     sink += ik.solve(kinematics.jacobian(at_limit).col(3), at_limit, kDt_s).qdot_rad_s[0];
-    sink += kinematics.toolPose(generalPose()).translation().x();
+    sink += kinematics.tool_pose(generalPose()).translation().x();
   }
   EXPECT_EQ(rtm_test::allocations_on_this_thread() - before, 0u);
   EXPECT_TRUE(std::isfinite(sink));

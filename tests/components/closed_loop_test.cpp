@@ -52,7 +52,7 @@ class ClosedLoopTest : public ::testing::Test {
         "joystick0", std::make_unique<rtm::comp::MasterJoystickSource>(hardware_->master()));
     sensor_ = std::make_unique<rtm::comp::Sensor>(
         "sensor0", std::make_unique<rtm::comp::MasterWristSource>(hardware_->master()),
-        rtm::pa10::Kinematics::fromUrdfFile(RTM_PA10_URDF));
+        rtm::pa10::Kinematics::from_urdf_file(RTM_PA10_URDF));
     controller_ = std::make_unique<rtm::comp::Controller>("controller0", rtm::comp::ControllerParams{});
     actuator_ = std::make_unique<rtm::comp::Actuator>("actuator0", std::move(hardware), rtm::comp::ActuatorParams{});
 
@@ -102,7 +102,7 @@ class ClosedLoopTest : public ::testing::Test {
     controller_->command_out().latest(out);
     return values(out);
   }
-  Eigen::Vector3d tool_position() { return hardware_->arm().toolPose().translation(); }
+  Eigen::Vector3d tool_position() { return hardware_->arm().tool_pose().translation(); }
 
   std::filesystem::path profile_path_;
   std::string bus_spec_;

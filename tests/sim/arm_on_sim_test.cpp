@@ -63,7 +63,7 @@ class ArmOnSimTest : public ::testing::Test {
 
   // One 2 ms cycle: command the twist, then let the master run one lock-step cycle.
   void cycle(const std::array<float, 6>& twist) {
-    ASSERT_TRUE(arm_->orderVelocity(twist)) << arm_->faultReason();
+    ASSERT_TRUE(arm_->order_velocity(twist)) << arm_->fault_reason();
     ASSERT_TRUE(master_->step()) << "not every node answered the SYNC";
   }
   void cycles(int count, const std::array<float, 6>& twist) {
@@ -80,11 +80,11 @@ class ArmOnSimTest : public ::testing::Test {
 
 TEST_F(ArmOnSimTest, TwistCommandMovesTheTool10cmInPlusXWithin1mm) {
   cycles(5, {});
-  const Eigen::Isometry3d start = arm_->toolPose();
+  const Eigen::Isometry3d start = arm_->tool_pose();
   // 0.05 m/s for 2 s of sim time, then still for 1 s so the servos settle.
   cycles(1000, {0.05f, 0, 0, 0, 0, 0});
   cycles(500, {});
-  const Eigen::Isometry3d end = arm_->toolPose();
+  const Eigen::Isometry3d end = arm_->tool_pose();
   const Eigen::Vector3d moved = end.translation() - start.translation();
   EXPECT_NEAR(moved.x(), 0.10, 1e-3);
   EXPECT_NEAR(moved.y(), 0.0, 1e-3);
@@ -172,7 +172,7 @@ TEST_F(ArmOnSimWithSensorBusTest, BothSensorsAnswerEverySyncOnTheirOwnBus) {
     EXPECT_EQ(wrench.sync_counter, master_->joint_state().sync_counter);
     for (double value : wrench.values) EXPECT_NEAR(value, 0.0, 0.05) << "tared, at rest";
   }
-  EXPECT_FALSE(arm_->inFault()) << arm_->faultReason();
+  EXPECT_FALSE(arm_->in_fault()) << arm_->fault_reason();
 }
 
 // Real time: pa10-sim on its own 1 ms clock, the master on its own 2 ms thread. Only loose,
@@ -186,18 +186,18 @@ TEST_F(ArmOnRealTimeSimTest, PeriodicMasterMovesTheToolForwardWithoutFault) {
   master_->run_periodic();
   // The arm reports not_enabled until the periodic thread has published its first cycles.
   const auto ready_by = std::chrono::steady_clock::now() + 5s;
-  while (!arm_->orderVelocity({}) && std::chrono::steady_clock::now() < ready_by)
+  while (!arm_->order_velocity({}) && std::chrono::steady_clock::now() < ready_by)
     std::this_thread::sleep_for(2ms);
-  ASSERT_TRUE(arm_->orderVelocity({})) << toString(arm_->fault()) << " " << arm_->faultReason();
-  const Eigen::Vector3d start = arm_->toolPose().translation();
+  ASSERT_TRUE(arm_->order_velocity({})) << to_string(arm_->fault()) << " " << arm_->fault_reason();
+  const Eigen::Vector3d start = arm_->tool_pose().translation();
   // A cycle the master misses on a loaded host shows as a transient not_enabled (not latched);
   // anything latched is a failure.
   int transient_cycles = 0;
   auto command_for = [&](std::chrono::milliseconds duration, const std::array<float, 6>& twist) {
     const auto until = std::chrono::steady_clock::now() + duration;
     while (std::chrono::steady_clock::now() < until) {
-      if (!arm_->orderVelocity(twist)) {
-        ASSERT_EQ(arm_->fault(), rtm::pa10::ArmFault::not_enabled) << arm_->faultReason();
+      if (!arm_->order_velocity(twist)) {
+        ASSERT_EQ(arm_->fault(), rtm::pa10::ArmFault::not_enabled) << arm_->fault_reason();
         ++transient_cycles;
       }
       std::this_thread::sleep_for(2ms);
@@ -208,12 +208,12 @@ TEST_F(ArmOnRealTimeSimTest, PeriodicMasterMovesTheToolForwardWithoutFault) {
   command_for(500ms, {});
   ASSERT_FALSE(HasFatalFailure());
   RecordProperty("transient_not_enabled_cycles", transient_cycles);
-  const Eigen::Vector3d moved = arm_->toolPose().translation() - start;
+  const Eigen::Vector3d moved = arm_->tool_pose().translation() - start;
   EXPECT_GT(moved.x(), 0.005);
   EXPECT_LT(moved.x(), 0.06);
   EXPECT_NEAR(moved.y(), 0.0, 0.002);
   EXPECT_NEAR(moved.z(), 0.0, 0.002);
-  EXPECT_FALSE(arm_->inFault()) << arm_->faultReason();
+  EXPECT_FALSE(arm_->in_fault()) << arm_->fault_reason();
 }
 
 }  // namespace

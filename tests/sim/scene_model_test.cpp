@@ -18,7 +18,7 @@ using rtm::sim::Pa10Plant;
 namespace {
 
 TEST(Pa10SceneMatchesUrdf, ToolPoseAgreesWithKdlWithin1nmOverRandomJointVectors) {
-  Kinematics kinematics = Kinematics::fromUrdfFile(RTM_PA10_URDF);
+  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF);
   Pa10Plant plant(RTM_PA10_SCENE);
   const auto& limits = kinematics.limits();
   std::mt19937_64 rng(20041);
@@ -32,7 +32,7 @@ TEST(Pa10SceneMatchesUrdf, ToolPoseAgreesWithKdlWithin1nmOverRandomJointVectors)
       q[j] = q_array[static_cast<std::size_t>(j)] = within(rng);
     }
     plant.set_joint_positions(q_array);
-    const Eigen::Isometry3d expected = kinematics.toolPose(q);
+    const Eigen::Isometry3d expected = kinematics.tool_pose(q);
     const auto position = plant.tool_position_m();
     const auto rotation = plant.tool_rotation();
     for (int i = 0; i < 3; ++i) {
@@ -63,7 +63,7 @@ TEST(Pa10SceneMatchesUrdf, ReadyPosePointsTheToolDown55cmInFrontAnd5cmAboveTheTa
 }
 
 TEST(Pa10SceneMatchesUrdf, MassesCentresOfMassAndInertiasAgree) {
-  Kinematics kinematics = Kinematics::fromUrdfFile(RTM_PA10_URDF);
+  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF);
   Pa10Plant plant(RTM_PA10_SCENE);
   const mjModel* model = plant.model();
   const KDL::Chain& chain = kinematics.chain();
@@ -93,7 +93,7 @@ TEST(Pa10SceneMatchesUrdf, MassesCentresOfMassAndInertiasAgree) {
 }
 
 TEST(Pa10SceneMatchesUrdf, JointLimitsAgree) {
-  Kinematics kinematics = Kinematics::fromUrdfFile(RTM_PA10_URDF);
+  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF);
   Pa10Plant plant(RTM_PA10_SCENE);
   const mjModel* model = plant.model();
   for (int j = 0; j < rtm::sim::kJointCount; ++j) {

@@ -38,13 +38,13 @@ int main(int argc, char** argv) {
       rtm::can::Pa10Master master("socketcan:vcan0", "", config);
       master.start();
       rtm::pa10::Pa10Arm arm(argv[2], master);
-      const auto q0 = arm.jointPositions();
+      const auto q0 = arm.joint_positions();
       for (int i = 0; i < 100; ++i) {
-        if (!arm.orderVelocity({0.05f, 0, 0, 0, 0, 0}))
-          throw std::runtime_error("arm fault: " + arm.faultReason());
+        if (!arm.order_velocity({0.05f, 0, 0, 0, 0, 0}))
+          throw std::runtime_error("arm fault: " + arm.fault_reason());
         if (!master.step()) throw std::runtime_error("a node did not answer a SYNC");
       }
-      moved_rad = (arm.jointPositions() - q0).norm();
+      moved_rad = (arm.joint_positions() - q0).norm();
     }
     sim.stop();
     std::this_thread::sleep_for(200ms);  // candump prints what it has read
