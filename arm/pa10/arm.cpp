@@ -7,7 +7,7 @@
 namespace rtm::pa10 {
 namespace {
 
-ArmFault armFaultOf(const rtm::can::MasterFault& fault) {
+ArmFault arm_fault_of(const rtm::can::MasterFault& fault) {
   using rtm::can::FaultKind;
   if (fault.kind == FaultKind::emergency && fault.code == rtm::can::emcy::kRpdoTimeout)
     return ArmFault::command_loss;
@@ -88,7 +88,7 @@ ArmFault Pa10Arm::check_faults() {
   }
   const rtm::can::MasterFault master_fault = master_.fault();
   if (master_fault.active()) {
-    latch(armFaultOf(master_fault), master_fault.reason.c_str());
+    latch(arm_fault_of(master_fault), master_fault.reason.c_str());
     return fault();
   }
   set_state(ArmFault::not_enabled, "the master has not enabled every drive");
