@@ -47,13 +47,13 @@ void Controller::on_start() {
   reference_in_.read(discard);
 }
 
-void Controller::update(rtm::InPort<RTM::TimedFloat6>& port, Input& input) {
-  input.change = input.freshness.tick(port.read(input.datum) == rtm::ReadResult::NewData);
+rtm::Freshness::Change Controller::update(rtm::InPort<RTM::TimedFloat6>& port, Input& input) {
+  return input.freshness.tick(port.read(input.datum) == rtm::ReadResult::NewData);
 }
 
 // Fresh and finite; counts and logs (once per event) an input going stale or bad.
-bool Controller::usable(Input& input, const char* what) {
-  if (input.change == rtm::Freshness::Change::went_stale) {
+bool Controller::usable(Input& input, rtm::Freshness::Change change, const char* what) {
+  if (change == rtm::Freshness::Change::went_stale) {
     stale_events_.fetch_add(1, std::memory_order_relaxed);
     log().warn("{}: {} input stale (no new datum for {} periods): zero command", name(), what, params_.stale_periods);
   }
@@ -69,10 +69,10 @@ bool Controller::usable(Input& input, const char* what) {
 
 void Controller::on_cycle(const rtm::CycleContext&) {
   cycles_.fetch_add(1, std::memory_order_relaxed);
-  update(sensor_in_, sensor_);
-  update(reference_in_, reference_);
-  const bool sensor_ok = usable(sensor_, "sensor (in0)");
-  const bool reference_ok = usable(reference_, "reference (in1)");
+  const auto sensor_change = update(sensor_in_, sensor_);
+  const auto reference_change = update(reference_in_, reference_);
+  const bool sensor_ok = usable(sensor_, sensor_change, "sensor (in0)");
+  const bool reference_ok = usable(reference_, reference_change, "reference (in1)");
   if (sensor_ok && reference_ok) {
     const auto out = proportional_command(params_.gain, reference_.datum.val, sensor_.datum.val);
     for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = out[i];

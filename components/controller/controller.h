@@ -70,11 +70,11 @@ class Controller final : public rtm::Component {
     explicit Input(std::uint32_t stale_periods) : freshness(stale_periods) {}
     RTM::TimedFloat6 datum{};
     rtm::Freshness freshness;
-    rtm::Freshness::Change change = rtm::Freshness::Change::none;  // this cycle's
     bool was_bad = false;
   };
-  void update(rtm::InPort<RTM::TimedFloat6>& port, Input& input);
-  bool usable(Input& input, const char* what);
+  // Reads the port's newest datum into input; returns what that did to its freshness.
+  rtm::Freshness::Change update(rtm::InPort<RTM::TimedFloat6>& port, Input& input);
+  bool usable(Input& input, rtm::Freshness::Change change, const char* what);
 
   const ControllerParams params_;
   Input sensor_{params_.stale_periods};
