@@ -2,8 +2,6 @@
 
 #include <fcntl.h>
 #include <poll.h>
-#include <sys/prctl.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,26 +15,18 @@
 
 #include "arm/can/bus.h"
 #include "arm/can/local_bus.h"
+#include "rt/clock.h"
+#include "rt/schedule.h"
+#include "rt/thread.h"
 #include "sim/simulator.h"
 
 namespace rtm::sim {
 
 namespace {
 
-constexpr std::int64_t kNsPerS = 1'000'000'000;
 constexpr std::int64_t kWallHeartbeatPeriod_ns = 100'000'000;
 // A real-time step found later than this is not caught up (no burst after a host stall).
 constexpr std::int64_t kMaxCatchUp_ns = 20'000'000;
-
-std::int64_t monotonic_ns() {
-  timespec now{};
-  clock_gettime(CLOCK_MONOTONIC, &now);
-  return now.tv_sec * kNsPerS + now.tv_nsec;
-}
-
-timespec to_timespec(std::int64_t ns) {
-  return {static_cast<time_t>(ns / kNsPerS), static_cast<long>(ns % kNsPerS)};
-}
 
 class BusSink final : public FrameSink {
  public:
@@ -185,7 +175,7 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
   CsvLog log(options.log_path);
   StdinWrench stdin_wrench(options.stdin_wrench);
 
-  prctl(PR_SET_TIMERSLACK, 1);  // default 50 µs slack would blur the 1 ms schedule
+  apply_thread_settings(ThreadSettings{"pa10-sim"});  // timer slack 1 ns: 50 us would blur 1 ms steps
   sim.power_on(sink);
   if (!options.quiet) {
     std::printf("pa10-sim: ready on %s%s%s (%s)\n", bus->name().c_str(),
@@ -196,15 +186,12 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
 
   const std::int64_t duration_ns = static_cast<std::int64_t>(options.duration_s * 1e9);
   const std::int64_t timestep_ns = std::llround(sim.plant().timestep_s() * 1e9);
-  std::int64_t next_step_ns = monotonic_ns() + timestep_ns;
+  // The physics steps on the project's periodic schedule; only the wait differs from an
+  // activity's: ppoll, so frames are answered between steps.
+  PeriodicSchedule schedule(timestep_ns, kMaxCatchUp_ns);
+  schedule.start(monotonic_ns() + timestep_ns, monotonic_ns());
   std::int64_t next_wall_beat_ns = monotonic_ns() + kWallHeartbeatPeriod_ns;
   std::uint64_t last_logged_sync = sim.drive(0).syncs_seen();
-  std::uint64_t stalls_skipped = 0;
-  std::int64_t skipped_ns = 0;
-  // How late each real-time step starts after its deadline: a fixed histogram, no allocation.
-  constexpr std::int64_t kLatenessBounds_ns[] = {100'000, 500'000, 1'000'000, 5'000'000};
-  std::uint64_t lateness_counts[5] = {0, 0, 0, 0, 0};
-  std::int64_t max_lateness_ns = 0;
 
   pollfd fds[3] = {{bus->pollable_fd(), POLLIN, 0},
                    {sensor_bus ? sensor_bus->pollable_fd() : -1, POLLIN, 0},
@@ -213,7 +200,7 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
   while (!stop.load(std::memory_order_relaxed)) {
     if (duration_ns > 0 && sim.time_ns() >= duration_ns) break;
     const std::int64_t now_ns = monotonic_ns();
-    const std::int64_t wake_ns = options.lock_step ? next_wall_beat_ns : next_step_ns;
+    const std::int64_t wake_ns = options.lock_step ? next_wall_beat_ns : schedule.deadline_ns();
     const timespec timeout = to_timespec(std::max<std::int64_t>(0, wake_ns - now_ns));
     fds[2].fd = stdin_wrench.fd();
     const int ready = ppoll(fds, 3, &timeout, nullptr);
@@ -239,19 +226,10 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
       }
       continue;
     }
-    while (after_ns >= next_step_ns) {
-      const std::int64_t lateness_ns = after_ns - next_step_ns;
-      max_lateness_ns = std::max(max_lateness_ns, lateness_ns);
-      int bucket = 0;
-      while (bucket < 4 && lateness_ns >= kLatenessBounds_ns[bucket]) ++bucket;
-      ++lateness_counts[bucket];
+    while (after_ns >= schedule.deadline_ns()) {
+      schedule.begin(after_ns);
       sim.step(sink);
-      next_step_ns += timestep_ns;
-      if (after_ns - next_step_ns > kMaxCatchUp_ns) {
-        ++stalls_skipped;
-        skipped_ns += after_ns - next_step_ns;
-        next_step_ns = after_ns + timestep_ns;
-      }
+      schedule.end(after_ns);  // a stall longer than kMaxCatchUp_ns is skipped, not caught up
     }
   }
   if (!options.quiet) {
@@ -261,18 +239,18 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
                 static_cast<unsigned long long>(sim.steps()),
                 static_cast<unsigned long long>(sink.dropped() +
                                                 (sensor_sink ? sensor_sink->dropped() : 0)));
-    if (!options.lock_step)
-      std::printf("pa10-sim: step start lateness: <0.1 ms %llu, <0.5 ms %llu, <1 ms %llu, "
-                  "<5 ms %llu, >=5 ms %llu, max %.2f ms; %llu host stalls skipped (%.1f ms "
-                  "of sim time not simulated)\n",
-                  static_cast<unsigned long long>(lateness_counts[0]),
-                  static_cast<unsigned long long>(lateness_counts[1]),
-                  static_cast<unsigned long long>(lateness_counts[2]),
-                  static_cast<unsigned long long>(lateness_counts[3]),
-                  static_cast<unsigned long long>(lateness_counts[4]),
-                  static_cast<double>(max_lateness_ns) * 1e-6,
-                  static_cast<unsigned long long>(stalls_skipped),
-                  static_cast<double>(skipped_ns) * 1e-6);
+    if (!options.lock_step) {
+      const ActivityStats stats = schedule.stats();
+      std::printf("pa10-sim: step start lateness p50 %.2f ms, p99 %.2f ms, max %.2f ms; %llu steps "
+                  "more than one step late; %llu steps skipped after host stalls (%.1f ms of sim "
+                  "time not simulated)\n",
+                  static_cast<double>(stats.lateness_p50_ns) * 1e-6,
+                  static_cast<double>(stats.lateness_p99_ns) * 1e-6,
+                  static_cast<double>(stats.lateness_max_ns) * 1e-6,
+                  static_cast<unsigned long long>(stats.overruns),
+                  static_cast<unsigned long long>(stats.skipped),
+                  static_cast<double>(stats.skipped) * static_cast<double>(timestep_ns) * 1e-6);
+    }
     std::fflush(stdout);
   }
 }

@@ -1,6 +1,7 @@
 // pa10-sim's main loop: a Pa10Simulator behind a CAN bus (SocketCAN or the local hub).
 //
-// Real time: one thread steps the physics on an absolute CLOCK_MONOTONIC schedule (1 ms) and
+// Real time: one thread steps the physics on the project's PeriodicSchedule (rt/schedule.h: an
+// absolute CLOCK_MONOTONIC grid of 1 ms, stalls up to 20 ms caught up, longer ones skipped) and
 // waits for frames between steps (ppoll on the bus fds until the next deadline). Lock-step:
 // the thread blocks on the bus and advances only per SYNC; heartbeats also go out every 100 ms
 // of wall time so a master's heartbeat watch is served while no SYNC flows.

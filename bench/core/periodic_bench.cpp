@@ -8,7 +8,7 @@
 // context, recorded into a pre-allocated buffer.
 #include "bench_stats.h"
 
-#include "rtm/activity.h"
+#include "rt/activity.h"
 #include "rtm/log.h"
 
 #include <pthread.h>

@@ -11,7 +11,7 @@
 // (--role publisher ...), one child per row.
 #include "bench_stats.h"
 
-#include "rtm/activity.h"
+#include "rt/activity.h"
 #include "rtm/inport.h"
 #include "rtm/log.h"
 #include "rtm/orb.h"

@@ -23,10 +23,10 @@
 
 #include "components/actuator/velocity_arm.h"
 
-#include "rtm/activity.h"
+#include "rt/activity.h"
 #include "rtm/component.h"
 #include "rtm/freshness.h"
-#include "rtm/histogram.h"
+#include "rt/histogram.h"
 
 #include <array>
 #include <atomic>

@@ -21,7 +21,7 @@
 #include "components/controller/controller.h"
 #include "components/sensor/sensor.h"
 
-#include "rtm/activity.h"
+#include "rt/activity.h"
 #include "rtm/component.h"
 
 #include <RTMExt.hh>

@@ -24,12 +24,6 @@ RTM::Time from_ns(std::int64_t ns) {
   return t;
 }
 
-std::int64_t monotonic_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
 namespace {
 const char* basic_kind_name(CORBA::TCKind kind) {
   switch (kind) {

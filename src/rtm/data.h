@@ -3,6 +3,7 @@
 
 #include "RTM.hh"
 #include "RTMData.hh"
+#include "rt/clock.h"
 
 #include <cmath>
 #include <concepts>
@@ -22,8 +23,8 @@ RTM::Time now();
 std::int64_t to_ns(const RTM::Time& t);
 RTM::Time from_ns(std::int64_t ns);
 
-// CLOCK_MONOTONIC in nanoseconds (the clock activities schedule on).
-std::int64_t monotonic_ns();
+// CLOCK_MONOTONIC in nanoseconds, the clock activities schedule on: rtm::monotonic_ns() of
+// rt/clock.h.
 
 // ================================ types ===============================
 

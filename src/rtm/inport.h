@@ -3,7 +3,7 @@
 #pragma once
 
 #include "RTMExt.hh"
-#include "rtm/activity.h"
+#include "rt/activity.h"
 #include "rtm/data.h"
 
 #include <atomic>

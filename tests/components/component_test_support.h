@@ -1,7 +1,7 @@
 // Small helpers shared by the component tests: TimedFloat6 values and a cycle context.
 #pragma once
 
-#include "rtm/activity.h"
+#include "rt/activity.h"
 #include "rtm/data.h"
 
 #include <array>

@@ -1,6 +1,6 @@
 #include "core_test_support.h"
 
-#include "rtm/activity.h"
+#include "rt/activity.h"
 #include "rtm/data.h"
 
 #include <gtest/gtest.h>

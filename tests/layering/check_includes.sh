@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The project's layering, checked on its #include lines (see docs/architecture.md):
 #   src/         the framework core: no robot code (arm/, sim/, components/) and no tools/
+#   src/rt/      the real-time base under everything: no CORBA (nor the core), no robot code
 #   arm/         the arm and CAN library: no CORBA (omniORB, the IDL stubs, the core rtm/),
 #                no simulator, no component
 #   sim/         the simulator: no CORBA, no component
@@ -28,6 +29,7 @@ forbid() { # folder, extended regex of the included path, what the rule says
 robot='arm/|sim/|components/'
 corba='omniORB4/|omnithread|omniORB|RTM\.hh|RTMExt\.hh|RTMData\.hh|rtm/'
 forbid src "$robot|tools/" "the core knows nothing of robots or tools"
+forbid src/rt "$corba" "the real-time base knows nothing of CORBA or the core"
 forbid arm "$corba" "the arm/CAN library knows nothing of CORBA"
 forbid arm "sim/|components/" "the arm/CAN library includes no simulator or component"
 forbid sim "$corba" "the simulator knows nothing of CORBA"

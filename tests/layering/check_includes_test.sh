@@ -11,11 +11,13 @@ expect() { # what, command...
   if "${@:2}"; then echo "ok   $1"; else echo "FAIL $1"; failures=$((failures + 1)); fi
 }
 
-mkdir -p "$tree"/{src/rtm,arm/can,sim,tools/rtm,components/controller,components/servo,tests/components}
+mkdir -p "$tree"/{src/rtm,src/rt,arm/can,sim,tools/rtm,components/controller,components/servo,tests/components}
 echo '#include "rtm/component.h"' >"$tree/components/controller/controller.h"
 echo '#include "components/controller/controller.h"' >"$tree/components/servo/servo.h"
 echo '#include "components/controller/controller.h"' >"$tree/tests/components/controller_test.cpp"
 echo '#include "arm/can/bus.h"' >"$tree/sim/drive.cpp"
+echo '#include "rt/activity.h"' >"$tree/sim/runner.cpp"
+echo '#include "rt/schedule.h"' >"$tree/src/rtm/component.h"
 printf '#include <vector>\n#include "rtm/orb.h"\n' >"$tree/tools/rtm/main.cpp"
 output=$("$check" "$tree")
 expect "a tree that keeps the rules passes" test $? -eq 0
@@ -25,6 +27,7 @@ echo '  #  include <omniORB4/CORBA.h>' >"$tree/arm/can/master.cpp"
 echo '#include "RTMExt.hh"' >"$tree/sim/runner.h"
 echo '#include "components/actuator/velocity_arm.h"' >"$tree/tools/rtm/units.cpp"
 echo '#include "sim/wrench.h"' >"$tree/arm/can/sensor.h"
+echo '#include "rtm/log.h"' >"$tree/src/rt/thread.cpp"
 output=$("$check" "$tree")
 status=$?
 echo "$output" | sed 's/^/  check: /'
@@ -34,7 +37,8 @@ expect "the CAN library including omniORB is found (indented, spaced #include)" 
 expect "the simulator including the IDL stubs is found" grep -q "^sim/runner.h:1: the simulator knows nothing of CORBA" <<<"$output"
 expect "tools including a component is found twice (robot code, a component)" test "$(grep -c '^tools/rtm/units.cpp:1:' <<<"$output")" -eq 2
 expect "the CAN library including the simulator is found" grep -q "^arm/can/sensor.h:1: the arm/CAN library includes no simulator" <<<"$output"
-expect "the count is given" grep -q "^6 layering violation(s)" <<<"$output"
+expect "the real-time base including the core is found" grep -q "^src/rt/thread.cpp:1: the real-time base knows nothing of CORBA" <<<"$output"
+expect "the count is given" grep -q "^7 layering violation(s)" <<<"$output"
 
 if ((failures)); then echo "$failures check(s) failed"; exit 1; fi
 echo "all checks passed"

@@ -1,4 +1,4 @@
-#include "rtm/activity.h"
+#include "rt/activity.h"
 
 #include <gtest/gtest.h>
 
@@ -115,6 +115,80 @@ TEST(PeriodicActivity, RejectsANonPositivePeriod) {
   options.period_ns = 0;
   EXPECT_THROW(rtm::PeriodicActivity([](const rtm::CycleContext&) { return true; }, options),
                std::invalid_argument);
+}
+
+}  // namespace
+
+namespace {
+
+// ============================ PeriodicSchedule ========================
+
+TEST(PeriodicSchedule, StartsAtTheRequestedDeadlineAndStepsOnTheGrid) {
+  rtm::PeriodicSchedule s(kPeriod_ns);
+  const std::int64_t t0 = 1000 * kPeriod_ns;
+  s.start(t0 + 3 * kPeriod_ns, t0);
+  EXPECT_EQ(s.deadline_ns(), t0 + 3 * kPeriod_ns);
+  const rtm::CycleContext first = s.begin(s.deadline_ns() + 10'000);
+  EXPECT_EQ(first.cycle, 0u);
+  EXPECT_EQ(first.deadline_ns, t0 + 3 * kPeriod_ns);
+  EXPECT_EQ(first.wake_ns - first.deadline_ns, 10'000);
+  EXPECT_EQ(first.period_ns, kPeriod_ns);
+  s.end(first.wake_ns + 50'000);
+  EXPECT_EQ(s.deadline_ns(), t0 + 4 * kPeriod_ns);
+  EXPECT_EQ(s.begin(s.deadline_ns()).cycle, 1u);
+  s.end(s.deadline_ns());
+  const rtm::ActivityStats stats = s.stats();
+  EXPECT_EQ(stats.cycles, 2u);
+  EXPECT_EQ(stats.overruns, 0u);
+  EXPECT_EQ(stats.lateness_max_ns, 10'000);
+  EXPECT_DOUBLE_EQ(stats.mean_period_error_ns, -10'000.0) << "the second wake came one period minus 10 us later";
+}
+
+TEST(PeriodicSchedule, OneStallWithinTheCatchUpRunsEveryMissedCycle) {
+  // pa10-sim's physics: a 5 ms stall of a 1 ms schedule runs the 5 missed steps at once.
+  constexpr std::int64_t kStep = 1'000'000;
+  rtm::PeriodicSchedule s(kStep, 20 * kStep);
+  s.start(kStep, 0);
+  const std::int64_t woke = kStep + 5 * kStep + 300'000;
+  int steps = 0;
+  while (woke >= s.deadline_ns()) {
+    s.begin(woke);
+    s.end(woke);
+    ++steps;
+  }
+  EXPECT_EQ(steps, 6) << "the step due at 1 ms and the five due while stalled";
+  EXPECT_EQ(s.deadline_ns(), 7 * kStep);
+  EXPECT_EQ(s.stats().skipped, 0u);
+  EXPECT_GE(s.stats().overruns, 1u) << "the steps that began more than one step late are counted";
+}
+
+TEST(PeriodicSchedule, AStallLongerThanTheCatchUpIsSkippedOnTheGrid) {
+  constexpr std::int64_t kStep = 1'000'000;
+  rtm::PeriodicSchedule s(kStep, 20 * kStep);
+  s.start(kStep, 0);
+  const std::int64_t woke = kStep + 50 * kStep + 400'000;
+  int steps = 0;
+  while (woke >= s.deadline_ns()) {
+    s.begin(woke);
+    s.end(woke);
+    ++steps;
+  }
+  EXPECT_EQ(steps, 1) << "a 50 ms stall is not replayed in a burst";
+  EXPECT_EQ(s.deadline_ns(), 52 * kStep) << "the next step is the grid's next point after the stall";
+  EXPECT_EQ(s.stats().skipped, 50u);
+  EXPECT_EQ(s.stats().overruns, 1u);
+}
+
+TEST(PeriodicSchedule, RefusesANonPositivePeriodOrANegativeCatchUp) {
+  EXPECT_THROW(rtm::PeriodicSchedule(0), std::invalid_argument);
+  EXPECT_THROW(rtm::PeriodicSchedule(kPeriod_ns, -1), std::invalid_argument);
+}
+
+TEST(Schedule, NextDeadlineWithALongerCatchUpKeepsLateDeadlines) {
+  const rtm::ScheduleStep step = rtm::next_deadline(0, kPeriod_ns, 3 * kPeriod_ns, 10 * kPeriod_ns);
+  EXPECT_FALSE(step.overrun);
+  EXPECT_EQ(step.next_deadline_ns, kPeriod_ns) << "two periods behind, within the catch-up: taken";
+  EXPECT_EQ(step.skipped, 0u);
 }
 
 }  // namespace

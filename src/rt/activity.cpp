@@ -1,81 +1,12 @@
-#include "rtm/activity.h"
+#include "rt/activity.h"
 
-#include "rtm/data.h"
-#include "rtm/log.h"
-
-#include <pthread.h>
-#include <sched.h>
-#include <sys/mman.h>
-#include <sys/prctl.h>
-#include <time.h>
-
-#include <cerrno>
-#include <cstring>
 #include <stdexcept>
+
+#include "rt/clock.h"
 
 namespace rtm {
 
-// ============================ schedule arithmetic =====================
-
-ScheduleStep next_deadline(std::int64_t deadline_ns, std::int64_t period_ns, std::int64_t now_ns) {
-  const std::int64_t next = deadline_ns + period_ns;
-  if (now_ns - next < period_ns) return {next, 0, false};
-  const std::int64_t missed = (now_ns - deadline_ns) / period_ns;
-  return {deadline_ns + (missed + 1) * period_ns, static_cast<std::uint64_t>(missed), true};
-}
-
-std::int64_t grid_point_at_or_after(std::int64_t origin_ns, std::int64_t period_ns, std::int64_t now_ns) {
-  if (period_ns <= 0) throw std::invalid_argument("grid_point_at_or_after: period_ns must be > 0");
-  // Floor division, so an origin after now_ns steps back as well as forward.
-  const std::int64_t offset = now_ns - origin_ns;
-  std::int64_t periods = offset / period_ns;
-  if (offset % period_ns != 0 && offset < 0) --periods;
-  std::int64_t point = origin_ns + periods * period_ns;
-  if (point < now_ns) point += period_ns;
-  return point;
-}
-
-std::int64_t first_deadline(std::int64_t requested_ns, std::int64_t period_ns, std::int64_t now_ns) {
-  if (requested_ns == 0 || requested_ns >= now_ns) return requested_ns == 0 ? now_ns : requested_ns;
-  return grid_point_at_or_after(requested_ns, period_ns, now_ns);
-}
-
-// ============================ thread settings =========================
-
 namespace {
-
-void set_thread_name(const std::string& name) {
-  pthread_setname_np(pthread_self(), name.substr(0, 15).c_str());
-}
-
-// Privileged settings degrade to a warning: a developer machine without CAP_SYS_NICE must
-// still run the whole system, only with worse timing.
-void apply_periodic_settings(const PeriodicOptions& options) {
-  // Default slack makes SCHED_OTHER threads wake ~50 us late.
-  prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
-  set_thread_name(options.thread_name);
-  if (options.cpu >= 0) {
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    CPU_SET(options.cpu, &set);
-    if (int err = pthread_setaffinity_np(pthread_self(), sizeof(set), &set); err != 0)
-      log().warn("{}: cannot pin to CPU {} ({}); running unpinned", options.thread_name, options.cpu,
-                 std::strerror(err));
-  }
-  if (options.fifo_priority > 0) {
-    sched_param param{};
-    param.sched_priority = options.fifo_priority;
-    if (int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param); err != 0)
-      log().warn("{}: SCHED_FIFO priority {} refused ({}); running SCHED_OTHER{}", options.thread_name,
-                 options.fifo_priority, std::strerror(err),
-                 err == EPERM ? " (needs CAP_SYS_NICE or an rtprio limit)" : "");
-  }
-  if (options.lock_memory) {
-    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
-      log().warn("{}: mlockall refused ({}); page faults may delay cycles", options.thread_name,
-                 std::strerror(errno));
-  }
-}
 
 // Sleeps until deadline_ns (absolute, CLOCK_MONOTONIC) in slices of at most 50 ms so that a
 // stop request is seen within 50 ms even with long periods. False when stopped.
@@ -85,9 +16,7 @@ bool sleep_until(std::int64_t deadline_ns, const std::atomic<bool>& stop) {
     const std::int64_t now = monotonic_ns();
     if (now >= deadline_ns) return true;
     const std::int64_t target = deadline_ns - now > kSlice_ns ? now + kSlice_ns : deadline_ns;
-    timespec ts{static_cast<time_t>(target / 1'000'000'000), static_cast<long>(target % 1'000'000'000)};
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-    }
+    sleep_until_ns(target);
   }
   return false;
 }
@@ -119,7 +48,8 @@ void stop_thread(std::mutex& mu, std::thread& thread, std::atomic<bool>& stop_re
 // ============================ PeriodicActivity ========================
 
 PeriodicActivity::PeriodicActivity(CycleFunction cycle, PeriodicOptions options)
-    : cycle_(std::move(cycle)), options_(std::move(options)) {
+    : cycle_(std::move(cycle)), options_(std::move(options)),
+      schedule_(options_.period_ns > 0 ? options_.period_ns : 1, options_.catch_up_ns > 0 ? options_.catch_up_ns : 0) {
   if (!cycle_) throw std::invalid_argument("PeriodicActivity: empty cycle function");
   if (options_.period_ns <= 0)
     throw std::invalid_argument("PeriodicActivity: period_ns must be > 0, got " + std::to_string(options_.period_ns));
@@ -155,49 +85,16 @@ void PeriodicActivity::stop() {
 
 bool PeriodicActivity::running() const { return running_.load(); }
 
-ActivityStats PeriodicActivity::stats() const {
-  ActivityStats s;
-  s.period_ns = options_.period_ns;
-  s.cycles = cycles_.load(std::memory_order_relaxed);
-  s.overruns = overruns_.load(std::memory_order_relaxed);
-  s.skipped = skipped_.load(std::memory_order_relaxed);
-  s.lateness_p50_ns = lateness_.percentile_ns(0.50);
-  s.lateness_p99_ns = lateness_.percentile_ns(0.99);
-  s.lateness_max_ns = lateness_.max_ns();
-  const std::uint64_t samples = period_samples_.load(std::memory_order_relaxed);
-  s.mean_period_error_ns =
-      samples ? static_cast<double>(period_error_sum_ns_.load(std::memory_order_relaxed)) / static_cast<double>(samples)
-              : 0.0;
-  return s;
-}
+ActivityStats PeriodicActivity::stats() const { return schedule_.stats(); }
 
 void PeriodicActivity::loop() {
   own_thread_id_.store(std::this_thread::get_id());
-  apply_periodic_settings(options_);
-  const std::int64_t period = options_.period_ns;
-  std::int64_t deadline = first_deadline(options_.first_deadline_ns, period, monotonic_ns());
-  std::int64_t previous_wake = -1;
-  std::uint64_t previous_skipped = 0;
-  std::uint64_t cycle = 0;
-  while (sleep_until(deadline, stop_requested_)) {
-    const std::int64_t wake = monotonic_ns();
-    const std::int64_t lateness = wake - deadline;
-    lateness_.record(lateness);
-    if (previous_wake >= 0) {
-      const auto nominal = static_cast<std::int64_t>(previous_skipped + 1) * period;
-      period_error_sum_ns_.fetch_add(wake - previous_wake - nominal, std::memory_order_relaxed);
-      period_samples_.fetch_add(1, std::memory_order_relaxed);
-    }
-    previous_wake = wake;
-    const CycleContext ctx{cycle++, deadline, wake, period};
-    const bool keep_running = cycle_(ctx);
-    cycles_.fetch_add(1, std::memory_order_relaxed);
+  apply_thread_settings(options_.thread_settings());
+  schedule_.start(options_.first_deadline_ns, monotonic_ns());
+  while (sleep_until(schedule_.deadline_ns(), stop_requested_)) {
+    const bool keep_running = cycle_(schedule_.begin(monotonic_ns()));
+    schedule_.end(monotonic_ns());
     if (!keep_running) break;
-    const ScheduleStep step = next_deadline(deadline, period, monotonic_ns());
-    if (step.overrun || lateness > period) overruns_.fetch_add(1, std::memory_order_relaxed);
-    skipped_.fetch_add(step.skipped, std::memory_order_relaxed);
-    previous_skipped = step.skipped;
-    deadline = step.next_deadline_ns;
   }
   own_thread_id_.store(std::thread::id());
   running_.store(false);

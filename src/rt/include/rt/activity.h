@@ -1,4 +1,5 @@
-// Activities: WHEN a component's cycle runs, kept apart from WHAT it computes.
+// Activities: WHEN a cycle runs, kept apart from WHAT it computes. CORBA-free: the core's
+// components, the CAN master and the simulator run on them.
 //
 // PeriodicActivity  own thread, absolute 2 ms (default) schedule on CLOCK_MONOTONIC
 // OnArrivalActivity own thread, one cycle per arrival signalled by an InPort
@@ -15,59 +16,13 @@
 #include <thread>
 #include <vector>
 
-#include "rtm/histogram.h"
+#include "rt/schedule.h"
+#include "rt/thread.h"
 
 namespace rtm {
 
-// ============================ cycle context ===========================
-
-// What a cycle knows about the moment it runs.
-struct CycleContext {
-  std::uint64_t cycle = 0;       // 0, 1, 2, ... since start()
-  std::int64_t deadline_ns = 0;  // CLOCK_MONOTONIC: when this cycle was due (wake time for on-arrival)
-  std::int64_t wake_ns = 0;      // CLOCK_MONOTONIC: when the thread actually woke
-  std::int64_t period_ns = 0;    // nominal period; 0 for on-arrival
-};
-
 // One cycle. Returns false to stop the activity that runs it (e.g. the component failed).
 using CycleFunction = std::function<bool(const CycleContext&)>;
-
-// ============================ schedule arithmetic =====================
-
-// The next deadline after a cycle due at deadline_ns finished at now_ns, on the grid
-// deadline_ns + k * period_ns. A late cycle never shifts the grid: if the next deadline is
-// less than one period in the past it is still taken (runs at once); if now_ns is more than
-// one period past it, that cycle is an overrun and every missed deadline is skipped.
-struct ScheduleStep {
-  std::int64_t next_deadline_ns;  // CLOCK_MONOTONIC
-  std::uint64_t skipped;          // deadlines dropped from the grid (0 unless overrun)
-  bool overrun;
-};
-ScheduleStep next_deadline(std::int64_t deadline_ns, std::int64_t period_ns, std::int64_t now_ns);
-
-// The first point of the grid origin_ns + k * period_ns (k any integer) at or after now_ns:
-// how an activity joins another one's grid (e.g. the bus master's SYNC cycles) whenever it
-// starts. period_ns > 0.
-std::int64_t grid_point_at_or_after(std::int64_t origin_ns, std::int64_t period_ns, std::int64_t now_ns);
-
-// A periodic activity's first deadline: now_ns when requested_ns is 0 (start at once),
-// requested_ns when it is still ahead, otherwise the first point at or after now_ns on the grid
-// requested_ns + k * period_ns (a start that came too late keeps the requested phase).
-std::int64_t first_deadline(std::int64_t requested_ns, std::int64_t period_ns, std::int64_t now_ns);
-
-// ============================ statistics ==============================
-
-// A snapshot of an activity's timing (units in the names).
-struct ActivityStats {
-  std::int64_t period_ns = 0;
-  std::uint64_t cycles = 0;
-  std::uint64_t overruns = 0;     // cycles that woke, or ended, more than one period late
-  std::uint64_t skipped = 0;      // deadlines skipped after overruns
-  std::int64_t lateness_p50_ns = 0;  // wake - deadline; histogram bucket upper edge
-  std::int64_t lateness_p99_ns = 0;
-  std::int64_t lateness_max_ns = 0;  // exact
-  double mean_period_error_ns = 0;   // mean(actual wake-to-wake interval - period_ns)
-};
 
 // ============================ activities ==============================
 
@@ -91,12 +46,17 @@ struct PeriodicOptions {
   int cpu = -1;                        // pin the thread to this CPU; -1: no affinity
   bool lock_memory = false;            // mlockall(MCL_CURRENT | MCL_FUTURE) at start
   std::string thread_name = "rtm-periodic";  // pthread name, cut to 15 characters
+  // How far behind a late cycle may fall and its successors still run (at once, one after the
+  // other) instead of being skipped; 0: one period (see next_deadline()).
+  std::int64_t catch_up_ns = 0;
   // CLOCK_MONOTONIC deadline of the first cycle, which fixes the phase of every later one (see
   // first_deadline()); 0: the first cycle runs at once.
   std::int64_t first_deadline_ns = 0;
+
+  ThreadSettings thread_settings() const { return {thread_name, fifo_priority, cpu, lock_memory}; }
 };
 
-// Runs cycle on an absolute schedule: clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME) to
+// Runs cycle on a PeriodicSchedule: clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME) to the
 // deadline, next deadline = deadline + period (see next_deadline()), timer slack 1 ns.
 // Nothing in the loop allocates, locks or logs.
 class PeriodicActivity final : public Activity {
@@ -122,12 +82,7 @@ class PeriodicActivity final : public Activity {
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> running_{false};
   std::atomic<std::thread::id> own_thread_id_{};
-  LatenessHistogram lateness_;
-  std::atomic<std::uint64_t> cycles_{0};
-  std::atomic<std::uint64_t> overruns_{0};
-  std::atomic<std::uint64_t> skipped_{0};
-  std::atomic<std::int64_t> period_error_sum_ns_{0};
-  std::atomic<std::uint64_t> period_samples_{0};
+  PeriodicSchedule schedule_;
 };
 
 // A counter an InPort bumps on every stored datum and an OnArrivalActivity waits on.

@@ -1,0 +1,13 @@
+#include "rt/clock.h"
+
+#include <cerrno>
+
+namespace rtm {
+
+void sleep_until_ns(std::int64_t deadline_ns) {
+  const timespec ts = to_timespec(deadline_ns);
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+}
+
+}  // namespace rtm

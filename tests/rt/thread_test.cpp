@@ -1,0 +1,84 @@
+// Thread settings: what a refused privilege does, and that the settings reach the thread.
+#include "rt/thread.h"
+
+#include <gtest/gtest.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/prctl.h>
+
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+std::mutex warnings_mu;
+std::vector<std::string> warnings;
+void record_warning(const std::string& message) {
+  std::lock_guard lock(warnings_mu);
+  warnings.push_back(message);
+}
+
+struct CapturedWarnings {
+  CapturedWarnings() {
+    std::lock_guard lock(warnings_mu);
+    warnings.clear();
+    rtm::set_warning_sink(&record_warning);
+  }
+  ~CapturedWarnings() { rtm::set_warning_sink(nullptr); }
+  std::vector<std::string> taken() {
+    std::lock_guard lock(warnings_mu);
+    return warnings;
+  }
+};
+
+TEST(ThreadSettings, NameAndTimerSlackReachTheCallingThread) {
+  CapturedWarnings captured;
+  std::string name;
+  long slack = -1;
+  std::thread([&] {
+    rtm::apply_thread_settings(rtm::ThreadSettings{"rt-settings-test-long-name"});
+    char buffer[32] = {};
+    pthread_getname_np(pthread_self(), buffer, sizeof buffer);
+    name = buffer;
+    slack = prctl(PR_GET_TIMERSLACK, 0, 0, 0, 0);
+  }).join();
+  EXPECT_EQ(name, "rt-settings-tes") << "cut to the 15 characters Linux keeps";
+  EXPECT_EQ(slack, 1);
+  EXPECT_TRUE(captured.taken().empty());
+}
+
+TEST(ThreadSettings, AnUnavailableCpuIsAWarningNamingTheThreadNotAFailure) {
+  CapturedWarnings captured;
+  const int cpus = static_cast<int>(std::thread::hardware_concurrency());
+  std::thread([&] {
+    rtm::ThreadSettings settings{"pinned"};
+    settings.cpu = cpus + 1000;  // no such CPU
+    rtm::apply_thread_settings(settings);
+  }).join();
+  const auto taken = captured.taken();
+  ASSERT_EQ(taken.size(), 1u);
+  EXPECT_NE(taken[0].find("pinned: cannot pin to CPU"), std::string::npos) << taken[0];
+}
+
+TEST(ThreadSettings, FifoPriorityIsGrantedOrRefusedWithAWarningNeverSilently) {
+  CapturedWarnings captured;
+  int policy = -1;
+  std::thread([&] {
+    rtm::ThreadSettings settings{"fifo"};
+    settings.fifo_priority = 10;
+    rtm::apply_thread_settings(settings);
+    sched_param param{};
+    pthread_getschedparam(pthread_self(), &policy, &param);
+  }).join();
+  const auto taken = captured.taken();
+  if (policy == SCHED_FIFO) {
+    EXPECT_TRUE(taken.empty());
+  } else {
+    ASSERT_EQ(taken.size(), 1u) << "running without the priority asked for must be reported";
+    EXPECT_NE(taken[0].find("SCHED_FIFO priority 10 refused"), std::string::npos) << taken[0];
+  }
+}
+
+}  // namespace
