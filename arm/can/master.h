@@ -7,11 +7,13 @@
 // and run them itself (take_over_cycles(), receive_cycle(), transmit_cycle()). From any
 // thread: set_target_velocities(), joint_state(), wrench(), fault(), fault_reset(), counters().
 //
-// One cycle: read what arrived for the previous SYNC, publish it, check faults and
-// heartbeats, write the 7 RPDOs (controlword + target velocity) and SYNC in one
-// Bus::send_batch(). The cycle does no
-// allocation, no logging, no I/O other than the CAN frames; the shared state is guarded by a
-// mutex held only for copies, never across a send or a wait.
+// The parts (one file each): BusCycle (bus_cycle.h) is the SYNC cycle with no thread:
+// receive(now) / transmit(now); Supervisor (supervisor.h) latches faults, holds quick stops
+// and watches heartbeats and feedback; run_startup() (startup.h) is the start-up sequence.
+// This class owns them and decides who runs the cycle: its own PeriodicActivity (rt/), a
+// caller's thread (take_over_cycles()) watched by a small SYNC watchdog, or step() callers.
+// The cycle does no allocation, no logging, no I/O other than the CAN frames; other threads
+// reach it through its Mailbox, a mutex held only for copies, never across a send or a wait.
 //
 // Faults (drive statusword fault, an EMCY with a non-zero code, a node silent for longer than
 // the heartbeat timeout, a bus error, a drive leaving operation enabled): latched with a reason;
@@ -28,95 +30,18 @@
 #include <array>
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
-#include <vector>
 
 #include "arm/can/bus.h"
-#include "arm/can/cia402.h"
-#include "arm/can/protocol.h"
+#include "arm/can/master_types.h"
+#include "rt/activity.h"
 
 namespace rtm::can {
 
-using SteadyTime = std::chrono::steady_clock::time_point;
-
-struct MasterConfig {
-  std::chrono::nanoseconds period{2'000'000};                 // SYNC period
-  std::chrono::milliseconds boot_timeout{5000};               // all nodes seen (boot-up/heartbeat)
-  std::chrono::milliseconds sdo_timeout{500};                 // per SDO request
-  std::chrono::milliseconds enable_timeout{2000};             // all drives operation enabled
-  std::chrono::milliseconds heartbeat_timeout{300};           // node silent longer -> fault
-  std::chrono::nanoseconds step_timeout{std::chrono::milliseconds(100)};  // lock-step wait
-  // A drive silent for more consecutive SYNCs -> fault. 25 cycles = 50 ms: longer than the
-  // 5-40 ms host stalls a VM shows (a dead node is caught by the heartbeat after 300 ms anyway).
-  int missed_feedback_limit = 25;
-  // Force sensors the master listens to (and waits for at startup and in step()).
-  std::vector<ForceSensor> sensors{ForceSensor::wrist, ForceSensor::joystick};
-  // While another thread runs the cycles (take_over_cycles()): if it sends no SYNC for this
-  // many periods in a row in which run_periodic()'s idle thread itself woke on time (so not a
-  // stall of the whole process or host), that thread takes the cycles back and latches
-  // FaultKind::cycle_owner_lost (zero velocity). Without it a hung owner would leave each drive
-  // at its last latched velocity: the drives' RPDO timeout counts SYNCs, and none come.
-  int taken_over_timeout_periods = 5;
-  // run_periodic(): SCHED_FIFO priority (0 = keep SCHED_OTHER) and CPU to pin to (-1 = none).
-  int realtime_priority = 0;
-  int cpu = -1;
-};
-
-struct JointState {
-  std::array<double, kDriveCount> position_rad{};
-  std::array<double, kDriveCount> velocity_rad_s{};
-  std::array<std::uint16_t, kDriveCount> statusword{};
-  std::uint8_t sync_counter = 0;  // the SYNC these values answer (0 = none yet)
-  SteadyTime sync_time{};         // when that SYNC was sent (steady_clock = CLOCK_MONOTONIC)
-  std::uint64_t cycle = 0;        // cycle number of that SYNC, counting from 1
-  bool complete = false;          // all 7 drives answered that SYNC
-};
-
-struct Wrench {
-  std::array<double, 6> values{};  // Fx Fy Fz [N], Tx Ty Tz [N·m], in the sensor frame
-  std::uint8_t sync_counter = 0;   // the SYNC the force and torque frames answer (0 = none yet)
-  SteadyTime sync_time{};
-  std::uint64_t sequence = 0;      // increments with each complete wrench (force + torque)
-  bool valid = false;
-};
-
-enum class FaultKind : std::uint8_t {
-  none,
-  drive_fault,        // statusword reports fault / fault reaction
-  drive_disabled,     // a drive left operation enabled by itself
-  emergency,          // EMCY with a non-zero error code
-  heartbeat_lost,     // a node silent longer than heartbeat_timeout
-  bus_error,          // the transport failed
-  missing_feedback,   // a drive did not answer several SYNCs in a row
-  node_not_operational,  // a heartbeat reports boot-up/stopped/pre-operational after start
-  cycle_owner_lost,   // the thread that took the cycles over stopped running them
-};
-std::string_view to_string(FaultKind kind);
-
-struct MasterFault {
-  FaultKind kind = FaultKind::none;
-  std::uint8_t node = 0;           // the node concerned (0 = bus / none)
-  std::uint16_t code = 0;          // EMCY code or statusword
-  std::string reason;              // e.g. "drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)"
-  bool active() const { return kind != FaultKind::none; }
-};
-
-struct MasterCounters {
-  std::uint64_t cycles = 0;            // SYNCs sent
-  std::uint64_t overruns = 0;          // run_periodic: cycle found its deadline already past
-  std::uint64_t step_timeouts = 0;     // step(): not all expected TPDOs within step_timeout
-  std::uint64_t malformed_frames = 0;  // protocol id, but the decoder refused it
-  std::uint64_t unknown_frames = 0;    // id outside the protocol
-  std::uint64_t late_frames = 0;       // TPDO answering an older SYNC: ignored
-  std::uint64_t foreign_frames = 0;    // master-side frames (SYNC, NMT, RPDO, SDO request) from another master
-  std::uint64_t emcy_frames = 0;
-  std::uint64_t send_dropped = 0;      // transmit queue full
-};
+class BusCycle;
 
 class Pa10Master {
  public:
@@ -144,12 +69,14 @@ class Pa10Master {
   // when all answered. Must not be used while run_periodic() runs.
   bool step();
 
-  // Own thread: one cycle per `period` on an absolute CLOCK_MONOTONIC schedule; a cycle that
-  // starts after its deadline counts an overrun and the schedule skips ahead (no burst).
+  // Own thread: one cycle per `period` on a PeriodicActivity (rt/activity.h: an absolute
+  // CLOCK_MONOTONIC grid; a cycle that ends a period late counts an overrun and the schedule
+  // skips ahead on the grid, no burst). Thread settings from MasterConfig (realtime_priority,
+  // cpu).
   void run_periodic();
   void run_periodic(std::chrono::nanoseconds period);  // same, with this SYNC period
   void stop();  // stops run_periodic's thread; idempotent
-  bool running() const { return running_.load(); }
+  bool running() const { return periodic_.load(); }
 
   // Joint velocity targets [rad/s] for the next cycle. Thread-safe, no allocation. Throws
   // std::invalid_argument for a NaN or infinite value (nothing is applied then). Ignored
@@ -165,10 +92,7 @@ class Pa10Master {
   // samples are stamped with), so sent_realtime_ns - a sample's stamp is the end-to-end
   // latency. {0, 0} until a target has been sent; cycles sending zero instead (fault, quick
   // stop, enabling) leave it unchanged.
-  struct SentTarget {
-    std::uint64_t sequence = 0;
-    std::int64_t sent_realtime_ns = 0;
-  };
+  using SentTarget = can::SentTarget;
   SentTarget last_sent() const;
 
   // ---- Cycles run by another thread ----------------------------------------------------
@@ -181,16 +105,18 @@ class Pa10Master {
   //                     then SYNC.
   // Call them in that order once per period, from one thread. A bus error latches a fault
   // (they do not throw it); calling them without the cycles taken over is a std::logic_error.
-  // They return false, doing nothing, once run_periodic()'s thread has taken the cycles back
-  // because the caller stopped sending SYNC (MasterConfig::taken_over_timeout_periods).
+  // They return false, doing nothing, once the watchdog has given the cycles back to the
+  // master's activity because the caller stopped sending SYNC
+  // (MasterConfig::taken_over_timeout_periods).
   //
-  // take_over_cycles(): run_periodic()'s thread finishes the cycle it is in and idles; returns
-  // the CLOCK_MONOTONIC deadline [ns] it would have cycled next: the caller's first cycle is
-  // due then, so no SYNC is lost or doubled. Waits at most one period; returns 0 at once when
-  // no periodic thread runs. Idempotent.
-  // hand_back_cycles(next_deadline_ns): the thread cycles again, first at next_deadline_ns
-  // (0 = now; a deadline more than a period past moves forward on its grid). Waits until the
-  // thread has it. No-op unless taken over.
+  // take_over_cycles(): the master's own activity stops after the cycle it is in; returns the
+  // CLOCK_MONOTONIC deadline [ns] it would have cycled next: the caller's first cycle is due
+  // then, so no SYNC is lost or doubled. Waits at most one period; returns 0 at once when no
+  // periodic thread runs. Idempotent. From then on a SYNC watchdog checks once per period that
+  // the caller transmits.
+  // hand_back_cycles(next_deadline_ns): the watchdog stops and the master's activity starts
+  // again, first at next_deadline_ns (0 = now; a deadline already past moves forward on its
+  // grid). No-op unless taken over.
   // If the caller stops cycling without handing back, the drives' RPDO timeout brakes them.
   std::int64_t take_over_cycles();
   void hand_back_cycles(std::int64_t next_deadline_ns);
@@ -229,26 +155,26 @@ class Pa10Master {
   const std::string& sensor_bus_name() const;
 
  private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-  std::atomic<bool> running_{false};
-  std::atomic<std::int64_t> next_cycle_deadline_ns_{0};
-  std::thread thread_;
-
-  // Who runs the cycles: own -> requested (take_over waits) -> external (the thread idles) ->
-  // returning (hand_back waits) -> own.
-  enum class Handover : std::uint8_t { own, requested, external, returning };
-  std::mutex handover_mutex_;
-  std::condition_variable handover_cv_;
-  Handover handover_ = Handover::own;
-  std::int64_t handover_deadline_ns_ = 0;
+  std::unique_ptr<BusCycle> cycle_;
+  // Whoever runs (half) a cycle holds it: uncontended unless the watchdog takes the cycles back.
+  std::mutex cycle_mutex_;
+  // Who owns time. periodic_: run_periodic() was called and stop() was not. external_: the
+  // cycles are the caller's (take_over_cycles()); own_ is then stopped and the watchdog runs.
+  std::mutex handover_mutex_;  // serialises run_periodic/stop/take_over/hand_back and the watchdog's take-back
+  std::atomic<bool> periodic_{false};
   std::atomic<bool> external_{false};
-  std::atomic<bool> reclaimed_{false};          // taken back from a silent owner
-  std::atomic<std::uint64_t> transmits_{0};     // transmit_cycle() calls, for the idle thread
-  std::mutex cycle_mutex_;  // whoever runs (half) a cycle; uncontended unless taking back
-  void publish_deadline(SteadyTime next);
-  bool idle_while_taken_over(SteadyTime& next);
-  bool run_half_cycle(const char* what, void (Impl::*half)());
+  std::atomic<bool> reclaimed_{false};        // taken back from a silent owner
+  std::int64_t handover_deadline_ns_ = 0;     // the caller's first cycle
+  std::atomic<std::uint64_t> transmits_{0};  // transmit_cycle() calls, for the watchdog
+  std::unique_ptr<rtm::PeriodicActivity> own_;       // the master's own cycles
+  std::unique_ptr<rtm::PeriodicActivity> watchdog_;  // the SYNC watchdog while taken over
+  int silent_periods_ = 0;
+  std::uint64_t transmits_seen_ = 0;
+
+  bool own_cycle();
+  bool watch_owner(const rtm::CycleContext& ctx);
+  void start_own(std::int64_t first_deadline_ns);
+  bool run_half_cycle(const char* what, void (BusCycle::*half)(std::int64_t));
 };
 
 }  // namespace rtm::can

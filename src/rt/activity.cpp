@@ -22,9 +22,10 @@ bool sleep_until(std::int64_t deadline_ns, const std::atomic<bool>& stop) {
 }
 
 // start()/stop() shared by the thread-owning activities.
-template <class Body>
+// prepare() runs under the lock just before the thread starts, only when it does.
+template <class Body, class Prepare>
 void start_thread(std::mutex& mu, std::thread& thread, std::atomic<bool>& stop_requested,
-                  std::atomic<bool>& running, Body body) {
+                  std::atomic<bool>& running, Body body, Prepare prepare) {
   std::lock_guard lock(mu);
   if (running.load() && !stop_requested.load()) return;
   if (thread.joinable()) {
@@ -32,6 +33,7 @@ void start_thread(std::mutex& mu, std::thread& thread, std::atomic<bool>& stop_r
       throw std::logic_error("rtm: an activity cannot restart itself from its own cycle");
     thread.join();
   }
+  prepare();
   stop_requested.store(false);
   running.store(true);
   thread = std::thread(std::move(body));
@@ -70,7 +72,10 @@ void PeriodicActivity::set_first_deadline_ns(std::int64_t first_deadline_ns) {
 }
 
 void PeriodicActivity::start() {
-  start_thread(control_mu_, thread_, stop_requested_, running_, [this] { loop(); });
+  // The first deadline is fixed here, not on the new thread: next_deadline_ns() is right as
+  // soon as start() returns.
+  start_thread(control_mu_, thread_, stop_requested_, running_, [this] { loop(); },
+               [this] { schedule_.start(options_.first_deadline_ns, monotonic_ns()); });
 }
 
 void PeriodicActivity::stop() {
@@ -90,7 +95,6 @@ ActivityStats PeriodicActivity::stats() const { return schedule_.stats(); }
 void PeriodicActivity::loop() {
   own_thread_id_.store(std::this_thread::get_id());
   apply_thread_settings(options_.thread_settings());
-  schedule_.start(options_.first_deadline_ns, monotonic_ns());
   while (sleep_until(schedule_.deadline_ns(), stop_requested_)) {
     const bool keep_running = cycle_(schedule_.begin(monotonic_ns()));
     schedule_.end(monotonic_ns());
@@ -141,7 +145,7 @@ OnArrivalActivity::OnArrivalActivity(CycleFunction cycle, std::shared_ptr<Arriva
 OnArrivalActivity::~OnArrivalActivity() { stop(); }
 
 void OnArrivalActivity::start() {
-  start_thread(control_mu_, thread_, stop_requested_, running_, [this] { loop(); });
+  start_thread(control_mu_, thread_, stop_requested_, running_, [this] { loop(); }, [] {});
 }
 
 void OnArrivalActivity::stop() {

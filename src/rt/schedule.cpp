@@ -44,14 +44,15 @@ PeriodicSchedule::PeriodicSchedule(std::int64_t period_ns, std::int64_t catch_up
 }
 
 void PeriodicSchedule::start(std::int64_t requested_first_ns, std::int64_t now_ns) {
-  deadline_ns_ = first_deadline(requested_first_ns, period_ns_, now_ns);
+  deadline_ns_.store(first_deadline(requested_first_ns, period_ns_, now_ns), std::memory_order_relaxed);
   previous_wake_ns_ = -1;
   previous_skipped_ = 0;
   cycle_ = 0;
 }
 
 CycleContext PeriodicSchedule::begin(std::int64_t wake_ns) {
-  lateness_ns_ = wake_ns - deadline_ns_;
+  const std::int64_t deadline = deadline_ns();
+  lateness_ns_ = wake_ns - deadline;
   lateness_.record(lateness_ns_);
   if (previous_wake_ns_ >= 0) {
     const auto nominal = static_cast<std::int64_t>(previous_skipped_ + 1) * period_ns_;
@@ -59,16 +60,16 @@ CycleContext PeriodicSchedule::begin(std::int64_t wake_ns) {
     period_samples_.fetch_add(1, std::memory_order_relaxed);
   }
   previous_wake_ns_ = wake_ns;
-  return CycleContext{cycle_++, deadline_ns_, wake_ns, period_ns_};
+  return CycleContext{cycle_++, deadline, wake_ns, period_ns_};
 }
 
 void PeriodicSchedule::end(std::int64_t now_ns) {
   cycles_.fetch_add(1, std::memory_order_relaxed);
-  const ScheduleStep step = next_deadline(deadline_ns_, period_ns_, now_ns, catch_up_ns_);
+  const ScheduleStep step = next_deadline(deadline_ns(), period_ns_, now_ns, catch_up_ns_);
   if (step.overrun || lateness_ns_ > period_ns_) overruns_.fetch_add(1, std::memory_order_relaxed);
   skipped_.fetch_add(step.skipped, std::memory_order_relaxed);
   previous_skipped_ = step.skipped;
-  deadline_ns_ = step.next_deadline_ns;
+  deadline_ns_.store(step.next_deadline_ns, std::memory_order_relaxed);
 }
 
 ActivityStats PeriodicSchedule::stats() const {

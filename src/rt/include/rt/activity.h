@@ -72,6 +72,11 @@ class PeriodicActivity final : public Activity {
   // grid known only then. Only while stopped: std::logic_error otherwise; std::invalid_argument
   // when negative.
   void set_first_deadline_ns(std::int64_t first_deadline_ns);
+  // The CLOCK_MONOTONIC deadline of the cycle the schedule runs next: while running, the one it
+  // waits for or runs; once stopped, the first one it did not run (a stop() requested before a
+  // deadline ends the activity without running that cycle). 0 before the first start().
+  // Another activity started at this deadline takes the grid over with no cycle lost or doubled.
+  std::int64_t next_deadline_ns() const { return schedule_.deadline_ns(); }
 
  private:
   void loop();

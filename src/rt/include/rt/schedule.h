@@ -74,8 +74,8 @@ class PeriodicSchedule {
   // The first deadline from first_deadline(requested_ns, period, now_ns). Keeps the statistics
   // of earlier runs (a restarted activity counts on).
   void start(std::int64_t requested_first_ns, std::int64_t now_ns);
-  // CLOCK_MONOTONIC deadline of the next cycle.
-  std::int64_t deadline_ns() const { return deadline_ns_; }
+  // CLOCK_MONOTONIC deadline of the next cycle (readable from any thread).
+  std::int64_t deadline_ns() const { return deadline_ns_.load(std::memory_order_relaxed); }
   std::int64_t period_ns() const { return period_ns_; }
 
   // The cycle due at deadline_ns() begins at wake_ns: records its lateness.
@@ -88,7 +88,7 @@ class PeriodicSchedule {
  private:
   std::int64_t period_ns_;
   std::int64_t catch_up_ns_;
-  std::int64_t deadline_ns_ = 0;
+  std::atomic<std::int64_t> deadline_ns_{0};
   std::int64_t previous_wake_ns_ = -1;
   std::int64_t lateness_ns_ = 0;
   std::uint64_t previous_skipped_ = 0;

@@ -1,0 +1,316 @@
+#include "arm/can/bus_cycle.h"
+
+#include <cstdio>
+
+namespace rtm::can {
+
+namespace {
+
+std::array<bool, 128> expected_nodes(const MasterConfig& config) {
+  std::array<bool, 128> expected{};
+  for (int j = 0; j < kDriveCount; ++j) expected[drive_node(j)] = true;
+  for (ForceSensor s : config.sensors)
+    expected[s == ForceSensor::wrist ? kWristSensorNode : kJoystickSensorNode] = true;
+  return expected;
+}
+
+}  // namespace
+
+BusCycle::BusCycle(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_bus, MasterConfig config)
+    : drive_bus_(std::move(drive_bus)),
+      separate_sensor_bus_(std::move(sensor_bus)),
+      config_(std::move(config)),
+      supervisor_(config_, expected_nodes(config_)) {
+  if (!drive_bus_) throw std::invalid_argument("Pa10Master: no drive bus");
+  if (config_.period <= std::chrono::nanoseconds(0)) throw std::invalid_argument("Pa10Master: period must be > 0");
+  sensor_bus_ = separate_sensor_bus_ ? separate_sensor_bus_.get() : drive_bus_.get();
+  for (ForceSensor s : config_.sensors) sensor_enabled_[sensor_slot(s)] = true;
+}
+
+std::string BusCycle::describe_buses() const {
+  return separate_sensor_bus_ ? drive_bus_->name() + " (sensors on " + sensor_bus_->name() + ")" : drive_bus_->name();
+}
+
+void BusCycle::fail(const std::string& what) const {
+  throw std::runtime_error("PA10 master on " + describe_buses() + ": " + what);
+}
+
+// ---- sending -----------------------------------------------------------------------------
+
+void BusCycle::send(Bus& bus, const Result<can_frame>& frame) {
+  if (!frame.ok()) return;  // encoders only fail on NaN/ids, excluded before this point
+  if (!bus.send(*frame)) ++counters_.send_dropped;
+}
+
+void BusCycle::send_nmt_all(NmtCommand command) {
+  send(*drive_bus_, encode_nmt(command, kNmtAllNodes));
+  if (separate_sensor_bus_) send(*separate_sensor_bus_, encode_nmt(command, kNmtAllNodes));
+}
+
+void BusCycle::add(const Result<can_frame>& frame) {
+  if (frame.ok() && outgoing_count_ < outgoing_.size()) outgoing_[outgoing_count_++] = *frame;
+}
+
+// ---- receiving ---------------------------------------------------------------------------
+
+bool BusCycle::sensor_expected(std::uint8_t node) const {
+  return (node == kWristSensorNode && sensor_enabled_[0]) || (node == kJoystickSensorNode && sensor_enabled_[1]);
+}
+
+void BusCycle::handle(const can_frame& frame, std::int64_t now_ns) {
+  const Classified c = classify(frame);
+  switch (c.type) {
+    case FrameType::drive_feedback: {
+      const auto fb = decode_drive_feedback(frame);
+      if (!fb) { ++counters_.malformed_frames; return; }
+      const auto j = static_cast<std::size_t>(joint_index_of(fb->drive));
+      if (!window_open_) { ++counters_.late_frames; return; }
+      if (got_feedback_[j]) ++counters_.late_frames;  // keep the newer
+      got_feedback_[j] = true;
+      feedback_[j] = *fb;
+      return;
+    }
+    case FrameType::sensor_force:
+    case FrameType::sensor_torque: handle_sensor(frame, c); return;
+    case FrameType::heartbeat: {
+      const auto hb = decode_heartbeat(frame);
+      if (!hb) { ++counters_.malformed_frames; return; }
+      supervisor_.on_heartbeat(hb->node, hb->state, now_ns);
+      return;
+    }
+    case FrameType::emcy: {
+      const auto e = decode_emcy(frame);
+      if (!e) { ++counters_.malformed_frames; return; }
+      ++counters_.emcy_frames;
+      supervisor_.on_emcy(e->node, e->error_code);
+      return;
+    }
+    case FrameType::sdo_response: {
+      const auto r = decode_sdo_response(frame);
+      if (!r) { ++counters_.malformed_frames; return; }
+      if (sdo_waiting_node_ != 0 && r->node == sdo_waiting_node_) sdo_response_ = *r;
+      return;
+    }
+    case FrameType::nmt:
+    case FrameType::sync:
+    case FrameType::drive_command:
+    case FrameType::sdo_request: ++counters_.foreign_frames; return;
+    case FrameType::unknown: ++counters_.unknown_frames; return;
+  }
+}
+
+// A force or torque frame: one half of a sensor's wrench for the open window.
+void BusCycle::handle_sensor(const can_frame& frame, const Classified& c) {
+  if (!sensor_expected(c.node)) return;
+  const std::size_t s = c.node == kWristSensorNode ? 0 : 1;
+  const bool force = c.type == FrameType::sensor_force;
+  std::array<double, 3> values{};
+  if (force) {
+    const auto f = decode_sensor_force(frame);
+    if (!f) { ++counters_.malformed_frames; return; }
+    for (std::size_t i = 0; i < 3; ++i) values[i] = f->force_N[i];
+  } else {
+    const auto t = decode_sensor_torque(frame);
+    if (!t) { ++counters_.malformed_frames; return; }
+    for (std::size_t i = 0; i < 3; ++i) values[i] = t->torque_Nm[i];
+  }
+  if (!window_open_) { ++counters_.late_frames; return; }
+  bool& got = force ? got_force_[s] : got_torque_[s];
+  if (got) ++counters_.late_frames;
+  got = true;
+  for (std::size_t i = 0; i < 3; ++i) wrench_values_[s][(force ? 0 : 3) + i] = values[i];
+}
+
+// Reads everything already queued on both buses without waiting.
+void BusCycle::drain() {
+  can_frame frame{};
+  const std::int64_t now_ns = monotonic_ns();
+  while (drive_bus_->receive(frame, std::chrono::nanoseconds(0))) handle(frame, now_ns);
+  if (separate_sensor_bus_)
+    while (separate_sensor_bus_->receive(frame, std::chrono::nanoseconds(0))) handle(frame, now_ns);
+}
+
+bool BusCycle::wait_readable(std::int64_t deadline_ns) {
+  const std::int64_t now_ns = monotonic_ns();
+  if (now_ns >= deadline_ns) return false;
+  pollfd fds[2] = {{drive_bus_->pollable_fd(), POLLIN, 0}, {-1, POLLIN, 0}};
+  if (separate_sensor_bus_) fds[1].fd = separate_sensor_bus_->pollable_fd();
+  const timespec left = to_timespec(deadline_ns - now_ns);
+  ppoll(fds, separate_sensor_bus_ ? 2 : 1, &left, nullptr);
+  return true;
+}
+
+bool BusCycle::window_complete() const {
+  for (bool got : got_feedback_)
+    if (!got) return false;
+  for (std::size_t s = 0; s < kSensorCount; ++s)
+    if (sensor_enabled_[s] && !(got_force_[s] && got_torque_[s])) return false;
+  return true;
+}
+
+// ---- the cycle ---------------------------------------------------------------------------
+
+void BusCycle::take_requests(std::int64_t now_ns) {
+  std::lock_guard lock(mailbox_.mutex_);
+  CycleRequests& r = mailbox_.requests_;
+  if (r.fault_reset) {
+    r.fault_reset = false;
+    supervisor_.take_fault_reset(now_ns);
+    mailbox_.report_.fault = supervisor_.fault();
+    r.target_valid = false;
+  }
+  supervisor_.take_quick_stop(r.quick_stop, now_ns);
+  if (supervisor_.may_move() && r.target_valid) {
+    command_rad_s_ = r.target_rad_s;
+    command_sequence_ = r.target_sequence;
+  } else {
+    command_rad_s_.fill(0.0);
+    command_sequence_ = 0;
+  }
+}
+
+// Writes the 7 RPDOs and SYNC; opens the window for this SYNC's answers.
+void BusCycle::send_cycle(std::int64_t now_ns) {
+  if (supervisor_.recovering()) {
+    // Nodes that dropped out of operational are started again; harmless for the others.
+    send_nmt_all(NmtCommand::start);
+    supervisor_.on_nmt_restart(now_ns);
+  }
+  for (int j = 0; j < kDriveCount; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    const std::uint16_t cw = supervisor_.controlword(i, last_statusword_[i]);
+    add(encode_drive_command(DriveCommand{drive_node(j), cw, command_rad_s_[i]}));
+  }
+  sync_counter_ = next_sync_counter(sync_counter_);
+  add(encode_sync(sync_counter_));
+  // The seven RPDOs and SYNC leave in one write: a node woken by the first frame cannot hold
+  // the rest back, and on a real bus they go out back to back.
+  sync_time_ns_ = monotonic_ns();
+  const std::size_t sent = drive_bus_->send_batch(std::span<const can_frame>(outgoing_.data(), outgoing_count_));
+  counters_.send_dropped += outgoing_count_ - sent;
+  outgoing_count_ = 0;
+  if (command_sequence_ != 0) publish_sent(command_sequence_);
+  if (separate_sensor_bus_) send(*separate_sensor_bus_, encode_sync(sync_counter_));
+  ++cycle_;
+  ++counters_.cycles;
+  got_feedback_.fill(false);
+  got_force_.fill(false);
+  got_torque_.fill(false);
+  window_open_ = true;
+}
+
+// Closes the window of the last SYNC: the supervisor checks the drives, and what arrived is
+// published.
+void BusCycle::close_window(std::int64_t now_ns) {
+  window_open_ = false;
+  for (std::size_t i = 0; i < kDriveCount; ++i)
+    if (got_feedback_[i]) last_statusword_[i] = feedback_[i].statusword;
+  publish(supervisor_.check_drives(got_feedback_, last_statusword_, now_ns));
+}
+
+void BusCycle::publish(const DriveSummary& drives) {
+  std::lock_guard lock(mailbox_.mutex_);
+  CycleReport& report = mailbox_.report_;
+  JointState& s = report.state;
+  for (std::size_t i = 0; i < kDriveCount; ++i) {
+    if (!got_feedback_[i]) continue;
+    s.position_rad[i] = feedback_[i].position_rad;
+    s.velocity_rad_s[i] = feedback_[i].velocity_rad_s;
+    s.statusword[i] = feedback_[i].statusword;
+  }
+  s.sync_counter = sync_counter_;
+  s.sync_time = SteadyTime(std::chrono::nanoseconds(sync_time_ns_));
+  s.cycle = cycle_;
+  s.complete = true;
+  for (bool got : got_feedback_) s.complete = s.complete && got;
+  for (std::size_t k = 0; k < kSensorCount; ++k) {
+    if (!(sensor_enabled_[k] && got_force_[k] && got_torque_[k])) continue;
+    Wrench& w = report.wrench[k];
+    w.values = wrench_values_[k];
+    w.sync_counter = sync_counter_;
+    w.sync_time = s.sync_time;
+    ++w.sequence;
+    w.valid = true;
+  }
+  const FaultRecord& fault = supervisor_.fault();
+  if (fault.active() && !report.fault.active()) {
+    mailbox_.requests_.target_valid = false;  // after a fault the old target must not come back
+  }
+  report.fault = fault;
+  report.enabled = drives.all_enabled && !fault.active() && !supervisor_.enabling();
+  report.quick_stopped = drives.all_quick_stopped && mailbox_.requests_.quick_stop;
+  report.counters = counters_;
+}
+
+// Right after the RPDOs of target `sequence` (and the SYNC behind them) were written: the end
+// of the sample-to-bus path, stamped with CLOCK_REALTIME as sensor samples are.
+void BusCycle::publish_sent(std::uint64_t sequence) {
+  const std::int64_t sent_ns = realtime_ns();
+  std::lock_guard lock(mailbox_.mutex_);
+  mailbox_.report_.last_sent = SentTarget{sequence, sent_ns};
+}
+
+void BusCycle::bus_failure(const std::exception& error) {
+  supervisor_.latch(FaultKind::bus_error, 0, 0, "%s", error.what());
+  publish(DriveSummary{false, false});
+}
+
+void BusCycle::receive(std::int64_t now_ns) {
+  drain();
+  if (cycle_ > 0) close_window(now_ns);
+  supervisor_.check_heartbeats(now_ns);
+}
+
+void BusCycle::transmit(std::int64_t now_ns) {
+  take_requests(now_ns);
+  send_cycle(now_ns);
+}
+
+bool BusCycle::step() {
+  window_open_ = false;
+  drain();  // anything now is an answer to an older SYNC (late) or asynchronous
+  const std::int64_t now_ns = monotonic_ns();
+  supervisor_.check_heartbeats(now_ns);
+  transmit(now_ns);
+  const bool complete = receive_until(monotonic_ns() + config_.step_timeout.count(), [this] { return window_complete(); });
+  if (!complete) ++counters_.step_timeouts;
+  close_window(monotonic_ns());
+  return complete;
+}
+
+void BusCycle::shutdown() {
+  // Brake and switch off cleanly, then leave operational so no RPDO timeout follows.
+  window_open_ = false;
+  for (int j = 0; j < kDriveCount; ++j)
+    send(*drive_bus_, encode_drive_command(DriveCommand{drive_node(j), controlword::kShutdown, 0.0}));
+  sync_counter_ = next_sync_counter(sync_counter_);
+  send(*drive_bus_, encode_sync(sync_counter_));
+  if (separate_sensor_bus_) send(*separate_sensor_bus_, encode_sync(sync_counter_));
+  send_nmt_all(NmtCommand::enter_pre_operational);
+}
+
+// ---- SDO ---------------------------------------------------------------------------------
+
+SdoResponse BusCycle::sdo_transfer(const SdoRequest& request, const char* what) {
+  sdo_response_.reset();
+  sdo_waiting_node_ = request.node;
+  send(*drive_bus_, encode_sdo_request(request));
+  const bool answered = receive_until(monotonic_ns() + std::chrono::nanoseconds(config_.sdo_timeout).count(), [&] {
+    return sdo_response_ && sdo_response_->index == request.index && sdo_response_->subindex == request.subindex;
+  });
+  sdo_waiting_node_ = 0;
+  char text[96];
+  std::snprintf(text, sizeof text, "%s 0x%04x:%02x", what, request.index, request.subindex);
+  if (!answered) {
+    fail("no SDO response from " + node_description(request.node) + " to " + text + " within " +
+         std::to_string(config_.sdo_timeout.count()) + " ms");
+  }
+  if (sdo_response_->kind == SdoResponseKind::abort) {
+    char code[16];
+    std::snprintf(code, sizeof code, "0x%08x", sdo_response_->data);
+    fail(node_description(request.node) + " aborted the SDO " + text + " with code " + code);
+  }
+  return *sdo_response_;
+}
+
+}  // namespace rtm::can

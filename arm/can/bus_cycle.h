@@ -1,0 +1,163 @@
+// BusCycle: the PA10 master's SYNC cycle as an object with no thread, like the simulator's
+// devices. Whoever owns time runs it: the master's own activity (Pa10Master::run_periodic),
+// the servo's shared tick (fast mode), a test or the simulator stepping in lock-step.
+//
+//   receive(now)   everything that arrived is read; the window of the previous SYNC closes:
+//                  joint feedback and wrenches are assembled and published, the supervisor
+//                  checks the drives and the heartbeats
+//   transmit(now)  the requests are taken (target, quick stop, fault reset), the 7 RPDOs and
+//                  SYNC leave in one write, the window of this SYNC opens
+//   step()         lock-step: transmit, then wait until every drive and sensor answered (or
+//                  step_timeout), then close the window
+//
+// Other threads talk to the cycle only through its Mailbox: requests in, a report out, each
+// one struct under one mutex held for a copy, never across a send or a wait. The cycle does no
+// allocation, no logging and no I/O other than its CAN frames.
+#pragma once
+
+#include <poll.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+
+#include "arm/can/bus.h"
+#include "arm/can/master_types.h"
+#include "arm/can/supervisor.h"
+#include "rt/clock.h"
+
+namespace rtm::can {
+
+inline constexpr std::size_t kSensorCount = 2;
+constexpr std::size_t sensor_slot(ForceSensor s) { return s == ForceSensor::wrist ? 0 : 1; }
+
+// What other threads ask of the cycle.
+struct CycleRequests {
+  std::array<double, kDriveCount> target_rad_s{};
+  bool target_valid = false;        // false: zero is sent
+  std::uint64_t target_sequence = 0;  // of the last accepted target (0: none yet)
+  bool fault_reset = false;
+  bool quick_stop = false;
+};
+
+// What the cycle tells them, as of its last receive (or step).
+struct CycleReport {
+  JointState state{};
+  std::array<Wrench, kSensorCount> wrench{};
+  FaultRecord fault{};
+  MasterCounters counters{};
+  bool enabled = false;        // every drive enabled, no fault, not enabling
+  bool quick_stopped = false;  // every drive braked by a quick stop still requested
+  SentTarget last_sent{};
+};
+
+// The one place the cycle and other threads share.
+class Mailbox {
+ public:
+  template <class F>
+  auto with_requests(F f) {
+    std::lock_guard lock(mutex_);
+    return f(requests_, report_);
+  }
+  template <class F>
+  auto with_report(F f) const {
+    std::lock_guard lock(mutex_);
+    return f(report_);
+  }
+
+ private:
+  friend class BusCycle;
+  mutable std::mutex mutex_;
+  CycleRequests requests_{};
+  CycleReport report_{};
+};
+
+class BusCycle {
+ public:
+  // `sensor_bus` may be null: the sensors are then read from `drive_bus`. Owns both.
+  BusCycle(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_bus, MasterConfig config);
+
+  // ---- the cycle (one thread at a time; CLOCK_MONOTONIC ns) ----
+  void receive(std::int64_t now_ns);
+  void transmit(std::int64_t now_ns);
+  bool step();  // true when every expected answer came within step_timeout
+  // A transport error: latched as a bus fault, published.
+  void bus_failure(const std::exception& error);
+  // Zero velocity and "shutdown" to every drive with one last SYNC, then NMT pre-operational.
+  void shutdown();
+
+  Mailbox& mailbox() { return mailbox_; }
+  const Mailbox& mailbox() const { return mailbox_; }
+  const MasterConfig& config() const { return config_; }
+  void set_period(std::chrono::nanoseconds period) { config_.period = period; }
+  Supervisor& supervisor() { return supervisor_; }
+  std::string describe_buses() const;
+  const Bus& drive_bus() const { return *drive_bus_; }
+  const Bus& sensor_bus() const { return *sensor_bus_; }
+
+  // ---- for the start-up sequence (startup.h) ----
+  void send_nmt_all(NmtCommand command);
+  // One SDO request and its answer; throws (fail()) on timeout or abort.
+  SdoResponse sdo_transfer(const SdoRequest& request, const char* what);
+  // Handles frames until done() or deadline_ns; true when done.
+  template <class Done>
+  bool receive_until(std::int64_t deadline_ns, Done done) {
+    for (;;) {
+      drain();
+      if (done()) return true;
+      if (!wait_readable(deadline_ns)) return done();
+    }
+  }
+  bool answered(std::size_t joint) const { return got_feedback_[joint]; }
+  std::uint16_t statusword(std::size_t joint) const { return last_statusword_[joint]; }
+  // Publishes everything as of now (start-up: once every drive is enabled).
+  void publish_now(bool enabled) { publish(DriveSummary{enabled, false}); }
+  [[noreturn]] void fail(const std::string& what) const;
+
+ private:
+  void handle(const can_frame& frame, std::int64_t now_ns);
+  void handle_sensor(const can_frame& frame, const Classified& c);
+  void drain();
+  bool wait_readable(std::int64_t deadline_ns);  // false once deadline_ns has passed
+  bool window_complete() const;
+  void take_requests(std::int64_t now_ns);
+  void send(Bus& bus, const Result<can_frame>& frame);
+  void add(const Result<can_frame>& frame);
+  void send_cycle(std::int64_t now_ns);
+  void close_window(std::int64_t now_ns);
+  void publish(const DriveSummary& drives);
+  void publish_sent(std::uint64_t sequence);
+  bool sensor_expected(std::uint8_t node) const;
+
+  std::unique_ptr<Bus> drive_bus_;
+  std::unique_ptr<Bus> separate_sensor_bus_;  // null: sensors share drive_bus_
+  Bus* sensor_bus_ = nullptr;
+  MasterConfig config_;
+  std::array<bool, kSensorCount> sensor_enabled_{};
+  Supervisor supervisor_;
+  Mailbox mailbox_;
+
+  std::uint8_t sync_counter_ = 0;  // of the last SYNC sent
+  std::uint64_t cycle_ = 0;
+  std::int64_t sync_time_ns_ = 0;
+  bool window_open_ = false;
+  std::array<bool, kDriveCount> got_feedback_{};
+  std::array<DriveFeedback, kDriveCount> feedback_{};
+  std::array<std::uint16_t, kDriveCount> last_statusword_{};
+  std::array<bool, kSensorCount> got_force_{}, got_torque_{};
+  std::array<std::array<double, 6>, kSensorCount> wrench_values_{};
+  std::uint8_t sdo_waiting_node_ = 0;
+  std::optional<SdoResponse> sdo_response_;
+  MasterCounters counters_{};
+  std::array<double, kDriveCount> command_rad_s_{};
+  std::uint64_t command_sequence_ = 0;  // of the target in command_rad_s_; 0 = zero, not a target
+  std::array<can_frame, kDriveCount + 1> outgoing_{};  // a cycle's frames, one send_batch()
+  std::size_t outgoing_count_ = 0;
+};
+
+}  // namespace rtm::can

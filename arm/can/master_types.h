@@ -1,0 +1,100 @@
+// The PA10 master's vocabulary: its configuration and what it reports (joint state, wrench,
+// fault, counters, the last target sent). Shared by the master (master.h), its thread-free bus
+// cycle (bus_cycle.h) and its supervisor (supervisor.h).
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "arm/can/protocol.h"
+
+namespace rtm::can {
+
+using SteadyTime = std::chrono::steady_clock::time_point;
+
+struct MasterConfig {
+  std::chrono::nanoseconds period{2'000'000};                 // SYNC period
+  std::chrono::milliseconds boot_timeout{5000};               // all nodes seen (boot-up/heartbeat)
+  std::chrono::milliseconds sdo_timeout{500};                 // per SDO request
+  std::chrono::milliseconds enable_timeout{2000};             // all drives operation enabled
+  std::chrono::milliseconds heartbeat_timeout{300};           // node silent longer -> fault
+  std::chrono::nanoseconds step_timeout{std::chrono::milliseconds(100)};  // lock-step wait
+  // A drive silent for more consecutive SYNCs -> fault. 25 cycles = 50 ms: longer than the
+  // 5-40 ms host stalls a VM shows (a dead node is caught by the heartbeat after 300 ms anyway).
+  int missed_feedback_limit = 25;
+  // Force sensors the master listens to (and waits for at startup and in step()).
+  std::vector<ForceSensor> sensors{ForceSensor::wrist, ForceSensor::joystick};
+  // While another thread runs the cycles (take_over_cycles()): if it sends no SYNC for this
+  // many periods in a row in which the master's SYNC watchdog itself woke on time (so not a
+  // stall of the whole process or host), the watchdog gives the cycles back to the master's
+  // own activity and latches FaultKind::cycle_owner_lost (zero velocity). Without it a hung
+  // owner would leave each drive at its last latched velocity: the drives' RPDO timeout counts
+  // SYNCs, and none come. 0: no watchdog.
+  int taken_over_timeout_periods = 5;
+  // run_periodic(): SCHED_FIFO priority (0 = keep SCHED_OTHER) and CPU to pin to (-1 = none).
+  int realtime_priority = 0;
+  int cpu = -1;
+};
+
+struct JointState {
+  std::array<double, kDriveCount> position_rad{};
+  std::array<double, kDriveCount> velocity_rad_s{};
+  std::array<std::uint16_t, kDriveCount> statusword{};
+  std::uint8_t sync_counter = 0;  // the SYNC these values answer (0 = none yet)
+  SteadyTime sync_time{};         // when that SYNC was sent (steady_clock = CLOCK_MONOTONIC)
+  std::uint64_t cycle = 0;        // cycle number of that SYNC, counting from 1
+  bool complete = false;          // all 7 drives answered that SYNC
+};
+
+struct Wrench {
+  std::array<double, 6> values{};  // Fx Fy Fz [N], Tx Ty Tz [N·m], in the sensor frame
+  std::uint8_t sync_counter = 0;   // the SYNC the force and torque frames answer (0 = none yet)
+  SteadyTime sync_time{};
+  std::uint64_t sequence = 0;      // increments with each complete wrench (force + torque)
+  bool valid = false;
+};
+
+enum class FaultKind : std::uint8_t {
+  none,
+  drive_fault,        // statusword reports fault / fault reaction
+  drive_disabled,     // a drive left operation enabled by itself
+  emergency,          // EMCY with a non-zero error code
+  heartbeat_lost,     // a node silent longer than heartbeat_timeout
+  bus_error,          // the transport failed
+  missing_feedback,   // a drive did not answer several SYNCs in a row
+  node_not_operational,  // a heartbeat reports boot-up/stopped/pre-operational after start
+  cycle_owner_lost,   // the thread that took the cycles over stopped running them
+};
+std::string_view to_string(FaultKind kind);
+
+struct MasterFault {
+  FaultKind kind = FaultKind::none;
+  std::uint8_t node = 0;           // the node concerned (0 = bus / none)
+  std::uint16_t code = 0;          // EMCY code or statusword
+  std::string reason;              // e.g. "drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)"
+  bool active() const { return kind != FaultKind::none; }
+};
+
+struct MasterCounters {
+  std::uint64_t cycles = 0;            // SYNCs sent
+  std::uint64_t overruns = 0;          // run_periodic: cycle found its deadline already past
+  std::uint64_t step_timeouts = 0;     // step(): not all expected TPDOs within step_timeout
+  std::uint64_t malformed_frames = 0;  // protocol id, but the decoder refused it
+  std::uint64_t unknown_frames = 0;    // id outside the protocol
+  std::uint64_t late_frames = 0;       // TPDO answering an older SYNC: ignored
+  std::uint64_t foreign_frames = 0;    // master-side frames (SYNC, NMT, RPDO, SDO request) from another master
+  std::uint64_t emcy_frames = 0;
+  std::uint64_t send_dropped = 0;      // transmit queue full
+};
+
+// The last target that left for the bus: see Pa10Master::last_sent().
+struct SentTarget {
+  std::uint64_t sequence = 0;
+  std::int64_t sent_realtime_ns = 0;
+};
+
+}  // namespace rtm::can
