@@ -115,9 +115,9 @@ std::int64_t Pa10Master::take_over_cycles() {
   if (external_.load()) return handover_deadline_ns_;
   handover_deadline_ns_ = 0;
   if (periodic_.load() && own_) {
-    // Stop after the cycle in progress: the first deadline it did not run is the caller's.
-    own_->stop();
-    handover_deadline_ns_ = own_->next_deadline_ns();
+    // The master's activity runs the cycle in progress (or its next one) and ends: the first
+    // deadline it did not run, about a period ahead, is the caller's first.
+    handover_deadline_ns_ = own_->stop_after_cycle();
   }
   reclaimed_.store(false);
   external_.store(true, std::memory_order_release);

@@ -286,7 +286,7 @@ void SharedTickServo::on_start() {
   }
   std::int64_t first_ns = 0;
   if (bus_.set()) {
-    first_ns = bus_.take_over();  // the bus master's thread idles from its next deadline on
+    first_ns = bus_.take_over();  // the bus master's activity stops before its next deadline
     bus_taken_.store(true);
     bus_lost_.store(false);
     last_transmit_deadline_ns_.store(0, std::memory_order_relaxed);

@@ -88,6 +88,18 @@ void PeriodicActivity::stop() {
   stop_thread(control_mu_, thread_, stop_requested_);
 }
 
+std::int64_t PeriodicActivity::stop_after_cycle() {
+  if (own_thread_id_.load() == std::this_thread::get_id())
+    throw std::logic_error("PeriodicActivity::stop_after_cycle from the activity's own cycle");
+  std::lock_guard lock(control_mu_);
+  if (thread_.joinable()) {
+    stop_after_cycle_.store(true);
+    thread_.join();  // the thread ends after its next cycle (stop_requested_ untouched: it runs)
+    stop_after_cycle_.store(false);
+  }
+  return schedule_.deadline_ns();
+}
+
 bool PeriodicActivity::running() const { return running_.load(); }
 
 ActivityStats PeriodicActivity::stats() const { return schedule_.stats(); }
@@ -98,7 +110,7 @@ void PeriodicActivity::loop() {
   while (sleep_until(schedule_.deadline_ns(), stop_requested_)) {
     const bool keep_running = cycle_(schedule_.begin(monotonic_ns()));
     schedule_.end(monotonic_ns());
-    if (!keep_running) break;
+    if (!keep_running || stop_after_cycle_.load()) break;
   }
   own_thread_id_.store(std::thread::id());
   running_.store(false);

@@ -75,8 +75,13 @@ class PeriodicActivity final : public Activity {
   // The CLOCK_MONOTONIC deadline of the cycle the schedule runs next: while running, the one it
   // waits for or runs; once stopped, the first one it did not run (a stop() requested before a
   // deadline ends the activity without running that cycle). 0 before the first start().
-  // Another activity started at this deadline takes the grid over with no cycle lost or doubled.
   std::int64_t next_deadline_ns() const { return schedule_.deadline_ns(); }
+  // Hands the grid over: the activity runs the cycle in progress, or else its next one, then
+  // ends; returns the first deadline it did not run, about one period ahead, where another
+  // activity started with set_first_deadline_ns() continues with no cycle lost or doubled.
+  // Waits at most one period plus a cycle. While stopped: next_deadline_ns() at once. Not from
+  // the activity's own thread (std::logic_error).
+  std::int64_t stop_after_cycle();
 
  private:
   void loop();
@@ -85,6 +90,7 @@ class PeriodicActivity final : public Activity {
   mutable std::mutex control_mu_;  // serialises start()/stop()
   std::thread thread_;
   std::atomic<bool> stop_requested_{false};
+  std::atomic<bool> stop_after_cycle_{false};
   std::atomic<bool> running_{false};
   std::atomic<std::thread::id> own_thread_id_{};
   PeriodicSchedule schedule_;
