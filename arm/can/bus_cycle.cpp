@@ -102,23 +102,16 @@ void BusCycle::handle(const can_frame& frame, std::int64_t now_ns) {
 // A force or torque frame: one half of a sensor's wrench for the open window.
 void BusCycle::handle_sensor(const can_frame& frame, const Classified& c) {
   if (!sensor_expected(c.node)) return;
-  const std::size_t s = c.node == kWristSensorNode ? 0 : 1;
-  const bool force = c.type == FrameType::sensor_force;
-  std::array<double, 3> values{};
-  if (force) {
+  WrenchAssembly& wrench = wrenches_[c.node == kWristSensorNode ? 0 : 1];
+  if (c.type == FrameType::sensor_force) {
     const auto f = decode_sensor_force(frame);
     if (!f) { ++counters_.malformed_frames; return; }
-    for (std::size_t i = 0; i < 3; ++i) values[i] = f->force_N[i];
+    if (!window_open_ || wrench.add_force(f->force_N)) ++counters_.late_frames;
   } else {
     const auto t = decode_sensor_torque(frame);
     if (!t) { ++counters_.malformed_frames; return; }
-    for (std::size_t i = 0; i < 3; ++i) values[i] = t->torque_Nm[i];
+    if (!window_open_ || wrench.add_torque(t->torque_Nm)) ++counters_.late_frames;
   }
-  if (!window_open_) { ++counters_.late_frames; return; }
-  bool& got = force ? got_force_[s] : got_torque_[s];
-  if (got) ++counters_.late_frames;
-  got = true;
-  for (std::size_t i = 0; i < 3; ++i) wrench_values_[s][(force ? 0 : 3) + i] = values[i];
 }
 
 // Reads everything already queued on both buses without waiting.
@@ -144,7 +137,7 @@ bool BusCycle::window_complete() const {
   for (bool got : got_feedback_)
     if (!got) return false;
   for (std::size_t s = 0; s < kSensorCount; ++s)
-    if (sensor_enabled_[s] && !(got_force_[s] && got_torque_[s])) return false;
+    if (sensor_enabled_[s] && !wrenches_[s].complete()) return false;
   return true;
 }
 
@@ -194,8 +187,7 @@ void BusCycle::send_cycle(std::int64_t now_ns) {
   ++cycle_;
   ++counters_.cycles;
   got_feedback_.fill(false);
-  got_force_.fill(false);
-  got_torque_.fill(false);
+  for (WrenchAssembly& wrench : wrenches_) wrench.restart();
   window_open_ = true;
 }
 
@@ -224,9 +216,9 @@ void BusCycle::publish(const DriveSummary& drives) {
   s.complete = true;
   for (bool got : got_feedback_) s.complete = s.complete && got;
   for (std::size_t k = 0; k < kSensorCount; ++k) {
-    if (!(sensor_enabled_[k] && got_force_[k] && got_torque_[k])) continue;
+    if (!(sensor_enabled_[k] && wrenches_[k].complete())) continue;
     Wrench& w = report.wrench[k];
-    w.values = wrench_values_[k];
+    w.values = wrenches_[k].values();
     w.sync_counter = sync_counter_;
     w.sync_time = s.sync_time;
     ++w.sequence;

@@ -29,6 +29,7 @@
 #include "arm/can/bus.h"
 #include "arm/can/master_types.h"
 #include "arm/can/supervisor.h"
+#include "arm/can/wrench_assembly.h"
 #include "rt/clock.h"
 
 namespace rtm::can {
@@ -149,8 +150,7 @@ class BusCycle {
   std::array<bool, kDriveCount> got_feedback_{};
   std::array<DriveFeedback, kDriveCount> feedback_{};
   std::array<std::uint16_t, kDriveCount> last_statusword_{};
-  std::array<bool, kSensorCount> got_force_{}, got_torque_{};
-  std::array<std::array<double, 6>, kSensorCount> wrench_values_{};
+  std::array<WrenchAssembly, kSensorCount> wrenches_{};
   std::uint8_t sdo_waiting_node_ = 0;
   std::optional<SdoResponse> sdo_response_;
   MasterCounters counters_{};

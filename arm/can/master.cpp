@@ -123,12 +123,14 @@ std::int64_t Pa10Master::take_over_cycles() {
   external_.store(true, std::memory_order_release);
   const int timeout = cycle_->config().taken_over_timeout_periods;
   if (periodic_.load() && timeout > 0) {
-    // One check per period, from one period after the caller's first cycle.
+    // One check per period, half a period after each of the caller's deadlines from its
+    // second on: its cycle is done by then, and the watchdog never wakes with it.
     const MasterConfig& config = cycle_->config();
     rtm::PeriodicOptions options;
     options.period_ns = config.period.count();
     options.thread_name = "pa10-syncwatch";
-    options.first_deadline_ns = handover_deadline_ns_ + options.period_ns;
+    options.first_deadline_ns =
+        (handover_deadline_ns_ > 0 ? handover_deadline_ns_ : monotonic_ns()) + options.period_ns + options.period_ns / 2;
     silent_periods_ = 0;
     transmits_seen_ = transmits_.load();
     watchdog_ = std::make_unique<rtm::PeriodicActivity>(

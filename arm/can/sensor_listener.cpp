@@ -33,9 +33,7 @@ void SensorListener::handle(const can_frame& frame, SteadyTime received_at) {
       if (!sync) { ++counters_.malformed_frames; return; }
       ++counters_.syncs;
       // A half whose partner never came belongs to a SYNC that is over now.
-      if (pending_force_N_.has_value() != pending_torque_Nm_.has_value()) ++counters_.late_frames;
-      pending_force_N_.reset();
-      pending_torque_Nm_.reset();
+      if (assembly_.restart()) ++counters_.late_frames;
       current_sync_counter_ = sync->counter;
       current_sync_time_ = received_at;
       return;
@@ -43,15 +41,13 @@ void SensorListener::handle(const can_frame& frame, SteadyTime received_at) {
     case FrameType::sensor_force: {
       const auto f = decode_sensor_force(frame);
       if (!f) { ++counters_.malformed_frames; return; }
-      if (pending_force_N_) ++counters_.late_frames;
-      pending_force_N_ = f->force_N;
+      if (assembly_.add_force(f->force_N)) ++counters_.late_frames;
       break;
     }
     case FrameType::sensor_torque: {
       const auto t = decode_sensor_torque(frame);
       if (!t) { ++counters_.malformed_frames; return; }
-      if (pending_torque_Nm_) ++counters_.late_frames;
-      pending_torque_Nm_ = t->torque_Nm;
+      if (assembly_.add_torque(t->torque_Nm)) ++counters_.late_frames;
       break;
     }
     case FrameType::heartbeat: {
@@ -68,18 +64,14 @@ void SensorListener::handle(const can_frame& frame, SteadyTime received_at) {
     }
     default: return;
   }
-  if (!pending_force_N_ || !pending_torque_Nm_) return;
-  for (std::size_t i = 0; i < 3; ++i) {
-    latest_.values[i] = (*pending_force_N_)[i];
-    latest_.values[3 + i] = (*pending_torque_Nm_)[i];
-  }
+  if (!assembly_.complete()) return;
+  latest_.values = assembly_.values();
   latest_.sync_counter = current_sync_counter_;
   latest_.sync_time = current_sync_time_;
   ++latest_.sequence;
   latest_.valid = true;
   ++counters_.wrenches;
-  pending_force_N_.reset();
-  pending_torque_Nm_.reset();
+  assembly_.restart();
   new_wrench_.notify_all();
 }
 

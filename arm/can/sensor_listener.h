@@ -17,8 +17,9 @@
 #include <thread>
 
 #include "arm/can/bus.h"
-#include "arm/can/master.h"
+#include "arm/can/master_types.h"
 #include "arm/can/protocol.h"
+#include "arm/can/wrench_assembly.h"
 
 namespace rtm::can {
 
@@ -77,8 +78,7 @@ class SensorListener {
   // Halves of the wrench being assembled for the current SYNC.
   std::uint8_t current_sync_counter_ = 0;
   SteadyTime current_sync_time_{};
-  std::optional<std::array<double, 3>> pending_force_N_;
-  std::optional<std::array<double, 3>> pending_torque_Nm_;
+  WrenchAssembly assembly_;
   std::uint16_t emcy_code_ = 0;
   std::optional<SteadyTime> last_heartbeat_;
   std::string bus_error_;  // set when the background thread lost the bus
