@@ -144,18 +144,23 @@ TEST(PeriodicSchedule, StartsAtTheRequestedDeadlineAndStepsOnTheGrid) {
   EXPECT_DOUBLE_EQ(stats.mean_period_error_ns, -10'000.0) << "the second wake came one period minus 10 us later";
 }
 
+// pa10-sim's loop after waking at woke_ns: every step due by then, as the schedule allows.
+int run_due_steps(rtm::PeriodicSchedule& s, std::int64_t woke_ns) {
+  int steps = 0;
+  while (woke_ns >= s.deadline_ns()) {
+    s.begin(woke_ns);
+    s.end(woke_ns);
+    ++steps;
+  }
+  return steps;
+}
+
 TEST(PeriodicSchedule, OneStallWithinTheCatchUpRunsEveryMissedCycle) {
   // pa10-sim's physics: a 5 ms stall of a 1 ms schedule runs the 5 missed steps at once.
   constexpr std::int64_t kStep = 1'000'000;
   rtm::PeriodicSchedule s(kStep, 20 * kStep);
   s.start(kStep, 0);
-  const std::int64_t woke = kStep + 5 * kStep + 300'000;
-  int steps = 0;
-  while (woke >= s.deadline_ns()) {
-    s.begin(woke);
-    s.end(woke);
-    ++steps;
-  }
+  const int steps = run_due_steps(s, kStep + 5 * kStep + 300'000);
   EXPECT_EQ(steps, 6) << "the step due at 1 ms and the five due while stalled";
   EXPECT_EQ(s.deadline_ns(), 7 * kStep);
   EXPECT_EQ(s.stats().skipped, 0u);
@@ -166,13 +171,7 @@ TEST(PeriodicSchedule, AStallLongerThanTheCatchUpIsSkippedOnTheGrid) {
   constexpr std::int64_t kStep = 1'000'000;
   rtm::PeriodicSchedule s(kStep, 20 * kStep);
   s.start(kStep, 0);
-  const std::int64_t woke = kStep + 50 * kStep + 400'000;
-  int steps = 0;
-  while (woke >= s.deadline_ns()) {
-    s.begin(woke);
-    s.end(woke);
-    ++steps;
-  }
+  const int steps = run_due_steps(s, kStep + 50 * kStep + 400'000);
   EXPECT_EQ(steps, 1) << "a 50 ms stall is not replayed in a burst";
   EXPECT_EQ(s.deadline_ns(), 52 * kStep) << "the next step is the grid's next point after the stall";
   EXPECT_EQ(s.stats().skipped, 50u);
