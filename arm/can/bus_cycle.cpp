@@ -10,7 +10,7 @@ std::array<bool, 128> expected_nodes(const MasterConfig& config) {
   std::array<bool, 128> expected{};
   for (int j = 0; j < kDriveCount; ++j) expected[drive_node(j)] = true;
   for (ForceSensor s : config.sensors)
-    expected[s == ForceSensor::wrist ? kWristSensorNode : kJoystickSensorNode] = true;
+    expected[sensor_node(s)] = true;
   return expected;
 }
 
@@ -24,7 +24,6 @@ BusCycle::BusCycle(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_b
   if (!drive_bus_) throw std::invalid_argument("Pa10Master: no drive bus");
   if (config_.period <= std::chrono::nanoseconds(0)) throw std::invalid_argument("Pa10Master: period must be > 0");
   sensor_bus_ = separate_sensor_bus_ ? separate_sensor_bus_.get() : drive_bus_.get();
-  for (ForceSensor s : config_.sensors) sensor_enabled_[sensor_slot(s)] = true;
 }
 
 std::string BusCycle::describe_buses() const {
@@ -52,10 +51,6 @@ void BusCycle::add(const Result<can_frame>& frame) {
 }
 
 // ---- receiving ---------------------------------------------------------------------------
-
-bool BusCycle::sensor_expected(std::uint8_t node) const {
-  return (node == kWristSensorNode && sensor_enabled_[0]) || (node == kJoystickSensorNode && sensor_enabled_[1]);
-}
 
 void BusCycle::handle(const can_frame& frame, std::int64_t now_ns) {
   const Classified c = classify(frame);
@@ -101,8 +96,8 @@ void BusCycle::handle(const can_frame& frame, std::int64_t now_ns) {
 
 // A force or torque frame: one half of a sensor's wrench for the open window.
 void BusCycle::handle_sensor(const can_frame& frame, const Classified& c) {
-  if (!sensor_expected(c.node)) return;
-  WrenchAssembly& wrench = wrenches_[c.node == kWristSensorNode ? 0 : 1];
+  if (!supervisor_.node_expected(c.node)) return;
+  WrenchAssembly& wrench = wrenches_[sensor_slot(c.node)];
   if (c.type == FrameType::sensor_force) {
     const auto f = decode_sensor_force(frame);
     if (!f) { ++counters_.malformed_frames; return; }
@@ -137,7 +132,7 @@ bool BusCycle::window_complete() const {
   for (bool got : got_feedback_)
     if (!got) return false;
   for (std::size_t s = 0; s < kSensorCount; ++s)
-    if (sensor_enabled_[s] && !wrenches_[s].complete()) return false;
+    if (sensor_enabled(s) && !wrenches_[s].complete()) return false;
   return true;
 }
 
@@ -216,7 +211,7 @@ void BusCycle::publish(const DriveSummary& drives) {
   s.complete = true;
   for (bool got : got_feedback_) s.complete = s.complete && got;
   for (std::size_t k = 0; k < kSensorCount; ++k) {
-    if (!(sensor_enabled_[k] && wrenches_[k].complete())) continue;
+    if (!(sensor_enabled(k) && wrenches_[k].complete())) continue;
     Wrench& w = report.wrench[k];
     w.values = wrenches_[k].values();
     w.sync_counter = sync_counter_;

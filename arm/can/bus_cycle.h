@@ -35,7 +35,9 @@
 namespace rtm::can {
 
 inline constexpr std::size_t kSensorCount = 2;
+// Slot 0: the wrist sensor, 1: the joystick.
 constexpr std::size_t sensor_slot(ForceSensor s) { return s == ForceSensor::wrist ? 0 : 1; }
+constexpr std::size_t sensor_slot(std::uint8_t node) { return node == kWristSensorNode ? 0 : 1; }
 
 // What other threads ask of the cycle.
 struct CycleRequests {
@@ -133,13 +135,15 @@ class BusCycle {
   void close_window(std::int64_t now_ns);
   void publish(const DriveSummary& drives);
   void publish_sent(std::uint64_t sequence);
-  bool sensor_expected(std::uint8_t node) const;
+  // The sensor in slot k is configured (MasterConfig::sensors): the supervisor watches it.
+  bool sensor_enabled(std::size_t k) const {
+    return supervisor_.node_expected(sensor_node(k == 0 ? ForceSensor::wrist : ForceSensor::joystick));
+  }
 
   std::unique_ptr<Bus> drive_bus_;
   std::unique_ptr<Bus> separate_sensor_bus_;  // null: sensors share drive_bus_
   Bus* sensor_bus_ = nullptr;
   MasterConfig config_;
-  std::array<bool, kSensorCount> sensor_enabled_{};
   Supervisor supervisor_;
   Mailbox mailbox_;
 

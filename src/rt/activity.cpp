@@ -50,11 +50,9 @@ void stop_thread(std::mutex& mu, std::thread& thread, std::atomic<bool>& stop_re
 // ============================ PeriodicActivity ========================
 
 PeriodicActivity::PeriodicActivity(CycleFunction cycle, PeriodicOptions options)
-    : cycle_(std::move(cycle)), options_(std::move(options)),
-      schedule_(options_.period_ns > 0 ? options_.period_ns : 1, options_.catch_up_ns > 0 ? options_.catch_up_ns : 0) {
+    // The schedule checks the period and the catch-up window (std::invalid_argument).
+    : cycle_(std::move(cycle)), options_(std::move(options)), schedule_(options_.period_ns, options_.catch_up_ns) {
   if (!cycle_) throw std::invalid_argument("PeriodicActivity: empty cycle function");
-  if (options_.period_ns <= 0)
-    throw std::invalid_argument("PeriodicActivity: period_ns must be > 0, got " + std::to_string(options_.period_ns));
   if (options_.first_deadline_ns < 0)
     throw std::invalid_argument("PeriodicActivity: first_deadline_ns must be >= 0 (0: at once), got " +
                                 std::to_string(options_.first_deadline_ns));
