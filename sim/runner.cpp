@@ -142,9 +142,8 @@ class StdinWrench {
   std::string pending_;
 };
 
-}  // namespace
-
-void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
+// The simulator's configuration from the command line; RunError on a bad value.
+SimulatorConfig simulator_config(const RunOptions& options) {
   if (!std::filesystem::is_regular_file(options.scene_path))
     throw RunError(options.scene_path + ": scene file not found");
   SimulatorConfig config;
@@ -157,7 +156,40 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
       options.velocity_bandwidth_rad_s * options.velocity_bandwidth_rad_s / 4;
   if (!options.profile_path.empty())
     config.operator_profile = OperatorProfile::from_file(options.profile_path);
-  Pa10Simulator sim(std::move(config));
+  return config;
+}
+
+void print_ready(const rtm::can::Bus& bus, const rtm::can::Bus* sensor_bus, bool lock_step) {
+  std::printf("pa10-sim: ready on %s%s%s (%s)\n", bus.name().c_str(), sensor_bus ? ", sensors on " : "",
+              sensor_bus ? sensor_bus->name().c_str() : "", lock_step ? "lock-step" : "real time");
+  std::fflush(stdout);
+}
+
+// What pa10-sim prints when it stops.
+void print_summary(Pa10Simulator& sim, std::uint64_t dropped, const PeriodicSchedule* schedule) {
+  std::printf("pa10-sim: stopped at sim time %.3f s after %llu steps; %llu frames dropped "
+              "(transmit queue full)\n",
+              static_cast<double>(sim.time_ns()) * 1e-9, static_cast<unsigned long long>(sim.steps()),
+              static_cast<unsigned long long>(dropped));
+  if (schedule) {
+    const ActivityStats stats = schedule->stats();
+    std::printf("pa10-sim: step start lateness p50 %.2f ms, p99 %.2f ms, max %.2f ms; %llu steps "
+                "more than one step late; %llu steps skipped after host stalls (%.1f ms of sim "
+                "time not simulated)\n",
+                static_cast<double>(stats.lateness_p50_ns) * 1e-6,
+                static_cast<double>(stats.lateness_p99_ns) * 1e-6,
+                static_cast<double>(stats.lateness_max_ns) * 1e-6,
+                static_cast<unsigned long long>(stats.overruns),
+                static_cast<unsigned long long>(stats.skipped),
+                static_cast<double>(stats.skipped) * static_cast<double>(stats.period_ns) * 1e-6);
+  }
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
+  Pa10Simulator sim(simulator_config(options));
   sim.set_mode(options.lock_step ? Pa10Simulator::Mode::lock_step
                                  : Pa10Simulator::Mode::real_time);
 
@@ -177,12 +209,7 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
 
   apply_thread_settings(ThreadSettings{"pa10-sim"});  // timer slack 1 ns: 50 us would blur 1 ms steps
   sim.power_on(sink);
-  if (!options.quiet) {
-    std::printf("pa10-sim: ready on %s%s%s (%s)\n", bus->name().c_str(),
-                sensor_bus ? ", sensors on " : "", sensor_bus ? sensor_bus->name().c_str() : "",
-                options.lock_step ? "lock-step" : "real time");
-    std::fflush(stdout);
-  }
+  if (!options.quiet) print_ready(*bus, sensor_bus.get(), options.lock_step);
 
   const std::int64_t duration_ns = static_cast<std::int64_t>(options.duration_s * 1e9);
   const std::int64_t timestep_ns = std::llround(sim.plant().timestep_s() * 1e9);
@@ -232,27 +259,9 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
       schedule.end(after_ns);  // a stall longer than kMaxCatchUp_ns is skipped, not caught up
     }
   }
-  if (!options.quiet) {
-    std::printf("pa10-sim: stopped at sim time %.3f s after %llu steps; %llu frames dropped "
-                "(transmit queue full)\n",
-                static_cast<double>(sim.time_ns()) * 1e-9,
-                static_cast<unsigned long long>(sim.steps()),
-                static_cast<unsigned long long>(sink.dropped() +
-                                                (sensor_sink ? sensor_sink->dropped() : 0)));
-    if (!options.lock_step) {
-      const ActivityStats stats = schedule.stats();
-      std::printf("pa10-sim: step start lateness p50 %.2f ms, p99 %.2f ms, max %.2f ms; %llu steps "
-                  "more than one step late; %llu steps skipped after host stalls (%.1f ms of sim "
-                  "time not simulated)\n",
-                  static_cast<double>(stats.lateness_p50_ns) * 1e-6,
-                  static_cast<double>(stats.lateness_p99_ns) * 1e-6,
-                  static_cast<double>(stats.lateness_max_ns) * 1e-6,
-                  static_cast<unsigned long long>(stats.overruns),
-                  static_cast<unsigned long long>(stats.skipped),
-                  static_cast<double>(stats.skipped) * static_cast<double>(timestep_ns) * 1e-6);
-    }
-    std::fflush(stdout);
-  }
+  if (!options.quiet)
+    print_summary(sim, sink.dropped() + (sensor_sink ? sensor_sink->dropped() : 0),
+                  options.lock_step ? nullptr : &schedule);
 }
 
 }  // namespace rtm::sim

@@ -13,6 +13,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace rtm::can {
 
@@ -45,6 +46,9 @@ class LocalHub {
 
  private:
   void run();
+  // Forwards every datagram endpoint `from` has queued to the other endpoints; false when
+  // `from` closed (or its connection broke).
+  bool forward_from(int from, const std::vector<int>& endpoints, Counters& counters);
 
   std::string socket_path_;
   int listen_fd_ = -1;

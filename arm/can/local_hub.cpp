@@ -98,6 +98,38 @@ LocalHub::Counters LocalHub::counters() const {
   return counters_;
 }
 
+bool LocalHub::forward_from(int from, const std::vector<int>& endpoints, Counters& local) {
+  // One datagram = one frame.
+  for (;;) {
+    unsigned char buffer[sizeof(can_frame) + 1];
+    const ssize_t got = ::recv(from, buffer, sizeof buffer, MSG_DONTWAIT | MSG_TRUNC);
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0 && errno == EAGAIN) return true;
+    if (got <= 0) return false;  // orderly close (0) or a reset connection
+    can_frame frame{};
+    if (got != static_cast<ssize_t>(sizeof frame)) {
+      ++local.datagrams_malformed;
+      continue;
+    }
+    std::memcpy(&frame, buffer, sizeof frame);
+    if (frame.can_dlc > CAN_MAX_DLEN) {
+      ++local.datagrams_malformed;
+      continue;
+    }
+    ++local.frames_forwarded;
+    for (int to : endpoints) {
+      if (to == from) continue;
+      const ssize_t sent = ::send(to, &frame, sizeof frame, MSG_DONTWAIT | MSG_NOSIGNAL);
+      if (sent == static_cast<ssize_t>(sizeof frame)) {
+        ++local.deliveries;
+      } else if (sent < 0 && (errno == EAGAIN || errno == ENOBUFS)) {
+        ++local.deliveries_dropped;
+      }
+      // A broken receiver shows up as POLLHUP/POLLERR on its own descriptor.
+    }
+  }
+}
+
 void LocalHub::run() {
   // pollfds[0] = wake, [1] = listen, [2..] = endpoints (parallel to `endpoints`).
   std::vector<int> endpoints;
@@ -139,38 +171,7 @@ void LocalHub::run() {
     for (std::size_t i = 2; i < pollfds.size(); ++i) {
       if (pollfds[i].revents == 0) continue;
       const int from = pollfds[i].fd;
-      // Drain what this endpoint sent, one datagram = one frame.
-      for (;;) {
-        unsigned char buffer[sizeof(can_frame) + 1];
-        const ssize_t got = ::recv(from, buffer, sizeof buffer, MSG_DONTWAIT | MSG_TRUNC);
-        if (got < 0 && errno == EINTR) continue;
-        if (got < 0 && errno == EAGAIN) break;
-        if (got <= 0) {  // orderly close (0) or a reset connection
-          closed.push_back(from);
-          break;
-        }
-        can_frame frame{};
-        if (got != static_cast<ssize_t>(sizeof frame)) {
-          ++local.datagrams_malformed;
-          continue;
-        }
-        std::memcpy(&frame, buffer, sizeof frame);
-        if (frame.can_dlc > CAN_MAX_DLEN) {
-          ++local.datagrams_malformed;
-          continue;
-        }
-        ++local.frames_forwarded;
-        for (int to : endpoints) {
-          if (to == from) continue;
-          const ssize_t sent = ::send(to, &frame, sizeof frame, MSG_DONTWAIT | MSG_NOSIGNAL);
-          if (sent == static_cast<ssize_t>(sizeof frame)) {
-            ++local.deliveries;
-          } else if (sent < 0 && (errno == EAGAIN || errno == ENOBUFS)) {
-            ++local.deliveries_dropped;
-          }
-          // A broken receiver shows up as POLLHUP/POLLERR on its own descriptor.
-        }
-      }
+      if (!forward_from(from, endpoints, local)) closed.push_back(from);
     }
     for (int fd : closed) {
       ::close(fd);
