@@ -133,7 +133,9 @@ class Pa10Master {
   JointState joint_state() const;
   Wrench wrench(ForceSensor sensor) const;
   MasterFault fault() const;
-  // Every drive in operation enabled (or quick stop active after quick_stop()) and no fault.
+  // Every drive in operation enabled (or quick stop active after quick_stop()) and no fault,
+  // on each drive's latest statusword: a TPDO that comes a cycle late (a host stall) does not
+  // clear it; a drive silent for more than missed_feedback_limit SYNCs is a fault, which does.
   bool enabled() const;
 
   // Brakes every drive (CiA 402 quick stop) from the next cycle on and keeps them braked until

@@ -126,8 +126,10 @@ DriveSummary Supervisor::check_drives(const std::array<bool, kDriveCount>& got,
     const auto state = state_from_statusword(statusword[i]);
     const bool quick_stopped = state == DriveState::quick_stop_active;
     const bool enabled = state == DriveState::operation_enabled || (quick_stop_ok && quick_stopped);
-    summary.all_enabled = summary.all_enabled && enabled && got[i];
-    summary.all_quick_stopped = summary.all_quick_stopped && quick_stopped && got[i];
+    // On the latest statusword: a TPDO that is late (a host stall) does not make the drives
+    // not enabled; a drive silent for missed_feedback_limit SYNCs is a fault (above).
+    summary.all_enabled = summary.all_enabled && enabled;
+    summary.all_quick_stopped = summary.all_quick_stopped && quick_stopped;
     all_operation_enabled = all_operation_enabled && state == DriveState::operation_enabled;
     if (enabling_ || !started_ || enabled || fault_.active()) continue;
     check_drive(j, statusword[i]);

@@ -27,10 +27,10 @@ struct FaultRecord {
   bool active() const { return kind != FaultKind::none; }
 };
 
-// What the drives' answers to one SYNC say, for the report.
+// What the drives' latest statuswords say, for the report.
 struct DriveSummary {
-  bool all_enabled = true;         // every drive answered, operation enabled (or braked on request)
-  bool all_quick_stopped = false;  // every drive answered, quick stop active, on request
+  bool all_enabled = true;         // every drive operation enabled (or braked on request)
+  bool all_quick_stopped = false;  // every drive quick stop active, on request
 };
 
 class Supervisor {

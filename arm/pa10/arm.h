@@ -29,7 +29,8 @@ namespace rtm::pa10 {
 
 enum class ArmFault : std::uint8_t {
   none,
-  not_enabled,     // not latched: the master has not (yet) enabled every drive, or no feedback
+  not_enabled,     // not latched: the master has not (yet) enabled every drive (a TPDO a cycle
+                   // late does not count; a drive silent for long is a drive_fault)
   drive_fault,     // drive fault, EMCY, drive left operation enabled, no feedback, node not
                    // operational
   command_loss,    // a drive's RPDO timeout (EMCY 0x8250): the commands did not reach it in

@@ -287,6 +287,23 @@ TEST(Pa10Master, MissingTpdosRaiseMissingFeedbackAfterTheLimit) {
   EXPECT_GE(rig.master->counters().step_timeouts, 4u);
 }
 
+TEST(Pa10Master, ATpdoMissingForOneSyncKeepsTheDrivesEnabledAndTheTargetFlowing) {
+  MasterConfig config = test_config();
+  config.step_timeout = 20ms;  // the step waits for the dropped TPDO this long
+  Rig rig({}, config);
+  rig.master->start();
+  ASSERT_TRUE(rig.master->step());
+  rig.fake->drop_next_tpdo(drive_node(3));
+  rig.master->set_target_velocities({0, 0, 0, 0.2, 0, 0, 0});
+  EXPECT_FALSE(rig.master->step()) << "the step saw the TPDO missing";
+  EXPECT_FALSE(rig.master->joint_state().complete);
+  EXPECT_TRUE(rig.master->enabled()) << "a late TPDO (a host stall) is no reason to stop the arm";
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+  ASSERT_TRUE(rig.master->step());
+  EXPECT_TRUE(rig.master->enabled());
+  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(3)), 0.2);
+}
+
 TEST(Pa10Master, UnknownMalformedLateAndForeignFramesAreCountedAndIgnored) {
   Rig rig;
   rig.master->start();
