@@ -3,6 +3,9 @@
 #include "rtm/log.h"
 #include "rtm/orb.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <stdexcept>
 
 namespace rtm {
@@ -15,6 +18,30 @@ Component::Component(std::string name, std::string kind) : name_(std::move(name)
 
 Component::~Component() {
   for (auto* port : out_ptrs_) port->close();
+}
+
+namespace {
+template <class List>
+void check_new_name(const List& list, const std::string& what, const std::string& owner, const std::string& name) {
+  if (name.empty()) throw std::invalid_argument(owner + ": " + what + " with an empty name");
+  if (std::any_of(list.begin(), list.end(), [&](const auto& e) { return e.name == name; }))
+    throw std::invalid_argument(owner + ": " + what + " '" + name + "' declared twice");
+}
+}  // namespace
+
+void Component::add_statistic(std::string stat_name, std::string unit, std::string text,
+                              std::function<double()> read) {
+  check_new_name(statistics_, "statistic", name_, stat_name);
+  if (!read) throw std::invalid_argument(name_ + ": statistic '" + stat_name + "' has no read function");
+  statistics_.push_back({std::move(stat_name), std::move(unit), std::move(text), std::move(read)});
+}
+
+void Component::add_parameter(Parameter parameter) {
+  check_new_name(parameters_, "parameter", name_, parameter.name);
+  if (!parameter.get) throw std::invalid_argument(name_ + ": parameter '" + parameter.name + "' has no get function");
+  if (parameter.access != ParameterAccess::fixed && !parameter.set)
+    throw std::invalid_argument(name_ + ": writable parameter '" + parameter.name + "' has no set function");
+  parameters_.push_back(std::move(parameter));
 }
 
 // ============================ ComponentServant ========================
@@ -225,6 +252,74 @@ RTM::TimingStats ComponentServant::timing() {
   out.lateness_max_ns = static_cast<CORBA::ULongLong>(s.lateness_max_ns);
   out.mean_period_error_ns = s.mean_period_error_ns;
   return out;
+}
+
+char* ComponentServant::description() { return CORBA::string_dup(component_->description().c_str()); }
+
+RTM::StatisticList* ComponentServant::statistics() {
+  const auto& stats = component_->statistics();
+  auto* out = new RTM::StatisticList;
+  out->length(static_cast<CORBA::ULong>(stats.size()));
+  for (CORBA::ULong i = 0; i < out->length(); ++i) {
+    (*out)[i].name = stats[i].name.c_str();
+    (*out)[i].value = stats[i].read();
+    (*out)[i].unit = stats[i].unit.c_str();
+    (*out)[i].description = stats[i].description.c_str();
+  }
+  return out;
+}
+
+namespace {
+RTM::ParameterAccess to_idl(ParameterAccess access) {
+  switch (access) {
+    case ParameterAccess::fixed: return RTM::PARAMETER_FIXED;
+    case ParameterAccess::when_off: return RTM::PARAMETER_WHEN_OFF;
+    case ParameterAccess::live: return RTM::PARAMETER_LIVE;
+  }
+  return RTM::PARAMETER_FIXED;
+}
+}  // namespace
+
+RTM::ParameterList* ComponentServant::parameters() {
+  const auto& params = component_->parameters();
+  auto* out = new RTM::ParameterList;
+  out->length(static_cast<CORBA::ULong>(params.size()));
+  std::lock_guard lock(control_mu_);  // a when-off value is not read while set() writes it
+  for (CORBA::ULong i = 0; i < out->length(); ++i) {
+    (*out)[i].name = params[i].name.c_str();
+    (*out)[i].value = params[i].get().c_str();
+    (*out)[i].unit = params[i].unit.c_str();
+    (*out)[i].description = params[i].description.c_str();
+    (*out)[i].access = to_idl(params[i].access);
+  }
+  return out;
+}
+
+void ComponentServant::set_parameter(const char* name, const char* value) {
+  const std::string& me = component_->name();
+  auto refuse = [&](const std::string& why) {
+    log().warn("{}: set_parameter {} = '{}' refused: {}", me, name, value, why);
+    throw RTM::ParameterRefused(why.c_str());
+  };
+  const auto& params = component_->parameters();
+  const auto it = std::find_if(params.begin(), params.end(), [&](const Parameter& p) { return p.name == name; });
+  if (it == params.end()) {
+    std::string known;
+    for (const auto& p : params) known += (known.empty() ? "" : ", ") + p.name;
+    refuse(fmt::format("{} has no parameter '{}' (parameters: {})", me, name, known.empty() ? "none" : known));
+  }
+  std::lock_guard lock(control_mu_);  // no on()/off() in between: a when-off check holds
+  if (it->access == ParameterAccess::fixed)
+    refuse(fmt::format("'{}' is fixed while the component runs: give it on the command line", name));
+  if (it->access == ParameterAccess::when_off && state_.load() == RTM::COMPONENT_ON)
+    refuse(fmt::format("'{}' can change only while {} is off (`rtm off {}` first)", name, me, me));
+  std::string before = it->get();
+  try {
+    it->set(value);
+  } catch (const std::exception& e) {
+    refuse(fmt::format("'{}' = '{}': {}", name, value, e.what()));
+  }
+  log().info("{}: parameter {} = {} (was {})", me, name, it->get(), before);
 }
 
 }  // namespace rtm

@@ -4,6 +4,7 @@
 
 #include "RTMExt.hh"
 #include "rt/activity.h"
+#include "rtm/describe.h"
 #include "rtm/inport.h"
 #include "rtm/outport.h"
 
@@ -20,19 +21,24 @@ class Orb;
 
 // ============================ Component ===============================
 
-// The logic of a component. A derived class declares its ports in its constructor and
-// computes in on_cycle(); it never knows which activity calls it.
+// The logic of a component. A derived class declares its ports (named for what they carry,
+// described element by element), its statistics and parameters in its constructor and
+// computes in on_cycle(); it never knows which activity calls it. Port N is also reachable as
+// in<N> / out<N>.
 //
 //   class Gain final : public rtm::Component {
 //    public:
-//     Gain() : Component("gain0", "controller") {}
+//     Gain() : Component("gain0", "controller") {
+//       add_statistic("scaled", "", "data scaled", [this] { return double(scaled_.load()); });
+//     }
 //     void on_cycle(const rtm::CycleContext&) override {
 //       if (in_.read(datum_) == rtm::ReadResult::NewData) out_.write(scaled(datum_));
 //     }
 //    private:
-//     rtm::InPort<RTM::TimedFloat6>& in_ = add_in_port<RTM::TimedFloat6>("in0");
-//     rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("out0");
+//     rtm::InPort<RTM::TimedFloat6>& in_ = add_in_port<RTM::TimedFloat6>("wrench", {"wrench to scale", {}});
+//     rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("scaled", {"the wrench scaled", {}});
 //     RTM::TimedFloat6 datum_{};
+//     std::atomic<std::uint64_t> scaled_{0};
 //   };
 class Component {
  public:
@@ -43,6 +49,9 @@ class Component {
 
   const std::string& name() const { return name_; }
   const std::string& kind() const { return kind_; }
+  // One line saying what the component does ("" until set; the runner sets its --help line).
+  const std::string& description() const { return description_; }
+  void set_description(std::string text) { description_ = std::move(text); }
 
   // Called by the activity: on_start() before the first cycle, on_stop() after the last.
   // An exception from any of them puts the component's servant in COMPONENT_ERROR.
@@ -53,6 +62,9 @@ class Component {
   // Ports in declaration order.
   const std::vector<InPortBase*>& in_ports() const { return in_ptrs_; }
   const std::vector<OutPortBase*>& out_ports() const { return out_ptrs_; }
+  // Named figures and parameters in declaration order (see rtm/describe.h).
+  const std::vector<Statistic>& statistics() const { return statistics_; }
+  const std::vector<Parameter>& parameters() const { return parameters_; }
 
  protected:
   // The port lives as long as the component (longer while an OutPort still delivers to it).
@@ -70,10 +82,33 @@ class Component {
     out_ptrs_.push_back(port);
     return *port;
   }
+  // The same, described: info says what the port carries (std::invalid_argument when its
+  // elements do not match the datum).
+  template <PortData T>
+  InPort<T>& add_in_port(const std::string& port_name, PortInfo info, InPortPolicy policy = InPortPolicy::latest()) {
+    auto& port = add_in_port<T>(port_name, std::move(policy));
+    port.set_info(std::move(info));
+    return port;
+  }
+  template <PortData T>
+  OutPort<T>& add_out_port(const std::string& port_name, PortInfo info, OutPortOptions options = {}) {
+    auto& port = add_out_port<T>(port_name, options);
+    port.set_info(std::move(info));
+    return port;
+  }
+  // read() is called from ORB threads while the component runs. Throws std::invalid_argument
+  // for an empty or repeated name or a missing read().
+  void add_statistic(std::string stat_name, std::string unit, std::string text, std::function<double()> read);
+  // Throws std::invalid_argument for an empty or repeated name, a missing get(), or a
+  // writable parameter without set().
+  void add_parameter(Parameter parameter);
 
  private:
   const std::string name_;
   const std::string kind_;
+  std::string description_;
+  std::vector<Statistic> statistics_;
+  std::vector<Parameter> parameters_;
   std::vector<PortableServer::Servant_var<InPortBase>> in_ports_;
   std::vector<PortableServer::Servant_var<OutPortBase>> out_ports_;
   std::vector<InPortBase*> in_ptrs_;
@@ -132,6 +167,12 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   char* last_error() override;
   void reset() override;
   RTM::TimingStats timing() override;
+  char* description() override;
+  RTM::StatisticList* statistics() override;
+  RTM::ParameterList* parameters() override;
+  // Refuses (RTM::ParameterRefused, nothing changed) an unknown name, a fixed parameter, a
+  // when-off parameter while ON, and a value the parameter's set() rejects. Logs each change.
+  void set_parameter(const char* name, const char* value) override;
 
  private:
   bool run_cycle(const CycleContext& ctx);

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <concepts>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -40,22 +41,24 @@ concept PortData = requires {
   { DataTraits<T>::name } -> std::convertible_to<std::string_view>;
 };
 
-#define RTM_DATA_TRAITS(Type, FixedSize)                                         \
+#define RTM_DATA_TRAITS(Type, FixedSize, Elements)                               \
   template <>                                                                     \
   struct DataTraits<RTM::Type> {                                                  \
     static CORBA::TypeCode_ptr type_code() { return RTM::_tc_##Type; }            \
     static constexpr std::string_view name = "RTM::" #Type;                       \
     /* true: copying one allocates nothing */                                     \
     static constexpr bool fixed_size = FixedSize;                                 \
+    /* values in one datum (0: a sequence, any number) */                         \
+    static constexpr std::size_t elements = Elements;                             \
   };
-RTM_DATA_TRAITS(TimedFloat6, true)
-RTM_DATA_TRAITS(TimedFloat, true)
-RTM_DATA_TRAITS(TimedDouble, true)
-RTM_DATA_TRAITS(TimedLong, true)
-RTM_DATA_TRAITS(TimedBoolean, true)
-RTM_DATA_TRAITS(TimedFloat3, true)
-RTM_DATA_TRAITS(TimedFloatSeq, false)
-RTM_DATA_TRAITS(TimedDoubleSeq, false)
+RTM_DATA_TRAITS(TimedFloat6, true, 6)
+RTM_DATA_TRAITS(TimedFloat, true, 1)
+RTM_DATA_TRAITS(TimedDouble, true, 1)
+RTM_DATA_TRAITS(TimedLong, true, 1)
+RTM_DATA_TRAITS(TimedBoolean, true, 1)
+RTM_DATA_TRAITS(TimedFloat3, true, 3)
+RTM_DATA_TRAITS(TimedFloatSeq, false, 0)
+RTM_DATA_TRAITS(TimedDoubleSeq, false, 0)
 #undef RTM_DATA_TRAITS
 
 // A readable name for any TypeCode: "RTM::TimedFloat6" for IDL:RTM/TimedFloat6:1.0, the

@@ -139,6 +139,30 @@ RTM::InPortEx_ptr InPortBase::reference() const {
   return RTM::InPortEx::_duplicate(ref_.in());
 }
 
+void check_port_info(const std::string& port, std::size_t element_count, const PortInfo& info) {
+  if (info.elements.empty() || element_count == 0 || info.elements.size() == element_count) return;
+  throw std::invalid_argument(port + ": " + std::to_string(info.elements.size()) + " elements described, but a datum holds " +
+                              std::to_string(element_count));
+}
+
+RTM::PortDescription* to_idl(const PortInfo& info) {
+  auto* out = new RTM::PortDescription;
+  out->description = info.description.c_str();
+  out->elements.length(static_cast<CORBA::ULong>(info.elements.size()));
+  for (CORBA::ULong i = 0; i < out->elements.length(); ++i) {
+    out->elements[i].name = info.elements[i].name.c_str();
+    out->elements[i].unit = info.elements[i].unit.c_str();
+  }
+  return out;
+}
+
+void InPortBase::set_info(PortInfo info) {
+  check_port_info(full_name(), element_count(), info);
+  info_ = std::move(info);
+}
+
+RTM::PortDescription* InPortBase::describe() { return to_idl(info_); }
+
 char* InPortBase::name() { return CORBA::string_dup(name_.c_str()); }
 CORBA::TypeCode_ptr InPortBase::port_type() { return CORBA::TypeCode::_duplicate(type_code()); }
 char* InPortBase::owner() { return CORBA::string_dup(owner_.c_str()); }

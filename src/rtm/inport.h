@@ -5,6 +5,7 @@
 #include "RTMExt.hh"
 #include "rt/activity.h"
 #include "rtm/data.h"
+#include "rtm/describe.h"
 
 #include <atomic>
 #include <chrono>
@@ -91,6 +92,14 @@ struct InPortCounters {
   std::uint64_t callback_failures = 0;  // callback policy: calls that threw
 };
 
+// ============================ port descriptions =======================
+
+// Checks info for a port whose datum holds element_count values (0: a sequence, any number):
+// std::invalid_argument naming the port when elements are given and their number differs.
+void check_port_info(const std::string& port, std::size_t element_count, const PortInfo& info);
+// As RTMExt.idl's PortDescription.
+RTM::PortDescription* to_idl(const PortInfo& info);
+
 // ============================ InPortBase ==============================
 
 // The type-independent part of every InPort: IDL attributes, counters, activation, the
@@ -106,6 +115,12 @@ class InPortBase : public virtual POA_RTM::InPortEx {
   const InPortPolicy& policy() const { return policy_; }
   virtual CORBA::TypeCode_ptr type_code() const = 0;
   virtual const std::type_info& data_type() const = 0;
+  // Values in one datum (DataTraits<T>::elements; 0 for a sequence).
+  virtual std::size_t element_count() const = 0;
+  // What the port carries. Set before activate() (the component's constructor); throws
+  // std::invalid_argument when elements are given and their number is not element_count().
+  void set_info(PortInfo info);
+  const PortInfo& info() const { return info_; }
   InPortCounters counters_snapshot() const;
   std::string last_rejection() const;  // "" when none
 
@@ -131,6 +146,7 @@ class InPortBase : public virtual POA_RTM::InPortEx {
   RTM::PortCounters counters() override;
   char* last_error() override;
   void push(const CORBA::Any& value) override;  // put() that swallows the BAD_PARAM
+  RTM::PortDescription* describe() override;
 
   // The local InPort servant behind ref (with a reference count added), or nullptr when ref
   // is nil or points into another process.
@@ -146,6 +162,7 @@ class InPortBase : public virtual POA_RTM::InPortEx {
   const std::string name_;
   const std::string owner_;
   const InPortPolicy policy_;
+  PortInfo info_;
   mutable std::mutex mu_;  // guards the stored data, the signal and last_rejection_
   std::shared_ptr<ArrivalSignal> signal_;
   std::string last_rejection_;
@@ -179,6 +196,7 @@ class InPort final : public InPortBase {
 
   CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
   const std::type_info& data_type() const override { return typeid(T); }
+  std::size_t element_count() const override { return DataTraits<T>::elements; }
 
   // IDL: extracts T; any other type raises BAD_PARAM(kMinorWrongDataType, COMPLETED_NO) and
   // stores nothing (see last_error for the reason).

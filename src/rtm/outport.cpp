@@ -262,6 +262,13 @@ char* OutPortBase::name() { return CORBA::string_dup(name_.c_str()); }
 CORBA::TypeCode_ptr OutPortBase::port_type() { return CORBA::TypeCode::_duplicate(type_code()); }
 char* OutPortBase::owner() { return CORBA::string_dup(owner_.c_str()); }
 
+void OutPortBase::set_info(PortInfo info) {
+  check_port_info(full_name(), element_count(), info);
+  info_ = std::move(info);
+}
+
+RTM::PortDescription* OutPortBase::describe() { return to_idl(info_); }
+
 RTM::PortCounters OutPortBase::counters() {
   const OutPortCounters c = counters_snapshot();
   RTM::PortCounters out{};

@@ -64,6 +64,11 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   const std::string& owner_name() const { return owner_; }
   std::string full_name() const;  // "<owner>.<name>"
   virtual CORBA::TypeCode_ptr type_code() const = 0;
+  // Values in one datum (DataTraits<T>::elements; 0 for a sequence).
+  virtual std::size_t element_count() const = 0;
+  // What the port carries: as InPortBase::set_info().
+  void set_info(PortInfo info);
+  const PortInfo& info() const { return info_; }
   const OutPortOptions& options() const { return options_; }
   OutPortCounters counters_snapshot() const;
   std::string last_refusal() const;  // why the last subscribe was refused, "" when none
@@ -85,6 +90,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   RTM::PortCounters counters() override;
   RTM::SubscriptionInfoList* subscriptions() override;
   char* last_error() override;
+  RTM::PortDescription* describe() override;
 
  protected:
   OutPortBase(std::string name, std::string owner, OutPortOptions options);
@@ -140,6 +146,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   const std::string name_;
   const std::string owner_;
   const OutPortOptions options_;
+  PortInfo info_;
   mutable std::mutex mu_;  // guards subs_, retired_, the latest value (derived)
   std::vector<std::unique_ptr<Subscription>> subs_;
   std::vector<std::unique_ptr<Subscription>> retired_;
@@ -179,6 +186,7 @@ class OutPort final : public OutPortBase {
   bool disconnect(InPort<T>& in);
 
   CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
+  std::size_t element_count() const override { return DataTraits<T>::elements; }
 
   // IDL: the last written value; before the first write raises
   // BAD_INV_ORDER(kMinorNoDataYet, COMPLETED_NO) and logs why.

@@ -175,6 +175,7 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   const RunSettings& settings = context.settings;
   auto component = main.create_with_orb ? main.create_with_orb(context) : main.create(settings);
   if (!component) throw std::runtime_error("the factory made no component");
+  if (component->description().empty()) component->set_description(main.description);
   ActivitySpec activity =
       main.activity ? main.activity(settings, *component) : ActivitySpec{settings.periodic_options()};
   servant = new ComponentServant(std::move(component), std::move(activity));

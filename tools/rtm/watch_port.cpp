@@ -47,6 +47,12 @@ RTM::PortCounters WatchPort::counters() {
   return c;
 }
 
+RTM::PortDescription* WatchPort::describe() {
+  auto* out = new RTM::PortDescription;
+  out->description = "rtm watch display";
+  return out;
+}
+
 char* WatchPort::last_error() {
   std::lock_guard lock(mutex_);
   return CORBA::string_dup(last_error_.c_str());

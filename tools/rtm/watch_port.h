@@ -27,6 +27,7 @@ class WatchPort final : public virtual POA_RTM::InPortEx {
   char* owner() override;
   RTM::PortCounters counters() override;
   char* last_error() override;
+  RTM::PortDescription* describe() override;  // "rtm watch display", no elements
 
   // Waits up to timeout for data; moves what arrived into out. Returns false on timeout.
   bool drain(std::vector<CORBA::Any>& out, std::chrono::milliseconds timeout);

@@ -1,0 +1,81 @@
+#include "rtm/describe.h"
+
+#include <fmt/format.h>
+
+#include <charconv>
+#include <cmath>
+#include <stdexcept>
+
+namespace rtm {
+
+namespace {
+
+std::vector<std::string> words(std::string_view text) {
+  std::vector<std::string> out;
+  std::size_t i = 0;
+  while (i < text.size()) {
+    while (i < text.size() && (text[i] == ' ' || text[i] == ',' || text[i] == '\t')) ++i;
+    std::size_t end = i;
+    while (end < text.size() && text[end] != ' ' && text[end] != ',' && text[end] != '\t') ++end;
+    if (end > i) out.emplace_back(text.substr(i, end - i));
+    i = end;
+  }
+  return out;
+}
+
+template <class T>
+std::string format_all(std::span<const T> values) {
+  std::string out;
+  for (std::size_t i = 0; i < values.size(); ++i) out += fmt::format("{}{}", i == 0 ? "" : " ", values[i]);
+  return out;
+}
+
+}  // namespace
+
+std::vector<Element> elements(std::string_view names, std::string_view units) {
+  const auto n = words(names);
+  const auto u = words(units);
+  if (n.empty() || n.size() != u.size())
+    throw std::invalid_argument(fmt::format("elements: {} names ('{}') but {} units ('{}')", n.size(), names,
+                                            u.size(), units));
+  std::vector<Element> out;
+  for (std::size_t i = 0; i < n.size(); ++i) out.push_back({n[i], u[i] == "-" ? "" : u[i]});
+  return out;
+}
+
+std::string_view to_string(ParameterAccess access) {
+  switch (access) {
+    case ParameterAccess::fixed: return "fixed";
+    case ParameterAccess::when_off: return "when off";
+    case ParameterAccess::live: return "live";
+  }
+  return "?";
+}
+
+std::vector<double> parse_numbers(std::string_view text, std::size_t count) {
+  std::vector<double> out;
+  for (const auto& w : words(text)) {
+    double v = 0;
+    const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
+    if (ec != std::errc{} || end != w.data() + w.size())
+      throw std::invalid_argument(fmt::format("'{}' is not a number (in '{}')", w, text));
+    if (!std::isfinite(v)) throw std::invalid_argument(fmt::format("'{}' is not a finite number", w));
+    out.push_back(v);
+  }
+  if (count == 0 && out.empty()) throw std::invalid_argument(fmt::format("'{}' holds no number", text));
+  if (count != 0 && out.size() != count)
+    throw std::invalid_argument(fmt::format("'{}' holds {} numbers; {} expected", text, out.size(), count));
+  return out;
+}
+
+std::uint64_t parse_whole_number(std::string_view text, std::uint64_t min, std::uint64_t max) {
+  const double v = parse_numbers(text, 1)[0];
+  if (v < static_cast<double>(min) || v > static_cast<double>(max) || v != std::floor(v))
+    throw std::invalid_argument(fmt::format("'{}': a whole number from {} to {} is expected", text, min, max));
+  return static_cast<std::uint64_t>(v);
+}
+
+std::string format_numbers(std::span<const float> values) { return format_all(values); }
+std::string format_numbers(std::span<const double> values) { return format_all(values); }
+
+}  // namespace rtm

@@ -1,0 +1,79 @@
+// Self-description: what a port carries (a line of text and its elements with units), a
+// component's named statistics and its parameters. Components declare them in their
+// constructor; ComponentServant publishes them through RTMExt.idl (PortDescription,
+// statistics(), parameters(), set_parameter()), and `rtm cat` shows them.
+//
+//   add_out_port<RTM::TimedFloat6>("wrench", {"wrench on the tool, base frame",
+//                                             rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
+//   add_statistic("watchdog_events", "", "commands stopped arriving", [this] { return double(events_); });
+//   add_parameter({.name = "gain", .unit = "(m/s)/N", .description = "...",
+//                  .access = rtm::ParameterAccess::live, .get = ..., .set = ...});
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rtm {
+
+// One element of a port's datum.
+struct Element {
+  std::string name;  // "fx"
+  std::string unit;  // "N"; "" when dimensionless
+};
+
+// Elements from two space-separated lists of the same length ("-" for no unit). Throws
+// std::invalid_argument when the lengths differ or a list is empty.
+std::vector<Element> elements(std::string_view names, std::string_view units);
+
+// What a port carries.
+struct PortInfo {
+  std::string description;         // one line
+  std::vector<Element> elements;   // one per value of the datum, or none
+};
+
+// A named figure, read from any thread while the component runs (read() must be safe there:
+// atomics, or a snapshot under a lock the cycle does not hold).
+struct Statistic {
+  std::string name;         // snake_case
+  std::string unit;         // "" for a count
+  std::string description;  // one line
+  std::function<double()> read;
+};
+
+// When set_parameter may change a parameter.
+enum class ParameterAccess {
+  fixed,     // only at start: a command-line option
+  when_off,  // while the component is not ON (its on_start() picks the value up)
+  live,      // any time: set() must hand the value to the cycle safely (see rt/live_value.h)
+};
+
+struct Parameter {
+  std::string name;         // snake_case, e.g. "gain"
+  std::string unit;
+  std::string description;  // one line
+  ParameterAccess access = ParameterAccess::fixed;
+  std::function<std::string()> get;  // the value as set() takes it
+  // Parses, checks and applies text; throws std::invalid_argument saying what is wrong and
+  // changes nothing then. Not called for a fixed parameter.
+  std::function<void(std::string_view text)> set = {};
+};
+
+// "fixed", "when off", "live".
+std::string_view to_string(ParameterAccess access);
+
+// Numbers separated by spaces or commas, each finite. Throws std::invalid_argument naming
+// the text when one is not a number, is NaN/inf, or when there are not exactly `count`
+// (count 0: any number of them, at least one).
+std::vector<double> parse_numbers(std::string_view text, std::size_t count = 0);
+// One whole number in [min, max]; std::invalid_argument otherwise.
+std::uint64_t parse_whole_number(std::string_view text, std::uint64_t min, std::uint64_t max);
+// Numbers as parse_numbers() reads them: "0.003 0.003 0 0 0 0" (shortest exact form).
+std::string format_numbers(std::span<const float> values);
+std::string format_numbers(std::span<const double> values);
+
+}  // namespace rtm
