@@ -1,6 +1,9 @@
 // Actuator: the manipulator driven by Cartesian velocity commands (paper Fig. 7).
 //
-//   InPort 0 "in0"  velocity command (TimedFloat6 twist, BASE frame: vx vy vz m/s, wx wy wz rad/s)
+//   InPort 0 "twist" (alias in0)  velocity command (TimedFloat6, BASE frame: vx vy vz m/s, wx wy wz rad/s)
+//
+// Parameters: limit (live: the next cycle uses it), watchdog_periods (while off). Statistics:
+// the ActuatorCounters, by name (latencies in µs).
 //
 // Each cycle: take the newest command, clamp each component to ±limit[i] (Fig. 7), hand it to
 // the arm (order_velocity). Safety beyond the paper:
@@ -27,6 +30,7 @@
 #include "rtm/component.h"
 #include "rtm/freshness.h"
 #include "rt/histogram.h"
+#include "rt/live_value.h"
 
 #include <array>
 #include <atomic>
@@ -83,14 +87,19 @@ class Actuator final : public rtm::Component {
 
   rtm::InPort<RTM::TimedFloat6>& command_in() { return command_in_; }
   VelocityArm& arm() { return *arm_; }
-  const ActuatorParams& params() const { return params_; }
+  // The parameters now (limit as last set, which the next cycle uses).
+  ActuatorParams params() const;
   ActuatorCounters counters() const;
   // The twist handed to the arm in the last cycle.
   std::array<float, 6> last_twist() const;
 
  private:
+  void describe_self();
+
   std::unique_ptr<VelocityArm> arm_;
-  const ActuatorParams params_;
+  ActuatorParams params_;  // watchdog_periods changes only while off; limit through limit_live_
+  rtm::LiveValue<std::array<float, 6>> limit_live_{params_.limit};
+  std::array<float, 6> limit_ = params_.limit;  // the cycle's copy of limit_live_
   RTM::TimedFloat6 command_{};
   std::array<float, 6> twist_{};
   rtm::Freshness command_freshness_{params_.watchdog_periods};  // the watchdog; seen(): a command since on()
@@ -105,7 +114,9 @@ class Actuator final : public rtm::Component {
   void record_sent_latency();
   std::atomic<std::uint64_t> cycles_{0}, commands_{0}, clamped_{0}, watchdog_events_{0}, non_finite_events_{0},
       not_ready_cycles_{0}, command_loss_recoveries_{0};
-  rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>("in0");
+  rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>(
+      "twist", {"velocity command for the tool, base frame; clamped to ±limit",
+                rtm::elements("vx vy vz wx wy wz", "m/s m/s m/s rad/s rad/s rad/s")});
 };
 
 }  // namespace rtm::comp

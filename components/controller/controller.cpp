@@ -7,7 +7,9 @@
 #include <fmt/format.h>
 #include <spdlog/logger.h>
 
+#include <algorithm>
 #include <cmath>
+#include <span>
 #include <stdexcept>
 
 namespace rtm::comp {
@@ -36,6 +38,44 @@ std::array<float, 6> proportional_command(const std::array<float, 6>& gain, cons
 Controller::Controller(std::string name, ControllerParams params)
     : Component(std::move(name), "controller"), params_(params) {
   params_.validate();
+  describe_self();
+}
+
+void Controller::describe_self() {
+  set_description("proportional force controller: twist = gain*(reference + wrench)");
+  const auto count = [this](const char* stat, const char* text, const std::atomic<std::uint64_t>& value) {
+    add_statistic(stat, "", text, [&value] { return static_cast<double>(value.load(std::memory_order_relaxed)); });
+  };
+  count("cycles", "cycles run", cycles_);
+  count("commands", "proportional commands written", commands_);
+  count("zero_commands", "zero commands written (stale, missing or bad input)", zero_commands_);
+  count("stale_events", "an input went stale after having been fresh", stale_events_);
+  count("non_finite_events", "an input started holding NaN/inf", non_finite_events_);
+  add_parameter({.name = "gain",
+                 .unit = "(m/s)/N, (rad/s)/(N·m)",
+                 .description = "6 gains: x y z, then rx ry rz",
+                 .access = rtm::ParameterAccess::live,
+                 .get = [this] { return rtm::format_numbers(std::span<const float>(gain_live_.published())); },
+                 .set = [this](std::string_view text) {
+                   const auto values = rtm::parse_numbers(text, 6);
+                   std::array<float, 6> gain{};
+                   std::copy(values.begin(), values.end(), gain.begin());
+                   gain_live_.publish(gain);
+                 }});
+  add_parameter({.name = "stale_periods",
+                 .unit = "cycles",
+                 .description = "cycles without a new input datum before the command is zero",
+                 .access = rtm::ParameterAccess::when_off,
+                 .get = [this] { return std::to_string(params_.stale_periods); },
+                 .set = [this](std::string_view text) {
+                   params_.stale_periods = static_cast<std::uint32_t>(rtm::parse_whole_number(text, 1, 1'000'000));
+                 }});
+}
+
+ControllerParams Controller::params() const {
+  ControllerParams now = params_;
+  now.gain = gain_live_.published();
+  return now;
 }
 
 void Controller::on_start() {
@@ -71,10 +111,11 @@ void Controller::on_cycle(const rtm::CycleContext&) {
   cycles_.fetch_add(1, std::memory_order_relaxed);
   const auto sensor_change = update(sensor_in_, sensor_);
   const auto reference_change = update(reference_in_, reference_);
-  const bool sensor_ok = usable(sensor_, sensor_change, "sensor (in0)");
-  const bool reference_ok = usable(reference_, reference_change, "reference (in1)");
+  const bool sensor_ok = usable(sensor_, sensor_change, "sensor (wrench)");
+  const bool reference_ok = usable(reference_, reference_change, "reference");
+  gain_live_.take(gain_);
   if (sensor_ok && reference_ok) {
-    const auto out = proportional_command(params_.gain, reference_.datum.val, sensor_.datum.val);
+    const auto out = proportional_command(gain_, reference_.datum.val, sensor_.datum.val);
     for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = out[i];
     command_.tm = sensor_.datum.tm;
     commands_.fetch_add(1, std::memory_order_relaxed);

@@ -1,8 +1,11 @@
 // Controller: the paper's proportional force controller (Fig. 6).
 //
-//   InPort 0 "in0"   sensor wrench     (TimedFloat6, base frame, N / N·m)
-//   InPort 1 "in1"   reference wrench  (TimedFloat6, base frame, N / N·m)
-//   OutPort 0 "out0" velocity command  (TimedFloat6 twist, base frame, m/s / rad/s)
+//   InPort 0 "wrench"     (alias in0)  sensor wrench     (TimedFloat6, base frame, N / N·m)
+//   InPort 1 "reference"  (alias in1)  reference wrench  (TimedFloat6, base frame, N / N·m)
+//   OutPort 0 "twist"     (alias out0) velocity command  (TimedFloat6, base frame, m/s / rad/s)
+//
+// Parameters: gain (live: the next cycle uses it), stale_periods (while off). Statistics:
+// the ControllerCounters, by name.
 //
 // Each cycle out[i] = gain[i] * (ref[i] + sen[i]). The plus is the paper's: the hand sensor
 // reads the reaction force, opposite in sign to the reference, so the command is zero when
@@ -14,6 +17,7 @@
 
 #include "rtm/component.h"
 #include "rtm/freshness.h"
+#include "rt/live_value.h"
 
 #include <array>
 #include <atomic>
@@ -61,7 +65,8 @@ class Controller final : public rtm::Component {
   rtm::InPort<RTM::TimedFloat6>& sensor_in() { return sensor_in_; }
   rtm::InPort<RTM::TimedFloat6>& reference_in() { return reference_in_; }
   rtm::OutPort<RTM::TimedFloat6>& command_out() { return command_out_; }
-  const ControllerParams& params() const { return params_; }
+  // The parameters now (gain as last set, which the next cycle uses).
+  ControllerParams params() const;
   ControllerCounters counters() const;
 
  private:
@@ -75,15 +80,22 @@ class Controller final : public rtm::Component {
   // Reads the port's newest datum into input; returns what that did to its freshness.
   rtm::Freshness::Change update(rtm::InPort<RTM::TimedFloat6>& port, Input& input);
   bool usable(Input& input, rtm::Freshness::Change change, const char* what);
+  void describe_self();
 
-  const ControllerParams params_;
+  ControllerParams params_;  // stale_periods changes only while off; gain through gain_live_
+  rtm::LiveValue<std::array<float, 6>> gain_live_{params_.gain};
   Input sensor_{params_.stale_periods};
   Input reference_{params_.stale_periods};
   RTM::TimedFloat6 command_{};
+  std::array<float, 6> gain_ = params_.gain;  // the cycle's copy of gain_live_
   std::atomic<std::uint64_t> cycles_{0}, commands_{0}, zero_commands_{0}, stale_events_{0}, non_finite_events_{0};
-  rtm::InPort<RTM::TimedFloat6>& sensor_in_ = add_in_port<RTM::TimedFloat6>("in0");
-  rtm::InPort<RTM::TimedFloat6>& reference_in_ = add_in_port<RTM::TimedFloat6>("in1");
-  rtm::OutPort<RTM::TimedFloat6>& command_out_ = add_out_port<RTM::TimedFloat6>("out0");
+  rtm::InPort<RTM::TimedFloat6>& sensor_in_ = add_in_port<RTM::TimedFloat6>(
+      "wrench", {"wrench the sensor measures, base frame", rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
+  rtm::InPort<RTM::TimedFloat6>& reference_in_ = add_in_port<RTM::TimedFloat6>(
+      "reference", {"reference wrench, base frame", rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
+  rtm::OutPort<RTM::TimedFloat6>& command_out_ = add_out_port<RTM::TimedFloat6>(
+      "twist", {"velocity command gain*(reference + wrench), base frame",
+                rtm::elements("vx vy vz wx wy wz", "m/s m/s m/s rad/s rad/s rad/s")});
 };
 
 }  // namespace rtm::comp

@@ -25,6 +25,9 @@ JoystickReading BusJoystickSource::latest() const {
 Joystick::Joystick(std::string name, std::unique_ptr<JoystickSource> source)
     : Component(std::move(name), "joystick"), source_(std::move(source)) {
   if (!source_) throw std::invalid_argument("Joystick " + this->name() + ": no joystick source");
+  set_description("force-sensor joystick: the operator's force is the reference wrench");
+  add_statistic("samples", "", "reference wrenches written",
+                [this] { return static_cast<double>(written_.load(std::memory_order_relaxed)); });
 }
 
 void Joystick::on_start() { last_sequence_ = source_->latest().sequence; }

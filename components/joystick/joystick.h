@@ -1,6 +1,6 @@
 // Joystick: the reference generator (paper Fig. 5's twin). A second 6-axis force sensor that
 // the operator pushes; the force applied is the reference, written each cycle to OutPort 0
-// ("out0", RTM::TimedFloat6).
+// ("reference", alias "out0", RTM::TimedFloat6). Statistic: samples.
 //
 // Sign and frame: the joystick's sensor frame is aligned with the arm's base frame
 // (sim/profiles: x forward, z up), and it reports the force the operator applies to the
@@ -75,7 +75,9 @@ class Joystick final : public rtm::Component {
   std::uint64_t last_sequence_ = 0;
   RTM::TimedFloat6 datum_{};
   std::atomic<std::uint64_t> written_{0};
-  rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("out0");
+  rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>(
+      "reference", {"reference wrench: the operator's force, base frame",
+                    rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
 };
 
 }  // namespace rtm::comp

@@ -18,6 +18,9 @@ std::array<double, 6> wrench_sensor_to_base(const Eigen::Matrix3d& rotation_base
 Sensor::Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm::pa10::Kinematics kinematics)
     : Component(std::move(name), "sensor"), source_(std::move(source)), kinematics_(std::move(kinematics)) {
   if (!source_) throw std::invalid_argument("Sensor " + this->name() + ": no wrist sample source");
+  set_description("wrist force/torque sensor: the wrench on the tool in the arm's base frame");
+  add_statistic("samples", "", "wrenches written",
+                [this] { return static_cast<double>(written_.load(std::memory_order_relaxed)); });
 }
 
 void Sensor::on_start() {

@@ -1,6 +1,6 @@
 // Sensor: the wrist force/torque sensor as an RT component (paper Fig. 5). Each cycle it takes
 // the newest wrench, turns it into the arm's base frame, stamps the time and writes it to
-// OutPort 0 ("out0", RTM::TimedFloat6).
+// OutPort 0 ("wrench", alias "out0", RTM::TimedFloat6). Statistic: samples.
 //
 // Sign and frame (what the controller's gain*(ref + sen) relies on): the value is the wrench
 // the outside world exerts on the tool, in the BASE frame (N, N·m, torque about the sensor
@@ -52,7 +52,9 @@ class Sensor final : public rtm::Component {
   std::uint64_t last_sequence_ = 0;
   RTM::TimedFloat6 datum_{};
   std::atomic<std::uint64_t> written_{0};
-  rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("out0");
+  rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>(
+      "wrench", {"wrench the world exerts on the tool, base frame",
+                 rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
 };
 
 }  // namespace rtm::comp
