@@ -221,7 +221,71 @@ TEST_F(RtmCli, GetSaysNoDataBeforeTheFirstDatumAndValuesAfter) {
   // The talker's ramp: value i is cycle + i.
   EXPECT_DOUBLE_EQ(after["values"][1].get<double>() - after["values"][0].get<double>(), 1.0);
   auto text = rtm({"get", "t.force"});
-  EXPECT_NE(text.out.find(" N"), std::string::npos) << "force ports carry units: " << text.out;
+  EXPECT_NE(text.out.find(" N  "), std::string::npos) << "units as the port describes them: " << text.out;
+  EXPECT_NE(text.out.find(" N·m"), std::string::npos) << text.out;
+}
+
+TEST_F(RtmCli, CatShowsWhatAComponentSaysOfItselfPortsWithUnitsStatisticsAndParameters) {
+  talker("t", {"--on"});
+  std::this_thread::sleep_for(50ms);
+  auto text = rtm({"cat", "t"});
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("test component with TimedFloat6 and TimedFloat3 ports"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("fx fy fz tx ty tz [N N N N·m N·m N·m]"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("x y z [m m m]"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("statistics"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("offset"), std::string::npos) << text.out;
+  auto t = rtm_json({"cat", "t"});
+  EXPECT_EQ(t["description"], "test component with TimedFloat6 and TimedFloat3 ports");
+  const json* force = port(t, "force");
+  ASSERT_NE(force, nullptr);
+  ASSERT_EQ((*force)["elements"].size(), 6u) << force->dump();
+  EXPECT_EQ((*force)["elements"][3]["name"], "tx");
+  EXPECT_EQ((*force)["elements"][3]["unit"], "N·m");
+  EXPECT_FALSE((*port(t, "in0")).contains("elements")) << "an undescribed port claims no units";
+  EXPECT_GT(t["statistics"]["cycles"]["value"].get<double>(), 0.0) << t.dump();
+  EXPECT_EQ(t["parameters"]["offset"]["access"], "live");
+  EXPECT_EQ(t["parameters"]["offset"]["value"], "0");
+  EXPECT_EQ(t["parameters"]["fail_after"]["access"], "when off");
+  EXPECT_EQ(t["parameters"]["name"]["access"], "fixed");
+  EXPECT_EQ(t["parameters"]["name"]["value"], "t");
+}
+
+TEST_F(RtmCli, SetChangesALiveParameterThatTheNextCyclesUse) {
+  talker("t", {"--on"});
+  auto r = rtm({"set", "t", "offset", "1000000"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("t.offset = 1000000"), std::string::npos) << r.out;
+  std::this_thread::sleep_for(50ms);
+  auto datum = rtm_json({"get", "t.force"});
+  EXPECT_GT(datum["values"][0].get<double>(), 1e6) << datum.dump();
+  EXPECT_EQ(rtm_json({"cat", "t"})["parameters"]["offset"]["value"], "1000000");
+}
+
+TEST_F(RtmCli, SetRefusesAnUnknownAFixedAWhenOffWhileOnOrABadValueAndChangesNothing) {
+  talker("t", {"--on"});
+  auto unknown = rtm({"set", "t", "nope", "1"});
+  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_NE(unknown.err.find("has no parameter 'nope' (parameters: offset, fail_after, name)"), std::string::npos)
+      << unknown.err;
+  auto fixed = rtm({"set", "t", "name", "x"});
+  EXPECT_EQ(fixed.exit_code, 1);
+  EXPECT_NE(fixed.err.find("'name' is fixed"), std::string::npos) << fixed.err;
+  auto while_on = rtm({"set", "t", "fail_after", "5"});
+  EXPECT_EQ(while_on.exit_code, 1);
+  EXPECT_NE(while_on.err.find("only while t is off"), std::string::npos) << while_on.err;
+  auto bad = rtm({"set", "t", "offset", "abc"});
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("'abc' is not a number"), std::string::npos) << bad.err;
+  auto nan = rtm({"set", "t", "offset", "nan"});
+  EXPECT_EQ(nan.exit_code, 1);
+  auto t = rtm_json({"cat", "t"});
+  EXPECT_EQ(t["parameters"]["offset"]["value"], "0");
+  EXPECT_EQ(t["parameters"]["fail_after"]["value"], "0");
+  EXPECT_EQ(t["state"], "on");
+  ASSERT_EQ(rtm({"off", "t"}).exit_code, 0);
+  ASSERT_EQ(rtm({"set", "t", "fail_after", "5"}).exit_code, 0);
+  EXPECT_EQ(rtm_json({"cat", "t"})["parameters"]["fail_after"]["value"], "5");
 }
 
 TEST_F(RtmCli, PutInjectsOneValueTheInPortCounts) {

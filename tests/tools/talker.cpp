@@ -1,11 +1,16 @@
 // rtm-test-talker: a component with ports of two types, for the `rtm` tool's tests.
-//   in:  in0 (TimedFloat6), pos3 (TimedFloat3)
-//   out: force (TimedFloat6, a ramp: value i of cycle n is n + i), out3 (TimedFloat3)
+//   in:  in0 (TimedFloat6, undescribed), pos3 (TimedFloat3, x y z in m)
+//   out: force (TimedFloat6, a ramp: value i of cycle n is n + i + offset; fx..tz in N, N·m),
+//        out3 (TimedFloat3)
+// Statistic "cycles"; parameters "offset" (live), "fail_after" (while off) and "name" (fixed).
 // --fail-after N makes its N-th cycle throw (the component goes to COMPONENT_ERROR).
+#include "rt/live_value.h"
 #include "rtm/data.h"
 #include "rtm/runner.h"
 
+#include <atomic>
 #include <memory>
+#include <span>
 #include <stdexcept>
 
 namespace {
@@ -13,28 +18,56 @@ namespace {
 class Talker final : public rtm::Component {
  public:
   Talker(const std::string& name, long fail_after)
-      : Component(name, "talker"), fail_after_(fail_after) {}
+      : Component(name, "talker"), fail_after_(fail_after) {
+    add_statistic("cycles", "", "cycles run", [this] { return static_cast<double>(cycles_.load()); });
+    add_parameter({.name = "offset",
+                   .unit = "N",
+                   .description = "added to every value of force",
+                   .access = rtm::ParameterAccess::live,
+                   .get = [this] { return rtm::format_numbers(std::span<const float>(&offset_shown_, 1)); },
+                   .set = [this](std::string_view text) {
+                     offset_shown_ = static_cast<float>(rtm::parse_numbers(text, 1)[0]);
+                     offset_live_.publish(offset_shown_);
+                   }});
+    add_parameter({.name = "fail_after",
+                   .unit = "cycles",
+                   .description = "throw in every N-th cycle (0: never)",
+                   .access = rtm::ParameterAccess::when_off,
+                   .get = [this] { return std::to_string(fail_after_); },
+                   .set = [this](std::string_view text) {
+                     fail_after_ = static_cast<long>(rtm::parse_whole_number(text, 0, 1'000'000));
+                   }});
+    add_parameter({.name = "name", .description = "the name it is bound as", .get = [this] { return this->name(); }});
+  }
 
   void on_cycle(const rtm::CycleContext&) override {
     ++cycle_;
+    cycles_.store(cycle_);
     if (fail_after_ > 0 && cycle_ % fail_after_ == 0) {
       throw std::runtime_error("talker failed on purpose at cycle " + std::to_string(cycle_));
     }
+    offset_live_.take(offset_);
     force_sample_.tm = rtm::now();
-    for (int i = 0; i < 6; ++i) force_sample_.val[i] = static_cast<float>(cycle_ + i);
+    for (int i = 0; i < 6; ++i) force_sample_.val[i] = static_cast<float>(cycle_ + i) + offset_;
     force_.write(force_sample_);
     in0_.read(last_in_);
   }
 
  private:
   rtm::InPort<RTM::TimedFloat6>& in0_ = add_in_port<RTM::TimedFloat6>("in0");
-  rtm::InPort<RTM::TimedFloat3>& pos3_ = add_in_port<RTM::TimedFloat3>("pos3");
-  rtm::OutPort<RTM::TimedFloat6>& force_ = add_out_port<RTM::TimedFloat6>("force");
+  rtm::InPort<RTM::TimedFloat3>& pos3_ =
+      add_in_port<RTM::TimedFloat3>("pos3", {"a position", rtm::elements("x y z", "m m m")});
+  rtm::OutPort<RTM::TimedFloat6>& force_ = add_out_port<RTM::TimedFloat6>(
+      "force", {"a ramp: value i of cycle n is n + i + offset", rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
   rtm::OutPort<RTM::TimedFloat3>& out3_ = add_out_port<RTM::TimedFloat3>("out3");
   RTM::TimedFloat6 force_sample_{};
   RTM::TimedFloat6 last_in_{};
   long cycle_ = 0;
-  const long fail_after_;
+  std::atomic<long> cycles_{0};
+  long fail_after_;  // changes only while off
+  float offset_ = 0;        // the cycle's
+  float offset_shown_ = 0;  // the last set (set_parameter calls are serialised)
+  rtm::LiveValue<float> offset_live_{0.0f};
 };
 
 }  // namespace

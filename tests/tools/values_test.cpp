@@ -72,7 +72,7 @@ TEST(RtmValues, TextShowsUtcTimeAndValuesWithUnits) {
   for (int i = 0; i < 6; ++i) d.val[i] = static_cast<float>(i);
   CORBA::Any any;
   any <<= d;
-  EXPECT_EQ(rtm::cli::format_text(any, rtm::cli::units_for_port("force", 6)),
+  EXPECT_EQ(rtm::cli::format_text(any, {"N", "N", "N", "N·m", "N·m", "N·m"}),
             "1970-01-01T00:00:00.000000005Z  0.0000 N  1.0000 N  2.0000 N  3.0000 N·m  "
             "4.0000 N·m  5.0000 N·m");
 }
@@ -93,26 +93,18 @@ TEST(RtmValues, JsonCarriesTypeTimeAndValues) {
   EXPECT_EQ(j["values"][2], 3.0);
 }
 
+TEST(RtmValues, MissingUnitsLeaveTheValuesBare) {
+  RTM::TimedFloat3 d{};
+  d.val[0] = 1;
+  CORBA::Any any;
+  any <<= d;
+  EXPECT_EQ(rtm::cli::format_text(any, {"m", ""}), "1970-01-01T00:00:00.000000000Z  1.0000 m  0.0000  0.0000");
+}
+
 TEST(RtmValues, UnknownTypePrintsItsNameNotGarbage) {
   CORBA::Any any;
   any <<= CORBA::Long(5);
   EXPECT_EQ(rtm::cli::format_text(any), "<long>");
-}
-
-TEST(RtmValues, UnitsFollowThePortName) {
-  EXPECT_EQ(rtm::cli::units_for_port("velocity", 6)[0], "m/s");
-  EXPECT_EQ(rtm::cli::units_for_port("wrench", 6)[5], "N·m");
-  EXPECT_TRUE(rtm::cli::units_for_port("out0", 6).empty());
-  EXPECT_TRUE(rtm::cli::units_for_port("force", 3).empty());
-}
-
-TEST(RtmValues, UnitsOfIndexedPortsFollowTheForceServoKinds) {
-  EXPECT_EQ(rtm::cli::units_for_port("out0", 6, "sensor", false)[0], "N");
-  EXPECT_EQ(rtm::cli::units_for_port("out0", 6, "joystick", false)[3], "N·m");
-  EXPECT_EQ(rtm::cli::units_for_port("in1", 6, "controller", true)[0], "N");
-  EXPECT_EQ(rtm::cli::units_for_port("out0", 6, "controller", false)[0], "m/s");
-  EXPECT_EQ(rtm::cli::units_for_port("in0", 6, "actuator", true)[5], "rad/s");
-  EXPECT_TRUE(rtm::cli::units_for_port("out0", 6, "talker", false).empty());
 }
 
 }  // namespace

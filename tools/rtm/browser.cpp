@@ -46,6 +46,46 @@ std::optional<int> indexed(std::string_view port, std::string_view prefix) {
   return n;
 }
 
+// What an RTMExt port says it carries; nothing from a port that predates describe().
+template <class PortEx>
+void read_description(PortEx* port, std::string& description, std::vector<ElementInfo>& elements) {
+  try {
+    RTM::PortDescription_var d = port->describe();
+    description = d->description.in();
+    for (CORBA::ULong i = 0; i < d->elements.length(); ++i)
+      elements.push_back({d->elements[i].name.in(), d->elements[i].unit.in()});
+  } catch (const CORBA::BAD_OPERATION&) {
+  }
+}
+
+const char* access_name(RTM::ParameterAccess access) {
+  switch (access) {
+    case RTM::PARAMETER_FIXED: return "fixed";
+    case RTM::PARAMETER_WHEN_OFF: return "when off";
+    case RTM::PARAMETER_LIVE: return "live";
+  }
+  return "?";
+}
+
+// Statistics and parameters of an RTMExt component (none from one that predates them).
+void read_self_description(RTM::RtComponentEx_ptr ex, ComponentInfo& info) {
+  try {
+    CORBA::String_var description = ex->description();
+    info.description = description.in();
+    RTM::StatisticList_var stats = ex->statistics();
+    for (CORBA::ULong i = 0; i < stats->length(); ++i) {
+      const RTM::Statistic& s = stats[i];
+      info.statistics.push_back({s.name.in(), s.value, s.unit.in(), s.description.in()});
+    }
+    RTM::ParameterList_var params = ex->parameters();
+    for (CORBA::ULong i = 0; i < params->length(); ++i) {
+      const RTM::Parameter& p = params[i];
+      info.parameters.push_back({p.name.in(), p.value.in(), p.unit.in(), p.description.in(), access_name(p.access)});
+    }
+  } catch (const CORBA::BAD_OPERATION&) {
+  }
+}
+
 PortInfo inspect_in(RTM::InPort_ptr port, int index) {
   PortInfo info;
   info.direction = Direction::in;
@@ -60,6 +100,7 @@ PortInfo inspect_in(RTM::InPort_ptr port, int index) {
     info.counters = ex->counters();
     CORBA::String_var err = ex->last_error();
     info.last_error = err.in();
+    read_description(ex.in(), info.description, info.elements);
   }
   return info;
 }
@@ -78,6 +119,7 @@ PortInfo inspect_out(RTM::OutPort_ptr port, int index) {
     info.counters = ex->counters();
     CORBA::String_var err = ex->last_error();
     info.last_error = err.in();
+    read_description(ex.in(), info.description, info.elements);
     RTM::SubscriptionInfoList_var subs = ex->subscriptions();
     for (CORBA::ULong i = 0; i < subs->length(); ++i) {
       const RTM::SubscriptionInfo& s = subs[i];
@@ -121,6 +163,7 @@ ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr obje
       CORBA::String_var err = ex->last_error();
       info.last_error = err.in();
       info.timing = ex->timing();
+      if (detailed) read_self_description(ex, info);
       comp = RTM::RtComponent::_duplicate(ex);
     } else {
       comp = RTM::RtComponent::_narrow(object);
@@ -265,12 +308,38 @@ ResolvedPort Browser::port(const PortAddress& address) const {
     throw BrowseError(fmt::format("{} does not answer ({}): its process is gone?",
                                   address.component, *dead));
   }
-  RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(comp);
-  if (!CORBA::is_nil(ex)) {
-    CORBA::String_var kind = ex->kind();
-    found.component_kind = kind.in();
+  std::string unused;
+  if (found.direction == Direction::in) {
+    RTM::InPortEx_var ex = RTM::InPortEx::_narrow(found.object);
+    if (!CORBA::is_nil(ex)) read_description(ex.in(), unused, found.elements);
+  } else {
+    RTM::OutPortEx_var ex = RTM::OutPortEx::_narrow(found.object);
+    if (!CORBA::is_nil(ex)) read_description(ex.in(), unused, found.elements);
   }
   return found;
+}
+
+std::vector<std::string> ResolvedPort::units() const {
+  std::vector<std::string> out;
+  for (const auto& e : elements) out.push_back(e.unit);
+  return out;
+}
+
+std::string Browser::set_parameter(std::string_view name, const std::string& parameter,
+                                   const std::string& value) const {
+  RTM::RtComponent_var comp = component(name);
+  RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(comp);
+  if (CORBA::is_nil(ex)) throw BrowseError(fmt::format("{} is a plain RtComponent: it has no parameters", name));
+  try {
+    ex->set_parameter(parameter.c_str(), value.c_str());
+    RTM::ParameterList_var params = ex->parameters();
+    for (CORBA::ULong i = 0; i < params->length(); ++i) {
+      if (parameter == params[i].name.in()) return params[i].value.in();
+    }
+    return value;
+  } catch (const RTM::ParameterRefused& e) {
+    throw BrowseError(fmt::format("{} refused {} = '{}': {}", name, parameter, value, e.reason.in()));
+  }
 }
 
 std::pair<ResolvedPort, ResolvedPort> Browser::pair(const PortAddress& out,

@@ -32,12 +32,20 @@ struct PortAddress {
   std::string to_string() const { return component + "." + port; }
 };
 
+// One element of a port's datum, as the port describes it (RTMExt PortDescription).
+struct ElementInfo {
+  std::string name;  // "fx"
+  std::string unit;  // "N", "" when dimensionless
+};
+
 struct PortInfo {
   Direction direction = Direction::in;
   int index = 0;             // position in in_ports()/out_ports()
   std::string name;
   std::string type;          // "RTM::TimedFloat6"
   bool extended = false;     // has the RTMExt counters
+  std::string description;   // what the port carries; "" when it does not say
+  std::vector<ElementInfo> elements;  // per value of a datum; empty when not described
   RTM::PortCounters counters{};
   std::string last_error;
   struct Subscription {
@@ -52,16 +60,34 @@ struct PortInfo {
 
 enum class Liveness { alive, dead };
 
+struct StatisticInfo {
+  std::string name;
+  double value = 0;
+  std::string unit;
+  std::string description;
+};
+
+struct ParameterInfo {
+  std::string name;
+  std::string value;
+  std::string unit;
+  std::string description;
+  std::string access;  // "fixed", "when off", "live"
+};
+
 struct ComponentInfo {
   ComponentPath path;
   Liveness liveness = Liveness::alive;
   std::string dead_reason;       // "TRANSIENT" etc. for a dead binding
   bool extended = false;         // implements RtComponentEx (else a plain seed component)
   std::string kind;
+  std::string description;       // one line: what the component does
   std::string state;             // "on", "off", "error", "?" for a seed component
   std::string last_error;
   std::optional<RTM::TimingStats> timing;
   std::vector<PortInfo> ports;   // InPorts then OutPorts, each in declaration order
+  std::vector<StatisticInfo> statistics;  // detailed only
+  std::vector<ParameterInfo> parameters;  // detailed only
 };
 
 // What a port reference is, once resolved.
@@ -71,7 +97,8 @@ struct ResolvedPort {
   std::string name;
   CORBA::Object_var object;      // RTM::InPort or RTM::OutPort
   CORBA::TypeCode_var type;
-  std::string component_kind;    // "" for a seed component
+  std::vector<ElementInfo> elements;  // as the port describes them; empty when it does not
+  std::vector<std::string> units() const;  // one per element ("" each when not described)
 };
 
 class Browser {
@@ -96,6 +123,11 @@ class Browser {
   // "sensor0.out0 (RTM::TimedFloat6) -> ctl.in1 (RTM::TimedFloat3): types differ".
   void connect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const;
   void disconnect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const;
+
+  // Sets one parameter; BrowseError with the component's reason when it refuses (unknown
+  // name, not writable now, bad value) or is a seed component without parameters. Returns
+  // the value the component reports afterwards.
+  std::string set_parameter(std::string_view component, const std::string& name, const std::string& value) const;
 
  private:
   ComponentInfo inspect(const ComponentPath& path, CORBA::Object_ptr object, bool detailed) const;

@@ -11,13 +11,6 @@
 namespace rtm::cli {
 namespace {
 
-bool contains_any(const std::string& text, std::initializer_list<const char*> words) {
-  for (const char* w : words) {
-    if (text.find(w) != std::string::npos) return true;
-  }
-  return false;
-}
-
 std::string format_time(const RTM::Time& t) {
   std::time_t seconds = static_cast<std::time_t>(t.sec);
   std::tm utc{};
@@ -88,21 +81,6 @@ std::vector<double> parse_numbers(const std::vector<std::string>& words, std::si
 }
 
 }  // namespace
-
-std::vector<std::string> units_for_port(const std::string& port_name, std::size_t count,
-                                        const std::string& component_kind, bool is_input) {
-  static const std::vector<std::string> wrench{"N", "N", "N", "N·m", "N·m", "N·m"};
-  static const std::vector<std::string> twist{"m/s", "m/s", "m/s", "rad/s", "rad/s", "rad/s"};
-  if (count != 6) return {};
-  if (contains_any(port_name, {"force", "wrench", "reference"})) return wrench;
-  if (contains_any(port_name, {"velocity", "twist", "command"})) return twist;
-  if (component_kind == "sensor" || component_kind == "joystick" || component_kind == "servo") {
-    return wrench;
-  }
-  if (component_kind == "controller") return is_input ? wrench : twist;
-  if (component_kind == "actuator") return twist;
-  return {};
-}
 
 std::string format_text(const CORBA::Any& value, const std::vector<std::string>& units) {
   std::string line;

@@ -19,17 +19,8 @@ class ValueError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Units for the values of a TimedFloat6 port: from the port's name when it says (a port named
-// for a force or wrench carries N and N·m, one for a velocity or twist m/s and rad/s), else
-// from the force servo's component kinds (sensor, joystick and the controller's and servo's
-// inputs carry wrenches; the controller's output and the actuator's input twists). Empty when
-// neither tells.
-std::vector<std::string> units_for_port(const std::string& port_name, std::size_t count,
-                                        const std::string& component_kind = "",
-                                        bool is_input = false);
-
 // One datum as a line of text: "2026-11-22T14:50:01.123456789Z  1.000 2.000 ..."; units, when
-// given (one per value), follow each value. Types the tool does not know print as
+// given (one per value, as the port describes its elements), follow each value. Types the tool does not know print as
 // "<type name>" with no values.
 std::string format_text(const CORBA::Any& value, const std::vector<std::string>& units = {});
 

@@ -1,0 +1,181 @@
+#include "report.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+namespace rtm::cli {
+
+using nlohmann::json;
+
+namespace {
+
+std::string us(unsigned long long ns) { return fmt::format("{:.1f}", ns / 1000.0); }
+
+std::string short_type(const std::string& type) {
+  return type.rfind("RTM::", 0) == 0 ? type.substr(5) : type;
+}
+
+std::string period_text(const ComponentInfo& c) {
+  if (!c.timing || c.timing->period_ns == 0) return "-";
+  return fmt::format("{:g} ms", c.timing->period_ns / 1e6);
+}
+
+// "fx fy fz tx ty tz [N N N N·m N·m N·m]", or "" when the port does not say.
+std::string elements_text(const std::vector<ElementInfo>& elements) {
+  if (elements.empty()) return "";
+  std::string names, units;
+  bool any_unit = false;
+  for (const auto& e : elements) {
+    names += (names.empty() ? "" : " ") + e.name;
+    units += (units.empty() ? "" : " ") + (e.unit.empty() ? std::string("-") : e.unit);
+    any_unit = any_unit || !e.unit.empty();
+  }
+  return any_unit ? fmt::format("{} [{}]", names, units) : names;
+}
+
+json timing_json(const RTM::TimingStats& t) {
+  return {{"cycles", t.cycles},
+          {"overruns", t.overruns},
+          {"lateness_p50_ns", t.lateness_p50_ns},
+          {"lateness_p99_ns", t.lateness_p99_ns},
+          {"lateness_max_ns", t.lateness_max_ns},
+          {"mean_period_error_ns", t.mean_period_error_ns}};
+}
+
+void print_port(const PortInfo& p) {
+  std::string counters;
+  if (p.extended && p.direction == Direction::in) {
+    counters = fmt::format("accepted {}  rejected {}  dropped {}", p.counters.accepted, p.counters.rejected,
+                           p.counters.dropped);
+  } else if (p.extended) {
+    counters = fmt::format("written {}  pushed {}  dropped {}  failed {}", p.counters.accepted, p.counters.pushed,
+                           p.counters.dropped, p.counters.failed);
+  }
+  fmt::print("  {:<6} {:<14} {:<20} {}\n", fmt::format("{}{}", to_string(p.direction), p.index), p.name, p.type,
+             counters);
+  if (!p.description.empty()) fmt::print("        {}\n", p.description);
+  if (const auto elements = elements_text(p.elements); !elements.empty()) fmt::print("        {}\n", elements);
+  if (!p.last_error.empty()) fmt::print("        last error: {}\n", p.last_error);
+  for (const auto& s : p.subscriptions) {
+    fmt::print("        -> {} ({}{})  pushed {}  dropped {}{}\n", s.peer, s.req_type,
+               s.in_process ? ", in-process" : "", s.pushed, s.dropped,
+               s.failures ? fmt::format("  failing x{}", s.failures) : "");
+  }
+}
+
+void print_statistics_and_parameters(const ComponentInfo& c) {
+  if (!c.statistics.empty()) fmt::print("  statistics\n");
+  for (const auto& s : c.statistics) {
+    const std::string value = s.unit.empty() ? format_statistic(s.value) : format_statistic(s.value) + " " + s.unit;
+    fmt::print("    {:<24} {:>14}  {}\n", s.name, value, s.description);
+  }
+  if (!c.parameters.empty()) fmt::print("  parameters\n");
+  for (const auto& p : c.parameters) {
+    fmt::print("    {:<24} {}{}  ({}; {})\n", p.name, p.value, p.unit.empty() ? "" : " [" + p.unit + "]",
+               p.access, p.description);
+  }
+}
+
+}  // namespace
+
+std::string format_statistic(double value) {
+  if (std::isfinite(value) && value == std::floor(value) && std::fabs(value) < 1e15) return fmt::format("{:.0f}", value);
+  return fmt::format("{:.3f}", value);
+}
+
+json port_json(const PortInfo& p) {
+  json j{{"name", p.name}, {"direction", to_string(p.direction)}, {"index", p.index}, {"type", p.type}};
+  if (!p.description.empty()) j["description"] = p.description;
+  if (!p.elements.empty()) {
+    j["elements"] = json::array();
+    for (const auto& e : p.elements) j["elements"].push_back({{"name", e.name}, {"unit", e.unit}});
+  }
+  if (p.extended) {
+    j["counters"] = {{"accepted", p.counters.accepted}, {"rejected", p.counters.rejected},
+                     {"dropped", p.counters.dropped},   {"pushed", p.counters.pushed},
+                     {"failed", p.counters.failed}};
+    if (!p.last_error.empty()) j["last_error"] = p.last_error;
+  }
+  if (p.direction == Direction::out) {
+    j["subscriptions"] = json::array();
+    for (const auto& s : p.subscriptions) {
+      j["subscriptions"].push_back({{"peer", s.peer}, {"type", s.req_type}, {"in_process", s.in_process},
+                                    {"pushed", s.pushed}, {"dropped", s.dropped}, {"failures", s.failures}});
+    }
+  }
+  return j;
+}
+
+json component_json(const ComponentInfo& c, bool detailed) {
+  json j{{"host", c.path.host}, {"name", c.path.name}, {"alive", c.liveness == Liveness::alive}};
+  if (c.liveness == Liveness::dead) {
+    j["dead_reason"] = c.dead_reason;
+    return j;
+  }
+  j["kind"] = c.kind;
+  if (!c.description.empty()) j["description"] = c.description;
+  j["state"] = c.state;
+  if (!c.last_error.empty()) j["last_error"] = c.last_error;
+  if (c.timing) {
+    j["period_ns"] = c.timing->period_ns;
+    if (detailed) j["timing"] = timing_json(*c.timing);
+  }
+  j["ports"] = json::array();
+  for (const auto& p : c.ports) j["ports"].push_back(port_json(p));
+  if (detailed && c.extended) {
+    // By name, so a script reads j["statistics"]["watchdog_events"]["value"].
+    j["statistics"] = json::object();
+    for (const auto& s : c.statistics)
+      j["statistics"][s.name] = {{"value", s.value}, {"unit", s.unit}, {"description", s.description}};
+    j["parameters"] = json::object();
+    for (const auto& p : c.parameters) {
+      j["parameters"][p.name] = {
+          {"value", p.value}, {"unit", p.unit}, {"description", p.description}, {"access", p.access}};
+    }
+  }
+  return j;
+}
+
+void print_ls(const std::vector<ComponentInfo>& comps, bool detailed) {
+  std::string host;
+  for (const auto& c : comps) {
+    if (c.path.host != host) {
+      host = c.path.host;
+      fmt::print("{}\n", host);
+    }
+    if (c.liveness == Liveness::dead) {
+      fmt::print("  {:<16} dead ({}): process gone; `rtm ls --clean` removes it\n", c.path.name, c.dead_reason);
+      continue;
+    }
+    std::string ins, outs;
+    for (const auto& p : c.ports) {
+      auto& s = p.direction == Direction::in ? ins : outs;
+      s += fmt::format("{}{}:{}", s.empty() ? "" : " ", p.name, short_type(p.type));
+    }
+    fmt::print("  {:<16} {:<5} {:<11} {:<8} in[{}] out[{}]\n", c.path.name, c.state, c.kind.empty() ? "-" : c.kind,
+               period_text(c), ins, outs);
+    if (detailed && c.timing) {
+      const auto& t = *c.timing;
+      fmt::print("  {:<16} lateness p50 {} us  p99 {} us  max {} us  overruns {} of {} cycles\n", "",
+                 us(t.lateness_p50_ns), us(t.lateness_p99_ns), us(t.lateness_max_ns), t.overruns, t.cycles);
+    }
+  }
+  if (comps.empty()) fmt::print("(no components)\n");
+}
+
+void print_cat(const ComponentInfo& c) {
+  fmt::print("{}  kind {}  state {}  period {}\n", c.path.to_string(), c.kind.empty() ? "-" : c.kind, c.state,
+             period_text(c));
+  if (!c.description.empty()) fmt::print("  {}\n", c.description);
+  if (!c.last_error.empty()) fmt::print("  error: {}\n", c.last_error);
+  if (c.timing) {
+    const auto& t = *c.timing;
+    fmt::print("  lateness p50 {} us  p99 {} us  max {} us  overruns {} of {} cycles\n", us(t.lateness_p50_ns),
+               us(t.lateness_p99_ns), us(t.lateness_max_ns), t.overruns, t.cycles);
+  }
+  for (const auto& p : c.ports) print_port(p);
+  print_statistics_and_parameters(c);
+}
+
+}  // namespace rtm::cli

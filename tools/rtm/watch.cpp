@@ -1,0 +1,185 @@
+#include "watch.h"
+
+#include "values.h"
+#include "watch_port.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <stdexcept>
+
+namespace rtm::cli {
+
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// Where the data go: CSV, JSON lines, text lines or the refreshing live line.
+class WatchDisplay {
+ public:
+  WatchDisplay(const ResolvedPort& port, const WatchOptions& options)
+      : port_(port), options_(options), units_(port.units()),
+        live_(!options.json && ::isatty(STDOUT_FILENO) && options.count <= 0) {
+    if (options.csv_path.empty()) return;
+    csv_.open(options.csv_path);
+    if (!csv_) throw std::runtime_error(fmt::format("cannot write {}", options.csv_path));
+    csv_ << "time_ns";
+  }
+  bool live() const { return live_; }
+
+  void show(const CORBA::Any& any) {
+    if (csv_.is_open()) write_csv(to_sample(any));
+    if (options_.json) {
+      fmt::print("{}\n", format_json(any).dump());
+    } else if (!live_) {
+      fmt::print("{}\n", format_text(any, units_));
+    } else {
+      latest_ = format_text(any, units_);
+    }
+  }
+
+  void refresh(std::uint64_t shown, double rate, unsigned long long dropped_publisher, std::uint64_t dropped_display) {
+    fmt::print("\r\x1b[2K{}  {}\n\x1b[2K  received {}  rate {:.1f} Hz  dropped {} (publisher) + {} (display)\x1b[1A",
+               port_.address, latest_.empty() ? "(waiting for data)" : latest_, shown, rate, dropped_publisher,
+               dropped_display);
+    std::fflush(stdout);
+  }
+
+ private:
+  void write_csv(const Sample& s) {
+    if (!csv_header_done_) {
+      // Named after the port's elements when it describes them ("fx", ...), else v0, v1, ...
+      for (std::size_t i = 0; i < s.values.size(); ++i) {
+        csv_ << ',' << (s.values.size() == port_.elements.size() ? port_.elements[i].name : fmt::format("v{}", i));
+      }
+      csv_ << "\n";
+      csv_header_done_ = true;
+    }
+    csv_ << s.time_ns;
+    for (double v : s.values) csv_ << "," << v;
+    csv_ << "\n";
+  }
+
+  const ResolvedPort& port_;
+  const WatchOptions& options_;
+  const std::vector<std::string> units_;
+  const bool live_;
+  std::ofstream csv_;
+  bool csv_header_done_ = false;
+  std::string latest_;
+};
+
+// The subscription of a WatchPort to the watched OutPort, undone by finish().
+struct WatchSubscription {
+  RTM::OutPort_var out;
+  RTM::OutPortEx_var out_ex;
+  WatchPort* servant = nullptr;
+  PortableServer::ServantBase_var keep;
+  RTM::InPort_var in;
+
+  WatchSubscription(const ResolvedPort& port, rtm::Orb& orb) : out(RTM::OutPort::_narrow(port.object)) {
+    servant = new WatchPort(fmt::format("rtm-watch-{}", ::getpid()), port.type, 4096);
+    keep = servant;
+    CORBA::Object_var ref = orb.activate(servant);
+    in = RTM::InPort::_narrow(ref);
+    if (!out->subscribe(RTM::repeated, in)) {
+      orb.deactivate(servant);
+      throw BrowseError(fmt::format("{} refused the watch subscription", port.address));
+    }
+    out_ex = RTM::OutPortEx::_narrow(out);
+  }
+
+  // What the publisher dropped for this subscriber (0 when it does not tell).
+  unsigned long long publisher_dropped() const {
+    if (CORBA::is_nil(out_ex)) return 0;
+    try {
+      RTM::SubscriptionInfoList_var subs = out_ex->subscriptions();
+      for (CORBA::ULong i = 0; i < subs->length(); ++i) {
+        if (subs[i].subscriber->_is_equivalent(in)) return subs[i].dropped;
+      }
+    } catch (const CORBA::Exception&) {
+    }
+    return 0;
+  }
+
+  // Unsubscribes and deactivates; false (with a message) when the unsubscribe failed.
+  bool finish(rtm::Orb& orb, const std::string& address) {
+    bool ok = true;
+    try {
+      out->unsubscribe(RTM::repeated, in);
+    } catch (const CORBA::Exception& e) {
+      fmt::print(stderr, "rtm watch: unsubscribe from {} failed: {}\n", address, e._name());
+      ok = false;
+    }
+    orb.deactivate(servant);
+    return ok;
+  }
+};
+
+void print_summary(const ResolvedPort& port, const WatchSubscription& sub, std::uint64_t shown, double elapsed,
+                   unsigned long long dropped_publisher, bool as_json) {
+  if (as_json) {
+    fmt::print("{}\n", json{{"summary",
+                             {{"port", port.address},
+                              {"received", shown},
+                              {"seconds", elapsed},
+                              {"dropped_publisher", dropped_publisher},
+                              {"dropped_display", sub.servant->overflowed()},
+                              {"rejected", sub.servant->rejected()}}}}
+                           .dump());
+    return;
+  }
+  fmt::print(stderr,
+             "{}: received {} in {:.2f} s ({:.1f} Hz), dropped {} by the publisher, {} by the display, {} of a "
+             "wrong type\n",
+             port.address, shown, elapsed, elapsed > 0 ? shown / elapsed : 0.0, dropped_publisher,
+             sub.servant->overflowed(), sub.servant->rejected());
+}
+
+}  // namespace
+
+int watch(const Browser& browser, rtm::Orb& orb, const std::string& address, const WatchOptions& options,
+          const std::atomic<bool>& interrupted) {
+  const ResolvedPort port = browser.port(PortAddress::parse(address));
+  if (port.direction != Direction::out) throw BrowseError(fmt::format("{} is an InPort; watch an OutPort", port.address));
+  WatchDisplay display(port, options);
+  WatchSubscription sub(port, orb);
+  const auto start = Clock::now();
+  const auto refresh = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(1.0 / std::max(options.rate_hz, 0.1)));
+  auto next_refresh = start, window_start = start;
+  std::vector<CORBA::Any> batch;
+  std::uint64_t shown = 0, window_count = 0;
+  double rate = 0;
+  const auto done = [&] { return options.count > 0 && static_cast<long>(shown) >= options.count; };
+  while (!interrupted.load() && !done()) {
+    batch.clear();
+    sub.servant->drain(batch, std::chrono::milliseconds(50));
+    for (std::size_t i = 0; i < batch.size() && !done(); ++i, ++shown, ++window_count) display.show(batch[i]);
+    const auto now = Clock::now();
+    if (now - window_start >= std::chrono::seconds(1)) {
+      rate = window_count / std::chrono::duration<double>(now - window_start).count();
+      window_start = now;
+      window_count = 0;
+    }
+    if (display.live() && now >= next_refresh) {
+      next_refresh = now + refresh;
+      display.refresh(shown, rate, sub.publisher_dropped(), sub.servant->overflowed());
+    }
+    if (options.duration_s > 0 && now - start >= std::chrono::duration<double>(options.duration_s)) break;
+  }
+  const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  const unsigned long long dropped_publisher = sub.publisher_dropped();
+  const bool unsubscribed = sub.finish(orb, port.address);
+  if (display.live()) fmt::print("\n\n");
+  print_summary(port, sub, shown, elapsed, dropped_publisher, options.json);
+  return unsubscribed ? 0 : 1;
+}
+
+}  // namespace rtm::cli
