@@ -96,7 +96,7 @@ Series parse_watch_csv(const std::string& text, const std::string& source_name) 
     if (line.empty() || line == "\r") continue;
     if (!header_seen) {
       if (line.rfind("time_ns", 0) != 0) {
-        throw ReportError(fmt::format("{}:{}: expected the header 'time_ns,v0,...,v5' of rtm watch --csv",
+        throw ReportError(fmt::format("{}:{}: expected the header 'time_ns,...' of rtm watch --csv",
                                       source_name, line_number));
       }
       header_seen = true;

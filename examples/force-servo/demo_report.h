@@ -34,8 +34,9 @@ struct Series {
   std::vector<std::array<double, 6>> values;  // v0..v5
 };
 
-// Reads `rtm watch --csv` output: header "time_ns,v0,...,v5", then one row per datum. A row
-// with fewer than 6 values or a non-number throws ReportError naming file and line. A file
+// Reads `rtm watch --csv` output: header "time_ns" and six columns (named after the port's
+// elements, e.g. fx..tz, else v0..v5), then one row per datum. A row with fewer than 6 values
+// or a non-number throws ReportError naming file and line. A file
 // cut short by a killed writer (last line without newline and incomplete) loses that row only.
 Series read_watch_csv(const std::filesystem::path& path);
 Series parse_watch_csv(const std::string& text, const std::string& source_name);

@@ -53,11 +53,11 @@ enum class ParameterAccess {
 };
 
 struct Parameter {
-  std::string name;         // snake_case, e.g. "gain"
-  std::string unit;
-  std::string description;  // one line
+  std::string name = {};         // snake_case, e.g. "gain"
+  std::string unit = {};
+  std::string description = {};  // one line
   ParameterAccess access = ParameterAccess::fixed;
-  std::function<std::string()> get;  // the value as set() takes it
+  std::function<std::string()> get = {};  // the value as set() takes it
   // Parses, checks and applies text; throws std::invalid_argument saying what is wrong and
   // changes nothing then. Not called for a fixed parameter.
   std::function<void(std::string_view text)> set = {};

@@ -297,4 +297,36 @@ TEST(LatencyHistogram, PercentilesAreBucketEdgesCappedAtTheMaximum) {
   EXPECT_EQ(h.max_ns(), 7'000'000);
 }
 
+const rtm::Parameter& parameter(const rtm::Component& c, const std::string& name) {
+  for (const auto& p : c.parameters())
+    if (p.name == name) return p;
+  throw std::out_of_range("no parameter " + name);
+}
+double statistic(const rtm::Component& c, const std::string& name) {
+  for (const auto& s : c.statistics())
+    if (s.name == name) return s.read();
+  throw std::out_of_range("no statistic " + name);
+}
+
+TEST(Actuator, ALimitSetWhileRunningClampsTheNextCommand) {
+  ActuatorUnderTest t;
+  EXPECT_EQ(t.step({0.04f, 0, 0, 0, 0, 0}), (std::array<float, 6>{0.04f, 0, 0, 0, 0, 0}));
+  parameter(*t.actuator, "limit").set("0.01 0.01 0.01 0.1 0.1 0.1");
+  EXPECT_EQ(t.step({0.04f, 0, 0, 0, 0, 0}), (std::array<float, 6>{0.01f, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(statistic(*t.actuator, "clamped"), 1.0);
+  EXPECT_THROW(parameter(*t.actuator, "limit").set("0.01 0.01 0.01 0.1 0.1 -0.1"), std::invalid_argument);
+  EXPECT_EQ(t.actuator->params().limit[5], 0.1f) << "a refused value changes nothing";
+}
+
+TEST(Actuator, WatchdogPeriodsSetWhileOffTakeEffectAtTheNextOn) {
+  ActuatorUnderTest t;  // 3 periods
+  parameter(*t.actuator, "watchdog_periods").set("1");
+  EXPECT_EQ(parameter(*t.actuator, "watchdog_periods").access, rtm::ParameterAccess::when_off);
+  t.actuator->on_start();
+  t.step({0.01f, 0, 0, 0, 0, 0});
+  EXPECT_EQ(t.step(), kZero);
+  EXPECT_EQ(statistic(*t.actuator, "watchdog_events"), 1.0);
+  EXPECT_EQ(t.actuator->in_ports()[0]->port_name(), "twist");
+}
+
 }  // namespace

@@ -147,4 +147,63 @@ TEST(Controller, NonFiniteGainOrZeroStalePeriodsIsRefused) {
   EXPECT_THROW(rtm::comp::Controller("c", q), std::invalid_argument);
 }
 
+// The parameter and statistic a component publishes (what `rtm cat` and `rtm set` reach).
+const rtm::Parameter& parameter(const rtm::Component& c, const std::string& name) {
+  for (const auto& p : c.parameters())
+    if (p.name == name) return p;
+  throw std::out_of_range("no parameter " + name);
+}
+double statistic(const rtm::Component& c, const std::string& name) {
+  for (const auto& s : c.statistics())
+    if (s.name == name) return s.read();
+  throw std::out_of_range("no statistic " + name);
+}
+
+TEST(Controller, PortsAreNamedForWhatTheyCarryAndDescribeTheirUnits) {
+  ControllerUnderTest t;
+  const auto& c = t.controller;
+  ASSERT_EQ(c.in_ports().size(), 2u);
+  EXPECT_EQ(c.in_ports()[0]->port_name(), "wrench");
+  EXPECT_EQ(c.in_ports()[1]->port_name(), "reference");
+  EXPECT_EQ(c.out_ports()[0]->port_name(), "twist");
+  EXPECT_EQ(c.in_ports()[1]->info().elements[2].unit, "N");
+  EXPECT_EQ(c.out_ports()[0]->info().elements[3].name, "wx");
+  EXPECT_EQ(c.out_ports()[0]->info().elements[3].unit, "rad/s");
+}
+
+TEST(Controller, AGainSetWhileRunningIsUsedFromTheNextCycleWhole) {
+  ControllerUnderTest t(ControllerUnderTest::gains({1, 1, 1, 1, 1, 1}));
+  t.controller.reference_in().deliver(float6({1, 1, 1, 1, 1, 1}));
+  t.controller.sensor_in().deliver(float6({0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(t.step(), (std::array<float, 6>{1, 1, 1, 1, 1, 1}));
+  parameter(t.controller, "gain").set("2 3 4 5 6 7");
+  t.controller.reference_in().deliver(float6({1, 1, 1, 1, 1, 1}));
+  t.controller.sensor_in().deliver(float6({0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(t.step(), (std::array<float, 6>{2, 3, 4, 5, 6, 7}));
+  EXPECT_EQ(parameter(t.controller, "gain").get(), "2 3 4 5 6 7");
+  EXPECT_EQ(t.controller.params().gain, (std::array<float, 6>{2, 3, 4, 5, 6, 7}));
+}
+
+TEST(Controller, AGainWithFiveValuesOrANanIsRefusedAndTheOldGainStays) {
+  ControllerUnderTest t(ControllerUnderTest::gains({1, 1, 1, 1, 1, 1}));
+  EXPECT_THROW(parameter(t.controller, "gain").set("1 2 3 4 5"), std::invalid_argument);
+  EXPECT_THROW(parameter(t.controller, "gain").set("1 2 3 4 5 nan"), std::invalid_argument);
+  EXPECT_EQ(parameter(t.controller, "gain").get(), "1 1 1 1 1 1");
+  EXPECT_EQ(parameter(t.controller, "stale_periods").access, rtm::ParameterAccess::when_off);
+  EXPECT_THROW(parameter(t.controller, "stale_periods").set("0"), std::invalid_argument);
+}
+
+TEST(Controller, StalePeriodsSetWhileOffTakeEffectAtTheNextOn) {
+  ControllerUnderTest t;
+  parameter(t.controller, "stale_periods").set("1");
+  t.controller.on_start();
+  t.controller.reference_in().deliver(float6({1, 0, 0, 0, 0, 0}));
+  t.controller.sensor_in().deliver(float6({1, 0, 0, 0, 0, 0}));
+  EXPECT_NE(t.step(), kZero);
+  EXPECT_EQ(t.step(), kZero) << "one cycle without data is stale now";
+  EXPECT_EQ(statistic(t.controller, "stale_events"), 2.0) << "both inputs went stale";
+  EXPECT_EQ(statistic(t.controller, "commands"), 1.0);
+  EXPECT_EQ(statistic(t.controller, "zero_commands"), 1.0);
+}
+
 }  // namespace
