@@ -8,21 +8,6 @@
 
 namespace rtm::can {
 
-std::string_view to_string(FaultKind kind) {
-  switch (kind) {
-    case FaultKind::none: return "none";
-    case FaultKind::drive_fault: return "drive fault";
-    case FaultKind::drive_disabled: return "drive disabled";
-    case FaultKind::emergency: return "emergency";
-    case FaultKind::heartbeat_lost: return "heartbeat lost";
-    case FaultKind::bus_error: return "bus error";
-    case FaultKind::missing_feedback: return "missing feedback";
-    case FaultKind::node_not_operational: return "node not operational";
-    case FaultKind::cycle_owner_lost: return "cycle owner lost";
-  }
-  return "invalid";
-}
-
 Pa10Master::Pa10Master(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_bus, MasterConfig config)
     : cycle_(std::make_unique<BusCycle>(std::move(drive_bus), std::move(sensor_bus), std::move(config))) {}
 

@@ -1,5 +1,5 @@
 // The PA10 master's vocabulary: its configuration and what it reports (joint state, wrench,
-// fault, counters, the last target sent). Shared by the master (master.h), its thread-free bus
+// fault (kinds in fault.h), counters, the last target sent). Shared by the master (master.h), its thread-free bus
 // cycle (bus_cycle.h) and its supervisor (supervisor.h).
 #pragma once
 
@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include "arm/can/fault.h"
 #include "arm/can/protocol.h"
 
 namespace rtm::can {
@@ -57,19 +58,6 @@ struct Wrench {
   std::uint64_t sequence = 0;      // increments with each complete wrench (force + torque)
   bool valid = false;
 };
-
-enum class FaultKind : std::uint8_t {
-  none,
-  drive_fault,        // statusword reports fault / fault reaction
-  drive_disabled,     // a drive left operation enabled by itself
-  emergency,          // EMCY with a non-zero error code
-  heartbeat_lost,     // a node silent longer than heartbeat_timeout
-  bus_error,          // the transport failed
-  missing_feedback,   // a drive did not answer several SYNCs in a row
-  node_not_operational,  // a heartbeat reports boot-up/stopped/pre-operational after start
-  cycle_owner_lost,   // the thread that took the cycles over stopped running them
-};
-std::string_view to_string(FaultKind kind);
 
 struct MasterFault {
   FaultKind kind = FaultKind::none;

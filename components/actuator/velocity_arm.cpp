@@ -35,30 +35,10 @@ ArmHardware::~ArmHardware() {
   master_.reset();  // one last zero-velocity cycle, then NMT pre-operational
 }
 
-ArmStatus ArmHardware::order_velocity(const std::array<float, 6>& twist_base) {
-  if (arm_->order_velocity(twist_base)) return ArmStatus::ready;
-  return status_of_refusal();
-}
-
-ArmStatus ArmHardware::quick_stop() {
-  if (arm_->quick_stop()) return ArmStatus::ready;
-  return status_of_refusal();
-}
-
-ArmStatus ArmHardware::status_of_refusal() const {
-  switch (arm_->fault()) {
-    case rtm::pa10::ArmFault::none:  // enabled, but no feedback yet
-    case rtm::pa10::ArmFault::not_enabled: return ArmStatus::not_ready;
-    case rtm::pa10::ArmFault::command_loss: return ArmStatus::command_loss;
-    default: return ArmStatus::fault;
-  }
-}
-
 bool ArmHardware::in_fault() const {
   // While the component is off nobody orders velocities, so the arm has not looked at the
   // master since: a fault the master latched meanwhile is found here.
-  const auto fault = arm_->check_faults();
-  return fault != rtm::pa10::ArmFault::none && fault != rtm::pa10::ArmFault::not_enabled;
+  return rtm::can::latched(arm_->check_faults());
 }
 
 VelocityArm::BusPosition ArmHardware::bus_position() const {

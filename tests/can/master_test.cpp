@@ -10,6 +10,8 @@
 
 #include <chrono>
 #include <functional>
+#include <set>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -67,6 +69,20 @@ bool step_until(Pa10Master& m, Predicate p, int max_steps = 2000) {
     m.step();
   }
   return p();
+}
+
+TEST(FaultKind, EachKindHasItsOwnNameAndOnlyNoneAndNotEnabledAreNotLatched) {
+  EXPECT_EQ(to_string(FaultKind::none), "none");
+  EXPECT_EQ(to_string(FaultKind::not_enabled), "not_enabled");
+  EXPECT_EQ(to_string(FaultKind::command_loss), "command_loss");
+  EXPECT_EQ(to_string(FaultKind::drive_fault), "drive_fault");
+  EXPECT_EQ(to_string(FaultKind::ik_failed), "ik_failed");
+  std::set<std::string_view> names;
+  for (int k = 0; k <= static_cast<int>(FaultKind::ik_failed); ++k) {
+    const auto kind = static_cast<FaultKind>(k);
+    EXPECT_TRUE(names.insert(to_string(kind)).second) << to_string(kind);
+    EXPECT_EQ(latched(kind), kind != FaultKind::none && kind != FaultKind::not_enabled) << to_string(kind);
+  }
 }
 
 TEST(Pa10Master, StartupSetsCyclicSyncVelocityModeAndEnablesEveryDrive) {
@@ -335,14 +351,14 @@ TEST(Pa10Master, UnknownMalformedLateAndForeignFramesAreCountedAndIgnored) {
   EXPECT_TRUE(rig.master->enabled());
 }
 
-TEST(Pa10Master, RpdoTimeoutEmcyFromADriveIsAFaultNamingTheCause) {
+TEST(Pa10Master, RpdoTimeoutEmcyFromADriveIsACommandLossNamingTheCause) {
   Rig rig;
   rig.master->start();
   auto drive_side = open_bus(rig.spec);
   drive_side->send(*encode_emcy(2, emcy::kRpdoTimeout, 0x11));
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
   const MasterFault f = rig.master->fault();
-  EXPECT_EQ(f.kind, FaultKind::emergency);
+  EXPECT_EQ(f.kind, FaultKind::command_loss) << to_string(f.kind);
   EXPECT_EQ(f.code, emcy::kRpdoTimeout);
   EXPECT_EQ(f.reason, "drive 2 (S2): EMCY 0x8250 RPDO timeout (command loss)");
 }

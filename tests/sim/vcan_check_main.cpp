@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
       rtm::pa10::Pa10Arm arm(argv[2], master);
       const auto q0 = arm.joint_positions();
       for (int i = 0; i < 100; ++i) {
-        if (!arm.order_velocity({0.05f, 0, 0, 0, 0, 0}))
+        if (arm.order_velocity({0.05f, 0, 0, 0, 0, 0}) != rtm::can::FaultKind::none)
           throw std::runtime_error("arm fault: " + arm.fault_reason());
         if (!master.step()) throw std::runtime_error("a node did not answer a SYNC");
       }
