@@ -1,20 +1,15 @@
 #include "arm/can/supervisor.h"
 
-#include <chrono>
 #include <cstdarg>
 #include <cstdio>
 
 namespace rtm::can {
 
-namespace {
-std::int64_t ns(std::chrono::nanoseconds d) { return d.count(); }
-}  // namespace
-
 Supervisor::Supervisor(const MasterConfig& config, const std::array<bool, 128>& expected)
     : expected_(expected),
       missed_feedback_limit_(config.missed_feedback_limit),
-      heartbeat_timeout_ns_(ns(config.heartbeat_timeout)),
-      enable_timeout_ns_(ns(config.enable_timeout)) {}
+      heartbeat_timeout_ns_(config.heartbeat_timeout_ns),
+      enable_timeout_ns_(config.enable_timeout_ns) {}
 
 // ---- the fault ---------------------------------------------------------------------------
 

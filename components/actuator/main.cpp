@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
       .validate = [&](const rtm::RunSettings&) { params.validate(); },
       .create =
           [&](const rtm::RunSettings& settings) {
-            hardware.period = std::chrono::nanoseconds(settings.period_ns);
+            hardware.period_ns = settings.period_ns;
             hardware.rt_priority = settings.rt_priority;
             hardware.cpu = settings.cpu;
             return std::make_unique<rtm::comp::Actuator>(

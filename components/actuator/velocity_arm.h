@@ -7,7 +7,6 @@
 #include "arm/pa10/arm.h"
 
 #include <array>
-#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -71,11 +70,11 @@ class ArmHardware final : public VelocityArm {
     std::string bus = "local:/tmp/rtm-pa10.bus";  // local:<path> or socketcan:<if>
     std::string sensor_bus;                       // "" = the same bus
     std::string urdf;                             // the arm model (sim/models/pa10.urdf)
-    std::chrono::nanoseconds period{2'000'000};   // SYNC period
+    std::int64_t period_ns = 2'000'000;           // SYNC period
     bool run_master_thread = true;
     int rt_priority = 0;  // of the master's thread; 0 = SCHED_OTHER
     int cpu = -1;
-    std::chrono::nanoseconds step_timeout{std::chrono::seconds(2)};  // lock-step wait per SYNC
+    std::int64_t step_timeout_ns = 2'000'000'000;  // lock-step wait per SYNC
 
     // Registers --bus, --sensor-bus and --urdf on app, bound to these fields.
     void add_options(CLI::App& app);

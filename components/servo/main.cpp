@@ -102,7 +102,7 @@ std::unique_ptr<rtm::comp::RemoteServo> make_remote_servo(const ServoOptions& o,
 // Shared-tick mode: the members live here, on the arm's bus, run by one tick.
 std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions& o, const rtm::RunContext& context) {
   const rtm::RunSettings& settings = context.settings;
-  o.hardware.period = std::chrono::nanoseconds(settings.period_ns);
+  o.hardware.period_ns = settings.period_ns;
   o.hardware.rt_priority = settings.rt_priority;
   o.hardware.cpu = settings.cpu;
   auto arm = std::make_unique<rtm::comp::ArmHardware>(o.hardware);

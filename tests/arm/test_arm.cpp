@@ -149,7 +149,7 @@ class FakeDrives {
       }
       can_frame frame{};
       try {
-        if (!bus_->receive(frame, 1ms)) continue;
+        if (!bus_->receive(frame, 1'000'000)) continue;
       } catch (const can::BusError&) {
         return;  // the hub went away: the test is ending
       }

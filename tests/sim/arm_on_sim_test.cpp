@@ -46,7 +46,7 @@ class ArmOnSimTest : public ::testing::Test {
     sim_ = std::make_unique<rtm_test::ChildProcess>(argv);
     sim_->wait_for_line("pa10-sim: ready", 20s);
     pc::MasterConfig config;
-    config.step_timeout = 2s;  // a loaded 2-core VM may stall; lock-step never misses a SYNC
+    config.step_timeout_ns = 2'000'000'000;  // a loaded 2-core VM may stall; lock-step never misses a SYNC
     master_ = std::make_unique<pc::Pa10Master>(bus_spec_, sensor_bus_spec_, config);
     master_->start();
     arm_ = std::make_unique<rtm::pa10::Pa10Arm>(RTM_PA10_URDF, *master_);
@@ -138,7 +138,7 @@ TEST_F(ArmOnSimTest, WithoutRpdosTheDrivesBrakeToZeroWithinThreeSyncs) {
     const auto deadline = std::chrono::steady_clock::now() + 5s;
     while (answered < pc::kDriveCount && std::chrono::steady_clock::now() < deadline) {
       can_frame frame{};
-      if (!bus->receive(frame, 100ms)) continue;
+      if (!bus->receive(frame, 100'000'000)) continue;
       const auto feedback = pc::decode_drive_feedback(frame);
       if (!feedback.ok()) continue;
       ++answered;

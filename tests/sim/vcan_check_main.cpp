@@ -28,11 +28,11 @@ int main(int argc, char** argv) {
     sim.wait_for_line("pa10-sim: ready", 60s);
 
     rtm::can::MasterConfig config;
-    config.step_timeout = 5s;
-    config.boot_timeout = 30s;
-    config.sdo_timeout = 5s;
-    config.enable_timeout = 30s;
-    config.heartbeat_timeout = 10s;  // the guest's clock is not real time
+    config.step_timeout_ns = 5'000'000'000;
+    config.boot_timeout_ns = 30'000'000'000;
+    config.sdo_timeout_ns = 5'000'000'000;
+    config.enable_timeout_ns = 30'000'000'000;
+    config.heartbeat_timeout_ns = 10'000'000'000;  // the guest's clock is not real time
     double moved_rad = 0;
     {
       rtm::can::Pa10Master master("socketcan:vcan0", "", config);
