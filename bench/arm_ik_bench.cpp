@@ -27,7 +27,7 @@ Twist forceServoTwist() {
 }
 
 void solveAt(benchmark::State& state, const JointVector& q, const Twist& twist) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF_PATH);
+  Kinematics kinematics = Kinematics::pa10();
   VelocityIk ik(kinematics);
   for (auto _ : state) {
     auto result = ik.solve(twist, q, 0.002);
@@ -53,7 +53,7 @@ void BM_VelocityIk_VelocityScaled(benchmark::State& state) {
 BENCHMARK(BM_VelocityIk_VelocityScaled);
 
 void BM_VelocityIk_JointHeldAtLimit(benchmark::State& state) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF_PATH);
+  Kinematics kinematics = Kinematics::pa10();
   JointVector q = generalPose();
   q[2] = kinematics.limits().upper_rad[2];  // s3 on its limit, commanded further into it
   solveAt(state, q, kinematics.jacobian(q).col(2) * 0.2);
@@ -61,14 +61,14 @@ void BM_VelocityIk_JointHeldAtLimit(benchmark::State& state) {
 BENCHMARK(BM_VelocityIk_JointHeldAtLimit);
 
 void BM_ToolPose(benchmark::State& state) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF_PATH);
+  Kinematics kinematics = Kinematics::pa10();
   const JointVector q = generalPose();
   for (auto _ : state) benchmark::DoNotOptimize(kinematics.tool_pose(q));
 }
 BENCHMARK(BM_ToolPose);
 
 void BM_Jacobian(benchmark::State& state) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF_PATH);
+  Kinematics kinematics = Kinematics::pa10();
   const JointVector q = generalPose();
   for (auto _ : state) benchmark::DoNotOptimize(kinematics.jacobian(q));
 }

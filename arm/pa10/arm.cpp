@@ -7,8 +7,10 @@
 namespace rtm::pa10 {
 using rtm::can::FaultKind;
 
+Pa10Arm::Pa10Arm(rtm::can::Pa10Master& master, ArmOptions options) : Pa10Arm(std::string(), master, options) {}
+
 Pa10Arm::Pa10Arm(const std::string& urdf_path, rtm::can::Pa10Master& master, ArmOptions options)
-    : kinematics_(Kinematics::from_urdf_file(urdf_path)),
+    : kinematics_(Kinematics::pa10(urdf_path)),
       ik_(kinematics_, options.ik),
       master_(master),
       options_(options) {

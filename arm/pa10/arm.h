@@ -38,9 +38,12 @@ struct ArmOptions {
 
 class Pa10Arm {
  public:
-  // Loads the model from `urdf_path` (throws ModelError naming the file). `master` must
-  // outlive the arm; the arm does not start, stop or step it (call master.start() first, then
-  // either master.run_periodic() or master.step() after each order_velocity()).
+  // The PA10 with the library's built-in model (Kinematics::pa10()). `master` must outlive the
+  // arm; the arm does not start, stop or step it (call master.start() first, then either
+  // master.run_periodic() or master.step() after each order_velocity()).
+  explicit Pa10Arm(rtm::can::Pa10Master& master, ArmOptions options = {});
+  // The same with the model from `urdf_path` instead, when not empty (throws ModelError naming
+  // the file).
   Pa10Arm(const std::string& urdf_path, rtm::can::Pa10Master& master, ArmOptions options = {});
   Pa10Arm(const Pa10Arm&) = delete;
   Pa10Arm& operator=(const Pa10Arm&) = delete;

@@ -68,6 +68,11 @@ const char* typeName(int urdf_type) {
 
 // ---------------------------------------------------------------- Kinematics
 
+Kinematics Kinematics::pa10(const std::string& urdf_path) {
+  if (!urdf_path.empty()) return from_urdf_file(urdf_path);
+  return from_urdf_string(std::string(builtin_pa10_urdf()), "pa10.urdf (built in)");
+}
+
 Kinematics Kinematics::from_urdf_file(const std::string& urdf_path, const std::string& base_link,
                                     const std::string& tip_link) {
   std::ifstream file(urdf_path);

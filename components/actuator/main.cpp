@@ -7,7 +7,6 @@
 
 int main(int argc, char** argv) {
   rtm::comp::ArmHardware::Options hardware;
-  hardware.urdf = RTM_PA10_URDF;
   rtm::comp::ActuatorParams params;
   return rtm::run_component(argc, argv, {
       .kind = "actuator",

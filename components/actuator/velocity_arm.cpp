@@ -12,7 +12,7 @@ namespace rtm::comp {
 void ArmHardware::Options::add_options(CLI::App& app) {
   app.add_option("--bus", bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
   app.add_option("--sensor-bus", sensor_bus, "separate bus of the force sensors (default: --bus)");
-  app.add_option("--urdf", urdf, "arm model for the velocity IK")->capture_default_str();
+  app.add_option("--urdf", urdf, "arm model URDF for the velocity IK (default: the built-in PA10 model)");
 }
 
 namespace pc = rtm::can;

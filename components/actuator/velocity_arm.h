@@ -69,7 +69,7 @@ class ArmHardware final : public VelocityArm {
   struct Options {
     std::string bus = "local:/tmp/rtm-pa10.bus";  // local:<path> or socketcan:<if>
     std::string sensor_bus;                       // "" = the same bus
-    std::string urdf;                             // the arm model (sim/models/pa10.urdf)
+    std::string urdf;                             // arm model URDF; "" = the arm library's built-in PA10
     std::int64_t period_ns = 2'000'000;           // SYNC period
     bool run_master_thread = true;
     int rt_priority = 0;  // of the master's thread; 0 = SCHED_OTHER

@@ -202,7 +202,7 @@ struct Rig {
       : hub(uniqueHubPath()),
         drives(hub.path(), q0),
         master(can::open_local(hub.path()), nullptr, lockStepConfig()),
-        arm(RTM_PA10_URDF_PATH, master) {}
+        arm(master) {}
 
   void startMaster() {
     master.start();

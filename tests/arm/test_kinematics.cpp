@@ -37,7 +37,7 @@ Eigen::Isometry3d dhToolPose(const JointVector& q) {
   return pose * Eigen::Translation3d(0, 0, kFlangeToTool_m);
 }
 
-Kinematics loadModel() { return Kinematics::from_urdf_file(RTM_PA10_URDF_PATH); }
+Kinematics loadModel() { return Kinematics::pa10(); }
 
 JointVector randomJoints(std::mt19937& rng, const JointLimits& limits, double fraction = 1.0) {
   JointVector q;
@@ -133,6 +133,31 @@ TEST(Pa10Model, MovedModelStillComputesTheSamePoses) {
   EXPECT_EQ(ik.solve(Twist::Constant(0.01), generalPose(), kDt_s).status, IkStatus::ok);
 }
 
+// ---- the built-in model and a file overriding it -------------------------------------------
+
+TEST(Pa10Model, TheLibraryHasThePa10BuiltIn) {
+  const Kinematics kinematics = Kinematics::pa10();
+  EXPECT_EQ(kinematics.source(), "pa10.urdf (built in)");
+  EXPECT_NE(builtin_pa10_urdf().find("<robot"), std::string_view::npos);
+  EXPECT_EQ(kinematics.limits().names[0], "s1");
+  EXPECT_EQ(kinematics.limits().names[6], "w2");
+  EXPECT_EQ(Kinematics::pa10("").source(), kinematics.source()) << "an empty path means the built-in model";
+}
+
+TEST(Pa10Model, AUrdfFileOverridesTheBuiltInModel) {
+  // The built-in model with the S1 velocity limit changed, as a file (what --urdf FILE loads).
+  std::string urdf(builtin_pa10_urdf());
+  const std::string s1_limit = R"(upper="3.0892327760299634" velocity="1.0")";
+  const std::size_t at = urdf.find(s1_limit);
+  ASSERT_NE(at, std::string::npos);
+  urdf.replace(at, s1_limit.size(), R"(upper="3.0892327760299634" velocity="0.5")");
+  const auto path = writeTempFile("slow_s1_pa10.urdf", urdf);
+  const Kinematics kinematics = Kinematics::pa10(path.string());
+  EXPECT_EQ(kinematics.source(), path.string());
+  EXPECT_DOUBLE_EQ(kinematics.limits().velocity_rad_s[0], 0.5);
+  EXPECT_DOUBLE_EQ(Kinematics::pa10().limits().velocity_rad_s[0], 1.0);
+}
+
 // ---- model errors --------------------------------------------------------------------------
 
 TEST(Pa10ModelErrors, MalformedUrdfFileGivesAnErrorNamingTheFile) {
@@ -174,8 +199,7 @@ TEST(Pa10ModelErrors, ChainWithoutSevenRevoluteJointsIsRejected) {
 }
 
 TEST(Pa10ModelErrors, MissingTipLinkIsNamed) {
-  std::ifstream file(RTM_PA10_URDF_PATH);
-  const std::string urdf((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const std::string urdf(builtin_pa10_urdf());
   EXPECT_THROW(
       {
         try {

@@ -68,7 +68,7 @@ class ServoWiringTest : public ::testing::Test {
     rtm::comp::ActuatorParams limits;
     limits.limit = {100, 100, 100, 100, 100, 100};
     sensor_ = new rtm::ComponentServant(
-        std::make_unique<rtm::comp::Sensor>("sensor0", std::move(source), rtm::pa10::Kinematics::from_urdf_file(RTM_PA10_URDF)),
+        std::make_unique<rtm::comp::Sensor>("sensor0", std::move(source), rtm::pa10::Kinematics::pa10()),
         rtm::ExternalTick{});
     controller_ = new rtm::ComponentServant(std::make_unique<rtm::comp::Controller>("controller0", gains), rtm::ExternalTick{});
     actuator_ = new rtm::ComponentServant(std::make_unique<rtm::comp::Actuator>("actuator0", std::move(arm), limits),
@@ -335,7 +335,7 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_servo(const std::string&
   return std::make_unique<rtm::comp::SharedTickServo>(
       name,
       std::make_unique<rtm::comp::Sensor>(name + "_sensor", std::move(source),
-                                          rtm::pa10::Kinematics::from_urdf_file(RTM_PA10_URDF)),
+                                          rtm::pa10::Kinematics::pa10()),
       std::make_unique<rtm::comp::Controller>(name + "_controller", gains),
       std::make_unique<rtm::comp::Actuator>(name + "_actuator", std::make_unique<LoggingArm>(log), limits),
       rtm::PeriodicOptions{}, std::move(phase), std::move(bus));

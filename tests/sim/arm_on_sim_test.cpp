@@ -49,7 +49,7 @@ class ArmOnSimTest : public ::testing::Test {
     config.step_timeout_ns = 2'000'000'000;  // a loaded 2-core VM may stall; lock-step never misses a SYNC
     master_ = std::make_unique<pc::Pa10Master>(bus_spec_, sensor_bus_spec_, config);
     master_->start();
-    arm_ = std::make_unique<rtm::pa10::Pa10Arm>(RTM_PA10_URDF, *master_);
+    arm_ = std::make_unique<rtm::pa10::Pa10Arm>(*master_);
   }
   void TearDown() override {
     if (master_) master_->stop();
