@@ -14,20 +14,20 @@ using rtm::pa10::Kinematics;
 using rtm::pa10::Twist;
 using rtm::pa10::VelocityIk;
 
-JointVector generalPose() {
+JointVector general_pose() {
   JointVector q;
   q << 0.3, 0.5, -0.4, 1.3, 0.6, 0.9, -0.5;
   return q;
 }
 
-Twist forceServoTwist() {
+Twist force_servo_twist() {
   Twist twist;
   twist << 0.05, 0.02, -0.03, 0.1, 0.0, 0.2;  // m/s, rad/s
   return twist;
 }
 
-void solveAt(benchmark::State& state, const JointVector& q, const Twist& twist) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF_PATH);
+void solve_at(benchmark::State& state, const JointVector& q, const Twist& twist) {
+  Kinematics kinematics = Kinematics::pa10();
   VelocityIk ik(kinematics);
   for (auto _ : state) {
     auto result = ik.solve(twist, q, 0.002);
@@ -36,40 +36,40 @@ void solveAt(benchmark::State& state, const JointVector& q, const Twist& twist) 
 }
 
 void BM_VelocityIk_General(benchmark::State& state) {
-  solveAt(state, generalPose(), forceServoTwist());
+  solve_at(state, general_pose(), force_servo_twist());
 }
 BENCHMARK(BM_VelocityIk_General);
 
 void BM_VelocityIk_NearSingular(benchmark::State& state) {
   JointVector q;
   q << 0.2, 0.6, 0.1, 1.4, std::numbers::pi / 2, 1e-4, 0.4;  // wrist singularity
-  solveAt(state, q, forceServoTwist());
+  solve_at(state, q, force_servo_twist());
 }
 BENCHMARK(BM_VelocityIk_NearSingular);
 
 void BM_VelocityIk_VelocityScaled(benchmark::State& state) {
-  solveAt(state, generalPose(), forceServoTwist() * 30);
+  solve_at(state, general_pose(), force_servo_twist() * 30);
 }
 BENCHMARK(BM_VelocityIk_VelocityScaled);
 
 void BM_VelocityIk_JointHeldAtLimit(benchmark::State& state) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF_PATH);
-  JointVector q = generalPose();
+  Kinematics kinematics = Kinematics::pa10();
+  JointVector q = general_pose();
   q[2] = kinematics.limits().upper_rad[2];  // s3 on its limit, commanded further into it
-  solveAt(state, q, kinematics.jacobian(q).col(2) * 0.2);
+  solve_at(state, q, kinematics.jacobian(q).col(2) * 0.2);
 }
 BENCHMARK(BM_VelocityIk_JointHeldAtLimit);
 
 void BM_ToolPose(benchmark::State& state) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF_PATH);
-  const JointVector q = generalPose();
+  Kinematics kinematics = Kinematics::pa10();
+  const JointVector q = general_pose();
   for (auto _ : state) benchmark::DoNotOptimize(kinematics.tool_pose(q));
 }
 BENCHMARK(BM_ToolPose);
 
 void BM_Jacobian(benchmark::State& state) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF_PATH);
-  const JointVector q = generalPose();
+  Kinematics kinematics = Kinematics::pa10();
+  const JointVector q = general_pose();
   for (auto _ : state) benchmark::DoNotOptimize(kinematics.jacobian(q));
 }
 BENCHMARK(BM_Jacobian);

@@ -235,9 +235,9 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
       throw RunError(std::string("pa10-sim: ppoll failed: ") + std::strerror(errno));
     if (ready > 0) {
       if (fds[0].revents != 0)
-        while (bus->receive(frame, std::chrono::nanoseconds(0))) sim.on_frame(frame, sink);
+        while (bus->receive(frame, 0)) sim.on_frame(frame, sink);
       if (sensor_bus && fds[1].revents != 0)
-        while (sensor_bus->receive(frame, std::chrono::nanoseconds(0)))
+        while (sensor_bus->receive(frame, 0))
           sim.on_sensor_bus_frame(frame);
       if (fds[2].revents != 0) stdin_wrench.read_into(sim);
     }

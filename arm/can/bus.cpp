@@ -10,6 +10,7 @@
 
 #include <cerrno>
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -144,8 +145,8 @@ class SocketCanBus final : public Bus {
     return send_frames(fd_.get(), frames, 0, failure());
   }
 
-  bool receive(can_frame& frame, std::chrono::nanoseconds timeout) override {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
+  bool receive(can_frame& frame, std::int64_t timeout_ns) override {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
     for (;;) {
       const ssize_t n = ::recv(fd_.get(), &frame, sizeof frame, MSG_DONTWAIT);
       if (n == static_cast<ssize_t>(sizeof frame)) return true;  // filters are in the kernel
@@ -230,8 +231,8 @@ class LocalBus final : public Bus {
     return send_frames(fd_.get(), frames, MSG_NOSIGNAL, failure());
   }
 
-  bool receive(can_frame& frame, std::chrono::nanoseconds timeout) override {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
+  bool receive(can_frame& frame, std::int64_t timeout_ns) override {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
     for (;;) {
       // One byte more than a frame: MSG_TRUNC then reports an oversized datagram's real size.
       unsigned char buffer[sizeof(can_frame) + 1];

@@ -8,7 +8,6 @@
 
 #include <linux/can.h>
 
-#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -57,10 +56,10 @@ class Bus {
   // first one dropped on are not sent. Throws BusError as send(). No allocation.
   virtual std::size_t send_batch(std::span<const can_frame> frames) = 0;
 
-  // Waits up to `timeout` for one frame (0 = just poll). Returns false on timeout. Frames not
-  // passing the filters are skipped without counting against the caller. Throws BusError when
-  // the transport fails (e.g. the hub closed the connection).
-  virtual bool receive(can_frame& frame, std::chrono::nanoseconds timeout) = 0;
+  // Waits up to `timeout_ns` nanoseconds for one frame (0 = just poll). Returns false on
+  // timeout. Frames not passing the filters are skipped without counting against the caller.
+  // Throws BusError when the transport fails (e.g. the hub closed the connection).
+  virtual bool receive(can_frame& frame, std::int64_t timeout_ns) = 0;
 
   // A file descriptor that poll()s readable (POLLIN) when receive() may return a frame
   // without waiting; lets one thread wait on several buses. A readable fd can still yield no

@@ -22,7 +22,7 @@ BusCycle::BusCycle(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_b
       config_(std::move(config)),
       supervisor_(config_, expected_nodes(config_)) {
   if (!drive_bus_) throw std::invalid_argument("Pa10Master: no drive bus");
-  if (config_.period <= std::chrono::nanoseconds(0)) throw std::invalid_argument("Pa10Master: period must be > 0");
+  if (config_.period_ns <= 0) throw std::invalid_argument("Pa10Master: period must be > 0");
   sensor_bus_ = separate_sensor_bus_ ? separate_sensor_bus_.get() : drive_bus_.get();
 }
 
@@ -113,9 +113,9 @@ void BusCycle::handle_sensor(const can_frame& frame, const Classified& c) {
 void BusCycle::drain() {
   can_frame frame{};
   const std::int64_t now_ns = monotonic_ns();
-  while (drive_bus_->receive(frame, std::chrono::nanoseconds(0))) handle(frame, now_ns);
+  while (drive_bus_->receive(frame, 0)) handle(frame, now_ns);
   if (separate_sensor_bus_)
-    while (separate_sensor_bus_->receive(frame, std::chrono::nanoseconds(0))) handle(frame, now_ns);
+    while (separate_sensor_bus_->receive(frame, 0)) handle(frame, now_ns);
 }
 
 bool BusCycle::wait_readable(std::int64_t deadline_ns) {
@@ -206,7 +206,7 @@ void BusCycle::publish(const DriveSummary& drives) {
     s.statusword[i] = feedback_[i].statusword;
   }
   s.sync_counter = sync_counter_;
-  s.sync_time = SteadyTime(std::chrono::nanoseconds(sync_time_ns_));
+  s.sync_time_ns = sync_time_ns_;
   s.cycle = cycle_;
   s.complete = true;
   for (bool got : got_feedback_) s.complete = s.complete && got;
@@ -215,7 +215,7 @@ void BusCycle::publish(const DriveSummary& drives) {
     Wrench& w = report.wrench[k];
     w.values = wrenches_[k].values();
     w.sync_counter = sync_counter_;
-    w.sync_time = s.sync_time;
+    w.sync_time_ns = s.sync_time_ns;
     ++w.sequence;
     w.valid = true;
   }
@@ -259,7 +259,7 @@ bool BusCycle::step() {
   const std::int64_t now_ns = monotonic_ns();
   supervisor_.check_heartbeats(now_ns);
   transmit(now_ns);
-  const bool complete = receive_until(monotonic_ns() + config_.step_timeout.count(), [this] { return window_complete(); });
+  const bool complete = receive_until(monotonic_ns() + config_.step_timeout_ns, [this] { return window_complete(); });
   if (!complete) ++counters_.step_timeouts;
   close_window(monotonic_ns());
   return complete;
@@ -282,7 +282,7 @@ SdoResponse BusCycle::sdo_transfer(const SdoRequest& request, const char* what) 
   sdo_response_.reset();
   sdo_waiting_node_ = request.node;
   send(*drive_bus_, encode_sdo_request(request));
-  const bool answered = receive_until(monotonic_ns() + std::chrono::nanoseconds(config_.sdo_timeout).count(), [&] {
+  const bool answered = receive_until(monotonic_ns() + config_.sdo_timeout_ns, [&] {
     return sdo_response_ && sdo_response_->index == request.index && sdo_response_->subindex == request.subindex;
   });
   sdo_waiting_node_ = 0;
@@ -290,7 +290,7 @@ SdoResponse BusCycle::sdo_transfer(const SdoRequest& request, const char* what) 
   std::snprintf(text, sizeof text, "%s 0x%04x:%02x", what, request.index, request.subindex);
   if (!answered) {
     fail("no SDO response from " + node_description(request.node) + " to " + text + " within " +
-         std::to_string(config_.sdo_timeout.count()) + " ms");
+         std::to_string(config_.sdo_timeout_ns / 1'000'000) + " ms");
   }
   if (sdo_response_->kind == SdoResponseKind::abort) {
     char code[16];

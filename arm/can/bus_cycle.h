@@ -8,7 +8,7 @@
 //   transmit(now)  the requests are taken (target, quick stop, fault reset), the 7 RPDOs and
 //                  SYNC leave in one write, the window of this SYNC opens
 //   step()         lock-step: transmit, then wait until every drive and sensor answered (or
-//                  step_timeout), then close the window
+//                  step_timeout_ns), then close the window
 //
 // Other threads talk to the cycle only through its Mailbox: requests in, a report out, each
 // one struct under one mutex held for a copy, never across a send or a wait. The cycle does no
@@ -88,7 +88,7 @@ class BusCycle {
   // ---- the cycle (one thread at a time; CLOCK_MONOTONIC ns) ----
   void receive(std::int64_t now_ns);
   void transmit(std::int64_t now_ns);
-  bool step();  // true when every expected answer came within step_timeout
+  bool step();  // true when every expected answer came within step_timeout_ns
   // A transport error: latched as a bus fault, published.
   void bus_failure(const std::exception& error);
   // Zero velocity and "shutdown" to every drive with one last SYNC, then NMT pre-operational.
@@ -97,7 +97,7 @@ class BusCycle {
   Mailbox& mailbox() { return mailbox_; }
   const Mailbox& mailbox() const { return mailbox_; }
   const MasterConfig& config() const { return config_; }
-  void set_period(std::chrono::nanoseconds period) { config_.period = period; }
+  void set_period_ns(std::int64_t period_ns) { config_.period_ns = period_ns; }
   Supervisor& supervisor() { return supervisor_; }
   std::string describe_buses() const;
   const Bus& drive_bus() const { return *drive_bus_; }

@@ -8,21 +8,6 @@
 
 namespace rtm::can {
 
-std::string_view to_string(FaultKind kind) {
-  switch (kind) {
-    case FaultKind::none: return "none";
-    case FaultKind::drive_fault: return "drive fault";
-    case FaultKind::drive_disabled: return "drive disabled";
-    case FaultKind::emergency: return "emergency";
-    case FaultKind::heartbeat_lost: return "heartbeat lost";
-    case FaultKind::bus_error: return "bus error";
-    case FaultKind::missing_feedback: return "missing feedback";
-    case FaultKind::node_not_operational: return "node not operational";
-    case FaultKind::cycle_owner_lost: return "cycle owner lost";
-  }
-  return "invalid";
-}
-
 Pa10Master::Pa10Master(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_bus, MasterConfig config)
     : cycle_(std::make_unique<BusCycle>(std::move(drive_bus), std::move(sensor_bus), std::move(config))) {}
 
@@ -81,9 +66,9 @@ void Pa10Master::run_periodic() {
   if (external_.load()) throw std::logic_error("Pa10Master::run_periodic() while its cycles are taken over");
   if (periodic_.load()) return;
   const MasterConfig& config = cycle_->config();
-  if (!own_ || own_->options().period_ns != config.period.count()) {
+  if (!own_ || own_->options().period_ns != config.period_ns) {
     rtm::PeriodicOptions options;
-    options.period_ns = config.period.count();
+    options.period_ns = config.period_ns;
     options.fifo_priority = config.realtime_priority;
     options.cpu = config.cpu;
     options.thread_name = "pa10-master";
@@ -94,10 +79,10 @@ void Pa10Master::run_periodic() {
   start_own(0);
 }
 
-void Pa10Master::run_periodic(std::chrono::nanoseconds period) {
-  if (period <= std::chrono::nanoseconds(0)) throw std::invalid_argument("Pa10Master::run_periodic: period must be > 0");
+void Pa10Master::run_periodic(std::int64_t period_ns) {
+  if (period_ns <= 0) throw std::invalid_argument("Pa10Master::run_periodic: period must be > 0");
   if (periodic_.load()) throw std::logic_error("Pa10Master::run_periodic(period) while already running");
-  cycle_->set_period(period);
+  cycle_->set_period_ns(period_ns);
   run_periodic();
 }
 
@@ -127,7 +112,7 @@ std::int64_t Pa10Master::take_over_cycles() {
     // second on: its cycle is done by then, and the watchdog never wakes with it.
     const MasterConfig& config = cycle_->config();
     rtm::PeriodicOptions options;
-    options.period_ns = config.period.count();
+    options.period_ns = config.period_ns;
     options.thread_name = "pa10-syncwatch";
     options.first_deadline_ns =
         (handover_deadline_ns_ > 0 ? handover_deadline_ns_ : monotonic_ns()) + options.period_ns + options.period_ns / 2;
@@ -208,7 +193,7 @@ std::int64_t Pa10Master::next_cycle_deadline_ns() const {
   return own_->next_deadline_ns();
 }
 
-std::chrono::nanoseconds Pa10Master::period() const { return cycle_->config().period; }
+std::int64_t Pa10Master::period_ns() const { return cycle_->config().period_ns; }
 
 // ---- the mailbox ----------------------------------------------------------------------------
 

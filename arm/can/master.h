@@ -29,7 +29,6 @@
 
 #include <array>
 #include <atomic>
-#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -59,22 +58,22 @@ class Pa10Master {
 
   // Startup: wait for boot-up or heartbeat of every drive and configured sensor (error names
   // the missing nodes), NMT enter pre-operational, SDO 0x6060:00 = 9 to each drive and check
-  // 0x6061:00 reads 9, NMT start all, then cycle (paced at `period`) until every drive
+  // 0x6061:00 reads 9, NMT start all, then cycle (paced at `period_ns`) until every drive
   // reports operation enabled (shutdown -> switch on -> enable operation, each on the drive's
   // own statusword). Throws std::runtime_error with the bus name and the failing node/step.
   void start();
 
   // Lock-step: one cycle (read the previous answers, write RPDOs, send SYNC), then wait until
-  // every drive and configured sensor answered this SYNC or step_timeout passed. Returns true
+  // every drive and configured sensor answered this SYNC or step_timeout_ns passed. Returns true
   // when all answered. Must not be used while run_periodic() runs.
   bool step();
 
-  // Own thread: one cycle per `period` on a PeriodicActivity (rt/activity.h: an absolute
+  // Own thread: one cycle per `period_ns` on a PeriodicActivity (rt/activity.h: an absolute
   // CLOCK_MONOTONIC grid; a cycle that ends a period late counts an overrun and the schedule
   // skips ahead on the grid, no burst). Thread settings from MasterConfig (realtime_priority,
   // cpu).
   void run_periodic();
-  void run_periodic(std::chrono::nanoseconds period);  // same, with this SYNC period
+  void run_periodic(std::int64_t period_ns);  // same, with this SYNC period [ns]
   void stop();  // stops run_periodic's thread; idempotent
   bool running() const { return periodic_.load(); }
 
@@ -128,7 +127,7 @@ class Pa10Master {
   // every period from there); 0 when the periodic thread does not run or its cycles are taken
   // over. For phasing another periodic activity against the SYNC cycles.
   std::int64_t next_cycle_deadline_ns() const;
-  std::chrono::nanoseconds period() const;
+  std::int64_t period_ns() const;  // the SYNC period
 
   JointState joint_state() const;
   Wrench wrench(ForceSensor sensor) const;
@@ -149,7 +148,7 @@ class Pa10Master {
   // Clears the latched fault and makes the next cycles send the fault-reset edge and the
   // enable sequence to every drive not in operation enabled. Asynchronous: with run_periodic()
   // it happens on the thread; with step() on the next steps. Targets stay zero until set again.
-  // If drives are not all enabled again within enable_timeout, the fault is raised again.
+  // If drives are not all enabled again within enable_timeout_ns, the fault is raised again.
   void fault_reset();
 
   MasterCounters counters() const;

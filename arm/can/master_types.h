@@ -1,28 +1,28 @@
 // The PA10 master's vocabulary: its configuration and what it reports (joint state, wrench,
-// fault, counters, the last target sent). Shared by the master (master.h), its thread-free bus
+// fault (kinds in fault.h), counters, the last target sent). Shared by the master (master.h), its thread-free bus
 // cycle (bus_cycle.h) and its supervisor (supervisor.h).
 #pragma once
 
 #include <array>
-#include <chrono>
 #include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "arm/can/fault.h"
 #include "arm/can/protocol.h"
 
 namespace rtm::can {
 
-using SteadyTime = std::chrono::steady_clock::time_point;
-
+// Times are std::int64_t nanoseconds named *_ns; points in time are CLOCK_MONOTONIC
+// (rtm::monotonic_ns(), rt/clock.h), like everywhere else in the project.
 struct MasterConfig {
-  std::chrono::nanoseconds period{2'000'000};                 // SYNC period
-  std::chrono::milliseconds boot_timeout{5000};               // all nodes seen (boot-up/heartbeat)
-  std::chrono::milliseconds sdo_timeout{500};                 // per SDO request
-  std::chrono::milliseconds enable_timeout{2000};             // all drives operation enabled
-  std::chrono::milliseconds heartbeat_timeout{300};           // node silent longer -> fault
-  std::chrono::nanoseconds step_timeout{std::chrono::milliseconds(100)};  // lock-step wait
+  std::int64_t period_ns = 2'000'000;                // SYNC period
+  std::int64_t boot_timeout_ns = 5'000'000'000;      // all nodes seen (boot-up/heartbeat)
+  std::int64_t sdo_timeout_ns = 500'000'000;         // per SDO request
+  std::int64_t enable_timeout_ns = 2'000'000'000;    // all drives operation enabled
+  std::int64_t heartbeat_timeout_ns = 300'000'000;   // node silent longer -> fault
+  std::int64_t step_timeout_ns = 100'000'000;        // lock-step wait
   // A drive silent for more consecutive SYNCs -> fault. 25 cycles = 50 ms: longer than the
   // 5-40 ms host stalls a VM shows (a dead node is caught by the heartbeat after 300 ms anyway).
   int missed_feedback_limit = 25;
@@ -45,7 +45,7 @@ struct JointState {
   std::array<double, kDriveCount> velocity_rad_s{};
   std::array<std::uint16_t, kDriveCount> statusword{};
   std::uint8_t sync_counter = 0;  // the SYNC these values answer (0 = none yet)
-  SteadyTime sync_time{};         // when that SYNC was sent (steady_clock = CLOCK_MONOTONIC)
+  std::int64_t sync_time_ns = 0;  // when that SYNC was sent (CLOCK_MONOTONIC)
   std::uint64_t cycle = 0;        // cycle number of that SYNC, counting from 1
   bool complete = false;          // all 7 drives answered that SYNC
 };
@@ -53,23 +53,10 @@ struct JointState {
 struct Wrench {
   std::array<double, 6> values{};  // Fx Fy Fz [N], Tx Ty Tz [N·m], in the sensor frame
   std::uint8_t sync_counter = 0;   // the SYNC the force and torque frames answer (0 = none yet)
-  SteadyTime sync_time{};
+  std::int64_t sync_time_ns = 0;   // when that SYNC was sent (master) or received (listener), CLOCK_MONOTONIC
   std::uint64_t sequence = 0;      // increments with each complete wrench (force + torque)
   bool valid = false;
 };
-
-enum class FaultKind : std::uint8_t {
-  none,
-  drive_fault,        // statusword reports fault / fault reaction
-  drive_disabled,     // a drive left operation enabled by itself
-  emergency,          // EMCY with a non-zero error code
-  heartbeat_lost,     // a node silent longer than heartbeat_timeout
-  bus_error,          // the transport failed
-  missing_feedback,   // a drive did not answer several SYNCs in a row
-  node_not_operational,  // a heartbeat reports boot-up/stopped/pre-operational after start
-  cycle_owner_lost,   // the thread that took the cycles over stopped running them
-};
-std::string_view to_string(FaultKind kind);
 
 struct MasterFault {
   FaultKind kind = FaultKind::none;
@@ -82,7 +69,7 @@ struct MasterFault {
 struct MasterCounters {
   std::uint64_t cycles = 0;            // SYNCs sent
   std::uint64_t overruns = 0;          // run_periodic: cycle found its deadline already past
-  std::uint64_t step_timeouts = 0;     // step(): not all expected TPDOs within step_timeout
+  std::uint64_t step_timeouts = 0;     // step(): not all expected TPDOs within step_timeout_ns
   std::uint64_t malformed_frames = 0;  // protocol id, but the decoder refused it
   std::uint64_t unknown_frames = 0;    // id outside the protocol
   std::uint64_t late_frames = 0;       // TPDO answering an older SYNC: ignored

@@ -1,15 +1,16 @@
 #include "arm/can/sensor_listener.h"
 
+#include "rt/clock.h"
+
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <stdexcept>
 
 namespace rtm::can {
 
-using std::chrono::steady_clock;
-
-SensorListener::SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node,
-                               std::chrono::milliseconds heartbeat_timeout)
-    : bus_(std::move(bus)), node_(node), heartbeat_timeout_(heartbeat_timeout) {
+SensorListener::SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node, std::int64_t heartbeat_timeout_ns)
+    : bus_(std::move(bus)), node_(node), heartbeat_timeout_ns_(heartbeat_timeout_ns) {
   if (!bus_) throw std::invalid_argument("SensorListener: no bus");
   if (!is_sensor_node(node)) {
     throw std::invalid_argument("SensorListener: " + node_description(node) +
@@ -17,13 +18,12 @@ SensorListener::SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node,
   }
 }
 
-SensorListener::SensorListener(std::string_view bus_spec, ForceSensor sensor,
-                               std::chrono::milliseconds heartbeat_timeout)
-    : SensorListener(open_bus(bus_spec), sensor_node(sensor), heartbeat_timeout) {}
+SensorListener::SensorListener(std::string_view bus_spec, ForceSensor sensor, std::int64_t heartbeat_timeout_ns)
+    : SensorListener(open_bus(bus_spec), sensor_node(sensor), heartbeat_timeout_ns) {}
 
 SensorListener::~SensorListener() { stop(); }
 
-void SensorListener::handle(const can_frame& frame, SteadyTime received_at) {
+void SensorListener::handle(const can_frame& frame, std::int64_t received_ns) {
   const Classified c = classify(frame);
   if (c.type != FrameType::sync && c.node != node_) return;  // another node's traffic
   std::lock_guard lock(mutex_);
@@ -35,7 +35,7 @@ void SensorListener::handle(const can_frame& frame, SteadyTime received_at) {
       // A half whose partner never came belongs to a SYNC that is over now.
       if (assembly_.restart()) ++counters_.late_frames;
       current_sync_counter_ = sync->counter;
-      current_sync_time_ = received_at;
+      current_sync_time_ns_ = received_ns;
       return;
     }
     case FrameType::sensor_force: {
@@ -52,7 +52,7 @@ void SensorListener::handle(const can_frame& frame, SteadyTime received_at) {
     }
     case FrameType::heartbeat: {
       if (!decode_heartbeat(frame)) { ++counters_.malformed_frames; return; }
-      last_heartbeat_ = received_at;
+      last_heartbeat_ns_ = received_ns;
       return;
     }
     case FrameType::emcy: {
@@ -67,7 +67,7 @@ void SensorListener::handle(const can_frame& frame, SteadyTime received_at) {
   if (!assembly_.complete()) return;
   latest_.values = assembly_.values();
   latest_.sync_counter = current_sync_counter_;
-  latest_.sync_time = current_sync_time_;
+  latest_.sync_time_ns = current_sync_time_ns_;
   ++latest_.sequence;
   latest_.valid = true;
   ++counters_.wrenches;
@@ -75,15 +75,15 @@ void SensorListener::handle(const can_frame& frame, SteadyTime received_at) {
   new_wrench_.notify_all();
 }
 
-bool SensorListener::poll(std::chrono::nanoseconds timeout) {
+bool SensorListener::poll(std::int64_t timeout_ns) {
   if (running_.load()) throw std::logic_error("SensorListener::poll() while the listener thread runs");
-  const auto deadline = steady_clock::now() + timeout;
+  const std::int64_t deadline_ns = monotonic_ns() + timeout_ns;
   const std::uint64_t before = latest().sequence;
   can_frame frame{};
   for (;;) {
-    const auto left = deadline - steady_clock::now();
-    if (!bus_->receive(frame, std::max(left, steady_clock::duration::zero()))) return false;
-    handle(frame, steady_clock::now());
+    const std::int64_t left_ns = deadline_ns - monotonic_ns();
+    if (!bus_->receive(frame, std::max<std::int64_t>(left_ns, 0))) return false;
+    handle(frame, monotonic_ns());
     if (latest().sequence != before) return true;
   }
 }
@@ -101,10 +101,10 @@ void SensorListener::stop() {
 void SensorListener::run() {
   can_frame frame{};
   // The short timeout bounds how long stop() waits for this thread.
-  constexpr auto kWakeUp = std::chrono::milliseconds(20);
+  constexpr std::int64_t kWakeUp_ns = 20'000'000;
   while (running_.load()) {
     try {
-      if (bus_->receive(frame, kWakeUp)) handle(frame, steady_clock::now());
+      if (bus_->receive(frame, kWakeUp_ns)) handle(frame, monotonic_ns());
     } catch (const BusError& e) {
       std::lock_guard lock(mutex_);
       bus_error_ = e.what();
@@ -119,9 +119,9 @@ Wrench SensorListener::latest() const {
 }
 
 std::optional<Wrench> SensorListener::wait_newer_than(std::uint64_t sequence,
-                                                      std::chrono::nanoseconds timeout) {
+                                                      std::int64_t timeout_ns) {
   std::unique_lock lock(mutex_);
-  if (!new_wrench_.wait_for(lock, timeout, [&] { return latest_.sequence > sequence; })) {
+  if (!new_wrench_.wait_for(lock, std::chrono::nanoseconds(timeout_ns), [&] { return latest_.sequence > sequence; })) {
     return std::nullopt;
   }
   return latest_;
@@ -136,13 +136,12 @@ std::string SensorListener::fault() const {
                   emcy_code_, emcy_description(emcy_code_).data());
     return text;
   }
-  if (last_heartbeat_) {
-    const auto silent =
-        std::chrono::duration_cast<std::chrono::milliseconds>(steady_clock::now() - *last_heartbeat_);
-    if (silent > heartbeat_timeout_) {
+  if (last_heartbeat_ns_) {
+    const std::int64_t silent_ns = monotonic_ns() - *last_heartbeat_ns_;
+    if (silent_ns > heartbeat_timeout_ns_) {
       std::snprintf(text, sizeof text, "%s: no heartbeat for %lld ms (limit %lld ms)",
-                    node_description(node_).c_str(), static_cast<long long>(silent.count()),
-                    static_cast<long long>(heartbeat_timeout_.count()));
+                    node_description(node_).c_str(), static_cast<long long>(silent_ns / 1'000'000),
+                    static_cast<long long>(heartbeat_timeout_ns_ / 1'000'000));
       return text;
     }
   }

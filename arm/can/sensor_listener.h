@@ -2,12 +2,11 @@
 //
 // The sensor component in another process sits on the same bus as the master and reads the
 // sensor's TPDO1 (force) and TPDO2 (torque) after each SYNC the master sends. It tracks the
-// SYNC counter itself, so each wrench carries the counter and the (local) time of the SYNC it
-// answers. It also watches the sensor's heartbeat and EMCY frames.
+// SYNC counter itself, so each wrench carries the counter and the (local, CLOCK_MONOTONIC) time
+// of the SYNC it answers. It also watches the sensor's heartbeat and EMCY frames.
 #pragma once
 
 #include <atomic>
-#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
@@ -34,17 +33,15 @@ struct SensorListenerCounters {
 class SensorListener {
  public:
   // Listens on `bus` for the sensor `node` (0x10 or 0x11; std::invalid_argument otherwise).
-  SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node,
-                 std::chrono::milliseconds heartbeat_timeout = std::chrono::milliseconds(300));
-  SensorListener(std::string_view bus_spec, ForceSensor sensor,
-                 std::chrono::milliseconds heartbeat_timeout = std::chrono::milliseconds(300));
+  SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node, std::int64_t heartbeat_timeout_ns = 300'000'000);
+  SensorListener(std::string_view bus_spec, ForceSensor sensor, std::int64_t heartbeat_timeout_ns = 300'000'000);
   ~SensorListener();  // stop()
   SensorListener(const SensorListener&) = delete;
   SensorListener& operator=(const SensorListener&) = delete;
 
-  // Reads frames on the caller's thread for up to `timeout`, returning as soon as a new
+  // Reads frames on the caller's thread for up to `timeout_ns`, returning as soon as a new
   // complete wrench arrived (true) or when the time is up (false). Not with start().
-  bool poll(std::chrono::nanoseconds timeout);
+  bool poll(std::int64_t timeout_ns);
 
   // Or: a background thread reads continuously; use latest()/wait_newer_than().
   void start();
@@ -52,12 +49,12 @@ class SensorListener {
 
   // The latest complete wrench (valid = false before the first one).
   Wrench latest() const;
-  // Blocks until a wrench with sequence > `sequence` exists or `timeout` passed (background
+  // Blocks until a wrench with sequence > `sequence` exists or `timeout_ns` passed (background
   // thread mode). Returns it, or nullopt on timeout.
-  std::optional<Wrench> wait_newer_than(std::uint64_t sequence, std::chrono::nanoseconds timeout);
+  std::optional<Wrench> wait_newer_than(std::uint64_t sequence, std::int64_t timeout_ns);
 
   // Non-empty when the sensor sent an EMCY with a non-zero code, or its heartbeat has been
-  // silent longer than heartbeat_timeout (after having been seen once). Cleared by an EMCY
+  // silent longer than heartbeat_timeout_ns (after having been seen once). Cleared by an EMCY
   // 0x0000 (error reset) resp. the next heartbeat.
   std::string fault() const;
 
@@ -65,22 +62,22 @@ class SensorListener {
   std::uint8_t node() const { return node_; }
 
  private:
-  void handle(const can_frame& frame, SteadyTime received_at);
+  void handle(const can_frame& frame, std::int64_t received_ns);  // CLOCK_MONOTONIC
   void run();
 
   std::unique_ptr<Bus> bus_;
   std::uint8_t node_;
-  std::chrono::milliseconds heartbeat_timeout_;
+  std::int64_t heartbeat_timeout_ns_;
   mutable std::mutex mutex_;
   std::condition_variable new_wrench_;
   Wrench latest_;
   SensorListenerCounters counters_;
   // Halves of the wrench being assembled for the current SYNC.
   std::uint8_t current_sync_counter_ = 0;
-  SteadyTime current_sync_time_{};
+  std::int64_t current_sync_time_ns_ = 0;
   WrenchAssembly assembly_;
   std::uint16_t emcy_code_ = 0;
-  std::optional<SteadyTime> last_heartbeat_;
+  std::optional<std::int64_t> last_heartbeat_ns_;
   std::string bus_error_;  // set when the background thread lost the bus
   std::atomic<bool> running_{false};
   std::thread thread_;

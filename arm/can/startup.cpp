@@ -6,8 +6,6 @@ namespace rtm::can {
 
 namespace {
 
-std::int64_t ns(std::chrono::nanoseconds d) { return d.count(); }
-
 void wait_for_every_node(BusCycle& cycle) {
   Supervisor& sup = cycle.supervisor();
   const auto all_seen = [&] {
@@ -17,7 +15,7 @@ void wait_for_every_node(BusCycle& cycle) {
     }
     return true;
   };
-  if (cycle.receive_until(monotonic_ns() + ns(cycle.config().boot_timeout), all_seen)) return;
+  if (cycle.receive_until(monotonic_ns() + cycle.config().boot_timeout_ns, all_seen)) return;
   std::string missing;
   for (unsigned n = 1; n < 128; ++n) {
     const auto node = static_cast<std::uint8_t>(n);
@@ -25,7 +23,7 @@ void wait_for_every_node(BusCycle& cycle) {
     if (!missing.empty()) missing += ", ";
     missing += node_description(n);
   }
-  cycle.fail("no boot-up or heartbeat within " + std::to_string(cycle.config().boot_timeout.count()) + " ms from " +
+  cycle.fail("no boot-up or heartbeat within " + std::to_string(cycle.config().boot_timeout_ns / 1'000'000) + " ms from " +
              missing);
 }
 
@@ -68,8 +66,8 @@ std::string drives_not_enabled(const BusCycle& cycle) {
 }
 
 void enable_drives(BusCycle& cycle) {
-  const std::int64_t period_ns = ns(cycle.config().period);
-  const std::int64_t enable_deadline_ns = monotonic_ns() + ns(cycle.config().enable_timeout);
+  const std::int64_t period_ns = cycle.config().period_ns;
+  const std::int64_t enable_deadline_ns = monotonic_ns() + cycle.config().enable_timeout_ns;
   std::int64_t next_ns = monotonic_ns();
   for (;;) {
     cycle.step();
@@ -77,7 +75,7 @@ void enable_drives(BusCycle& cycle) {
     if (fault.active()) cycle.fail(std::string("fault while enabling: ") + fault.reason.data());
     if (every_drive_enabled(cycle)) return;
     if (monotonic_ns() > enable_deadline_ns) {
-      cycle.fail("drives not in operation enabled within " + std::to_string(cycle.config().enable_timeout.count()) +
+      cycle.fail("drives not in operation enabled within " + std::to_string(cycle.config().enable_timeout_ns / 1'000'000) +
                  " ms: " + drives_not_enabled(cycle));
     }
     next_ns += period_ns;

@@ -1,20 +1,15 @@
 #include "arm/can/supervisor.h"
 
-#include <chrono>
 #include <cstdarg>
 #include <cstdio>
 
 namespace rtm::can {
 
-namespace {
-std::int64_t ns(std::chrono::nanoseconds d) { return d.count(); }
-}  // namespace
-
 Supervisor::Supervisor(const MasterConfig& config, const std::array<bool, 128>& expected)
     : expected_(expected),
       missed_feedback_limit_(config.missed_feedback_limit),
-      heartbeat_timeout_ns_(ns(config.heartbeat_timeout)),
-      enable_timeout_ns_(ns(config.enable_timeout)) {}
+      heartbeat_timeout_ns_(config.heartbeat_timeout_ns),
+      enable_timeout_ns_(config.enable_timeout_ns) {}
 
 // ---- the fault ---------------------------------------------------------------------------
 
@@ -87,8 +82,9 @@ void Supervisor::on_heartbeat(std::uint8_t node, NmtState state, std::int64_t no
 
 void Supervisor::on_emcy(std::uint8_t node, std::uint16_t code) {
   if (code == emcy::kErrorReset || !expected_[node] || enabling_) return;
-  latch(FaultKind::emergency, node, code, "%s: EMCY 0x%04x %s", node_description(node).c_str(), code,
-        emcy_description(code).data());
+  // A drive's RPDO timeout is its own kind: the commands came late, the drive is not broken.
+  const FaultKind kind = code == emcy::kRpdoTimeout ? FaultKind::command_loss : FaultKind::emergency;
+  latch(kind, node, code, "%s: EMCY 0x%04x %s", node_description(node).c_str(), code, emcy_description(code).data());
 }
 
 // ---- watchdogs -----------------------------------------------------------------------------

@@ -59,7 +59,7 @@ class Supervisor {
   void on_nmt_restart(std::int64_t now_ns) { state_check_from_ns_ = now_ns + heartbeat_timeout_ns_; }
 
   // ---- requests, taken at the start of each transmit ----
-  // fault_reset(): clears the fault and starts the enable sequence, due within enable_timeout.
+  // fault_reset(): clears the fault and starts the enable sequence, due within enable_timeout_ns.
   void take_fault_reset(std::int64_t now_ns);
   // Whether a quick stop is requested this cycle (ignored while faulted or enabling).
   void take_quick_stop(bool requested, std::int64_t now_ns);

@@ -3,16 +3,19 @@
 // the joint rates to the CANopen master; joint state and the tool pose come back from the
 // drives' TPDOs. The same code drives the real PA10 and pa10-sim: only the bus differs.
 //
-// Faults (drive fault, heartbeat loss, bus error, IK failure) latch: from then on the arm
-// commands zero velocity and fault_reason() says why, until reset(). While the master is not
-// (yet, or again after a reset) enabling every drive, the arm reports not_enabled and commands
-// zero; that state is not latched and clears by itself once the master is enabled.
+// Faults are the master's rtm::can::FaultKind (arm/can/fault.h), reported as the master latched
+// them, plus ik_failed found here. A fault (drive fault, EMCY, command loss, heartbeat loss, bus
+// error, IK failure, ...) latches: from then on the arm commands zero velocity and
+// fault_reason() says why, until reset(). While the master is not (yet, or again after a reset)
+// enabling every drive, the arm reports not_enabled and commands zero; that state is not
+// latched and clears by itself once the master is enabled.
 //
 // Works with a master that runs its own 2 ms SYNC thread (real time) and with a master
 // stepped in lock-step by a test or the simulator: the arm never sends SYNC itself, it only
 // sets the targets the master sends with the next cycle.
 #pragma once
 
+#include "arm/can/fault.h"
 #include "arm/pa10/kinematics.h"
 
 #include <array>
@@ -27,23 +30,6 @@ class Pa10Master;
 
 namespace rtm::pa10 {
 
-enum class ArmFault : std::uint8_t {
-  none,
-  not_enabled,     // not latched: the master has not (yet) enabled every drive (a TPDO a cycle
-                   // late does not count; a drive silent for long is a drive_fault)
-  drive_fault,     // drive fault, EMCY, drive left operation enabled, no feedback, node not
-                   // operational
-  command_loss,    // a drive's RPDO timeout (EMCY 0x8250): the commands did not reach it in
-                   // time (e.g. a host stall of the master); a communication fault, not a
-                   // hardware one, which reset() clears
-  heartbeat_lost,  // a node was silent longer than the master's heartbeat timeout
-  bus_error,       // the CAN transport failed
-  ik_failed,       // the twist (or the measured q) was not finite
-};
-
-// Short fixed name of a fault kind ("drive_fault", ...).
-const char* to_string(ArmFault fault);
-
 struct ArmOptions {
   // How long a commanded rate is applied: the master's SYNC period.
   double period_s = 0.002;
@@ -52,23 +38,28 @@ struct ArmOptions {
 
 class Pa10Arm {
  public:
-  // Loads the model from `urdf_path` (throws ModelError naming the file). `master` must
-  // outlive the arm; the arm does not start, stop or step it (call master.start() first, then
-  // either master.run_periodic() or master.step() after each order_velocity()).
+  // The PA10 with the library's built-in model (Kinematics::pa10()). `master` must outlive the
+  // arm; the arm does not start, stop or step it (call master.start() first, then either
+  // master.run_periodic() or master.step() after each order_velocity()).
+  explicit Pa10Arm(rtm::can::Pa10Master& master, ArmOptions options = {});
+  // The same with the model from `urdf_path` instead, when not empty (throws ModelError naming
+  // the file).
   Pa10Arm(const std::string& urdf_path, rtm::can::Pa10Master& master, ArmOptions options = {});
   Pa10Arm(const Pa10Arm&) = delete;
   Pa10Arm& operator=(const Pa10Arm&) = delete;
 
   // Commands a tool0 twist (vx, vy, vz m/s, wx, wy, wz rad/s; base frame) for the next
-  // period. Returns false (and commands zero joint rates) when the arm is in fault, including
-  // a fault found by this call. Allocates nothing; call from one thread.
-  bool order_velocity(const std::array<float, 6>& twist_base);
+  // period. Returns none when the joint rates were handed to the master; otherwise the arm's
+  // state (not_enabled, or the latched fault, including one found by this call) and zero joint
+  // rates are commanded. Allocates nothing; call from one thread.
+  can::FaultKind order_velocity(const std::array<float, 6>& twist_base);
   // Commands zero joint rates (keeps the drives enabled).
   void stop();
   // Brakes the drives (CiA 402 quick stop, see Pa10Master::quick_stop()) and keeps them braked
-  // until the next order_velocity(). Returns false (and commands zero) when the arm is in fault.
-  // Allocates nothing; same thread as order_velocity().
-  bool quick_stop();
+  // until the next order_velocity(). Returns none when the brake was commanded, otherwise the
+  // arm's state as order_velocity() (zero is commanded). Allocates nothing; same thread as
+  // order_velocity().
+  can::FaultKind quick_stop();
 
   // Latest measured joint state (from the drives' TPDOs), s1..w2.
   JointVector joint_positions() const;   // rad
@@ -79,14 +70,14 @@ class Pa10Arm {
 
   // Re-reads the master's state; latches a fault if it finds one and returns the arm's state
   // (none when ready to move). order_velocity() does this every call.
-  ArmFault check_faults();
+  can::FaultKind check_faults();
   // The latched fault, or not_enabled / none as last seen by order_velocity()/check_faults().
   // Thread-safe.
-  ArmFault fault() const { return fault_.load(std::memory_order_acquire); }
+  can::FaultKind fault() const { return fault_.load(std::memory_order_acquire); }
   // True while the arm will not move: a latched fault or not_enabled.
-  bool in_fault() const { return fault() != ArmFault::none; }
+  bool in_fault() const { return fault() != can::FaultKind::none; }
   // Human-readable reason ("" when none), e.g.
-  // "drive_fault: drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)". Thread-safe.
+  // "command_loss: drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)". Thread-safe.
   std::string fault_reason() const;
 
   // Clears the latched fault and asks the master for a fault reset and re-enable of the
@@ -101,15 +92,15 @@ class Pa10Arm {
   const ArmOptions& options() const { return options_; }
 
  private:
-  void latch(ArmFault fault, const char* detail);
-  void set_state(ArmFault state, const char* detail);
+  can::FaultKind latch(can::FaultKind fault, const char* detail);
+  can::FaultKind set_state(can::FaultKind state, const char* detail);
   void command_zero();
 
   Kinematics kinematics_;
   VelocityIk ik_;
   rtm::can::Pa10Master& master_;
   ArmOptions options_;
-  std::atomic<ArmFault> fault_{ArmFault::none};
+  std::atomic<can::FaultKind> fault_{can::FaultKind::none};
   std::atomic<bool> latched_{false};       // fault_ holds a latched fault
   std::atomic<bool> reset_pending_{false};  // reset() sent, master not yet past that cycle
   std::atomic<std::uint64_t> cycle_at_reset_{0};  // master cycle published when reset() ran

@@ -27,7 +27,7 @@ namespace {
   throw ModelError(source + ": " + what);
 }
 
-KDL::Frame toKdl(const urdf::Pose& pose) {
+KDL::Frame to_kdl(const urdf::Pose& pose) {
   const urdf::Rotation& r = pose.rotation;
   return KDL::Frame(KDL::Rotation::Quaternion(r.x, r.y, r.z, r.w),
                     KDL::Vector(pose.position.x, pose.position.y, pose.position.z));
@@ -35,9 +35,9 @@ KDL::Frame toKdl(const urdf::Pose& pose) {
 
 // Inertia of the link about its centre of mass, expressed in the link frame (URDF gives it in
 // the <inertial> origin frame, which may be rotated).
-KDL::RigidBodyInertia toKdl(const urdf::InertialSharedPtr& inertial) {
+KDL::RigidBodyInertia to_kdl(const urdf::InertialSharedPtr& inertial) {
   if (!inertial) return KDL::RigidBodyInertia::Zero();
-  const KDL::Frame origin = toKdl(inertial->origin);
+  const KDL::Frame origin = to_kdl(inertial->origin);
   Eigen::Matrix3d in_origin_frame;
   in_origin_frame << inertial->ixx, inertial->ixy, inertial->ixz,  //
       inertial->ixy, inertial->iyy, inertial->iyz,                 //
@@ -52,7 +52,7 @@ KDL::RigidBodyInertia toKdl(const urdf::InertialSharedPtr& inertial) {
   return KDL::RigidBodyInertia(inertial->mass, origin.p, about_com);
 }
 
-const char* typeName(int urdf_type) {
+const char* type_name(int urdf_type) {
   switch (urdf_type) {
     case urdf::Joint::REVOLUTE: return "revolute";
     case urdf::Joint::CONTINUOUS: return "continuous";
@@ -67,6 +67,11 @@ const char* typeName(int urdf_type) {
 }  // namespace
 
 // ---------------------------------------------------------------- Kinematics
+
+Kinematics Kinematics::pa10(const std::string& urdf_path) {
+  if (!urdf_path.empty()) return from_urdf_file(urdf_path);
+  return from_urdf_string(std::string(builtin_pa10_urdf()), "pa10.urdf (built in)");
+}
 
 Kinematics Kinematics::from_urdf_file(const std::string& urdf_path, const std::string& base_link,
                                     const std::string& tip_link) {
@@ -101,7 +106,7 @@ Kinematics Kinematics::from_urdf_string(const std::string& urdf_xml, const std::
   int joint_index = 0;
   for (const urdf::LinkConstSharedPtr& link : path) {
     const urdf::JointSharedPtr& joint = link->parent_joint;
-    const KDL::Frame origin = toKdl(joint->parent_to_joint_origin_transform);
+    const KDL::Frame origin = to_kdl(joint->parent_to_joint_origin_transform);
     KDL::Joint kdl_joint(joint->name, KDL::Joint::Fixed);
     if (joint->type == urdf::Joint::REVOLUTE) {
       if (joint_index >= kJointCount)
@@ -124,10 +129,10 @@ Kinematics Kinematics::from_urdf_string(const std::string& urdf_xml, const std::
       kdl_joint = KDL::Joint(joint->name, origin.p, origin.M * (axis / axis.Norm()),
                              KDL::Joint::RotAxis);
     } else if (joint->type != urdf::Joint::FIXED) {
-      fail(source_name, "joint '" + joint->name + "' is " + typeName(joint->type) +
+      fail(source_name, "joint '" + joint->name + "' is " + type_name(joint->type) +
                             "; only revolute and fixed joints are supported");
     }
-    chain->addSegment(KDL::Segment(link->name, kdl_joint, origin, toKdl(link->inertial)));
+    chain->addSegment(KDL::Segment(link->name, kdl_joint, origin, to_kdl(link->inertial)));
   }
   if (joint_index != kJointCount)
     fail(source_name, "expected " + std::to_string(kJointCount) + " revolute joints between '" +

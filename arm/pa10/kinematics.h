@@ -1,8 +1,9 @@
 // PA10-7C kinematics: the URDF turned into a KDL chain, forward kinematics, the Jacobian and
 // a damped-least-squares velocity IK that respects joint position and velocity limits.
 //
-// The URDF (sim/models/pa10.urdf) is the single source of truth: joint limits are read from
-// it, never restated in code. Nothing here knows about CAN or CORBA.
+// The URDF (arm/pa10/models/pa10.urdf, built into the library: Kinematics::pa10()) is the single
+// source of truth: joint limits are read from it, never restated in code. Nothing here knows
+// about CAN or CORBA.
 //
 // Conventions used everywhere in rtm::pa10:
 //   joint order   s1 s2 s3 e1 e2 w1 w2 (index 0..6), angles in rad, rates in rad/s
@@ -18,6 +19,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace KDL {
 class Chain;
@@ -57,8 +59,14 @@ struct JointLimits {
 // The chain base_link -> tool0 (by default) built from a URDF with urdfdom (no kdl_parser,
 // which pulls ROS in on Debian). Fixed joints become KDL segments without a joint.
 // Not thread-safe: tool_pose()/jacobian() use pre-allocated scratch. Movable, not copyable.
+// The PA10-7C model built into this library: arm/pa10/models/pa10.urdf, embedded at build time.
+std::string_view builtin_pa10_urdf();
+
 class Kinematics {
  public:
+  // The PA10-7C: the built-in model (builtin_pa10_urdf(), source name "pa10.urdf (built in)"),
+  // or the URDF file `urdf_path` when it is not empty (a --urdf override). Throws ModelError.
+  static Kinematics pa10(const std::string& urdf_path = "");
   // Loads the URDF file at `urdf_path`. Throws ModelError naming the file on any problem.
   static Kinematics from_urdf_file(const std::string& urdf_path,
                                  const std::string& base_link = "base_link",

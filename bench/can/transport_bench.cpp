@@ -61,7 +61,7 @@ void burst(const std::string& spec) {
   std::thread reader([&] {
     can_frame f{};
     while (received.load(std::memory_order_relaxed) < kFrames) {
-      if (rx->receive(f, std::chrono::milliseconds(200))) {
+      if (rx->receive(f, 200'000'000)) {
         received.fetch_add(1, std::memory_order_release);
       } else if (sender_done.load()) {
         break;  // the rest was dropped
@@ -102,7 +102,7 @@ void ping_pong(const std::string& spec) {
   std::thread echo([&] {
     can_frame f{};
     for (int i = 0; i < kRounds; ++i) {
-      if (!b->receive(f, std::chrono::seconds(2))) return;
+      if (!b->receive(f, 2'000'000'000)) return;
       f.can_id = 0x201;
       b->send(f);
     }
@@ -115,7 +115,7 @@ void ping_pong(const std::string& spec) {
     f.can_id = 0x181;
     const auto t0 = Clock::now();
     a->send(f);
-    if (!a->receive(f, std::chrono::seconds(2))) break;
+    if (!a->receive(f, 2'000'000'000)) break;
     rtt_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
   }
   echo.join();
@@ -152,7 +152,7 @@ void cycle_write(const std::string& spec, bool contended) {
     }
     ready.store(1);
     can_frame f{};
-    while (!done.load(std::memory_order_relaxed)) rx->receive(f, std::chrono::milliseconds(20));
+    while (!done.load(std::memory_order_relaxed)) rx->receive(f, 20'000'000);
   });
   while (ready.load() == 0) std::this_thread::yield();
   if (ready.load() < 0 || (contended && !realtime_on(0, 20))) {
@@ -196,8 +196,8 @@ void cycle_write(const std::string& spec, bool contended) {
 
 void lock_step(const std::string& spec) {
   MasterConfig config;
-  config.heartbeat_timeout = std::chrono::milliseconds(5000);
-  config.enable_timeout = std::chrono::milliseconds(10000);
+  config.heartbeat_timeout_ns = 5'000'000'000;
+  config.enable_timeout_ns = 10'000'000'000;
   Pa10Master master(open_bus(spec), nullptr, config);
   testing::FakePa10 fake(open_bus(spec), {});
   master.start();

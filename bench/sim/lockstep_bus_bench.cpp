@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
     for (int i = 0; i < 200 && !std::filesystem::exists(path); ++i)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     rtm::can::MasterConfig config;
-    config.step_timeout = std::chrono::seconds(2);
+    config.step_timeout_ns = 2'000'000'000;
     rtm::can::Pa10Master master(spec, "", config);
     master.start();
     std::vector<double> step_us;

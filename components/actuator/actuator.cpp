@@ -158,7 +158,7 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
   // Where the bus is when the arm is told, for the event report (read before, so the brake
   // leaves with the next SYNC after this position at the latest).
   const VelocityArm::BusPosition bus = fresh_command || watchdog_fired ? arm_->bus_position() : VelocityArm::BusPosition{};
-  const ArmStatus status = brake ? arm_->quick_stop() : arm_->order_velocity(twist_);
+  const FaultKind status = brake ? arm_->quick_stop() : arm_->order_velocity(twist_);
   if (fresh_command) last_command_bus_ = bus;
   if (watchdog_fired) {
     log().warn("{}: watchdog: no new command for {} periods since bus cycle {} (SYNC counter {}): quick stop "
@@ -166,7 +166,7 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
                name(), params_.watchdog_periods, last_command_bus_.cycle, last_command_bus_.sync_counter, bus.cycle,
                bus.sync_counter, watchdog_events_.load());
   }
-  if (status == ArmStatus::command_loss) {
+  if (status == FaultKind::command_loss) {
     // The drives faulted only because commands came late: reset them and move again on the
     // next new command, never on one from before the loss.
     const std::uint64_t event = command_loss_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
@@ -176,19 +176,19 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
     command_freshness_.reset();
     command_bad_ = false;
     twist_ = {};
-  } else if (status == ArmStatus::fault) {
+  } else if (rtm::can::latched(status)) {
     throw std::runtime_error("arm fault: " + arm_->fault_reason());
   }
-  if (status == ArmStatus::not_ready) not_ready_cycles_.fetch_add(1, std::memory_order_relaxed);
-  if (fresh_command && status == ArmStatus::ready) {
+  if (status == FaultKind::not_enabled) not_ready_cycles_.fetch_add(1, std::memory_order_relaxed);
+  if (fresh_command && status == FaultKind::none) {
     const std::int64_t stamp_ns = rtm::to_ns(command_.tm);
     handover_latency_.record(rtm::to_ns(rtm::now()) - stamp_ns);
     pending_sequence_ = arm_->command_sequence();
     pending_stamp_ns_ = stamp_ns;
-  } else if (brake || status != ArmStatus::ready) {
+  } else if (brake || status != FaultKind::none) {
     pending_sequence_ = 0;  // that command will not leave as such
   }
-  const bool moving = status == ArmStatus::ready && !brake;
+  const bool moving = status == FaultKind::none && !brake;
   for (std::size_t i = 0; i < 6; ++i) last_twist_[i].store(moving ? twist_[i] : 0.0f, std::memory_order_relaxed);
 }
 

@@ -7,7 +7,6 @@
 
 int main(int argc, char** argv) {
   rtm::comp::ArmHardware::Options hardware;
-  hardware.urdf = RTM_PA10_URDF;
   rtm::comp::ActuatorParams params;
   return rtm::run_component(argc, argv, {
       .kind = "actuator",
@@ -23,7 +22,7 @@ int main(int argc, char** argv) {
       .validate = [&](const rtm::RunSettings&) { params.validate(); },
       .create =
           [&](const rtm::RunSettings& settings) {
-            hardware.period = std::chrono::nanoseconds(settings.period_ns);
+            hardware.period_ns = settings.period_ns;
             hardware.rt_priority = settings.rt_priority;
             hardware.cpu = settings.cpu;
             return std::make_unique<rtm::comp::Actuator>(

@@ -2,28 +2,31 @@
 
 #include <CLI/CLI.hpp>
 
+#include <chrono>
 #include <thread>
+
+#include "rt/clock.h"
 
 namespace rtm::comp {
 
 void ArmHardware::Options::add_options(CLI::App& app) {
   app.add_option("--bus", bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
   app.add_option("--sensor-bus", sensor_bus, "separate bus of the force sensors (default: --bus)");
-  app.add_option("--urdf", urdf, "arm model for the velocity IK")->capture_default_str();
+  app.add_option("--urdf", urdf, "arm model URDF for the velocity IK (default: the built-in PA10 model)");
 }
 
 namespace pc = rtm::can;
 
 ArmHardware::ArmHardware(const Options& options) : options_(options) {
   pc::MasterConfig config;
-  config.period = options.period;
+  config.period_ns = options.period_ns;
   config.realtime_priority = options.rt_priority;
   config.cpu = options.cpu;
-  config.step_timeout = options.step_timeout;
+  config.step_timeout_ns = options.step_timeout_ns;
   master_ = std::make_unique<pc::Pa10Master>(options.bus, options.sensor_bus, config);
   master_->start();
   rtm::pa10::ArmOptions arm_options;
-  arm_options.period_s = std::chrono::duration<double>(options.period).count();
+  arm_options.period_s = static_cast<double>(options.period_ns) * 1e-9;
   arm_ = std::make_unique<rtm::pa10::Pa10Arm>(options.urdf, *master_, arm_options);
   if (options.run_master_thread) master_->run_periodic();
 }
@@ -35,30 +38,10 @@ ArmHardware::~ArmHardware() {
   master_.reset();  // one last zero-velocity cycle, then NMT pre-operational
 }
 
-ArmStatus ArmHardware::order_velocity(const std::array<float, 6>& twist_base) {
-  if (arm_->order_velocity(twist_base)) return ArmStatus::ready;
-  return status_of_refusal();
-}
-
-ArmStatus ArmHardware::quick_stop() {
-  if (arm_->quick_stop()) return ArmStatus::ready;
-  return status_of_refusal();
-}
-
-ArmStatus ArmHardware::status_of_refusal() const {
-  switch (arm_->fault()) {
-    case rtm::pa10::ArmFault::none:  // enabled, but no feedback yet
-    case rtm::pa10::ArmFault::not_enabled: return ArmStatus::not_ready;
-    case rtm::pa10::ArmFault::command_loss: return ArmStatus::command_loss;
-    default: return ArmStatus::fault;
-  }
-}
-
 bool ArmHardware::in_fault() const {
   // While the component is off nobody orders velocities, so the arm has not looked at the
   // master since: a fault the master latched meanwhile is found here.
-  const auto fault = arm_->check_faults();
-  return fault != rtm::pa10::ArmFault::none && fault != rtm::pa10::ArmFault::not_enabled;
+  return rtm::can::latched(arm_->check_faults());
 }
 
 VelocityArm::BusPosition ArmHardware::bus_position() const {
@@ -78,9 +61,9 @@ void ArmHardware::stop() {
   if (!master_->running() || master_->cycles_taken_over()) return;
   // Wait until two SYNC cycles have passed: the zero targets were in the RPDOs of the second.
   const std::uint64_t start = master_->counters().cycles;
-  const auto deadline = std::chrono::steady_clock::now() + 20 * options_.period + std::chrono::milliseconds(50);
-  while (master_->counters().cycles < start + 2 && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(options_.period / 4);
+  const std::int64_t deadline_ns = rtm::monotonic_ns() + 20 * options_.period_ns + 50'000'000;
+  while (master_->counters().cycles < start + 2 && rtm::monotonic_ns() < deadline_ns)
+    std::this_thread::sleep_for(std::chrono::nanoseconds(options_.period_ns / 4));
 }
 
 }  // namespace rtm::comp

@@ -7,7 +7,6 @@
 #include "arm/pa10/arm.h"
 
 #include <array>
-#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -18,30 +17,28 @@ class App;
 
 namespace rtm::comp {
 
-enum class ArmStatus : std::uint8_t {
-  ready,      // the twist was handed to the drives
-  not_ready,  // drives not (yet) enabled: zero was commanded; clears by itself
-  fault,      // latched fault: zero is commanded until reset(); fault_reason() says why
-  // Latched like fault, but a communication fault: a drive's RPDO timeout (EMCY 0x8250, its
-  // commands came late, e.g. a host stall of the process running the bus master). reset()
-  // brings the drives back; nothing is broken.
-  command_loss,
-};
+// What the arm says about a command: the arm library's one fault vocabulary
+// (arm/can/fault.h). none: the twist (or the brake) was handed to the drives; not_enabled:
+// drives not (yet) enabled, zero was commanded, clears by itself; anything else is latched
+// (zero is commanded until reset(), fault_reason() says why); command_loss among them is a
+// communication fault (a drive's RPDO timeout: its commands came late, e.g. a host stall of the
+// process running the bus master) that reset() recovers from, nothing is broken.
+using rtm::can::FaultKind;
 
 class VelocityArm {
  public:
   virtual ~VelocityArm() = default;
   // Twist of the tool in the BASE frame (vx vy vz m/s, wx wy wz rad/s) for the next period.
   // Allocates nothing; one thread at a time.
-  virtual ArmStatus order_velocity(const std::array<float, 6>& twist_base) = 0;
+  virtual FaultKind order_velocity(const std::array<float, 6>& twist_base) = 0;
   // Commands zero velocity; returns once that command has left for the bus (when the bus runs
   // on its own clock) or is set for the next cycle (lock-step, or the bus cycle run by the
   // caller's tick).
   virtual void stop() = 0;
   // Brakes: the drives stop where they are (CiA 402 quick stop) from the next cycle on, and
   // stay braked until the next order_velocity(). Allocates nothing; same thread as
-  // order_velocity(). ready when the brake was commanded.
-  virtual ArmStatus quick_stop() = 0;
+  // order_velocity(). none when the brake was commanded.
+  virtual FaultKind quick_stop() = 0;
   virtual std::string fault_reason() const = 0;
   virtual bool in_fault() const = 0;
   virtual void reset() = 0;
@@ -72,12 +69,12 @@ class ArmHardware final : public VelocityArm {
   struct Options {
     std::string bus = "local:/tmp/rtm-pa10.bus";  // local:<path> or socketcan:<if>
     std::string sensor_bus;                       // "" = the same bus
-    std::string urdf;                             // the arm model (sim/models/pa10.urdf)
-    std::chrono::nanoseconds period{2'000'000};   // SYNC period
+    std::string urdf;                             // arm model URDF; "" = the arm library's built-in PA10
+    std::int64_t period_ns = 2'000'000;           // SYNC period
     bool run_master_thread = true;
     int rt_priority = 0;  // of the master's thread; 0 = SCHED_OTHER
     int cpu = -1;
-    std::chrono::nanoseconds step_timeout{std::chrono::seconds(2)};  // lock-step wait per SYNC
+    std::int64_t step_timeout_ns = 2'000'000'000;  // lock-step wait per SYNC
 
     // Registers --bus, --sensor-bus and --urdf on app, bound to these fields.
     void add_options(CLI::App& app);
@@ -88,9 +85,9 @@ class ArmHardware final : public VelocityArm {
   explicit ArmHardware(const Options& options);
   ~ArmHardware() override;  // zero velocity, master thread stopped, drives shut down cleanly
 
-  ArmStatus order_velocity(const std::array<float, 6>& twist_base) override;
+  FaultKind order_velocity(const std::array<float, 6>& twist_base) override { return arm_->order_velocity(twist_base); }
   void stop() override;
-  ArmStatus quick_stop() override;
+  FaultKind quick_stop() override { return arm_->quick_stop(); }
   std::string fault_reason() const override { return arm_->fault_reason(); }
   bool in_fault() const override;  // re-reads the master's state
   void reset() override { arm_->reset(); }
@@ -106,7 +103,6 @@ class ArmHardware final : public VelocityArm {
   Options options_;
   std::unique_ptr<rtm::can::Pa10Master> master_;
   std::unique_ptr<rtm::pa10::Pa10Arm> arm_;
-  ArmStatus status_of_refusal() const;
 };
 
 }  // namespace rtm::comp

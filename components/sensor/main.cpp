@@ -8,7 +8,7 @@
 int main(int argc, char** argv) {
   std::string bus = "local:/tmp/rtm-pa10.bus";
   std::string sensor_bus;
-  std::string urdf = RTM_PA10_URDF;
+  std::string urdf;  // "" = the arm library's built-in PA10 model
   return rtm::run_component(argc, argv, {
       .kind = "sensor",
       .description =
@@ -18,13 +18,13 @@ int main(int argc, char** argv) {
           [&](CLI::App& app) {
             app.add_option("--bus", bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
             app.add_option("--sensor-bus", sensor_bus, "separate bus of the force sensors (default: --bus)");
-            app.add_option("--urdf", urdf, "arm model, for the sensor frame's orientation")->capture_default_str();
+            app.add_option("--urdf", urdf, "arm model URDF, for the sensor frame's orientation (default: the built-in PA10 model)");
           },
       .create =
           [&](const rtm::RunSettings& settings) {
             return std::make_unique<rtm::comp::Sensor>(
                 settings.name, std::make_unique<rtm::comp::BusWristSource>(bus, sensor_bus),
-                rtm::pa10::Kinematics::from_urdf_file(urdf));
+                rtm::pa10::Kinematics::pa10(urdf));
           },
   });
 }

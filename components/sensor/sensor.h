@@ -33,7 +33,7 @@ std::array<double, 6> wrench_sensor_to_base(const Eigen::Matrix3d& rotation_base
 
 class Sensor final : public rtm::Component {
  public:
-  // kinematics: the arm model (e.g. Kinematics::from_urdf_file(sim/models/pa10.urdf)), chain
+  // kinematics: the arm model (e.g. Kinematics::pa10()), chain
   // base_link -> tool0.
   Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm::pa10::Kinematics kinematics);
 

@@ -48,7 +48,7 @@ void JointStateListener::run() {
   while (!stop_.load()) {
     can_frame frame{};
     try {
-      if (!bus_->receive(frame, 50ms)) continue;
+      if (!bus_->receive(frame, 50'000'000)) continue;
     } catch (const pc::BusError& e) {
       std::lock_guard lock(mu_);
       bus_error_ = std::string("joint state listener: ") + e.what();

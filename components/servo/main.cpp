@@ -102,7 +102,7 @@ std::unique_ptr<rtm::comp::RemoteServo> make_remote_servo(const ServoOptions& o,
 // Shared-tick mode: the members live here, on the arm's bus, run by one tick.
 std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions& o, const rtm::RunContext& context) {
   const rtm::RunSettings& settings = context.settings;
-  o.hardware.period = std::chrono::nanoseconds(settings.period_ns);
+  o.hardware.period_ns = settings.period_ns;
   o.hardware.rt_priority = settings.rt_priority;
   o.hardware.cpu = settings.cpu;
   auto arm = std::make_unique<rtm::comp::ArmHardware>(o.hardware);
@@ -119,7 +119,7 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions&
     phase.lead_ns = static_cast<std::int64_t>(o.tick_lead_us * 1000);
   }
   auto sensor = std::make_unique<rtm::comp::Sensor>(o.sensor, std::make_unique<rtm::comp::MasterWristSource>(*master),
-                                                    rtm::pa10::Kinematics::from_urdf_file(o.hardware.urdf));
+                                                    rtm::pa10::Kinematics::pa10(o.hardware.urdf));
   auto controller = std::make_unique<rtm::comp::Controller>(o.controller, o.controller_params);
   auto actuator = std::make_unique<rtm::comp::Actuator>(o.actuator, std::move(arm), o.actuator_params);
   auto servo = std::make_unique<rtm::comp::SharedTickServo>(settings.name, std::move(sensor), std::move(controller),
@@ -133,7 +133,6 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions&
 
 int main(int argc, char** argv) {
   ServoOptions options;
-  options.hardware.urdf = RTM_PA10_URDF;
   rtm::comp::SharedTickServo* shared = nullptr;  // owned by the servant, in shared-tick mode
   RTM::InPort_var reference;                     // the controller's InPort 1
   return rtm::run_component(argc, argv, {

@@ -27,7 +27,7 @@ constexpr std::array<double, 7> kDh_alpha_rad{-kPi / 2, kPi / 2, -kPi / 2, kPi /
                                               -kPi / 2, kPi / 2, 0};
 constexpr double kFlangeToTool_m = 0.14;
 
-Eigen::Isometry3d dhToolPose(const JointVector& q) {
+Eigen::Isometry3d dh_tool_pose(const JointVector& q) {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   for (int i = 0; i < 7; ++i) {
     pose = pose * Eigen::AngleAxisd(q[i], Eigen::Vector3d::UnitZ()) *
@@ -37,9 +37,9 @@ Eigen::Isometry3d dhToolPose(const JointVector& q) {
   return pose * Eigen::Translation3d(0, 0, kFlangeToTool_m);
 }
 
-Kinematics loadModel() { return Kinematics::from_urdf_file(RTM_PA10_URDF_PATH); }
+Kinematics load_model() { return Kinematics::pa10(); }
 
-JointVector randomJoints(std::mt19937& rng, const JointLimits& limits, double fraction = 1.0) {
+JointVector random_joints(std::mt19937& rng, const JointLimits& limits, double fraction = 1.0) {
   JointVector q;
   for (int j = 0; j < 7; ++j) {
     std::uniform_real_distribution<double> dist(limits.lower_rad[j] * fraction,
@@ -50,13 +50,13 @@ JointVector randomJoints(std::mt19937& rng, const JointLimits& limits, double fr
 }
 
 // A pose well away from every singularity and limit: elbow bent, wrist bent.
-JointVector generalPose() {
+JointVector general_pose() {
   JointVector q;
   q << 0.3, 0.5, -0.4, 1.3, 0.6, 0.9, -0.5;
   return q;
 }
 
-std::filesystem::path writeTempFile(const std::string& name, const std::string& text) {
+std::filesystem::path write_temp_file(const std::string& name, const std::string& text) {
   const std::filesystem::path path = std::filesystem::path(testing::TempDir()) / name;
   std::ofstream(path) << text;
   return path;
@@ -65,7 +65,7 @@ std::filesystem::path writeTempFile(const std::string& name, const std::string& 
 // ---- the model -----------------------------------------------------------------------------
 
 TEST(Pa10Model, UrdfLoadsIntoASevenJointChainNamedS1ToW2) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   EXPECT_EQ(kinematics.chain().getNrOfJoints(), 7u);
   // 7 moving links + F/T sensor + tool0.
   EXPECT_EQ(kinematics.chain().getNrOfSegments(), 9u);
@@ -74,7 +74,7 @@ TEST(Pa10Model, UrdfLoadsIntoASevenJointChainNamedS1ToW2) {
 }
 
 TEST(Pa10Model, JointLimitsComeFromTheUrdf) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   const JointLimits& limits = kinematics.limits();
   const std::array<double, 7> position_deg{177, 91, 174, 137, 255, 165, 255};
   const std::array<double, 7> velocity_rad_s{1, 1, 1, 2, 2, 2 * kPi, 2 * kPi};
@@ -86,7 +86,7 @@ TEST(Pa10Model, JointLimitsComeFromTheUrdf) {
 }
 
 TEST(Pa10Model, ToolIsStraightAbove1457mmAtZeroJoints) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   const Eigen::Isometry3d pose = kinematics.tool_pose(JointVector::Zero());
   EXPECT_NEAR(pose.translation().x(), 0, 1e-12);
   EXPECT_NEAR(pose.translation().y(), 0, 1e-12);
@@ -95,20 +95,20 @@ TEST(Pa10Model, ToolIsStraightAbove1457mmAtZeroJoints) {
 }
 
 TEST(Pa10Model, ForwardKinematicsMatchesAnIndependentDhProduct) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   std::mt19937 rng(20041);
   for (int sample = 0; sample < 500; ++sample) {
-    const JointVector q = randomJoints(rng, kinematics.limits());
+    const JointVector q = random_joints(rng, kinematics.limits());
     const Eigen::Isometry3d kdl = kinematics.tool_pose(q);
-    const Eigen::Isometry3d dh = dhToolPose(q);
+    const Eigen::Isometry3d dh = dh_tool_pose(q);
     ASSERT_LE((kdl.translation() - dh.translation()).norm(), 1e-12) << q.transpose();
     ASSERT_LE((kdl.linear() - dh.linear()).norm(), 1e-12) << q.transpose();
   }
 }
 
 TEST(Pa10Model, JacobianMatchesFiniteDifferencesOfTheToolPose) {
-  Kinematics kinematics = loadModel();
-  const JointVector q = generalPose();
+  Kinematics kinematics = load_model();
+  const JointVector q = general_pose();
   const Jacobian jacobian = kinematics.jacobian(q);
   const Eigen::Isometry3d pose = kinematics.tool_pose(q);
   const double step = 1e-7;
@@ -125,18 +125,43 @@ TEST(Pa10Model, JacobianMatchesFiniteDifferencesOfTheToolPose) {
 }
 
 TEST(Pa10Model, MovedModelStillComputesTheSamePoses) {
-  Kinematics original = loadModel();
-  const Eigen::Isometry3d before = original.tool_pose(generalPose());
+  Kinematics original = load_model();
+  const Eigen::Isometry3d before = original.tool_pose(general_pose());
   Kinematics moved = std::move(original);
-  EXPECT_TRUE(moved.tool_pose(generalPose()).isApprox(before, 1e-15));
+  EXPECT_TRUE(moved.tool_pose(general_pose()).isApprox(before, 1e-15));
   VelocityIk ik(moved);
-  EXPECT_EQ(ik.solve(Twist::Constant(0.01), generalPose(), kDt_s).status, IkStatus::ok);
+  EXPECT_EQ(ik.solve(Twist::Constant(0.01), general_pose(), kDt_s).status, IkStatus::ok);
+}
+
+// ---- the built-in model and a file overriding it -------------------------------------------
+
+TEST(Pa10Model, TheLibraryHasThePa10BuiltIn) {
+  const Kinematics kinematics = Kinematics::pa10();
+  EXPECT_EQ(kinematics.source(), "pa10.urdf (built in)");
+  EXPECT_NE(builtin_pa10_urdf().find("<robot"), std::string_view::npos);
+  EXPECT_EQ(kinematics.limits().names[0], "s1");
+  EXPECT_EQ(kinematics.limits().names[6], "w2");
+  EXPECT_EQ(Kinematics::pa10("").source(), kinematics.source()) << "an empty path means the built-in model";
+}
+
+TEST(Pa10Model, AUrdfFileOverridesTheBuiltInModel) {
+  // The built-in model with the S1 velocity limit changed, as a file (what --urdf FILE loads).
+  std::string urdf(builtin_pa10_urdf());
+  const std::string s1_limit = R"(upper="3.0892327760299634" velocity="1.0")";
+  const std::size_t at = urdf.find(s1_limit);
+  ASSERT_NE(at, std::string::npos);
+  urdf.replace(at, s1_limit.size(), R"(upper="3.0892327760299634" velocity="0.5")");
+  const auto path = write_temp_file("slow_s1_pa10.urdf", urdf);
+  const Kinematics kinematics = Kinematics::pa10(path.string());
+  EXPECT_EQ(kinematics.source(), path.string());
+  EXPECT_DOUBLE_EQ(kinematics.limits().velocity_rad_s[0], 0.5);
+  EXPECT_DOUBLE_EQ(Kinematics::pa10().limits().velocity_rad_s[0], 1.0);
 }
 
 // ---- model errors --------------------------------------------------------------------------
 
 TEST(Pa10ModelErrors, MalformedUrdfFileGivesAnErrorNamingTheFile) {
-  const auto path = writeTempFile("malformed_pa10.urdf", "<robot name=\"x\"><link name=");
+  const auto path = write_temp_file("malformed_pa10.urdf", "<robot name=\"x\"><link name=");
   try {
     Kinematics::from_urdf_file(path.string());
     FAIL() << "expected ModelError";
@@ -174,8 +199,7 @@ TEST(Pa10ModelErrors, ChainWithoutSevenRevoluteJointsIsRejected) {
 }
 
 TEST(Pa10ModelErrors, MissingTipLinkIsNamed) {
-  std::ifstream file(RTM_PA10_URDF_PATH);
-  const std::string urdf((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const std::string urdf(builtin_pa10_urdf());
   EXPECT_THROW(
       {
         try {
@@ -191,11 +215,11 @@ TEST(Pa10ModelErrors, MissingTipLinkIsNamed) {
 // ---- velocity IK ---------------------------------------------------------------------------
 
 TEST(Pa10VelocityIk, ReproducesTheTwistFarFromSingularities) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   VelocityIk ik(kinematics);
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> component(-0.05, 0.05);
-  const JointVector q = generalPose();
+  const JointVector q = general_pose();
   for (int sample = 0; sample < 50; ++sample) {
     Twist twist;
     for (int i = 0; i < 6; ++i) twist[i] = component(rng);
@@ -209,7 +233,7 @@ TEST(Pa10VelocityIk, ReproducesTheTwistFarFromSingularities) {
 }
 
 TEST(Pa10VelocityIk, StaysBoundedAtTheStretchedUpSingularity) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   VelocityIk ik(kinematics);
   const JointVector q = JointVector::Zero();  // straight up: s1, s3, e2, w2 all on one line
   for (int i = 0; i < 6; ++i) {
@@ -232,13 +256,13 @@ TEST(Pa10VelocityIk, StaysBoundedAtTheStretchedUpSingularity) {
 // Bent elbow, w1 = 0 and e2 = 90 deg: the wrist's remaining axes and the arm's can no longer
 // make one angular direction. (w1 = 0 alone is not singular for this 7-joint arm: the other
 // joints make up for the coinciding e2 and w2 axes.)
-JointVector wristSingularPose(double w1_rad) {
+JointVector wrist_singular_pose(double w1_rad) {
   JointVector q;
   q << 0.2, 0.6, 0.1, 1.4, kPi / 2, w1_rad, 0.4;
   return q;
 }
 
-void expectBoundedNearSingularity(Kinematics& kinematics, const JointVector& q,
+void expect_bounded_near_singularity(Kinematics& kinematics, const JointVector& q,
                                   const std::string& where) {
   VelocityIk ik(kinematics);
   Twist twist;
@@ -263,27 +287,27 @@ void expectBoundedNearSingularity(Kinematics& kinematics, const JointVector& q,
 }
 
 TEST(Pa10VelocityIk, StaysBoundedAtTheWristSingularity) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   for (double w1 : {0.0, 1e-6, 1e-3})
-    expectBoundedNearSingularity(kinematics, wristSingularPose(w1), "w1 = " + std::to_string(w1));
+    expect_bounded_near_singularity(kinematics, wrist_singular_pose(w1), "w1 = " + std::to_string(w1));
 }
 
 TEST(Pa10VelocityIk, StaysBoundedWithTheElbowStretched) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   JointVector q;
   q << 0.2, 0.6, 0.1, 0.0, 0.3, 0.5, 0.4;  // e1 = 0: the wrist cannot move along the arm
-  expectBoundedNearSingularity(kinematics, q, "e1 = 0");
+  expect_bounded_near_singularity(kinematics, q, "e1 = 0");
 }
 
 TEST(Pa10VelocityIk, DampingGrowsAsTheSmallestSingularValueFalls) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   VelocityIk ik(kinematics);
   Twist twist;
   twist << 0.0, 0.0, 0.0, 0.05, 0.0, 0.0;
   double previous_sigma = 1e9;
   double previous_damping = -1;
   for (double w1 : {0.5, 0.05, 0.02, 0.01, 0.0}) {
-    const VelocityIkResult result = ik.solve(twist, wristSingularPose(w1), kDt_s);
+    const VelocityIkResult result = ik.solve(twist, wrist_singular_pose(w1), kDt_s);
     EXPECT_LT(result.min_singular_value, previous_sigma) << "w1 = " << w1;
     EXPECT_GE(result.damping, previous_damping) << "w1 = " << w1;
     previous_sigma = result.min_singular_value;
@@ -293,9 +317,9 @@ TEST(Pa10VelocityIk, DampingGrowsAsTheSmallestSingularValueFalls) {
 }
 
 TEST(Pa10VelocityIk, VelocityLimitScalesTheWholeTwistKeepingItsDirection) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   VelocityIk ik(kinematics);
-  const JointVector q = generalPose();
+  const JointVector q = general_pose();
   Twist twist;
   twist << 0.8, -0.5, 0.6, 1.5, -2.0, 1.0;  // far beyond what the joints can do
   const VelocityIkResult result = ik.solve(twist, q, kDt_s);
@@ -319,10 +343,10 @@ TEST(Pa10VelocityIk, VelocityLimitScalesTheWholeTwistKeepingItsDirection) {
 // s3 is the arm's redundant joint: with it held the other six still span every twist. (Holding
 // e1 would not do: it alone sets the shoulder-wrist distance, so that case is stopped whole.)
 TEST(Pa10VelocityIk, JointAtItsLimitIsHeldAndTheOthersStillRealiseTheTwist) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   VelocityIk ik(kinematics);
   const int s3 = 2;
-  JointVector q = generalPose();
+  JointVector q = general_pose();
   q[s3] = kinematics.limits().upper_rad[s3] - 1e-4;  // inside the margin already
   // The tool motion s3 alone would make, pushing s3 into its limit.
   const Twist into_limit = kinematics.jacobian(q).col(s3) * 0.2;
@@ -342,10 +366,10 @@ TEST(Pa10VelocityIk, JointAtItsLimitIsHeldAndTheOthersStillRealiseTheTwist) {
 }
 
 TEST(Pa10VelocityIk, TwistThatCannotAvoidTheLimitsIsStoppedWholeButMotionAwayIsAllowed) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   VelocityIk ik(kinematics);
   const JointLimits& limits = kinematics.limits();
-  JointVector q = generalPose();
+  JointVector q = general_pose();
   // Three joints at their upper limits: the other four cannot make a general twist.
   for (int j : {0, 3, 5}) q[j] = limits.upper_rad[j];
   const Jacobian jacobian = kinematics.jacobian(q);
@@ -364,13 +388,13 @@ TEST(Pa10VelocityIk, TwistThatCannotAvoidTheLimitsIsStoppedWholeButMotionAwayIsA
 }
 
 TEST(Pa10VelocityIk, NoJointEverCrossesItsLimitOverManyRandomCommands) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   VelocityIk ik(kinematics);
   const JointLimits& limits = kinematics.limits();
   std::mt19937 rng(99);
   std::uniform_real_distribution<double> component(-0.5, 0.5);
   for (int sample = 0; sample < 300; ++sample) {
-    JointVector q = randomJoints(rng, limits);
+    JointVector q = random_joints(rng, limits);
     const int pinned = sample % 7;  // one joint on a limit each time
     q[pinned] = sample % 2 ? limits.upper_rad[pinned] : limits.lower_rad[pinned];
     Twist twist;
@@ -387,44 +411,44 @@ TEST(Pa10VelocityIk, NoJointEverCrossesItsLimitOverManyRandomCommands) {
 }
 
 TEST(Pa10VelocityIk, NanOrInfInputIsAnErrorAndCommandsNoMotion) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   VelocityIk ik(kinematics);
   Twist twist = Twist::Constant(0.01);
   twist[4] = std::numeric_limits<double>::quiet_NaN();
-  VelocityIkResult result = ik.solve(twist, generalPose(), kDt_s);
+  VelocityIkResult result = ik.solve(twist, general_pose(), kDt_s);
   EXPECT_EQ(result.status, IkStatus::invalid_input);
   EXPECT_NE(std::string(result.error).find("NaN"), std::string::npos);
   EXPECT_EQ(result.qdot_rad_s, JointVector::Zero());
 
-  JointVector q = generalPose();
+  JointVector q = general_pose();
   q[2] = std::numeric_limits<double>::infinity();
   result = ik.solve(Twist::Constant(0.01), q, kDt_s);
   EXPECT_EQ(result.status, IkStatus::invalid_input);
   EXPECT_NE(std::string(result.error).find("joint positions"), std::string::npos);
   EXPECT_EQ(result.qdot_rad_s, JointVector::Zero());
 
-  result = ik.solve(Twist::Constant(0.01), generalPose(), 0.0);
+  result = ik.solve(Twist::Constant(0.01), general_pose(), 0.0);
   EXPECT_EQ(result.status, IkStatus::invalid_input);
   EXPECT_NE(std::string(result.error).find("dt"), std::string::npos);
 }
 
 TEST(Pa10VelocityIk, SolveAllocatesNothing) {
-  Kinematics kinematics = loadModel();
+  Kinematics kinematics = load_model();
   VelocityIk ik(kinematics);
   const JointLimits& limits = kinematics.limits();
-  JointVector at_limit = generalPose();
+  JointVector at_limit = general_pose();
   at_limit[3] = limits.upper_rad[3];
   Twist twist;
   twist << 0.05, 0.02, -0.03, 0.1, 0.0, 0.2;
-  ik.solve(twist, generalPose(), kDt_s);  // warm up anything lazily initialised
+  ik.solve(twist, general_pose(), kDt_s);  // warm up anything lazily initialised
   const auto before = rtm_test::allocations_on_this_thread();
   double sink = 0;
   for (int i = 0; i < 100; ++i) {
-    sink += ik.solve(twist, generalPose(), kDt_s).qdot_rad_s[0];         // free solve
-    sink += ik.solve(twist * 20, generalPose(), kDt_s).qdot_rad_s[0];    // velocity scaling
+    sink += ik.solve(twist, general_pose(), kDt_s).qdot_rad_s[0];         // free solve
+    sink += ik.solve(twist * 20, general_pose(), kDt_s).qdot_rad_s[0];    // velocity scaling
     sink += ik.solve(twist, JointVector::Zero(), kDt_s).qdot_rad_s[0];   // singular
     sink += ik.solve(kinematics.jacobian(at_limit).col(3), at_limit, kDt_s).qdot_rad_s[0];
-    sink += kinematics.tool_pose(generalPose()).translation().x();
+    sink += kinematics.tool_pose(general_pose()).translation().x();
   }
   EXPECT_EQ(rtm_test::allocations_on_this_thread() - before, 0u);
   EXPECT_TRUE(std::isfinite(sink));

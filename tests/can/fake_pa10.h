@@ -155,7 +155,7 @@ class FakePa10 {
     while (running_) {
       bool got = false;
       try {
-        got = bus_->receive(frame, std::chrono::milliseconds(5));
+        got = bus_->receive(frame, 5'000'000);
       } catch (const BusError&) {
         return;  // the hub went away: the test is ending
       }

@@ -27,9 +27,9 @@ using ::testing::HasSubstr;
 using testing::TempDir;
 
 // Generous: only a lower bound on patience, never an assertion about speed.
-constexpr auto kArrives = 5s;
+constexpr std::int64_t kArrives_ns = 5'000'000'000;
 // How long to wait for a frame that must NOT come; the test cannot fail by being slow.
-constexpr auto kAbsent = 100ms;
+constexpr std::int64_t kAbsent_ns = 100'000'000;
 
 can_frame frame(canid_t id, std::uint8_t first_byte) {
   can_frame f{};
@@ -41,7 +41,7 @@ can_frame frame(canid_t id, std::uint8_t first_byte) {
 
 template <class Predicate>
 bool eventually(Predicate p) {
-  const auto deadline = std::chrono::steady_clock::now() + kArrives;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(kArrives_ns);
   while (std::chrono::steady_clock::now() < deadline) {
     if (p()) return true;
     std::this_thread::sleep_for(1ms);
@@ -59,12 +59,12 @@ TEST(CanLocalBus, DeliversToEveryOtherEndpointAndNotBackToTheSender) {
 
   ASSERT_TRUE(a->send(frame(0x123, 42)));
   can_frame got{};
-  ASSERT_TRUE(b->receive(got, kArrives));
+  ASSERT_TRUE(b->receive(got, kArrives_ns));
   EXPECT_EQ(got.can_id, 0x123u);
   EXPECT_EQ(got.data[0], 42);
-  ASSERT_TRUE(c->receive(got, kArrives));
+  ASSERT_TRUE(c->receive(got, kArrives_ns));
   EXPECT_EQ(got.can_id, 0x123u);
-  EXPECT_FALSE(a->receive(got, kAbsent));
+  EXPECT_FALSE(a->receive(got, kAbsent_ns));
   EXPECT_EQ(a->name(), "local:" + dir.file("bus"));
 }
 
@@ -77,7 +77,7 @@ TEST(CanLocalBus, KeepsTheOrderOfOneSendersFrames) {
   for (int i = 0; i < 100; ++i) ASSERT_TRUE(a->send(frame(0x100, static_cast<std::uint8_t>(i))));
   can_frame got{};
   for (int i = 0; i < 100; ++i) {
-    ASSERT_TRUE(b->receive(got, kArrives));
+    ASSERT_TRUE(b->receive(got, kArrives_ns));
     EXPECT_EQ(got.data[0], i);
   }
 }
@@ -95,12 +95,12 @@ TEST(CanLocalBus, ABatchArrivesWholeAndInOrderAcrossSeveralSystemCalls) {
   EXPECT_EQ(a->send_batch({}), 0u);
   can_frame got{};
   for (int i = 0; i < 40; ++i) {
-    ASSERT_TRUE(b->receive(got, kArrives)) << "frame " << i;
+    ASSERT_TRUE(b->receive(got, kArrives_ns)) << "frame " << i;
     EXPECT_EQ(got.can_id, static_cast<canid_t>(0x200 + i));
     EXPECT_EQ(got.data[0], i);
   }
-  EXPECT_FALSE(b->receive(got, kAbsent)) << "a frame sent twice";
-  EXPECT_FALSE(a->receive(got, kAbsent)) << "the sender heard its own batch";
+  EXPECT_FALSE(b->receive(got, kAbsent_ns)) << "a frame sent twice";
+  EXPECT_FALSE(a->receive(got, kAbsent_ns)) << "the sender heard its own batch";
 }
 
 TEST(CanLocalBus, ABatchToAStoppedHubThrowsHubClosed) {
@@ -130,7 +130,7 @@ TEST(CanLocalBus, SurvivesAnEndpointDying) {
   ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 2; }));
   ASSERT_TRUE(a->send(frame(0x321, 7)));
   can_frame got{};
-  ASSERT_TRUE(c->receive(got, kArrives));
+  ASSERT_TRUE(c->receive(got, kArrives_ns));
   EXPECT_EQ(got.can_id, 0x321u);
   EXPECT_EQ(hub.counters().endpoints_closed, 1u);
 }
@@ -146,7 +146,7 @@ TEST(CanLocalBus, ASlowEndpointLosesFramesWithoutBlockingTheOthers) {
   can_frame got{};
   for (int i = 0; i < kFrames; ++i) {
     ASSERT_TRUE(sender->send(frame(0x181, static_cast<std::uint8_t>(i))));
-    ASSERT_TRUE(reader->receive(got, kArrives)) << "frame " << i;
+    ASSERT_TRUE(reader->receive(got, kArrives_ns)) << "frame " << i;
     ASSERT_EQ(got.data[0], static_cast<std::uint8_t>(i));
   }
   // The hub publishes its counters after each poll round: wait for the last one.
@@ -179,7 +179,7 @@ TEST(CanLocalBus, DropsShortLongAndBadDlcDatagramsAndCountsThem) {
   ASSERT_EQ(::send(raw, &good, sizeof good, 0), static_cast<ssize_t>(sizeof good));
 
   can_frame got{};
-  ASSERT_TRUE(receiver->receive(got, kArrives));
+  ASSERT_TRUE(receiver->receive(got, kArrives_ns));
   EXPECT_EQ(got.can_id, 0x222u);  // the first frame through is the good one
   EXPECT_TRUE(eventually([&] { return hub.counters().datagrams_malformed == 3; }))
       << hub.counters().datagrams_malformed;
@@ -196,9 +196,9 @@ TEST(CanLocalBus, AppliesFiltersLikeSocketCan) {
   a->send(frame(0x080, 1));
   a->send(frame(0x181, 2));
   can_frame got{};
-  ASSERT_TRUE(b->receive(got, kArrives));
+  ASSERT_TRUE(b->receive(got, kArrives_ns));
   EXPECT_EQ(got.can_id, 0x181u);
-  EXPECT_FALSE(b->receive(got, kAbsent));
+  EXPECT_FALSE(b->receive(got, kAbsent_ns));
 }
 
 TEST(CanLocalBus, ReceiveOnAStoppedHubThrowsHubClosed) {
@@ -209,7 +209,7 @@ TEST(CanLocalBus, ReceiveOnAStoppedHubThrowsHubClosed) {
   hub->stop();
   can_frame got{};
   try {
-    a->receive(got, kArrives);
+    a->receive(got, kArrives_ns);
     FAIL() << "expected BusError";
   } catch (const BusError& e) {
     EXPECT_THAT(e.what(), HasSubstr("hub closed"));
@@ -318,7 +318,7 @@ TEST(CanHubProcess, ForwardsFramesAndStopsCleanlyOnSigterm) {
   bool arrived = false;
   for (int i = 0; i < 50 && !arrived; ++i) {
     a->send(frame(0x7AA, 1));
-    arrived = b->receive(got, 100ms);
+    arrived = b->receive(got, 100'000'000);
   }
   ASSERT_TRUE(arrived);
   EXPECT_EQ(got.can_id, 0x7AAu);

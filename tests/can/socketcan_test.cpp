@@ -46,13 +46,13 @@ TEST_F(SocketCan, TwoSocketsExchangeFramesAndTheSenderDoesNotHearItself) {
   EXPECT_EQ(a->name(), "socketcan:vcan0");
   ASSERT_TRUE(a->send(frame(0x181, 8)));
   can_frame got{};
-  ASSERT_TRUE(b->receive(got, 5s));
+  ASSERT_TRUE(b->receive(got, 5'000'000'000));
   EXPECT_EQ(got.can_id, 0x181u);
   EXPECT_EQ(got.can_dlc, 8);
   EXPECT_EQ(got.data[7], 0xA7);
-  EXPECT_FALSE(a->receive(got, 100ms));
+  EXPECT_FALSE(a->receive(got, 100'000'000));
   ASSERT_TRUE(b->send(frame(0x080, 1)));
-  ASSERT_TRUE(a->receive(got, 5s));
+  ASSERT_TRUE(a->receive(got, 5'000'000'000));
   EXPECT_EQ(got.can_id, 0x080u);
 }
 
@@ -68,11 +68,11 @@ TEST_F(SocketCan, ABatchArrivesWholeAndInOrder) {
   EXPECT_EQ(a->send_batch(batch), batch.size());
   can_frame got{};
   for (int i = 0; i < 8; ++i) {
-    ASSERT_TRUE(b->receive(got, 5s)) << "frame " << i;
+    ASSERT_TRUE(b->receive(got, 5'000'000'000)) << "frame " << i;
     EXPECT_EQ(got.can_id, static_cast<canid_t>(0x201 + i));
     EXPECT_EQ(got.data[0], i);
   }
-  EXPECT_FALSE(b->receive(got, 100ms)) << "a frame sent twice";
+  EXPECT_FALSE(b->receive(got, 100'000'000)) << "a frame sent twice";
 }
 
 TEST_F(SocketCan, KernelFiltersPassOnlyMatchingIds) {
@@ -82,9 +82,9 @@ TEST_F(SocketCan, KernelFiltersPassOnlyMatchingIds) {
   sender->send(frame(0x181, 8));
   sender->send(frame(0x705, 1));
   can_frame got{};
-  ASSERT_TRUE(listener->receive(got, 5s));
+  ASSERT_TRUE(listener->receive(got, 5'000'000'000));
   EXPECT_EQ(got.can_id, 0x705u);
-  EXPECT_FALSE(listener->receive(got, 100ms));
+  EXPECT_FALSE(listener->receive(got, 100'000'000));
 }
 
 TEST_F(SocketCan, MissingInterfaceIsNamedInTheError) {
@@ -96,9 +96,9 @@ TEST_F(SocketCan, MissingInterfaceIsNamedInTheError) {
 
 TEST_F(SocketCan, MasterStartsTheFakePa10AndExchangesPdos) {
   MasterConfig config;
-  config.heartbeat_timeout = 5000ms;  // the guest's time is not real time
-  config.step_timeout = 2s;
-  config.enable_timeout = 10000ms;
+  config.heartbeat_timeout_ns = 5'000'000'000;  // the guest's time is not real time
+  config.step_timeout_ns = 2'000'000'000;
+  config.enable_timeout_ns = 10'000'000'000;
   Pa10Master master("socketcan:vcan0", "", config);
   testing::FakePa10 fake(open_bus("socketcan:vcan0"), {});
   fake.set_wrench(ForceSensor::wrist, {0, 0, -9.81, 0, 0, 0});
@@ -112,7 +112,7 @@ TEST_F(SocketCan, MasterStartsTheFakePa10AndExchangesPdos) {
   EXPECT_TRUE(s.complete);
   EXPECT_NEAR(s.velocity_rad_s[0], 0.1, 1e-3);
   EXPECT_NEAR(master.wrench(ForceSensor::wrist).values[2], -9.81, 1e-9);
-  const auto w = listener.wait_newer_than(0, 5s);
+  const auto w = listener.wait_newer_than(0, 5'000'000'000);
   ASSERT_TRUE(w.has_value());
   EXPECT_NEAR(w->values[2], -9.81, 1e-9);
 

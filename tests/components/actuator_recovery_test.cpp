@@ -32,7 +32,6 @@ struct LockStepActuator {
   LockStepActuator() {
     rtm::comp::ArmHardware::Options options;
     options.bus = "local:" + dir.file("bus");
-    options.urdf = RTM_PA10_URDF;
     options.run_master_thread = false;
     // The master finds the nodes by their heartbeats, so the fake may be up first.
     fake = std::make_unique<pc::testing::FakePa10>(pc::open_bus(options.bus), pc::testing::FakePa10::Options{});

@@ -23,16 +23,16 @@ class RecordingArm final : public rtm::comp::VelocityArm {
   std::vector<bool> braked;
   int stops = 0;
   int resets = 0;
-  rtm::comp::ArmStatus status = rtm::comp::ArmStatus::ready;
+  rtm::comp::FaultKind status = rtm::comp::FaultKind::none;
   std::string reason;
 
-  rtm::comp::ArmStatus order_velocity(const std::array<float, 6>& twist) override {
-    if (status == rtm::comp::ArmStatus::ready) ++sequence;
+  rtm::comp::FaultKind order_velocity(const std::array<float, 6>& twist) override {
+    if (status == rtm::comp::FaultKind::none) ++sequence;
     ordered.push_back(twist);
     braked.push_back(false);
     return status;
   }
-  rtm::comp::ArmStatus quick_stop() override {
+  rtm::comp::FaultKind quick_stop() override {
     ordered.push_back({});
     braked.push_back(true);
     return status;
@@ -40,11 +40,11 @@ class RecordingArm final : public rtm::comp::VelocityArm {
   void stop() override { ++stops; }
   std::string fault_reason() const override { return reason; }
   bool in_fault() const override {
-    return status == rtm::comp::ArmStatus::fault || status == rtm::comp::ArmStatus::command_loss;
+    return rtm::can::latched(status);
   }
   void reset() override {
     ++resets;
-    status = rtm::comp::ArmStatus::ready;
+    status = rtm::comp::FaultKind::none;
   }
   BusPosition bus_position() const override { return {}; }
   // A bus master in miniature: each ready order is target sequence n; the test says when the
@@ -157,14 +157,14 @@ TEST(Actuator, OffCommandsZeroVelocity) {
 
 TEST(Actuator, ArmFaultThrowsTheReasonAndOnAfterwardsResetsTheArm) {
   ActuatorUnderTest t;
-  t.arm->status = rtm::comp::ArmStatus::fault;
-  t.arm->reason = "drive_fault: drive 4 (E1): EMCY 0x8250";
+  t.arm->status = rtm::comp::FaultKind::emergency;
+  t.arm->reason = "emergency: drive 4 (E1): EMCY 0x5000 device hardware";
   t.actuator->command_in().deliver(float6({0.01f, 0, 0, 0, 0, 0}));
   try {
     t.actuator->on_cycle(cycle(0));
     FAIL() << "no exception";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("EMCY 0x8250"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("emergency: drive 4 (E1): EMCY 0x5000"), std::string::npos) << e.what();
   }
   t.actuator->on_start();
   EXPECT_EQ(t.arm->resets, 1);
@@ -185,12 +185,12 @@ TEST(Actuator, DriveCommandLossResetsTheArmCountsOnceAndMovesOnlyOnTheNextComman
   ActuatorUnderTest t;
   const std::array<float, 6> cmd{0.01f, 0, 0, 0, 0, 0};
   t.step(cmd);
-  t.arm->status = rtm::comp::ArmStatus::command_loss;
+  t.arm->status = rtm::comp::FaultKind::command_loss;
   t.arm->reason = "command_loss: drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)";
   EXPECT_NO_THROW(t.step(cmd)) << "a communication fault is no component error";
   EXPECT_EQ(t.arm->resets, 1);
   EXPECT_EQ(t.actuator->counters().command_loss_recoveries, 1u);
-  EXPECT_EQ(t.arm->status, rtm::comp::ArmStatus::ready) << "the fake's reset clears it";
+  EXPECT_EQ(t.arm->status, rtm::comp::FaultKind::none) << "the fake's reset clears it";
   EXPECT_EQ(t.step(), kZero) << "the command from before the loss is not repeated";
   for (int i = 0; i < 5; ++i) EXPECT_EQ(t.step(), kZero);
   EXPECT_EQ(t.actuator->counters().watchdog_events, 0u) << "no watchdog until a command arrives again";
@@ -201,16 +201,33 @@ TEST(Actuator, DriveCommandLossResetsTheArmCountsOnceAndMovesOnlyOnTheNextComman
 TEST(Actuator, OtherArmFaultsStillPutTheComponentInError) {
   ActuatorUnderTest t;
   t.step({0.01f, 0, 0, 0, 0, 0});
-  t.arm->status = rtm::comp::ArmStatus::fault;
+  t.arm->status = rtm::comp::FaultKind::heartbeat_lost;
   t.arm->reason = "heartbeat_lost: drive 2 (S2): no heartbeat for 400 ms";
   EXPECT_THROW(t.step(), std::runtime_error);
   EXPECT_EQ(t.arm->resets, 0);
   EXPECT_EQ(t.actuator->counters().command_loss_recoveries, 0u);
 }
 
+TEST(Actuator, EveryLatchedFaultButCommandLossIsAComponentError) {
+  using rtm::comp::FaultKind;
+  for (const FaultKind kind :
+       {FaultKind::drive_fault, FaultKind::drive_disabled, FaultKind::emergency, FaultKind::heartbeat_lost,
+        FaultKind::bus_error, FaultKind::missing_feedback, FaultKind::node_not_operational,
+        FaultKind::cycle_owner_lost, FaultKind::ik_failed}) {
+    ActuatorUnderTest t;
+    t.step({0.01f, 0, 0, 0, 0, 0});
+    t.arm->status = kind;
+    t.arm->reason = std::string(to_string(kind)) + ": test";
+    EXPECT_THROW(t.step(), std::runtime_error) << to_string(kind);
+    EXPECT_EQ(t.arm->resets, 0) << to_string(kind);
+    EXPECT_EQ(t.actuator->counters().command_loss_recoveries, 0u) << to_string(kind);
+    EXPECT_EQ(t.actuator->counters().not_ready_cycles, 0u) << to_string(kind);
+  }
+}
+
 TEST(Actuator, ArmNotYetEnabledIsCountedNotAnError) {
   ActuatorUnderTest t;
-  t.arm->status = rtm::comp::ArmStatus::not_ready;
+  t.arm->status = rtm::comp::FaultKind::not_enabled;
   EXPECT_NO_THROW(t.step({0.01f, 0, 0, 0, 0, 0}));
   EXPECT_EQ(t.actuator->counters().not_ready_cycles, 1u);
   EXPECT_EQ(t.actuator->last_twist(), kZero);
@@ -265,7 +282,7 @@ TEST(ActuatorLatency, ACommandOvertakenByALaterOneStillCountsWhenTheLaterLeaves)
 
 TEST(ActuatorLatency, AnArmThatCannotTellRecordsNoBusLatency) {
   ActuatorUnderTest t;
-  t.arm->status = rtm::comp::ArmStatus::not_ready;  // no sequence handed out
+  t.arm->status = rtm::comp::FaultKind::not_enabled;  // no sequence handed out
   t.step({0.01f, 0, 0, 0, 0, 0});
   t.arm->sent = {5, 1};
   t.step();

@@ -44,7 +44,6 @@ class ClosedLoopTest : public ::testing::Test {
 
     rtm::comp::ArmHardware::Options options;
     options.bus = bus_spec_;
-    options.urdf = RTM_PA10_URDF;
     options.run_master_thread = false;
     auto hardware = std::make_unique<rtm::comp::ArmHardware>(options);
     hardware_ = hardware.get();
@@ -52,7 +51,7 @@ class ClosedLoopTest : public ::testing::Test {
         "joystick0", std::make_unique<rtm::comp::MasterJoystickSource>(hardware_->master()));
     sensor_ = std::make_unique<rtm::comp::Sensor>(
         "sensor0", std::make_unique<rtm::comp::MasterWristSource>(hardware_->master()),
-        rtm::pa10::Kinematics::from_urdf_file(RTM_PA10_URDF));
+        rtm::pa10::Kinematics::pa10());
     controller_ = std::make_unique<rtm::comp::Controller>("controller0", rtm::comp::ControllerParams{});
     actuator_ = std::make_unique<rtm::comp::Actuator>("actuator0", std::move(hardware), rtm::comp::ActuatorParams{});
 

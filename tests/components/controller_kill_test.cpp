@@ -81,7 +81,7 @@ class BusRecorder {
     can_frame frame{};
     while (running_) {
       try {
-        if (!bus_->receive(frame, 20ms)) continue;
+        if (!bus_->receive(frame, 20'000'000)) continue;
       } catch (const pc::BusError&) {
         return;  // the simulator (the hub) went away
       }

@@ -25,7 +25,7 @@ class FakeWristSource final : public rtm::comp::WristSampleSource {
   std::string fault() const override { return why; }
 };
 
-rtm::pa10::Kinematics model() { return rtm::pa10::Kinematics::from_urdf_file(RTM_PA10_URDF); }
+rtm::pa10::Kinematics model() { return rtm::pa10::Kinematics::pa10(); }
 
 struct SensorUnderTest {
   FakeWristSource* source = nullptr;

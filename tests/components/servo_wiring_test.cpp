@@ -39,14 +39,14 @@ class FakeWristSource final : public rtm::comp::WristSampleSource {
 class RecordingArm final : public rtm::comp::VelocityArm {
  public:
   std::vector<std::array<float, 6>> ordered;
-  rtm::comp::ArmStatus order_velocity(const std::array<float, 6>& twist) override {
+  rtm::comp::FaultKind order_velocity(const std::array<float, 6>& twist) override {
     ordered.push_back(twist);
-    return rtm::comp::ArmStatus::ready;
+    return rtm::comp::FaultKind::none;
   }
   void stop() override {}
-  rtm::comp::ArmStatus quick_stop() override {
+  rtm::comp::FaultKind quick_stop() override {
     ordered.push_back({});
-    return rtm::comp::ArmStatus::ready;
+    return rtm::comp::FaultKind::none;
   }
   std::string fault_reason() const override { return ""; }
   bool in_fault() const override { return false; }
@@ -68,7 +68,7 @@ class ServoWiringTest : public ::testing::Test {
     rtm::comp::ActuatorParams limits;
     limits.limit = {100, 100, 100, 100, 100, 100};
     sensor_ = new rtm::ComponentServant(
-        std::make_unique<rtm::comp::Sensor>("sensor0", std::move(source), rtm::pa10::Kinematics::from_urdf_file(RTM_PA10_URDF)),
+        std::make_unique<rtm::comp::Sensor>("sensor0", std::move(source), rtm::pa10::Kinematics::pa10()),
         rtm::ExternalTick{});
     controller_ = new rtm::ComponentServant(std::make_unique<rtm::comp::Controller>("controller0", gains), rtm::ExternalTick{});
     actuator_ = new rtm::ComponentServant(std::make_unique<rtm::comp::Actuator>("actuator0", std::move(arm), limits),
@@ -278,13 +278,13 @@ struct BusLog {
 class LoggingArm final : public rtm::comp::VelocityArm {
  public:
   explicit LoggingArm(BusLog& log) : log_(log) {}
-  rtm::comp::ArmStatus order_velocity(const std::array<float, 6>&) override {
+  rtm::comp::FaultKind order_velocity(const std::array<float, 6>&) override {
     if (log_.orders++ == log_.fail_on_order) throw std::runtime_error("drive bus gone");
     log_.events.push_back("order");
-    return rtm::comp::ArmStatus::ready;
+    return rtm::comp::FaultKind::none;
   }
   void stop() override {}
-  rtm::comp::ArmStatus quick_stop() override { return order_velocity({}); }
+  rtm::comp::FaultKind quick_stop() override { return order_velocity({}); }
   std::string fault_reason() const override { return ""; }
   bool in_fault() const override { return false; }
   void reset() override {}
@@ -335,7 +335,7 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_servo(const std::string&
   return std::make_unique<rtm::comp::SharedTickServo>(
       name,
       std::make_unique<rtm::comp::Sensor>(name + "_sensor", std::move(source),
-                                          rtm::pa10::Kinematics::from_urdf_file(RTM_PA10_URDF)),
+                                          rtm::pa10::Kinematics::pa10()),
       std::make_unique<rtm::comp::Controller>(name + "_controller", gains),
       std::make_unique<rtm::comp::Actuator>(name + "_actuator", std::make_unique<LoggingArm>(log), limits),
       rtm::PeriodicOptions{}, std::move(phase), std::move(bus));

@@ -46,10 +46,10 @@ class ArmOnSimTest : public ::testing::Test {
     sim_ = std::make_unique<rtm_test::ChildProcess>(argv);
     sim_->wait_for_line("pa10-sim: ready", 20s);
     pc::MasterConfig config;
-    config.step_timeout = 2s;  // a loaded 2-core VM may stall; lock-step never misses a SYNC
+    config.step_timeout_ns = 2'000'000'000;  // a loaded 2-core VM may stall; lock-step never misses a SYNC
     master_ = std::make_unique<pc::Pa10Master>(bus_spec_, sensor_bus_spec_, config);
     master_->start();
-    arm_ = std::make_unique<rtm::pa10::Pa10Arm>(RTM_PA10_URDF, *master_);
+    arm_ = std::make_unique<rtm::pa10::Pa10Arm>(*master_);
   }
   void TearDown() override {
     if (master_) master_->stop();
@@ -63,7 +63,7 @@ class ArmOnSimTest : public ::testing::Test {
 
   // One 2 ms cycle: command the twist, then let the master run one lock-step cycle.
   void cycle(const std::array<float, 6>& twist) {
-    ASSERT_TRUE(arm_->order_velocity(twist)) << arm_->fault_reason();
+    ASSERT_EQ(arm_->order_velocity(twist), rtm::can::FaultKind::none) << arm_->fault_reason();
     ASSERT_TRUE(master_->step()) << "not every node answered the SYNC";
   }
   void cycles(int count, const std::array<float, 6>& twist) {
@@ -138,7 +138,7 @@ TEST_F(ArmOnSimTest, WithoutRpdosTheDrivesBrakeToZeroWithinThreeSyncs) {
     const auto deadline = std::chrono::steady_clock::now() + 5s;
     while (answered < pc::kDriveCount && std::chrono::steady_clock::now() < deadline) {
       can_frame frame{};
-      if (!bus->receive(frame, 100ms)) continue;
+      if (!bus->receive(frame, 100'000'000)) continue;
       const auto feedback = pc::decode_drive_feedback(frame);
       if (!feedback.ok()) continue;
       ++answered;
@@ -186,9 +186,9 @@ TEST_F(ArmOnRealTimeSimTest, PeriodicMasterMovesTheToolForwardWithoutFault) {
   master_->run_periodic();
   // The arm reports not_enabled until the periodic thread has published its first cycles.
   const auto ready_by = std::chrono::steady_clock::now() + 5s;
-  while (!arm_->order_velocity({}) && std::chrono::steady_clock::now() < ready_by)
+  while (arm_->order_velocity({}) != rtm::can::FaultKind::none && std::chrono::steady_clock::now() < ready_by)
     std::this_thread::sleep_for(2ms);
-  ASSERT_TRUE(arm_->order_velocity({})) << to_string(arm_->fault()) << " " << arm_->fault_reason();
+  ASSERT_EQ(arm_->order_velocity({}), rtm::can::FaultKind::none) << to_string(arm_->fault()) << " " << arm_->fault_reason();
   const Eigen::Vector3d start = arm_->tool_pose().translation();
   // A cycle the master misses on a loaded host shows as a transient not_enabled (not latched);
   // anything latched is a failure.
@@ -196,8 +196,9 @@ TEST_F(ArmOnRealTimeSimTest, PeriodicMasterMovesTheToolForwardWithoutFault) {
   auto command_for = [&](std::chrono::milliseconds duration, const std::array<float, 6>& twist) {
     const auto until = std::chrono::steady_clock::now() + duration;
     while (std::chrono::steady_clock::now() < until) {
-      if (!arm_->order_velocity(twist)) {
-        ASSERT_EQ(arm_->fault(), rtm::pa10::ArmFault::not_enabled) << arm_->fault_reason();
+      if (const auto state = arm_->order_velocity(twist); state != rtm::can::FaultKind::none) {
+        ASSERT_EQ(state, rtm::can::FaultKind::not_enabled) << arm_->fault_reason();
+        ASSERT_EQ(arm_->fault(), rtm::can::FaultKind::not_enabled) << arm_->fault_reason();
         ++transient_cycles;
       }
       std::this_thread::sleep_for(2ms);

@@ -18,7 +18,7 @@ using rtm::sim::Pa10Plant;
 namespace {
 
 TEST(Pa10SceneMatchesUrdf, ToolPoseAgreesWithKdlWithin1nmOverRandomJointVectors) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF);
+  Kinematics kinematics = Kinematics::pa10();
   Pa10Plant plant(RTM_PA10_SCENE);
   const auto& limits = kinematics.limits();
   std::mt19937_64 rng(20041);
@@ -63,7 +63,7 @@ TEST(Pa10SceneMatchesUrdf, ReadyPosePointsTheToolDown55cmInFrontAnd5cmAboveTheTa
 }
 
 TEST(Pa10SceneMatchesUrdf, MassesCentresOfMassAndInertiasAgree) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF);
+  Kinematics kinematics = Kinematics::pa10();
   Pa10Plant plant(RTM_PA10_SCENE);
   const mjModel* model = plant.model();
   const KDL::Chain& chain = kinematics.chain();
@@ -93,7 +93,7 @@ TEST(Pa10SceneMatchesUrdf, MassesCentresOfMassAndInertiasAgree) {
 }
 
 TEST(Pa10SceneMatchesUrdf, JointLimitsAgree) {
-  Kinematics kinematics = Kinematics::from_urdf_file(RTM_PA10_URDF);
+  Kinematics kinematics = Kinematics::pa10();
   Pa10Plant plant(RTM_PA10_SCENE);
   const mjModel* model = plant.model();
   for (int j = 0; j < rtm::sim::kJointCount; ++j) {

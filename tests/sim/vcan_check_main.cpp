@@ -28,11 +28,11 @@ int main(int argc, char** argv) {
     sim.wait_for_line("pa10-sim: ready", 60s);
 
     rtm::can::MasterConfig config;
-    config.step_timeout = 5s;
-    config.boot_timeout = 30s;
-    config.sdo_timeout = 5s;
-    config.enable_timeout = 30s;
-    config.heartbeat_timeout = 10s;  // the guest's clock is not real time
+    config.step_timeout_ns = 5'000'000'000;
+    config.boot_timeout_ns = 30'000'000'000;
+    config.sdo_timeout_ns = 5'000'000'000;
+    config.enable_timeout_ns = 30'000'000'000;
+    config.heartbeat_timeout_ns = 10'000'000'000;  // the guest's clock is not real time
     double moved_rad = 0;
     {
       rtm::can::Pa10Master master("socketcan:vcan0", "", config);
@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
       rtm::pa10::Pa10Arm arm(argv[2], master);
       const auto q0 = arm.joint_positions();
       for (int i = 0; i < 100; ++i) {
-        if (!arm.order_velocity({0.05f, 0, 0, 0, 0, 0}))
+        if (arm.order_velocity({0.05f, 0, 0, 0, 0, 0}) != rtm::can::FaultKind::none)
           throw std::runtime_error("arm fault: " + arm.fault_reason());
         if (!master.step()) throw std::runtime_error("a node did not answer a SYNC");
       }

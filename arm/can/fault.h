@@ -1,0 +1,40 @@
+// The arm's one fault vocabulary, from the CAN master up to the actuator.
+//
+// The master (Pa10Master, its Supervisor) latches the bus-side kinds; Pa10Arm reports the
+// master's kind unchanged and adds the two of its own (not_enabled, ik_failed); the actuator's
+// VelocityArm returns the same value. There is no mapping between layers: a kind means the same
+// thing wherever it is read. It lives at the bottom (arm/can) so every layer above can name it.
+#pragma once
+
+#include <cstdint>
+#include <string_view>
+
+namespace rtm::can {
+
+enum class FaultKind : std::uint8_t {
+  none,
+  // Not latched, clears by itself: the master has not (yet, or again after a fault reset)
+  // enabled every drive, or has no feedback yet. Zero velocity meanwhile. Reported by Pa10Arm.
+  not_enabled,
+  // Latched until a fault reset (zero velocity to every drive meanwhile):
+  drive_fault,           // a statusword reports fault / fault reaction, or a fault reset failed
+  drive_disabled,        // a drive left operation enabled by itself
+  emergency,             // an EMCY with a non-zero code other than command loss
+  command_loss,          // a drive's RPDO timeout (EMCY 0x8250): its commands came late (e.g. a
+                         // host stall of the master); a communication fault, not a hardware
+                         // one: a fault reset brings the drive back
+  heartbeat_lost,        // a node silent longer than the heartbeat timeout
+  bus_error,             // the transport failed
+  missing_feedback,      // a drive did not answer several SYNCs in a row
+  node_not_operational,  // a heartbeat reports boot-up/stopped/pre-operational after start
+  cycle_owner_lost,      // the thread that took the cycles over stopped running them
+  ik_failed,             // Pa10Arm: the twist (or the measured q) was not finite
+};
+
+// The kind's name as written above ("drive_fault", "command_loss", ...).
+std::string_view to_string(FaultKind kind);
+
+// A fault that holds until a reset: anything but none and not_enabled.
+constexpr bool latched(FaultKind kind) { return kind != FaultKind::none && kind != FaultKind::not_enabled; }
+
+}  // namespace rtm::can
