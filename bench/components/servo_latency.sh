@@ -50,12 +50,13 @@ for mode in $modes; do
   echo "=== $mode"
   "$repo/examples/force-servo/demo" --bin "$bin_dir" --system "${system[$mode]}" \
     --out "$out/$mode" >"$out/$mode.log" 2>&1 || echo "servo_latency: the $mode run reported a problem (see $out/$mode.log)" >&2
-  line=$(cat "$out/$mode/raw/"*.log 2>/dev/null | grep -h 'sample-to-drive latency' | tail -n 1 || true)
-  [[ -n "$line" ]] || { echo "servo_latency: no latency line in the $mode run's logs ($out/$mode/raw)" >&2; exit 1; }
-  read -r p50 p99 max < <(sed -n 's/.*latency p50 \([0-9]*\) us p99 \([0-9]*\) us max \([0-9]*\) us.*/\1 \2 \3/p' <<<"$line")
-  read -r h50 h99 < <(sed -n 's/.*handover p50 \([0-9]*\) us p99 \([0-9]*\) us.*/\1 \2/p' <<<"$line") || true
-  commands=$(sed -n 's/.*commands \([0-9]*\),.*/\1/p' <<<"$line")
-  watchdog=$(sed -n 's/.*watchdog events \([0-9]*\),.*/\1/p' <<<"$line")
+  # The actuator's statistics as the report lists them: "actuator0  cycles N, commands N, ...".
+  line=$(grep -h ' latency_p50 ' "$out/$mode/summary.txt" 2>/dev/null | head -n 1 || true)
+  [[ -n "$line" ]] || { echo "servo_latency: no latency statistics in the $mode run's summary ($out/$mode)" >&2; exit 1; }
+  stat() { sed -n "s/.*[ ,]$1 \([0-9.]*\).*/\1/p" <<<"$line"; }
+  p50=$(stat latency_p50) p99=$(stat latency_p99) max=$(stat latency_max)
+  h50=$(stat handover_p50) h99=$(stat handover_p99)
+  commands=$(stat commands) watchdog=$(stat watchdog_events)
   results+=("$(printf '| %-13s | %8s | %8s | %8s | %8s | %8s | %11s |' "$mode" "$commands" "$p50" "$p99" "$max" "$watchdog" \
     "${h50:-?}/${h99:-?}")")
   echo "--- loop timing ($mode)"

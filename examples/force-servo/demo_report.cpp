@@ -291,6 +291,10 @@ std::vector<ComponentTiming> parse_timing_json(const std::string& text, const st
         t.lateness_p99_ns = timing.at("lateness_p99_ns").get<std::int64_t>();
         t.lateness_max_ns = timing.at("lateness_max_ns").get<std::int64_t>();
       }
+      if (c.contains("statistics")) {
+        for (const auto& [name, s] : c.at("statistics").items())
+          t.statistics.push_back({name, s.at("value").get<double>(), s.value("unit", "")});
+      }
       result.push_back(t);
     }
   } catch (const nlohmann::json::exception& e) {
@@ -299,7 +303,42 @@ std::vector<ComponentTiming> parse_timing_json(const std::string& text, const st
   return result;
 }
 
+std::optional<FoundStatistic> find_statistic(const std::vector<ComponentTiming>& timing, std::string_view name) {
+  for (const auto& t : timing) {
+    for (const auto& s : t.statistics)
+      if (s.name == name) return FoundStatistic{t.name, s};
+  }
+  return std::nullopt;
+}
+
 // ============================ output ==================================
+
+namespace {
+
+std::string statistic_text(const NamedStatistic& s) {
+  const std::string value = s.value == std::floor(s.value) ? fmt::format("{:.0f}", s.value) : fmt::format("{:.1f}", s.value);
+  return s.unit.empty() ? value : value + " " + s.unit;
+}
+
+// The figures the demo promises, read from the components' own statistics.
+std::string format_figures(const std::vector<ComponentTiming>& timing) {
+  std::string out;
+  const auto p50 = find_statistic(timing, "latency_p50");
+  const auto p99 = find_statistic(timing, "latency_p99");
+  const auto max = find_statistic(timing, "latency_max");
+  if (p50 && p99 && max) {
+    out += fmt::format("Sensor sample to drive command leaving for the bus ({}): p50 {}, p99 {}, max {}\n", p50->component,
+                       statistic_text(p50->statistic), statistic_text(p99->statistic), statistic_text(max->statistic));
+  }
+  if (const auto r = find_statistic(timing, "command_loss_recoveries"))
+    out += fmt::format("Drive command-loss recoveries ({}): {}\n", r->component, statistic_text(r->statistic));
+  const auto w = find_statistic(timing, "watchdog_events");
+  out += fmt::format("Watchdog events ({}): {}\n", w ? w->component : "actuator",
+                     w ? statistic_text(w->statistic) : std::string("unknown"));
+  return out;
+}
+
+}  // namespace
 
 std::string format_report(const Report& report, const PhaseOptions& options) {
   std::string out = fmt::format("Force servo: {} samples over {:.1f} s\n\n", report.samples, report.duration_s);
@@ -347,8 +386,14 @@ std::string format_report(const Report& report, const PhaseOptions& options) {
   for (const auto& t : report.timing) {
     if (!t.last_error.empty()) out += fmt::format("  ! {} ({}): {}\n", t.name, t.state, t.last_error);
   }
-  out += fmt::format("\nWatchdog events (actuator): {}\n",
-                     report.watchdog_events ? std::to_string(*report.watchdog_events) : "unknown");
+  out += "\nStatistics the components publish (rtm cat)\n";
+  for (const auto& t : report.timing) {
+    if (t.statistics.empty()) continue;
+    std::string line;
+    for (const auto& s : t.statistics) line += fmt::format("{}{} {}", line.empty() ? "" : ", ", s.name, statistic_text(s));
+    out += fmt::format("  {:<14} {}\n", t.name, line);
+  }
+  out += "\n" + format_figures(report.timing);
   return out;
 }
 

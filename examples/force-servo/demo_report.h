@@ -14,6 +14,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace rtm::demo {
@@ -101,6 +102,14 @@ PhaseSummary summarize(const std::vector<Sample>& samples, const Phase& phase,
 
 // ============================ loop timing =============================
 
+// One of the statistics a component publishes (`rtm cat`), e.g. the actuator's
+// "watchdog_events" or "latency_p99" [us].
+struct NamedStatistic {
+  std::string name;
+  double value = 0;
+  std::string unit;
+};
+
 struct ComponentTiming {
   std::string name;
   std::string kind;
@@ -111,18 +120,28 @@ struct ComponentTiming {
   std::int64_t lateness_p99_ns = 0;
   std::int64_t lateness_max_ns = 0;
   std::string last_error;  // why it is in error ("" when not)
+  std::vector<NamedStatistic> statistics;  // as the component reports them
 };
 
-// Parses `rtm --json ls -l` output. Components without timing (on-arrival) get cycles 0.
+// Parses `rtm --json ls -l` output: timing and each component's statistics. Components without
+// timing (on-arrival) get cycles 0.
 // Throws ReportError for text that is not that JSON.
 std::vector<ComponentTiming> parse_timing_json(const std::string& text, const std::string& source_name);
 
 // ============================ output ==================================
 
+// A statistic and the component that reported it.
+struct FoundStatistic {
+  std::string component;
+  NamedStatistic statistic;
+};
+// The first component in timing that reports statistic `name` (none: no component does).
+std::optional<FoundStatistic> find_statistic(const std::vector<ComponentTiming>& timing, std::string_view name);
+
 struct Report {
   std::vector<PhaseSummary> phases;
-  std::vector<ComponentTiming> timing;
-  std::optional<std::uint64_t> watchdog_events;  // none: not known
+  std::vector<ComponentTiming> timing;  // with the components' statistics: watchdog events,
+                                        // sample-to-drive latency, command-loss recoveries
   std::size_t samples = 0;
   double duration_s = 0;
 };

@@ -2,7 +2,7 @@
 // script out.
 //
 //   rtm-demo-report --reference joystick.csv --sensor sensor.csv --command controller.csv
-//                   [--timing timing.json] [--watchdog-events N] --out DIR
+//                   [--timing timing.json] --out DIR
 //
 // Writes DIR/force_servo.csv, DIR/force_servo.gp (draws DIR/force_servo.png) and
 // DIR/summary.txt, and prints the summary. Exit 0 on success, 1 for unusable input,
@@ -33,8 +33,8 @@ std::vector<std::string> missed_figures(const rtm::demo::Report& report,
   for (const auto& t : report.timing) {
     if (t.overruns > 0) missed.push_back(fmt::format("{}: {} overruns", t.name, t.overruns));
   }
-  if (report.watchdog_events && *report.watchdog_events > 0) {
-    missed.push_back(fmt::format("{} watchdog events", *report.watchdog_events));
+  if (const auto w = rtm::demo::find_statistic(report.timing, "watchdog_events"); w && w->statistic.value > 0) {
+    missed.push_back(fmt::format("{}: {:.0f} watchdog events", w->component, w->statistic.value));
   }
   return missed;
 }
@@ -44,14 +44,13 @@ std::vector<std::string> missed_figures(const rtm::demo::Report& report,
 int main(int argc, char** argv) {
   CLI::App app{"rtm-demo-report: summary, CSV and plot of a force-servo demo recording"};
   std::string reference_csv, sensor_csv, command_csv, timing_json, out_dir;
-  long watchdog_events = -1;
   bool check = false;
   rtm::demo::PhaseOptions options;
   app.add_option("--reference", reference_csv, "rtm watch --csv of the joystick's out0")->required()->check(CLI::ExistingFile);
   app.add_option("--sensor", sensor_csv, "rtm watch --csv of the wrist sensor's out0")->required()->check(CLI::ExistingFile);
   app.add_option("--command", command_csv, "rtm watch --csv of the controller's out0")->required()->check(CLI::ExistingFile);
-  app.add_option("--timing", timing_json, "output of `rtm --json ls -l`")->check(CLI::ExistingFile);
-  app.add_option("--watchdog-events", watchdog_events, "the actuator's watchdog event count");
+  app.add_option("--timing", timing_json, "output of `rtm --json ls -l`: loop timing and the components' statistics")
+      ->check(CLI::ExistingFile);
   app.add_option("--out", out_dir, "folder for force_servo.csv, force_servo.gp, summary.txt")->required();
   app.add_option("--band", options.settle_band_N, "settling band, N")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--steady-window", options.steady_window_s, "steady-state window at a phase's end, s")
@@ -77,7 +76,6 @@ int main(int argc, char** argv) {
       const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
       report.timing = rtm::demo::parse_timing_json(text, timing_json);
     }
-    if (watchdog_events >= 0) report.watchdog_events = static_cast<std::uint64_t>(watchdog_events);
 
     const std::filesystem::path dir(out_dir);
     std::filesystem::create_directories(dir);

@@ -189,7 +189,9 @@ TEST(DemoReportTiming, ParsesRtmLsJsonIncludingDeadAndUntimedComponents) {
     {"host":"h","name":"sensor0","alive":true,"kind":"sensor","state":"ON","period_ns":2000000,
      "timing":{"cycles":5000,"overruns":2,"lateness_p50_ns":30000,"lateness_p99_ns":91000,
                "lateness_max_ns":4100000,"mean_period_error_ns":1.5},"ports":[]},
-    {"host":"h","name":"servo0","alive":true,"kind":"servo","state":"ERROR","last_error":"arm fault","ports":[]},
+    {"host":"h","name":"servo0","alive":true,"kind":"servo","state":"ERROR","last_error":"arm fault","ports":[],
+     "statistics":{"watchdog_events":{"value":2,"unit":"","description":"x"},
+                   "latency_p99":{"value":61.5,"unit":"us","description":"y"}}},
     {"host":"h","name":"gone0","alive":false,"dead_reason":"TRANSIENT"}])", "t.json");
   ASSERT_EQ(timing.size(), 3u);
   EXPECT_EQ(timing[0].overruns, 2u);
@@ -198,6 +200,13 @@ TEST(DemoReportTiming, ParsesRtmLsJsonIncludingDeadAndUntimedComponents) {
   EXPECT_EQ(timing[1].last_error, "arm fault");
   EXPECT_EQ(timing[0].last_error, "");
   EXPECT_EQ(timing[2].state, "dead");
+  ASSERT_EQ(timing[1].statistics.size(), 2u);
+  const auto latency = rtm::demo::find_statistic(timing, "latency_p99");
+  ASSERT_TRUE(latency.has_value());
+  EXPECT_EQ(latency->component, "servo0");
+  EXPECT_DOUBLE_EQ(latency->statistic.value, 61.5);
+  EXPECT_EQ(latency->statistic.unit, "us");
+  EXPECT_FALSE(rtm::demo::find_statistic(timing, "latency_p50").has_value());
   EXPECT_THROW(rtm::demo::parse_timing_json("{not json", "t.json"), ReportError);
   EXPECT_THROW(rtm::demo::parse_timing_json(R"({"a":1})", "t.json"), ReportError);
   EXPECT_THROW(rtm::demo::parse_timing_json(R"([{"alive":true}])", "t.json"), ReportError);
@@ -210,12 +219,18 @@ TEST(DemoReportOutput, SummaryCsvAndPlotScriptCarryThePhases) {
   rtm::demo::Report report;
   for (const auto& p : rtm::demo::detect_phases(samples, options))
     report.phases.push_back(rtm::demo::summarize(samples, p, options));
-  report.watchdog_events = 0;
+  rtm::demo::ComponentTiming actuator;
+  actuator.name = "actuator0";
+  actuator.statistics = {{"watchdog_events", 0, ""}, {"latency_p50", 31, "us"}, {"latency_p99", 58.5, "us"},
+                         {"latency_max", 900, "us"}, {"command_loss_recoveries", 1, ""}};
+  report.timing.push_back(actuator);
   report.samples = samples.size();
   const std::string text = rtm::demo::format_report(report, options);
   EXPECT_NE(text.find("contact"), std::string::npos) << text;
   EXPECT_NE(text.find("-10.0"), std::string::npos) << text;
-  EXPECT_NE(text.find("Watchdog events (actuator): 0"), std::string::npos) << text;
+  EXPECT_NE(text.find("Watchdog events (actuator0): 0"), std::string::npos) << text;
+  EXPECT_NE(text.find("(actuator0): p50 31 us, p99 58.5 us, max 900 us"), std::string::npos) << text;
+  EXPECT_NE(text.find("Drive command-loss recoveries (actuator0): 1"), std::string::npos) << text;
 
   const auto dir = std::filesystem::temp_directory_path() / ("rtm_demo_report_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
