@@ -740,10 +740,10 @@ TEST(Pa10Master, DestructionLeavesDrivesSwitchedOffAndPreOperational) {
   master->step();
   master.reset();
   const auto all_pre_operational = [&] {
-    for (std::uint8_t node : {std::uint8_t{1}, std::uint8_t{2}, std::uint8_t{3}, std::uint8_t{4}, std::uint8_t{5},
-                              std::uint8_t{6}, std::uint8_t{7}, kWristSensorNode, kJoystickSensorNode})
-      if (nodes.nmt_state(node) != NmtState::pre_operational) return false;
-    return true;
+    for (int j = 0; j < kDriveCount; ++j)
+      if (nodes.nmt_state(drive_node(j)) != NmtState::pre_operational) return false;
+    return nodes.nmt_state(kWristSensorNode) == NmtState::pre_operational &&
+           nodes.nmt_state(kJoystickSensorNode) == NmtState::pre_operational;
   };
   const auto deadline = std::chrono::steady_clock::now() + 5s;
   while (!all_pre_operational() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
