@@ -9,25 +9,27 @@ namespace pc = rtm::can;
 DriveDevice::DriveDevice(DriveConfig config) : config_(config), nmt_(config.node_id, config.heartbeat_period_ns) {}
 
 void DriveDevice::power_on(std::int64_t now_ns, FrameSink& out) {
-  nmt_.power_on(now_ns, out);
+  nmt_.power_on(now_ns, wire(out));
   drive_.reset();
   mode_ = 0;
   rpdo_pending_ = false;
   pending_controlword_ = 0;
   pending_velocity_rad_s_ = 0;
   target_velocity_rad_s_ = 0;
+  controlword_ = 0;
   syncs_without_rpdo_ = 0;
   tpdo_due_ = false;
 }
 
 void DriveDevice::on_frame(const can_frame& frame, std::int64_t now_ns, FrameSink& out) {
+  if (!connected_) return;
   const pc::Classified kind = pc::classify(frame);
   switch (kind.type) {
     case pc::FrameType::nmt:
       handle_nmt(frame, now_ns, out);
       break;
     case pc::FrameType::sync:
-      if (pc::decode_sync(frame).ok()) handle_sync(now_ns, out);
+      if (const auto sync = pc::decode_sync(frame); sync.ok()) handle_sync(sync->counter, now_ns, out);
       break;
     case pc::FrameType::drive_command:
       if (kind.node == config_.node_id) handle_rpdo(frame, now_ns);
@@ -59,6 +61,10 @@ void DriveDevice::handle_nmt(const can_frame& frame, std::int64_t now_ns, FrameS
 }
 
 void DriveDevice::handle_rpdo(const can_frame& frame, std::int64_t now_ns) {
+  if (rpdos_to_lose_ > 0) {
+    --rpdos_to_lose_;
+    return;
+  }
   if (!nmt_.is(pc::NmtState::operational)) return;
   const auto command = pc::decode_drive_command(frame);
   if (!command.ok()) return;
@@ -68,8 +74,9 @@ void DriveDevice::handle_rpdo(const can_frame& frame, std::int64_t now_ns) {
   pending_velocity_rad_s_ = command->target_velocity_rad_s;
 }
 
-void DriveDevice::handle_sync(std::int64_t now_ns, FrameSink& out) {
+void DriveDevice::handle_sync(std::uint8_t counter, std::int64_t now_ns, FrameSink& out) {
   ++syncs_seen_;
+  last_sync_counter_ = counter;
   if (!nmt_.is(pc::NmtState::operational)) return;
   tpdo_due_ = true;
   if (rpdo_pending_) {
@@ -78,6 +85,8 @@ void DriveDevice::handle_sync(std::int64_t now_ns, FrameSink& out) {
     const bool was_fault = in_fault();
     const bool was_enabled = drive_.follows_target_velocity();
     drive_.apply_controlword(pending_controlword_);
+    controlword_ = pending_controlword_;
+    if (was_fault && fault_persistent_) drive_.raise_fault();  // the reset does not take
     if (!was_enabled && drive_.follows_target_velocity()) last_rpdo_ns_ = now_ns;
     if (was_fault && !in_fault()) send_emcy(pc::emcy::kErrorReset, out);
     target_velocity_rad_s_ = pending_velocity_rad_s_;
@@ -95,22 +104,30 @@ void DriveDevice::enter_fault(std::uint16_t emcy_code, FrameSink& out) {
   send_emcy(emcy_code, out);
 }
 
+void DriveDevice::inject_fault(std::uint16_t emcy_code, FrameSink& out) {
+  if (nmt_.powered()) enter_fault(emcy_code, out);
+}
+
 void DriveDevice::send_emcy(std::uint16_t code, FrameSink& out) {
   // Error register bit 0 (generic error) is set while an error is present.
   const std::uint8_t error_register = code == pc::emcy::kErrorReset ? 0x00 : 0x01;
-  send_if_ok(pc::encode_emcy(config_.node_id, code, error_register), out);
+  send_if_ok(pc::encode_emcy(config_.node_id, code, error_register), wire(out));
 }
 
 void DriveDevice::send_tpdo(const JointState& state, FrameSink& out) {
   if (!tpdo_due_) return;
   tpdo_due_ = false;
   if (!nmt_.is(pc::NmtState::operational)) return;
+  if (tpdos_to_lose_ > 0) {
+    --tpdos_to_lose_;
+    return;
+  }
   pc::DriveFeedback feedback{};
   feedback.drive = config_.node_id;
   feedback.statusword = drive_.statusword();
   feedback.position_rad = state.position_rad;
   feedback.velocity_rad_s = state.velocity_rad_s;
-  send_if_ok(pc::encode_drive_feedback(feedback), out);
+  send_if_ok(pc::encode_drive_feedback(feedback), wire(out));
 }
 
 void DriveDevice::tick(std::int64_t now_ns, FrameSink& out) {
@@ -118,7 +135,7 @@ void DriveDevice::tick(std::int64_t now_ns, FrameSink& out) {
   if (drive_.follows_target_velocity() && config_.rpdo_silence_timeout_ns > 0 &&
       now_ns - last_rpdo_ns_ > config_.rpdo_silence_timeout_ns)
     enter_fault(pc::emcy::kRpdoTimeout, out);
-  nmt_.tick(now_ns, out);
+  nmt_.tick(now_ns, wire(out));
 }
 
 JointCommand DriveDevice::command() const {
@@ -129,6 +146,7 @@ JointCommand DriveDevice::command() const {
 }
 
 void DriveDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
+  // on_frame() returns before this when disconnected: `out` reaches the bus.
   const auto request = pc::decode_sdo_request(frame);
   if (!request.ok()) return;
   // SDO is served in pre-operational and operational (CiA 301), not in stopped.
@@ -158,7 +176,7 @@ void DriveDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
         if (!nmt_.is(pc::NmtState::pre_operational))
           return abort(pc::sdo::kAbortWrongState);
         const auto mode = static_cast<std::int8_t>(request->data & 0xFF);
-        if (mode != pc::object::kCyclicSynchronousVelocityMode)
+        if (mode != pc::object::kCyclicSynchronousVelocityMode || !config_.offers_csv_mode)
           return abort(pc::sdo::kAbortValueRange);
         mode_ = mode;
         break;

@@ -22,6 +22,12 @@
 //     fault; a fault reset (controlword bit 7 rising) clears it and sends EMCY 0x0000. The same
 //     happens when the master falls silent altogether (no SYNC either) for
 //     `rpdo_silence_timeout_ns` of device time, so a dead master does not leave the arm moving.
+//
+// Fault injection, what one does to a real drive on a test bench: inject_fault() (a hardware
+// fault, or any EMCY code), set_fault_persistent() (a fault reset does not take),
+// set_connected(false) (the cable pulled: the node hears and sends nothing but keeps running),
+// lose_next_tpdos() / lose_next_rpdos() (PDOs lost on the bus); DriveConfig::offers_csv_mode = false is a drive
+// whose firmware lacks cyclic synchronous velocity.
 #pragma once
 
 #include <linux/can.h>
@@ -57,6 +63,9 @@ struct DriveConfig {
   // Device time without any RPDO1 before the fault, for a master that stopped sending SYNC
   // too. Generous: a host stall of the master must not fault the drives in real time.
   std::int64_t rpdo_silence_timeout_ns = 100'000'000;
+  // The firmware offers mode 9 (cyclic synchronous velocity); without it an SDO write of
+  // 0x6060 = 9 is aborted (0x06090030, value range), as for any other mode.
+  bool offers_csv_mode = true;
 };
 
 class DriveDevice {
@@ -82,10 +91,24 @@ class DriveDevice {
 
   // Sends a heartbeat now (pa10-sim's lock-step mode also beats on the wall clock, so a
   // master that watches heartbeats in real time is served while no SYNC flows).
-  void send_heartbeat(FrameSink& out) { nmt_.send_heartbeat(out); }
+  void send_heartbeat(FrameSink& out) { nmt_.send_heartbeat(wire(out)); }
 
   // What the joint servo must do now.
   JointCommand command() const;
+
+  // Fault injection. The drive faults now: brake engaged, statusword fault, EMCY `emcy_code`
+  // (e.g. emcy::kDeviceHardware) to `out`. A fault reset clears it as any other fault.
+  void inject_fault(std::uint16_t emcy_code, FrameSink& out);
+  // While set, a fault reset leaves the drive in fault (broken hardware).
+  void set_fault_persistent(bool persistent) { fault_persistent_ = persistent; }
+  // Disconnected, the node neither hears the bus nor sends on it (boot-up, heartbeat, SDO,
+  // TPDO, EMCY are lost) but keeps running: its command-loss guard faults it as on a real bus.
+  void set_connected(bool connected) { connected_ = connected; }
+  bool connected() const { return connected_; }
+  // The next `count` TPDO1s it sends, or RPDO1s sent to it, are lost on the bus (RPDOs lost
+  // for rpdo_timeout_syncs SYNCs in a row trip its command-loss guard).
+  void lose_next_tpdos(int count) { tpdos_to_lose_ = count; }
+  void lose_next_rpdos(int count) { rpdos_to_lose_ = count; }
 
   std::uint8_t node_id() const { return config_.node_id; }
   std::uint8_t nmt_state() const { return nmt_.state(); }          // 0x04/0x05/0x7F
@@ -94,15 +117,18 @@ class DriveDevice {
   std::int8_t mode_of_operation() const { return mode_; }          // 0x6060/0x6061
   bool in_fault() const { return drive_.state() == rtm::can::DriveState::fault; }
   double target_velocity_rad_s() const { return target_velocity_rad_s_; }  // latched at SYNC
+  std::uint16_t controlword() const { return controlword_; }                // latched at SYNC
   std::uint32_t syncs_seen() const { return syncs_seen_; }
+  std::uint8_t last_sync_counter() const { return last_sync_counter_; }  // 0: none, or no counter
 
  private:
   void handle_nmt(const can_frame& frame, std::int64_t now_ns, FrameSink& out);
-  void handle_sync(std::int64_t now_ns, FrameSink& out);
+  void handle_sync(std::uint8_t counter, std::int64_t now_ns, FrameSink& out);
   void handle_rpdo(const can_frame& frame, std::int64_t now_ns);
   void handle_sdo(const can_frame& frame, FrameSink& out);
   void enter_fault(std::uint16_t emcy_code, FrameSink& out);
   void send_emcy(std::uint16_t code, FrameSink& out);
+  FrameSink& wire(FrameSink& out) { return connected_ ? out : null_sink_; }
 
   DriveConfig config_;
   NmtNode nmt_;
@@ -113,10 +139,17 @@ class DriveDevice {
   std::uint16_t pending_controlword_ = 0;
   double pending_velocity_rad_s_ = 0;
   double target_velocity_rad_s_ = 0;
+  std::uint16_t controlword_ = 0;
   int syncs_without_rpdo_ = 0;
   std::int64_t last_rpdo_ns_ = 0;  // device time of the last RPDO1 (or of enabling)
   bool tpdo_due_ = false;
   std::uint32_t syncs_seen_ = 0;
+  std::uint8_t last_sync_counter_ = 0;
+  bool fault_persistent_ = false;
+  bool connected_ = true;
+  int tpdos_to_lose_ = 0;
+  int rpdos_to_lose_ = 0;
+  NullSink null_sink_;
 };
 
 }  // namespace rtm::sim

@@ -32,14 +32,18 @@ ForceSensorDevice::ForceSensorDevice(ForceSensorConfig config)
     : config_(config), nmt_(config.node_id, config.heartbeat_period_ns) {}
 
 void ForceSensorDevice::power_on(std::int64_t now_ns, FrameSink& out) {
-  nmt_.power_on(now_ns, out);
+  nmt_.power_on(now_ns, wire(out));
   tpdo_due_ = false;
 }
 
 void ForceSensorDevice::on_frame(const can_frame& frame, std::int64_t now_ns, FrameSink& out) {
+  if (!connected_) return;
   const pc::Classified kind = pc::classify(frame);
   if (kind.type == pc::FrameType::sync) {
-    if (pc::decode_sync(frame).ok() && nmt_.is(pc::NmtState::operational)) tpdo_due_ = true;
+    const auto sync = pc::decode_sync(frame);
+    if (!sync.ok()) return;
+    last_sync_counter_ = sync->counter;
+    if (nmt_.is(pc::NmtState::operational)) tpdo_due_ = true;
     return;
   }
   if (kind.type == pc::FrameType::sdo_request && kind.node == config_.node_id) {
@@ -87,15 +91,15 @@ void ForceSensorDevice::send_tpdo(const Wrench& raw, FrameSink& out) {
     force.force_N[i] = counts.force[i] * pc::kForceUnit_N;
     torque.torque_Nm[i] = counts.torque[i] * pc::kTorqueUnit_Nm;
   }
-  send_if_ok(pc::encode_sensor_force(force), out);
-  send_if_ok(pc::encode_sensor_torque(torque), out);
+  send_if_ok(pc::encode_sensor_force(force), wire(out));
+  send_if_ok(pc::encode_sensor_torque(torque), wire(out));
   if (counts.saturated != overload_reported_) {
     overload_reported_ = counts.saturated;
     send_emcy(counts.saturated ? pc::emcy::kSensorFault : pc::emcy::kErrorReset, out);
   }
 }
 
-void ForceSensorDevice::tick(std::int64_t now_ns, FrameSink& out) { nmt_.tick(now_ns, out); }
+void ForceSensorDevice::tick(std::int64_t now_ns, FrameSink& out) { nmt_.tick(now_ns, wire(out)); }
 
 void ForceSensorDevice::add_tare_sample(const Wrench& raw) {
   if (tared()) return;
@@ -112,7 +116,7 @@ void ForceSensorDevice::add_tare_sample(const Wrench& raw) {
 
 void ForceSensorDevice::send_emcy(std::uint16_t code, FrameSink& out) {
   const std::uint8_t error_register = code == pc::emcy::kErrorReset ? 0x00 : 0x01;
-  send_if_ok(pc::encode_emcy(config_.node_id, code, error_register), out);
+  send_if_ok(pc::encode_emcy(config_.node_id, code, error_register), wire(out));
 }
 
 void ForceSensorDevice::handle_sdo(const can_frame& frame, FrameSink& out) {

@@ -10,6 +10,9 @@
 // offset (pa10-sim feeds them while it holds the arm still before the nodes boot). Values
 // beyond the i16 range saturate and raise EMCY 0x7300 (sensor fault) once; EMCY 0x0000 is sent
 // when the reading is back in range.
+//
+// Fault injection: set_connected(false) cuts the node off the bus (it hears and sends
+// nothing, heartbeat included, but keeps its state), as a pulled cable does.
 #pragma once
 
 #include <linux/can.h>
@@ -45,7 +48,10 @@ class ForceSensorDevice {
   // from outside, in the sensor frame.
   void send_tpdo(const Wrench& raw, FrameSink& out);
   void tick(std::int64_t now_ns, FrameSink& out);
-  void send_heartbeat(FrameSink& out) { nmt_.send_heartbeat(out); }
+  void send_heartbeat(FrameSink& out) { nmt_.send_heartbeat(wire(out)); }
+
+  void set_connected(bool connected) { connected_ = connected; }
+  bool connected() const { return connected_; }
 
   // Taring: averages the first config.tare_samples samples; later samples are ignored.
   void add_tare_sample(const Wrench& raw);
@@ -62,10 +68,12 @@ class ForceSensorDevice {
 
   std::uint8_t node_id() const { return config_.node_id; }
   std::uint8_t nmt_state() const { return nmt_.state(); }
+  std::uint8_t last_sync_counter() const { return last_sync_counter_; }  // 0: none seen
 
  private:
   void handle_sdo(const can_frame& frame, FrameSink& out);
   void send_emcy(std::uint16_t code, FrameSink& out);
+  FrameSink& wire(FrameSink& out) { return connected_ ? out : null_sink_; }
 
   ForceSensorConfig config_;
   NmtNode nmt_;
@@ -74,6 +82,9 @@ class ForceSensorDevice {
   int tare_count_ = 0;
   Wrench tare_sum_{};
   Wrench offset_{};
+  std::uint8_t last_sync_counter_ = 0;
+  bool connected_ = true;
+  NullSink null_sink_;
 };
 
 }  // namespace rtm::sim

@@ -16,4 +16,10 @@ class FrameSink {
   virtual void send(const can_frame& frame) = 0;
 };
 
+// Where a node cut off the bus sends: nowhere.
+class NullSink final : public FrameSink {
+ public:
+  void send(const can_frame&) override {}
+};
+
 }  // namespace rtm::sim

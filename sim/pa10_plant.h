@@ -18,15 +18,12 @@
 #include <stdexcept>
 #include <string>
 
-#include "sim/drive_device.h"
-#include "sim/wrench.h"
+#include "sim/plant.h"
 
 struct mjModel_;
 struct mjData_;
 
 namespace rtm::sim {
-
-inline constexpr int kJointCount = 7;
 
 // The scene cannot be loaded or lacks a named element; what() names the file and the cause.
 class SceneError : public std::runtime_error {
@@ -45,7 +42,7 @@ struct ServoGains {
   double hold_damping_1_s = 200;
 };
 
-class Pa10Plant {
+class Pa10Plant final : public Plant {
  public:
   // Loads the scene and sets the "ready" keyframe, every joint in hold. Throws SceneError.
   explicit Pa10Plant(const std::string& scene_path, ServoGains gains = {});
@@ -59,22 +56,22 @@ class Pa10Plant {
   void reset_to_keyframe(const std::string& name);
 
   // What joint i's servo does from the next step on.
-  void set_command(int joint, const JointCommand& command);
+  void set_command(int joint, const JointCommand& command) override;
   // The operator's wrench on the joystick handle, taken at the joystick sensor's origin
   // (joystick frame = world frame): what the joystick then reads, less the handle's weight.
-  void set_operator_wrench(const Wrench& wrench);
+  void set_operator_wrench(const Wrench& wrench) override;
 
   // One physics step (timestep_s()).
-  void step();
+  void step() override;
 
-  double timestep_s() const;
+  double timestep_s() const override;
   double time_s() const;
-  JointState joint_state(int joint) const;
+  JointState joint_state(int joint) const override;
   // External wrench on the tool side of the wrist sensor, flange frame, untared (includes the
   // tool's weight and inertia).
-  Wrench wrist_wrench() const;
+  Wrench wrist_wrench() const override;
   // External wrench on the joystick handle, joystick frame, untared.
-  Wrench joystick_wrench() const;
+  Wrench joystick_wrench() const override;
   // Pose of the tool tip site (tool0) in the world (= arm base) frame.
   std::array<double, 3> tool_position_m() const;
   std::array<double, 9> tool_rotation() const;  // row-major

@@ -18,6 +18,7 @@
 #include "rt/clock.h"
 #include "rt/schedule.h"
 #include "rt/thread.h"
+#include "sim/bus_sink.h"
 #include "sim/simulator.h"
 
 namespace rtm::sim {
@@ -27,19 +28,6 @@ namespace {
 constexpr std::int64_t kWallHeartbeatPeriod_ns = 100'000'000;
 // A real-time step found later than this is not caught up (no burst after a host stall).
 constexpr std::int64_t kMaxCatchUp_ns = 20'000'000;
-
-class BusSink final : public FrameSink {
- public:
-  explicit BusSink(rtm::can::Bus& bus) : bus_(bus) {}
-  void send(const can_frame& frame) override {
-    if (!bus_.send(frame)) ++dropped_;
-  }
-  std::uint64_t dropped() const { return dropped_; }
-
- private:
-  rtm::can::Bus& bus_;
-  std::uint64_t dropped_ = 0;
-};
 
 // Opens `spec`; for "local:<path>" with no hub listening, starts one in this process.
 std::unique_ptr<rtm::can::Bus> open_or_host(const std::string& spec,

@@ -1,4 +1,5 @@
-// Frames through a CAN transport, and the master's lock-step cycle against the fake PA10.
+// Frames through a CAN transport, and the master's lock-step cycle against pa10-sim's CAN nodes
+// on a kinematic plant (tests/can/emulated_pa10.h).
 //
 // usage: can_transport_bench [BUS]   BUS = "local" (default: starts its own hub in a temporary
 //        directory) or a spec such as "socketcan:vcan0" (run in a QEMU guest with
@@ -26,7 +27,7 @@
 #include "arm/can/bus.h"
 #include "arm/can/local_bus.h"
 #include "arm/can/master.h"
-#include "fake_pa10.h"
+#include "emulated_pa10.h"
 
 namespace {
 
@@ -199,7 +200,7 @@ void lock_step(const std::string& spec) {
   config.heartbeat_timeout_ns = 5'000'000'000;
   config.enable_timeout_ns = 10'000'000'000;
   Pa10Master master(open_bus(spec), nullptr, config);
-  testing::FakePa10 fake(open_bus(spec), {});
+  testing::EmulatedPa10 nodes(spec);
   master.start();
   master.set_target_velocities({0.01, 0.01, 0.01, 0.01, 0.01, 0.01, 0.01});
   constexpr int kSteps = 5000;

@@ -73,55 +73,40 @@ std::int64_t stamp_ns(const RTM::TimedFloat6& d) { return std::int64_t{d.tm.sec}
 // Publisher (child process)
 // ---------------------------------------------------------------------------------------------
 
-int run_publisher(const Args& args) {
-  const int cpu = static_cast<int>(args.number("--cpu", -1));
-  pin(cpu);
-  const std::string transport = args.get("--transport", "tcp");
-  const std::string mode = args.get("--mode", "paced");
-  const auto count = static_cast<std::size_t>(args.number("--count", 1000));
-  rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBclientTransportRule", "* " + transport});
-  CORBA::Object_var target_object = orb.from_string(args.get("--target", ""));
-  RTM::InPort_var target = RTM::InPort::_narrow(target_object);
-
-  if (mode == "bare-paced" || mode == "bare-burst") {
-    CORBA::Any any;
-    RTM::TimedFloat6 datum{};
-    any <<= datum;
-    for (int i = 0; i < 1000; ++i) target->put(any);  // connect and warm up
-    std::vector<std::int64_t> rtt_ns;
-    rtt_ns.reserve(count);
-    const auto start = rtm_bench::monotonic_ns();
-    timespec next{};
-    clock_gettime(CLOCK_MONOTONIC, &next);
-    for (std::size_t i = 0; i < count; ++i) {
-      if (mode == "bare-paced") {
-        next.tv_nsec += 1'000'000;
-        if (next.tv_nsec >= 1'000'000'000) {
-          next.tv_nsec -= 1'000'000'000;
-          ++next.tv_sec;
-        }
-        clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
+// The bare modes: put() on the target's InPort with no OutPort in between, paced at 1 kHz or
+// back to back; prints the round trips.
+int run_bare_publisher(RTM::InPort_ptr target, const std::string& mode, std::size_t count) {
+  CORBA::Any any;
+  RTM::TimedFloat6 datum{};
+  any <<= datum;
+  for (int i = 0; i < 1000; ++i) target->put(any);  // connect and warm up
+  std::vector<std::int64_t> rtt_ns;
+  rtt_ns.reserve(count);
+  const auto start = rtm_bench::monotonic_ns();
+  timespec next{};
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (mode == "bare-paced") {
+      next.tv_nsec += 1'000'000;
+      if (next.tv_nsec >= 1'000'000'000) {
+        next.tv_nsec -= 1'000'000'000;
+        ++next.tv_sec;
       }
-      const auto before = rtm_bench::monotonic_ns();
-      target->put(any);
-      rtt_ns.push_back(rtm_bench::monotonic_ns() - before);
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
     }
-    const auto elapsed_ns = rtm_bench::monotonic_ns() - start;
-    const auto s = rtm_bench::summarize(rtt_ns);
-    std::printf("RESULT rtt_p50_us=%.2f rtt_p99_us=%.2f rtt_max_us=%.2f rate_per_s=%.0f\n", s.p50_us, s.p99_us,
-                s.max_us, static_cast<double>(count) / (static_cast<double>(elapsed_ns) / 1e9));
-    return 0;
+    const auto before = rtm_bench::monotonic_ns();
+    target->put(any);
+    rtt_ns.push_back(rtm_bench::monotonic_ns() - before);
   }
+  const auto elapsed_ns = rtm_bench::monotonic_ns() - start;
+  const auto s = rtm_bench::summarize(rtt_ns);
+  std::printf("RESULT rtt_p50_us=%.2f rtt_p99_us=%.2f rtt_max_us=%.2f rate_per_s=%.0f\n", s.p50_us, s.p99_us,
+              s.max_us, static_cast<double>(count) / (static_cast<double>(elapsed_ns) / 1e9));
+  return 0;
+}
 
-  rtm::OutPortOptions options;
-  options.oneway = mode == "burst-oneway";
-  rtm::log().set_level(spdlog::level::warn);
-  PortableServer::Servant_var<Float6Out> out(new Float6Out("out", "publisher", options));
-  RTM::OutPortEx_var out_ref = out->activate(orb);
-  if (!out->subscribe(RTM::repeated, target)) {
-    std::fprintf(stderr, "publisher: subscribe refused: %s\n", out->last_refusal().c_str());
-    return 1;
-  }
+// Writes `count` data (paced, back to back) or for a second (flood) through the OutPort.
+void write_through_port(Float6Out& out, const std::string& mode, std::size_t count, int cpu) {
   RTM::TimedFloat6 datum{};
   if (mode == "paced") {
     std::atomic<std::size_t> written{0};
@@ -131,7 +116,7 @@ int run_publisher(const Args& args) {
     rtm::PeriodicActivity activity(
         [&](const rtm::CycleContext&) {
           stamp(datum);
-          out->write(datum);
+          out.write(datum);
           return written.fetch_add(1) + 1 < count;
         },
         periodic);
@@ -145,7 +130,7 @@ int run_publisher(const Args& args) {
     const auto end = rtm_bench::monotonic_ns() + 1'000'000'000;
     while (rtm_bench::monotonic_ns() < end) {
       stamp(datum);
-      out->write(datum);
+      out.write(datum);
       sched_yield();
     }
   } else {
@@ -153,10 +138,33 @@ int run_publisher(const Args& args) {
     // port path can carry every datum (a slot overwritten unread would be a lost message).
     for (std::size_t i = 0; i < count; ++i) {
       stamp(datum);
-      out->write(datum);
-      while (out->counters_snapshot().pushed <= i) sched_yield();
+      out.write(datum);
+      while (out.counters_snapshot().pushed <= i) sched_yield();
     }
   }
+}
+
+int run_publisher(const Args& args) {
+  const int cpu = static_cast<int>(args.number("--cpu", -1));
+  pin(cpu);
+  const std::string transport = args.get("--transport", "tcp");
+  const std::string mode = args.get("--mode", "paced");
+  const auto count = static_cast<std::size_t>(args.number("--count", 1000));
+  rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBclientTransportRule", "* " + transport});
+  CORBA::Object_var target_object = orb.from_string(args.get("--target", ""));
+  RTM::InPort_var target = RTM::InPort::_narrow(target_object);
+  if (mode == "bare-paced" || mode == "bare-burst") return run_bare_publisher(target, mode, count);
+
+  rtm::OutPortOptions options;
+  options.oneway = mode == "burst-oneway";
+  rtm::log().set_level(spdlog::level::warn);
+  PortableServer::Servant_var<Float6Out> out(new Float6Out("out", "publisher", options));
+  RTM::OutPortEx_var out_ref = out->activate(orb);
+  if (!out->subscribe(RTM::repeated, target)) {
+    std::fprintf(stderr, "publisher: subscribe refused: %s\n", out->last_refusal().c_str());
+    return 1;
+  }
+  write_through_port(*out, mode, count, cpu);
   // Let the delivery thread finish what is in flight.
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const auto c = out->counters_snapshot();

@@ -10,7 +10,7 @@ candump -L vcan0 >"$dump" &
 candump_pid=$!
 trap 'kill $candump_pid 2>/dev/null || true' EXIT
 sleep 0.2  # candump must be listening before the first frame
-"$test_binary" --gtest_filter='SocketCan.MasterStartsTheFakePa10AndExchangesPdos'
+"$test_binary" --gtest_filter='SocketCan.MasterStartsTheEmulatedPa10AndExchangesPdos'
 sleep 0.2
 kill $candump_pid
 wait $candump_pid 2>/dev/null || true

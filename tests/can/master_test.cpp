@@ -1,6 +1,7 @@
-// Pa10Master against the protocol-level fake PA10 on the user-space bus: startup, lock-step
-// PDO exchange, faults with reasons and zero command, fault reset, heartbeat loss, counted
-// bad frames, the periodic thread, a separate sensor bus, and the passive sensor listener.
+// Pa10Master against the PA10's CAN nodes as pa10-sim emulates them (on a kinematic plant, in
+// lock-step) on the user-space bus: startup, lock-step PDO exchange, faults with reasons and
+// zero command, fault reset, heartbeat loss, counted bad frames, the periodic thread, a
+// separate sensor bus, and the passive sensor listener.
 #include "arm/can/master.h"
 
 #include <gmock/gmock.h>
@@ -18,7 +19,7 @@
 #include "arm/can/local_bus.h"
 #include "arm/can/sensor_listener.h"
 #include "rtm_test/allocation_counter.h"
-#include "fake_pa10.h"
+#include "emulated_pa10.h"
 #include "test_paths.h"
 
 namespace rtm::can {
@@ -26,7 +27,7 @@ namespace {
 
 using namespace std::chrono_literals;
 using ::testing::HasSubstr;
-using testing::FakePa10;
+using testing::EmulatedPa10;
 using testing::TempDir;
 
 // Timeouts here bound how long a broken build waits; no assertion is about speed. The
@@ -39,7 +40,7 @@ MasterConfig test_config() {
   c.enable_timeout_ns = 5'000'000'000;
   c.heartbeat_timeout_ns = 5'000'000'000;
   c.step_timeout_ns = 2'000'000'000;
-  // A loaded machine can stall the fake for longer than a few periodic cycles.
+  // A loaded machine can stall the emulated nodes for longer than a few periodic cycles.
   c.missed_feedback_limit = 1000;
   return c;
 }
@@ -48,17 +49,17 @@ struct Rig {
   TempDir dir;
   LocalHub hub{dir.file("bus")};
   std::string spec = "local:" + dir.file("bus");
-  std::unique_ptr<FakePa10> fake;
+  std::unique_ptr<EmulatedPa10> nodes;
   std::unique_ptr<Pa10Master> master;
 
-  explicit Rig(FakePa10::Options options = {}, MasterConfig config = test_config()) {
-    // The master connects first so it sees the fake's boot-up messages.
+  explicit Rig(EmulatedPa10::Options options = {}, MasterConfig config = test_config()) {
+    // The master connects first so it sees the nodes' boot-up messages.
     master = std::make_unique<Pa10Master>(open_bus(spec), nullptr, config);
-    fake = std::make_unique<FakePa10>(open_bus(spec), options);
+    nodes = std::make_unique<EmulatedPa10>(spec, options);
   }
   ~Rig() {
-    master.reset();  // before the fake, so its shutdown frames have a reader
-    fake.reset();
+    master.reset();  // before the nodes, so its shutdown frames have a reader
+    nodes.reset();
   }
 };
 
@@ -90,10 +91,12 @@ TEST(Pa10Master, StartupSetsCyclicSyncVelocityModeAndEnablesEveryDrive) {
   rig.master->start();
   EXPECT_TRUE(rig.master->enabled());
   EXPECT_FALSE(rig.master->fault().active());
-  EXPECT_EQ(rig.fake->nmt_state(), NmtState::operational);
+  for (std::uint8_t node : {kWristSensorNode, kJoystickSensorNode})
+    EXPECT_EQ(rig.nodes->nmt_state(node), NmtState::operational) << int{node};
   for (int j = 0; j < kDriveCount; ++j) {
-    EXPECT_EQ(rig.fake->mode_of_operation(drive_node(j)), 9) << joint_name(j);
-    EXPECT_EQ(rig.fake->drive_state(drive_node(j)), DriveState::operation_enabled) << joint_name(j);
+    EXPECT_EQ(rig.nodes->nmt_state(drive_node(j)), NmtState::operational) << joint_name(j);
+    EXPECT_EQ(rig.nodes->mode_of_operation(drive_node(j)), 9) << joint_name(j);
+    EXPECT_EQ(rig.nodes->drive_state(drive_node(j)), DriveState::operation_enabled) << joint_name(j);
   }
   const JointState s = rig.master->joint_state();
   EXPECT_TRUE(s.complete);
@@ -101,8 +104,8 @@ TEST(Pa10Master, StartupSetsCyclicSyncVelocityModeAndEnablesEveryDrive) {
 }
 
 TEST(Pa10Master, StartupTimeoutNamesEveryMissingNode) {
-  FakePa10::Options options;
-  options.silent_nodes = {3, kJoystickSensorNode};
+  EmulatedPa10::Options options;
+  options.disconnected = {3, kJoystickSensorNode};
   MasterConfig config = test_config();
   config.boot_timeout_ns = 1'000'000'000;  // long enough for the live nodes on a loaded machine
   Rig rig(options, config);
@@ -119,8 +122,8 @@ TEST(Pa10Master, StartupTimeoutNamesEveryMissingNode) {
 }
 
 TEST(Pa10Master, StartupReportsAnSdoAbortWithNodeObjectAndCode) {
-  FakePa10::Options options;
-  options.refuse_mode_of_operation = true;
+  EmulatedPa10::Options options;
+  options.rig.drive.offers_csv_mode = false;  // a firmware without cyclic synchronous velocity
   Rig rig(options);
   try {
     rig.master->start();
@@ -134,11 +137,11 @@ TEST(Pa10Master, StartupReportsAnSdoAbortWithNodeObjectAndCode) {
 
 TEST(Pa10Master, LockStepSendsTargetsAndReadsPositionsOfTheSameSync) {
   Rig rig;
-  rig.fake->set_wrench(ForceSensor::wrist, {1.5, -2.25, 10.0, 0.125, -0.25, 0.5});
-  rig.fake->set_wrench(ForceSensor::joystick, {-3.0, 0.0, 4.0, 0.0, 0.0, -0.001});
+  rig.nodes->set_wrench(ForceSensor::wrist, {1.5, -2.25, 10.0, 0.125, -0.25, 0.5});
+  rig.nodes->set_wrench(ForceSensor::joystick, {-3.0, 0.0, 4.0, 0.0, 0.0, -0.001});
   rig.master->start();
   std::array<double, kDriveCount> start_rad{};
-  for (int j = 0; j < kDriveCount; ++j) start_rad[static_cast<std::size_t>(j)] = rig.fake->position_rad(drive_node(j));
+  for (int j = 0; j < kDriveCount; ++j) start_rad[static_cast<std::size_t>(j)] = rig.nodes->position_rad(drive_node(j));
 
   const std::array<double, kDriveCount> target = {0.1, -0.2, 0.3, -0.4, 0.5, -0.6, 0.7};
   rig.master->set_target_velocities(target);
@@ -147,12 +150,12 @@ TEST(Pa10Master, LockStepSendsTargetsAndReadsPositionsOfTheSameSync) {
 
   const JointState s = rig.master->joint_state();
   EXPECT_TRUE(s.complete);
-  EXPECT_EQ(s.sync_counter, rig.fake->last_sync_counter());
+  EXPECT_EQ(s.sync_counter, rig.nodes->last_sync_counter());
   for (int j = 0; j < kDriveCount; ++j) {
     const auto i = static_cast<std::size_t>(j);
-    EXPECT_EQ(rig.fake->latched_controlword(drive_node(j)), controlword::kEnableOperation);
-    EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(j)), target[i]);
-    // Every SYNC the fake integrates 2 ms of the latched target; positions are in 1 µrad.
+    EXPECT_EQ(rig.nodes->latched_controlword(drive_node(j)), controlword::kEnableOperation);
+    EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(j)), target[i]);
+    // Every SYNC the plant integrates 2 ms of the latched target; positions are in 1 µrad.
     EXPECT_NEAR(s.position_rad[i] - start_rad[i], target[i] * 0.002 * kSteps, 2e-6) << joint_name(j);
     EXPECT_NEAR(s.velocity_rad_s[i], target[i], 1e-3);
   }
@@ -208,9 +211,9 @@ TEST(Pa10Master, DriveFaultLatchesFaultWithReasonAndCommandsZero) {
   rig.master->start();
   rig.master->set_target_velocities({0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5});
   for (int i = 0; i < 5; ++i) rig.master->step();
-  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.5);
+  EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), 0.5);
 
-  rig.fake->inject_fault(drive_node(3));
+  rig.nodes->inject_fault(drive_node(3));
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
   const MasterFault f = rig.master->fault();
   EXPECT_EQ(f.node, 4);
@@ -221,11 +224,11 @@ TEST(Pa10Master, DriveFaultLatchesFaultWithReasonAndCommandsZero) {
   rig.master->set_target_velocities({1, 1, 1, 1, 1, 1, 1});  // ignored in fault
   for (int i = 0; i < 3; ++i) rig.master->step();
   for (int j = 0; j < kDriveCount; ++j) {
-    EXPECT_EQ(rig.fake->latched_velocity_rad_s(drive_node(j)), 0.0) << joint_name(j);
+    EXPECT_EQ(rig.nodes->latched_velocity_rad_s(drive_node(j)), 0.0) << joint_name(j);
   }
   // Healthy drives are held enabled at zero, the faulted one stays in fault.
-  EXPECT_EQ(rig.fake->drive_state(drive_node(0)), DriveState::operation_enabled);
-  EXPECT_EQ(rig.fake->drive_state(drive_node(3)), DriveState::fault);
+  EXPECT_EQ(rig.nodes->drive_state(drive_node(0)), DriveState::operation_enabled);
+  EXPECT_EQ(rig.nodes->drive_state(drive_node(3)), DriveState::fault);
 }
 
 TEST(Pa10Master, FaultResetReenablesTheDriveAndKeepsTargetsZeroUntilSetAgain) {
@@ -233,20 +236,20 @@ TEST(Pa10Master, FaultResetReenablesTheDriveAndKeepsTargetsZeroUntilSetAgain) {
   rig.master->start();
   rig.master->set_target_velocities({0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5});
   rig.master->step();
-  rig.fake->inject_fault(drive_node(6));
+  rig.nodes->inject_fault(drive_node(6));
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
 
   rig.master->fault_reset();
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->enabled(); }));
   EXPECT_FALSE(rig.master->fault().active());
-  EXPECT_EQ(rig.fake->drive_state(drive_node(6)), DriveState::operation_enabled);
+  EXPECT_EQ(rig.nodes->drive_state(drive_node(6)), DriveState::operation_enabled);
   rig.master->step();
-  EXPECT_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.0);  // old target forgotten
+  EXPECT_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), 0.0);  // old target forgotten
 
   rig.master->set_target_velocities({0.25, 0, 0, 0, 0, 0, 0});
   rig.master->step();
   rig.master->step();
-  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.25);
+  EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), 0.25);
 }
 
 TEST(Pa10Master, AFaultResetThatDoesNotTakeRaisesTheFaultAgain) {
@@ -254,7 +257,8 @@ TEST(Pa10Master, AFaultResetThatDoesNotTakeRaisesTheFaultAgain) {
   config.enable_timeout_ns = 300'000'000;
   Rig rig({}, config);
   rig.master->start();
-  rig.fake->hold_in_fault(drive_node(2));
+  rig.nodes->set_fault_persistent(drive_node(2));  // broken hardware: no reset takes
+  rig.nodes->inject_fault(drive_node(2));
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
   rig.master->fault_reset();
   rig.master->step();  // the master takes the reset up
@@ -267,7 +271,7 @@ TEST(Pa10Master, AFaultResetThatDoesNotTakeRaisesTheFaultAgain) {
   EXPECT_EQ(f.kind, FaultKind::drive_fault);
   EXPECT_THAT(f.reason, HasSubstr("fault reset failed: drive 3 (S3) still fault"));
   EXPECT_FALSE(rig.master->enabled());
-  EXPECT_EQ(rig.fake->drive_state(drive_node(0)), DriveState::operation_enabled);
+  EXPECT_EQ(rig.nodes->drive_state(drive_node(0)), DriveState::operation_enabled);
 }
 
 TEST(Pa10Master, HeartbeatLossOfASensorIsAFaultNamingIt) {
@@ -276,7 +280,7 @@ TEST(Pa10Master, HeartbeatLossOfASensorIsAFaultNamingIt) {
   config.step_timeout_ns = 20'000'000;  // the silenced sensor's TPDOs stop too
   Rig rig({}, config);
   rig.master->start();
-  rig.fake->silence(kWristSensorNode);
+  rig.nodes->set_connected(kWristSensorNode, false);
   // Silence is measured on the wall clock: step until the master notices.
   const auto deadline = std::chrono::steady_clock::now() + 20s;
   while (!rig.master->fault().active() && std::chrono::steady_clock::now() < deadline) {
@@ -296,7 +300,7 @@ TEST(Pa10Master, MissingTpdosRaiseMissingFeedbackAfterTheLimit) {
   config.missed_feedback_limit = 3;
   Rig rig({}, config);
   rig.master->start();
-  rig.fake->silence(drive_node(1));
+  rig.nodes->set_connected(drive_node(1), false);
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }, 50));
   EXPECT_EQ(rig.master->fault().kind, FaultKind::missing_feedback);
   EXPECT_THAT(rig.master->fault().reason, HasSubstr("drive 2 (S2)"));
@@ -309,7 +313,7 @@ TEST(Pa10Master, ATpdoMissingForOneSyncKeepsTheDrivesEnabledAndTheTargetFlowing)
   Rig rig({}, config);
   rig.master->start();
   ASSERT_TRUE(rig.master->step());
-  rig.fake->drop_next_tpdo(drive_node(3));
+  rig.nodes->lose_next_tpdo(drive_node(3));
   rig.master->set_target_velocities({0, 0, 0, 0.2, 0, 0, 0});
   EXPECT_FALSE(rig.master->step()) << "the step saw the TPDO missing";
   EXPECT_FALSE(rig.master->joint_state().complete);
@@ -317,7 +321,7 @@ TEST(Pa10Master, ATpdoMissingForOneSyncKeepsTheDrivesEnabledAndTheTargetFlowing)
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
   ASSERT_TRUE(rig.master->step());
   EXPECT_TRUE(rig.master->enabled());
-  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(3)), 0.2);
+  EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(3)), 0.2);
 }
 
 TEST(Pa10Master, UnknownMalformedLateAndForeignFramesAreCountedAndIgnored) {
@@ -368,18 +372,18 @@ TEST(Pa10Master, QuickStopBrakesEveryDriveWithoutAFaultAndATargetResumesOperatio
   rig.master->start();
   rig.master->set_target_velocities({0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5});
   for (int i = 0; i < 3; ++i) rig.master->step();
-  ASSERT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.5);
+  ASSERT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), 0.5);
 
   rig.master->quick_stop();
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->quick_stopped(); }, 20));
   for (int j = 0; j < kDriveCount; ++j) {
-    EXPECT_EQ(rig.fake->drive_state(drive_node(j)), DriveState::quick_stop_active) << joint_name(j);
-    EXPECT_EQ(rig.fake->latched_controlword(drive_node(j)), controlword::kQuickStop) << joint_name(j);
-    EXPECT_EQ(rig.fake->latched_velocity_rad_s(drive_node(j)), 0.0) << joint_name(j);
+    EXPECT_EQ(rig.nodes->drive_state(drive_node(j)), DriveState::quick_stop_active) << joint_name(j);
+    EXPECT_EQ(rig.nodes->latched_controlword(drive_node(j)), controlword::kQuickStop) << joint_name(j);
+    EXPECT_EQ(rig.nodes->latched_velocity_rad_s(drive_node(j)), 0.0) << joint_name(j);
   }
-  const double braked_at_rad = rig.fake->position_rad(drive_node(0));
+  const double braked_at_rad = rig.nodes->position_rad(drive_node(0));
   for (int i = 0; i < 10; ++i) rig.master->step();
-  EXPECT_EQ(rig.fake->position_rad(drive_node(0)), braked_at_rad) << "held on the brake";
+  EXPECT_EQ(rig.nodes->position_rad(drive_node(0)), braked_at_rad) << "held on the brake";
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
   EXPECT_TRUE(rig.master->enabled()) << "ready to move on the next target";
   EXPECT_TRUE(rig.master->quick_stopped());
@@ -387,9 +391,9 @@ TEST(Pa10Master, QuickStopBrakesEveryDriveWithoutAFaultAndATargetResumesOperatio
   rig.master->set_target_velocities({0.25, 0, 0, 0, 0, 0, 0});
   rig.master->step();
   EXPECT_FALSE(rig.master->quick_stopped());
-  EXPECT_EQ(rig.fake->latched_controlword(drive_node(0)), controlword::kEnableOperation);
-  EXPECT_EQ(rig.fake->drive_state(drive_node(0)), DriveState::operation_enabled);
-  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.25) << "moves in the same cycle";
+  EXPECT_EQ(rig.nodes->latched_controlword(drive_node(0)), controlword::kEnableOperation);
+  EXPECT_EQ(rig.nodes->drive_state(drive_node(0)), DriveState::operation_enabled);
+  EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), 0.25) << "moves in the same cycle";
   for (int i = 0; i < 10; ++i) rig.master->step();
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
   EXPECT_TRUE(rig.master->enabled());
@@ -398,16 +402,16 @@ TEST(Pa10Master, QuickStopBrakesEveryDriveWithoutAFaultAndATargetResumesOperatio
 TEST(Pa10Master, QuickStopDuringAFaultIsIgnoredAndFaultResetEndsIt) {
   Rig rig;
   rig.master->start();
-  rig.fake->inject_fault(drive_node(1));
+  rig.nodes->inject_fault(drive_node(1));
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
   rig.master->quick_stop();
   for (int i = 0; i < 3; ++i) rig.master->step();
   EXPECT_FALSE(rig.master->quick_stopped());
-  EXPECT_EQ(rig.fake->drive_state(drive_node(0)), DriveState::operation_enabled) << "held enabled at zero";
+  EXPECT_EQ(rig.nodes->drive_state(drive_node(0)), DriveState::operation_enabled) << "held enabled at zero";
   rig.master->fault_reset();
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->enabled(); }));
   EXPECT_FALSE(rig.master->quick_stopped());
-  EXPECT_EQ(rig.fake->drive_state(drive_node(1)), DriveState::operation_enabled);
+  EXPECT_EQ(rig.nodes->drive_state(drive_node(1)), DriveState::operation_enabled);
 }
 
 TEST(Pa10Master, EmcyErrorResetAndOtherNodesEmcyAreNoFault) {
@@ -450,7 +454,7 @@ TEST(Pa10Master, PeriodicThreadCyclesAndFollowsTargets) {
   Rig rig;
   rig.master->start();
   rig.master->set_target_velocities({0.2, 0, 0, 0, 0, 0, -0.2});
-  const double start_rad = rig.fake->position_rad(drive_node(0));
+  const double start_rad = rig.nodes->position_rad(drive_node(0));
   rig.master->run_periodic();
   EXPECT_TRUE(rig.master->running());
   const auto deadline = std::chrono::steady_clock::now() + 20s;
@@ -460,8 +464,8 @@ TEST(Pa10Master, PeriodicThreadCyclesAndFollowsTargets) {
   rig.master->stop();
   EXPECT_FALSE(rig.master->running());
   EXPECT_GE(rig.master->counters().cycles, 100u);
-  EXPECT_GT(rig.fake->position_rad(drive_node(0)), start_rad);
-  EXPECT_LT(rig.fake->position_rad(drive_node(6)), 0.0);
+  EXPECT_GT(rig.nodes->position_rad(drive_node(0)), start_rad);
+  EXPECT_LT(rig.nodes->position_rad(drive_node(6)), 0.0);
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
 }
 
@@ -498,7 +502,7 @@ TEST(Pa10Master, LastSentIsPublishedByTheCycleThatWroteTheTargetNeverBefore) {
   EXPECT_GE(sent.sent_realtime_ns, before_ns);
   EXPECT_LE(sent.sent_realtime_ns, after_ns);
   // The drives did receive that target in this cycle's RPDOs.
-  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), first[0]);
+  EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), first[0]);
 
   const std::uint64_t second_seq = rig.master->set_target_velocities({0.3, 0, 0, 0, 0, 0, 0});
   EXPECT_EQ(second_seq, first_seq + 1);
@@ -549,16 +553,16 @@ TEST(Pa10Master, PeriodicGridDeadlinesAreWholePeriodsApartAndZeroWhenStopped) {
 }
 
 // Runs the cycle as a shared tick would: receive, (work), transmit, then waits for every
-// answer to that SYNC so the next receive finds them (the fake answers on its own thread).
-bool external_cycle(Pa10Master& m, FakePa10& fake, const std::function<void()>& work = [] {}) {
+// answer to that SYNC so the next receive finds them (the nodes answer on their own thread).
+bool external_cycle(Pa10Master& m, EmulatedPa10& nodes, const std::function<void()>& work = [] {}) {
   m.receive_cycle();
   work();
-  const std::uint64_t syncs = fake.syncs_seen();
+  const std::uint64_t syncs = nodes.syncs_seen();
   m.transmit_cycle();
   const auto deadline = std::chrono::steady_clock::now() + 5s;
-  while (fake.syncs_seen() <= syncs && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(100us);
+  while (nodes.syncs_seen() <= syncs && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(100us);
   std::this_thread::sleep_for(1ms);  // the TPDOs follow the SYNC
-  return fake.syncs_seen() > syncs;
+  return nodes.syncs_seen() > syncs;
 }
 
 TEST(Pa10MasterTakeOver, ATargetSetBetweenReceiveAndTransmitLeavesWithThatCyclesSync) {
@@ -566,21 +570,21 @@ TEST(Pa10MasterTakeOver, ATargetSetBetweenReceiveAndTransmitLeavesWithThatCycles
   rig.master->start();
   EXPECT_EQ(rig.master->take_over_cycles(), 0) << "no periodic thread: nothing to wait for";
   EXPECT_TRUE(rig.master->cycles_taken_over());
-  ASSERT_TRUE(external_cycle(*rig.master, *rig.fake));
+  ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes));
   for (int k = 1; k <= 5; ++k) {
     const double v = 0.05 * k;
     std::uint64_t seq = 0;
     std::uint8_t answered = 0;
-    ASSERT_TRUE(external_cycle(*rig.master, *rig.fake, [&] {
+    ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes, [&] {
       answered = rig.master->joint_state().sync_counter;
       seq = rig.master->set_target_velocities({v, 0, 0, 0, 0, 0, -v});
     }));
     // receive_cycle() published the answers to the SYNC the previous transmit sent...
-    EXPECT_EQ(next_sync_counter(answered), rig.fake->last_sync_counter()) << "cycle " << k;
+    EXPECT_EQ(next_sync_counter(answered), rig.nodes->last_sync_counter()) << "cycle " << k;
     // ...and transmit_cycle() sent the target set after it, in this cycle's RPDOs.
     EXPECT_EQ(rig.master->last_sent().sequence, seq) << "cycle " << k;
-    EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), v) << "cycle " << k;
-    EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(6)), -v) << "cycle " << k;
+    EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), v) << "cycle " << k;
+    EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(6)), -v) << "cycle " << k;
   }
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
 }
@@ -629,13 +633,13 @@ TEST(Pa10MasterTakeOver, ThePeriodicThreadIdlesWhileTakenOverAndResumesOnTheDead
   EXPECT_EQ(rig.master->next_cycle_deadline_ns(), 0);
 
   // The thread sends nothing now: only the caller's cycles reach the drives. (Its last SYNC,
-  // sent just before it idled, may still be on its way to the fake.)
+  // sent just before it idled, may still be on its way to the nodes.)
   std::this_thread::sleep_for(5ms);
-  const std::uint64_t syncs = rig.fake->syncs_seen();
+  const std::uint64_t syncs = rig.nodes->syncs_seen();
   std::this_thread::sleep_for(20ms);
-  EXPECT_EQ(rig.fake->syncs_seen(), syncs) << "the idle thread sent SYNCs";
-  for (int i = 0; i < 3; ++i) ASSERT_TRUE(external_cycle(*rig.master, *rig.fake));
-  EXPECT_EQ(rig.fake->syncs_seen(), syncs + 3);
+  EXPECT_EQ(rig.nodes->syncs_seen(), syncs) << "the idle thread sent SYNCs";
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes));
+  EXPECT_EQ(rig.nodes->syncs_seen(), syncs + 3);
 
   // Handed back 50 ms ahead: the thread's next cycle is due exactly then, and it cycles again.
   timespec now{};
@@ -646,9 +650,9 @@ TEST(Pa10MasterTakeOver, ThePeriodicThreadIdlesWhileTakenOverAndResumesOnTheDead
   EXPECT_EQ(rig.master->next_cycle_deadline_ns(), back_ns);
   wait_cycles(*rig.master, 5);
   const auto deadline = std::chrono::steady_clock::now() + 5s;  // the last SYNC may be in transit
-  while (rig.fake->syncs_seen() < syncs + 3 + 5 && std::chrono::steady_clock::now() < deadline)
+  while (rig.nodes->syncs_seen() < syncs + 3 + 5 && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(1ms);
-  EXPECT_GE(rig.fake->syncs_seen(), syncs + 3 + 5);
+  EXPECT_GE(rig.nodes->syncs_seen(), syncs + 3 + 5);
   EXPECT_EQ((rig.master->next_cycle_deadline_ns() - back_ns) % period_ns, 0) << "on the grid handed back";
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
   rig.master->stop();
@@ -663,7 +667,7 @@ TEST(Pa10MasterTakeOver, StopWhileTakenOverEndsTheIdleThreadAndTheCallerKeepsThe
   rig.master->stop();  // must not hang on the idle thread
   EXPECT_FALSE(rig.master->running());
   EXPECT_TRUE(rig.master->cycles_taken_over());
-  EXPECT_TRUE(external_cycle(*rig.master, *rig.fake));
+  EXPECT_TRUE(external_cycle(*rig.master, *rig.nodes));
   rig.master->hand_back_cycles(0);  // nobody to hand back to: the cycles are simply released
   EXPECT_FALSE(rig.master->cycles_taken_over());
   EXPECT_TRUE(rig.master->step());
@@ -676,9 +680,9 @@ TEST(Pa10MasterTakeOver, ASilentOwnerLosesTheCyclesToTheMastersThreadWithAFaultA
   wait_cycles(*rig.master, 2);
   rig.master->take_over_cycles();
   for (int i = 0; i < 3; ++i) {
-    ASSERT_TRUE(external_cycle(*rig.master, *rig.fake, [&] { rig.master->set_target_velocities({0.3, 0, 0, 0, 0, 0, 0}); }));
+    ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes, [&] { rig.master->set_target_velocities({0.3, 0, 0, 0, 0, 0, 0}); }));
   }
-  ASSERT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.3);
+  ASSERT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), 0.3);
   // The owner stops: no more receive/transmit. The idle thread must notice and take over.
   const auto deadline = std::chrono::steady_clock::now() + 20s;
   while (!rig.master->fault().active() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
@@ -687,7 +691,7 @@ TEST(Pa10MasterTakeOver, ASilentOwnerLosesTheCyclesToTheMastersThreadWithAFaultA
   EXPECT_THAT(f.reason, HasSubstr("took them back"));
   EXPECT_FALSE(rig.master->cycles_taken_over());
   wait_cycles(*rig.master, 3);
-  EXPECT_DOUBLE_EQ(rig.fake->latched_velocity_rad_s(drive_node(0)), 0.0) << "the master's thread sends zero";
+  EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), 0.0) << "the master's thread sends zero";
   EXPECT_FALSE(rig.master->receive_cycle()) << "the cycles are no longer the caller's";
   EXPECT_FALSE(rig.master->transmit_cycle());
   rig.master->hand_back_cycles(0);  // nothing to hand back
@@ -715,10 +719,10 @@ TEST(Pa10MasterTakeOver, RepeatedTakeOverAndHandBackNeverLeavesTwoThreadsCycling
   rig.master->run_periodic();
   for (int round = 0; round < 20; ++round) {
     rig.master->take_over_cycles();
-    std::this_thread::sleep_for(5ms);  // the thread's last SYNC reaches the fake
-    const std::uint64_t syncs = rig.fake->syncs_seen();
-    ASSERT_TRUE(external_cycle(*rig.master, *rig.fake)) << "round " << round;
-    EXPECT_EQ(rig.fake->syncs_seen(), syncs + 1) << "round " << round << ": the idle thread sent a SYNC";
+    std::this_thread::sleep_for(5ms);  // the thread's last SYNC reaches the nodes
+    const std::uint64_t syncs = rig.nodes->syncs_seen();
+    ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes)) << "round " << round;
+    EXPECT_EQ(rig.nodes->syncs_seen(), syncs + 1) << "round " << round << ": the idle thread sent a SYNC";
     rig.master->hand_back_cycles(0);
   }
   wait_cycles(*rig.master, 3);
@@ -747,16 +751,21 @@ TEST(Pa10Master, DestructionLeavesDrivesSwitchedOffAndPreOperational) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));
   auto master = std::make_unique<Pa10Master>(open_bus("local:" + dir.file("bus")), nullptr, test_config());
-  FakePa10 fake(open_bus("local:" + dir.file("bus")), {});
+  EmulatedPa10 nodes("local:" + dir.file("bus"));
   master->start();
   master->step();
   master.reset();
+  const auto all_pre_operational = [&] {
+    for (int j = 0; j < kDriveCount; ++j)
+      if (nodes.nmt_state(drive_node(j)) != NmtState::pre_operational) return false;
+    return nodes.nmt_state(kWristSensorNode) == NmtState::pre_operational &&
+           nodes.nmt_state(kJoystickSensorNode) == NmtState::pre_operational;
+  };
   const auto deadline = std::chrono::steady_clock::now() + 5s;
-  while (fake.nmt_state() != NmtState::pre_operational && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(1ms);
-  }
-  EXPECT_EQ(fake.nmt_state(), NmtState::pre_operational);
-  EXPECT_EQ(fake.drive_state(drive_node(0)), DriveState::ready_to_switch_on);
+  while (!all_pre_operational() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
+  EXPECT_TRUE(all_pre_operational());
+  for (int j = 0; j < kDriveCount; ++j)
+    EXPECT_EQ(nodes.drive_state(drive_node(j)), DriveState::ready_to_switch_on) << joint_name(j);
 }
 
 TEST(Pa10Master, SensorsOnASeparateBusGetTheirOwnSyncAndNmt) {
@@ -764,24 +773,23 @@ TEST(Pa10Master, SensorsOnASeparateBusGetTheirOwnSyncAndNmt) {
   LocalHub drive_hub(dir.file("drives"));
   LocalHub sensor_hub(dir.file("sensors"));
   Pa10Master master("local:" + dir.file("drives"), "local:" + dir.file("sensors"), test_config());
-  FakePa10::Options drives_only;
-  drives_only.sensors = false;
-  FakePa10::Options sensors_only;
-  sensors_only.drives = false;
-  FakePa10 drives(open_bus("local:" + dir.file("drives")), drives_only);
-  FakePa10 sensors(open_bus("local:" + dir.file("sensors")), sensors_only);
-  sensors.set_wrench(ForceSensor::joystick, {5.0, 0, 0, 0, 0, 0});
+  EmulatedPa10::Options options;
+  options.sensor_bus = "local:" + dir.file("sensors");
+  EmulatedPa10 nodes("local:" + dir.file("drives"), options);
+  nodes.set_wrench(ForceSensor::joystick, {5.0, 0, 0, 0, 0, 0});
   master.start();
   ASSERT_TRUE(master.step());
   EXPECT_EQ(master.sensor_bus_name(), "local:" + dir.file("sensors"));
-  EXPECT_EQ(sensors.nmt_state(), NmtState::operational);
-  EXPECT_EQ(sensors.last_sync_counter(), master.joint_state().sync_counter);
+  EXPECT_EQ(nodes.nmt_state(kJoystickSensorNode), NmtState::operational);
+  EXPECT_EQ(nodes.nmt_state(kWristSensorNode), NmtState::operational);
+  EXPECT_EQ(nodes.last_sensor_sync_counter(ForceSensor::joystick), master.joint_state().sync_counter);
+  EXPECT_EQ(nodes.last_sync_counter(), master.joint_state().sync_counter) << "the same SYNC on both buses";
   EXPECT_NEAR(master.wrench(ForceSensor::joystick).values[0], 5.0, 1e-9);
 }
 
 TEST(CanSensorListener, ReadsTheWrenchAndItsSyncCounterPassively) {
   Rig rig;
-  rig.fake->set_wrench(ForceSensor::joystick, {7.0, -1.0, 0.5, 0.01, 0.02, -0.03});
+  rig.nodes->set_wrench(ForceSensor::joystick, {7.0, -1.0, 0.5, 0.01, 0.02, -0.03});
   SensorListener listener(rig.spec, ForceSensor::joystick);
   listener.start();
   rig.master->start();

@@ -14,7 +14,7 @@
 #include "arm/can/bus.h"
 #include "arm/can/master.h"
 #include "arm/can/sensor_listener.h"
-#include "fake_pa10.h"
+#include "emulated_pa10.h"
 
 namespace rtm::can {
 namespace {
@@ -94,14 +94,14 @@ TEST_F(SocketCan, MissingInterfaceIsNamedInTheError) {
               ::testing::ThrowsMessage<BusError>(HasSubstr("longer than")));
 }
 
-TEST_F(SocketCan, MasterStartsTheFakePa10AndExchangesPdos) {
+TEST_F(SocketCan, MasterStartsTheEmulatedPa10AndExchangesPdos) {
   MasterConfig config;
   config.heartbeat_timeout_ns = 5'000'000'000;  // the guest's time is not real time
   config.step_timeout_ns = 2'000'000'000;
   config.enable_timeout_ns = 10'000'000'000;
   Pa10Master master("socketcan:vcan0", "", config);
-  testing::FakePa10 fake(open_bus("socketcan:vcan0"), {});
-  fake.set_wrench(ForceSensor::wrist, {0, 0, -9.81, 0, 0, 0});
+  testing::EmulatedPa10 nodes("socketcan:vcan0");
+  nodes.set_wrench(ForceSensor::wrist, {0, 0, -9.81, 0, 0, 0});
   SensorListener listener("socketcan:vcan0", ForceSensor::wrist);
   listener.start();
   master.start();

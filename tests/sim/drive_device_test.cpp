@@ -273,4 +273,128 @@ TEST_F(DriveDeviceTest, ResetNodeBootsAgain) {
   EXPECT_EQ(drive_.mode_of_operation(), 0);
 }
 
+// ---- fault injection ----------------------------------------------------------------------
+
+TEST_F(DriveDeviceTest, InjectedFaultBrakesSendsItsEmcyAndIsClearedByAFaultReset) {
+  enable();
+  rpdo(pc::controlword::kEnableOperation, 0.3);
+  sync();
+  out_.clear();
+  drive_.inject_fault(pc::emcy::kDeviceHardware, out_);
+  EXPECT_TRUE(drive_.in_fault());
+  EXPECT_EQ(drive_.command().mode, JointCommand::Mode::hold);
+  EXPECT_EQ(drive_.target_velocity_rad_s(), 0.0);
+  ASSERT_EQ(emcys().size(), 1u);
+  EXPECT_EQ(emcys()[0].error_code, pc::emcy::kDeviceHardware);
+  EXPECT_EQ(emcys()[0].error_register, 0x01);
+  rpdo(pc::controlword::kFaultResetBit, 0);
+  sync();
+  EXPECT_FALSE(drive_.in_fault());
+  EXPECT_EQ(emcys().back().error_code, pc::emcy::kErrorReset);
+}
+
+TEST_F(DriveDeviceTest, APersistentFaultSurvivesEveryFaultReset) {
+  enable();
+  drive_.set_fault_persistent(true);
+  drive_.inject_fault(pc::emcy::kDeviceHardware, out_);
+  out_.clear();
+  for (int i = 0; i < 3; ++i) {
+    rpdo(pc::controlword::kDisableVoltage, 0);
+    sync();
+    rpdo(pc::controlword::kFaultResetBit, 0);
+    sync();
+    EXPECT_TRUE(drive_.in_fault()) << "reset " << i;
+  }
+  EXPECT_TRUE(emcys().empty()) << "no error reset EMCY for a reset that did not take";
+  drive_.set_fault_persistent(false);
+  rpdo(pc::controlword::kDisableVoltage, 0);
+  sync();
+  rpdo(pc::controlword::kFaultResetBit, 0);
+  sync();
+  EXPECT_FALSE(drive_.in_fault()) << "repaired";
+}
+
+TEST_F(DriveDeviceTest, ADisconnectedDriveNeitherHearsNorSendsButItsGuardStillBrakesIt) {
+  enable();
+  rpdo(pc::controlword::kEnableOperation, 0.3);
+  sync();
+  out_.clear();
+  drive_.set_connected(false);
+  for (int i = 0; i < 3; ++i) {
+    rpdo(pc::controlword::kEnableOperation, 0.3);
+    sync();
+    drive_.send_tpdo(JointState{}, out_);
+  }
+  drive_.send_heartbeat(out_);
+  drive_.tick(now_ns_ + 200 * kMs, out_);
+  EXPECT_TRUE(out_.frames.empty()) << "nothing reaches the bus";
+  EXPECT_TRUE(drive_.in_fault()) << "no RPDO reached it: the command-loss guard braked it";
+  EXPECT_EQ(drive_.command().mode, JointCommand::Mode::hold);
+  drive_.set_connected(true);
+  drive_.send_heartbeat(out_);
+  EXPECT_EQ(out_.frames.size(), 1u);
+}
+
+TEST_F(DriveDeviceTest, ADisconnectedDriveDoesNotBoot) {
+  DriveDevice drive(DriveConfig{kNode, 100 * kMs, 3});
+  drive.set_connected(false);
+  RecordingSink out;
+  drive.power_on(0, out);
+  drive.tick(500 * kMs, out);
+  EXPECT_TRUE(out.frames.empty());
+}
+
+TEST_F(DriveDeviceTest, LostTpdosAreMissingFromTheBusAndTheNextOnesFlow) {
+  enable();
+  drive_.lose_next_tpdos(1);
+  out_.clear();
+  sync();
+  drive_.send_tpdo(JointState{}, out_);
+  EXPECT_TRUE(out_.with_id(pc::cob::kTpdo1Base + kNode).empty());
+  rpdo(pc::controlword::kEnableOperation, 0);
+  sync();
+  drive_.send_tpdo(JointState{}, out_);
+  EXPECT_EQ(out_.with_id(pc::cob::kTpdo1Base + kNode).size(), 1u);
+}
+
+TEST_F(DriveDeviceTest, RpdosLostForThreeSyncsTripTheCommandLossGuard) {
+  enable();
+  drive_.lose_next_rpdos(3);
+  out_.clear();
+  for (int i = 0; i < 3; ++i) {
+    rpdo(pc::controlword::kEnableOperation, 0.1);
+    sync();
+  }
+  EXPECT_TRUE(drive_.in_fault());
+  ASSERT_EQ(emcys().size(), 1u);
+  EXPECT_EQ(emcys()[0].error_code, pc::emcy::kRpdoTimeout);
+}
+
+TEST_F(DriveDeviceTest, AFirmwareWithoutCsvModeAbortsTheModeWrite) {
+  DriveConfig config{kNode, 100 * kMs, 3};
+  config.offers_csv_mode = false;
+  DriveDevice drive(config);
+  RecordingSink out;
+  drive.power_on(0, out);
+  out.clear();
+  drive.on_frame(*pc::encode_sdo_request({kNode, pc::SdoRequestKind::download, pc::object::kModesOfOperation, 0, 9, 1}),
+                 0, out);
+  ASSERT_EQ(out.frames.size(), 1u);
+  const auto response = pc::decode_sdo_response(out.frames[0]);
+  ASSERT_TRUE(response.ok());
+  EXPECT_EQ(response->kind, pc::SdoResponseKind::abort);
+  EXPECT_EQ(response->data, pc::sdo::kAbortValueRange);
+  EXPECT_EQ(drive.mode_of_operation(), 0);
+}
+
+TEST_F(DriveDeviceTest, TheLatchedControlwordAndSyncCounterAreObservable) {
+  enable();
+  EXPECT_EQ(drive_.controlword(), pc::controlword::kEnableOperation);
+  EXPECT_EQ(drive_.last_sync_counter(), sync_counter_);
+  rpdo(pc::controlword::kQuickStop, 0);
+  EXPECT_EQ(drive_.controlword(), pc::controlword::kEnableOperation) << "latched at SYNC only";
+  sync();
+  EXPECT_EQ(drive_.controlword(), pc::controlword::kQuickStop);
+}
+
 }  // namespace

@@ -129,4 +129,21 @@ TEST_F(ForceSensorDeviceTest, BootsUpAndBeatsEvery100ms) {
   EXPECT_EQ(pc::decode_heartbeat(out_.frames[1])->state, pc::NmtState::pre_operational);
 }
 
+TEST_F(ForceSensorDeviceTest, ADisconnectedSensorNeitherHearsNorSends) {
+  start();
+  sensor_.set_connected(false);
+  out_.clear();
+  sync();
+  sensor_.send_tpdo(wrench(1, 2, 3, 0, 0, 0), out_);
+  sensor_.send_heartbeat(out_);
+  sensor_.tick(1'000'000'000, out_);
+  EXPECT_TRUE(out_.frames.empty());
+  EXPECT_EQ(sensor_.last_sync_counter(), 0) << "it never heard the SYNC";
+  sensor_.set_connected(true);
+  feed(pc::encode_sync(7));
+  sensor_.send_tpdo(wrench(1, 2, 3, 0, 0, 0), out_);
+  EXPECT_EQ(out_.frames.size(), 2u);
+  EXPECT_EQ(sensor_.last_sync_counter(), 7);
+}
+
 }  // namespace

@@ -1,0 +1,97 @@
+// Pa10Rig on the kinematic plant, frame by frame in lock-step (no MuJoCo, no transport): the
+// nine nodes boot, a SYNC advances the plant by exactly its period, a commanded velocity
+// integrates exactly, and the sensors report the plant's wrenches.
+#include "sim/pa10_rig.h"
+
+#include <gtest/gtest.h>
+
+#include "arm/can/protocol.h"
+#include "recording_sink.h"
+#include "sim/kinematic_plant.h"
+
+namespace pc = rtm::can;
+using rtm::sim::KinematicPlant;
+using rtm::sim::Pa10Rig;
+using rtm::sim::RigConfig;
+using rtm::sim::testing::RecordingSink;
+
+namespace {
+
+class KinematicRigTest : public ::testing::Test {
+ protected:
+  KinematicRigTest() : rig_(plant_, RigConfig{}) {
+    rig_.set_mode(Pa10Rig::Mode::lock_step);
+    rig_.power_on(out_);
+  }
+  void feed(const pc::Result<can_frame>& frame) {
+    ASSERT_TRUE(frame.ok());
+    rig_.on_frame(*frame, out_);
+  }
+  void cycle(std::uint16_t controlword, double velocity_rad_s = 0) {
+    for (int j = 0; j < 7; ++j) feed(pc::encode_drive_command({pc::drive_node(j), controlword, velocity_rad_s}));
+    counter_ = pc::next_sync_counter(counter_);
+    feed(pc::encode_sync(counter_));
+  }
+  void start_up() {
+    for (int j = 0; j < 7; ++j)
+      feed(pc::encode_sdo_request({pc::drive_node(j), pc::SdoRequestKind::download, pc::object::kModesOfOperation, 0, 9, 1}));
+    feed(pc::encode_nmt(pc::NmtCommand::start, 0));
+    for (std::uint16_t cw : {pc::controlword::kShutdown, pc::controlword::kSwitchOn, pc::controlword::kEnableOperation})
+      cycle(cw);
+  }
+
+  KinematicPlant plant_;
+  Pa10Rig rig_;
+  RecordingSink out_;
+  std::uint8_t counter_ = 0;
+};
+
+TEST_F(KinematicRigTest, PowerOnBootsAllNineNodes) {
+  int bootups = 0;
+  for (const auto& frame : out_.frames)
+    if (auto heartbeat = pc::decode_heartbeat(frame); heartbeat.ok() && heartbeat->state == pc::NmtState::boot_up)
+      ++bootups;
+  EXPECT_EQ(bootups, 9);
+  EXPECT_EQ(rig_.time_ns(), 0);
+}
+
+TEST_F(KinematicRigTest, EachSyncAdvancesTheSyncPeriodAndAVelocityIntegratesExactly) {
+  start_up();
+  const double start_rad = plant_.joint_state(2).position_rad;
+  const std::int64_t before_ns = rig_.time_ns();
+  for (int i = 0; i < 10; ++i) cycle(pc::controlword::kEnableOperation, 0.5);
+  EXPECT_EQ(rig_.time_ns() - before_ns, 20'000'000);
+  // The target latched at the first of these SYNCs acts from its own period on.
+  EXPECT_NEAR(plant_.joint_state(2).position_rad - start_rad, 0.5 * 0.020, 1e-12);
+  const auto tpdos = out_.with_id(pc::cob::kTpdo1Base + pc::drive_node(2));
+  ASSERT_FALSE(tpdos.empty());
+  const auto feedback = pc::decode_drive_feedback(tpdos.back());
+  ASSERT_TRUE(feedback.ok());
+  EXPECT_NEAR(feedback->position_rad - start_rad, 0.010, 2e-6);  // 1 µrad on the bus
+  EXPECT_NEAR(feedback->velocity_rad_s, 0.5, 1e-3);
+}
+
+TEST_F(KinematicRigTest, TheSensorsReportTheWristContactAndTheOperatorsWrench) {
+  start_up();
+  plant_.set_wrist_wrench({{1.5, 0, -2.0}, {0, 0.25, 0}});
+  rig_.set_operator_override({{0, 3.0, 0}, {0, 0, -0.5}});
+  out_.clear();
+  cycle(pc::controlword::kEnableOperation);
+  const auto wrist = pc::decode_sensor_force(out_.with_id(pc::cob::kTpdo1Base + pc::kWristSensorNode).at(0));
+  const auto wrist_torque = pc::decode_sensor_torque(out_.with_id(pc::cob::kTpdo2Base + pc::kWristSensorNode).at(0));
+  const auto joystick = pc::decode_sensor_force(out_.with_id(pc::cob::kTpdo1Base + pc::kJoystickSensorNode).at(0));
+  const auto joystick_torque =
+      pc::decode_sensor_torque(out_.with_id(pc::cob::kTpdo2Base + pc::kJoystickSensorNode).at(0));
+  EXPECT_NEAR(wrist->force_N[0], 1.5, 1e-9);
+  EXPECT_NEAR(wrist->force_N[2], -2.0, 1e-9);
+  EXPECT_NEAR(wrist_torque->torque_Nm[1], 0.25, 1e-9);
+  EXPECT_NEAR(joystick->force_N[1], 3.0, 1e-9);
+  EXPECT_NEAR(joystick_torque->torque_Nm[2], -0.5, 1e-9);
+}
+
+TEST(KinematicRig, ATimestepThatDoesNotDivideTheSyncPeriodIsRefused) {
+  KinematicPlant plant(0.0015);
+  EXPECT_THROW(Pa10Rig(plant, RigConfig{}), rtm::sim::RigError);
+}
+
+}  // namespace
