@@ -50,8 +50,11 @@ for mode in $modes; do
   echo "=== $mode"
   "$repo/examples/force-servo/demo" --bin "$bin_dir" --system "${system[$mode]}" \
     --out "$out/$mode" >"$out/$mode.log" 2>&1 || echo "servo_latency: the $mode run reported a problem (see $out/$mode.log)" >&2
-  # The actuator's statistics as the report lists them: "actuator0  cycles N, commands N, ...".
-  line=$(grep -h ' latency_p50 ' "$out/$mode/summary.txt" 2>/dev/null | head -n 1 || true)
+  # The actuator's statistics as the report lists them, one component per block:
+  # "  actuator0      clamped 0, commands N, ..." and continuation lines.
+  line=$(awk '/^Statistics the components publish/ { on = 1; next } on && /^$/ { exit }
+              on { if ($0 ~ /^  [^ ]/) name = $1; block[name] = block[name] " " $0 }
+              END { for (n in block) if (block[n] ~ / latency_p50 /) print block[n] }' "$out/$mode/summary.txt" 2>/dev/null || true)
   [[ -n "$line" ]] || { echo "servo_latency: no latency statistics in the $mode run's summary ($out/$mode)" >&2; exit 1; }
   stat() { sed -n "s/.*[ ,]$1 \([0-9.]*\).*/\1/p" <<<"$line"; }
   p50=$(stat latency_p50) p99=$(stat latency_p99) max=$(stat latency_max)

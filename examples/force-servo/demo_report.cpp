@@ -389,9 +389,13 @@ std::string format_report(const Report& report, const PhaseOptions& options) {
   out += "\nStatistics the components publish (rtm cat)\n";
   for (const auto& t : report.timing) {
     if (t.statistics.empty()) continue;
-    std::string line;
-    for (const auto& s : t.statistics) line += fmt::format("{}{} {}", line.empty() ? "" : ", ", s.name, statistic_text(s));
-    out += fmt::format("  {:<14} {}\n", t.name, line);
+    // Four to a line: "  actuator0      clamped 0, commands 14331, ..."
+    for (std::size_t i = 0; i < t.statistics.size(); i += 4) {
+      std::string line;
+      for (std::size_t k = i; k < std::min(i + 4, t.statistics.size()); ++k)
+        line += fmt::format("{}{} {}", k == i ? "" : ", ", t.statistics[k].name, statistic_text(t.statistics[k]));
+      out += fmt::format("  {:<14} {}\n", i == 0 ? t.name : "", line);
+    }
   }
   out += "\n" + format_figures(report.timing);
   return out;
