@@ -24,6 +24,7 @@ expect() {  # expect "<words>" "<expected completions>"
   fi
 }
 expect "rtm c" "cat connect"
+expect "rtm s" "set"
 expect "rtm d" "disconnect down"
 expect "rtm r" "reset"
 expect "rtm --js" "--json"

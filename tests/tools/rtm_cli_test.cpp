@@ -249,6 +249,8 @@ TEST_F(RtmCli, CatShowsWhatAComponentSaysOfItselfPortsWithUnitsStatisticsAndPara
   EXPECT_EQ(t["parameters"]["fail_after"]["access"], "when off");
   EXPECT_EQ(t["parameters"]["name"]["access"], "fixed");
   EXPECT_EQ(t["parameters"]["name"]["value"], "t");
+  EXPECT_EQ(rtm({"cat", "--names", "t"}).out, "in0\npos3\nforce\nout3\n");
+  EXPECT_EQ(rtm({"cat", "--parameters", "t"}).out, "offset\nfail_after\nname\n");
 }
 
 TEST_F(RtmCli, SetChangesALiveParameterThatTheNextCyclesUse) {

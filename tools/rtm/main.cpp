@@ -67,6 +67,7 @@ struct Cli {
            *down = nullptr;
   std::string ls_path;
   bool ls_long = false, ls_clean = false, ls_names = false;
+  bool cat_names = false, cat_parameters = false;
   std::string component;  // cat, set
   std::string parameter;
   std::vector<std::string> values;  // set, put
@@ -87,6 +88,8 @@ void add_browse_commands(CLI::App& app, Cli& c) {
   c.ls->add_flag("--names", c.ls_names, "only the names, one per line (for scripts and completion)");
   c.cat = app.add_subcommand("cat", "show one component as it describes itself: ports, units, statistics, parameters");
   c.cat->add_option("component", c.component, "name or host/name")->required();
+  c.cat->add_flag("--names", c.cat_names, "only the port names, one per line (for scripts and completion)");
+  c.cat->add_flag("--parameters", c.cat_parameters, "only the parameter names, one per line");
   c.set = app.add_subcommand("set", "change a component's parameter (live ones at once, others while it is off)");
   c.set->add_option("component", c.component, "name or host/name")->required();
   c.set->add_option("parameter", c.parameter, "the parameter's name (`rtm cat` lists them)")->required();
@@ -162,7 +165,12 @@ int run_ls(const Browser& browser, const Cli& c) {
 
 int run_cat(const Browser& browser, const Cli& c) {
   const auto info = browser.describe(c.component);
-  if (c.json) {
+  if (c.cat_names || c.cat_parameters) {
+    if (c.cat_names)
+      for (const auto& p : info.ports) fmt::print("{}\n", p.name);
+    if (c.cat_parameters)
+      for (const auto& p : info.parameters) fmt::print("{}\n", p.name);
+  } else if (c.json) {
     fmt::print("{}\n", component_json(info, true).dump(2));
   } else {
     print_cat(info);

@@ -7,13 +7,13 @@ _rtm_components() {
 _rtm_ports() {
   # <component>.<port> for every port of the component typed so far
   local comp=${1%.*}
-  rtm --json cat "$comp" 2>/dev/null | sed -n 's/^ *"name": "\(.*\)",$/\1/p' | sed "1d;s/^/$comp./"
+  rtm cat --names "$comp" 2>/dev/null | sed "s/^/$comp./"
 }
 
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat connect disconnect on off reset get put watch up down"
+  local commands="ls cat set connect disconnect on off reset get put watch up down"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
@@ -33,6 +33,13 @@ _rtm() {
   case $cmd in
     ls) COMPREPLY=($(compgen -W "-l --long --clean --names" -- "$cur")) ;;
     cat|on|off|reset) COMPREPLY=($(compgen -W "$(_rtm_components)" -- "$cur")) ;;
+    set)
+      if [[ $prev == set ]]; then
+        COMPREPLY=($(compgen -W "$(_rtm_components)" -- "$cur"))
+      elif [[ ${words[cword-2]} == set ]]; then
+        COMPREPLY=($(compgen -W "$(rtm cat --parameters "$prev" 2>/dev/null)" -- "$cur"))
+      fi
+      ;;
     connect|disconnect|get|put|watch)
       if [[ $cur == *.* ]]; then
         COMPREPLY=($(compgen -W "$(_rtm_ports "$cur")" -- "$cur"))
