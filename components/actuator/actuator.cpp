@@ -9,7 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <span>
+#include <tuple>
 #include <stdexcept>
 
 namespace rtm::comp {
@@ -43,50 +43,32 @@ Actuator::Actuator(std::string name, std::unique_ptr<VelocityArm> arm, ActuatorP
 
 void Actuator::describe_self() {
   set_description("PA10 Cartesian-velocity actuator with limiter and command watchdog");
-  const auto count = [this](const char* stat, const char* text, const std::atomic<std::uint64_t>& value) {
-    add_statistic(stat, "", text, [&value] { return static_cast<double>(value.load(std::memory_order_relaxed)); });
+  add_counter("cycles", "cycles run", cycles_);
+  add_counter("commands", "new finite commands applied", commands_);
+  add_counter("clamped", "commands the limiter changed", clamped_);
+  add_counter("watchdog_events", "commands stopped arriving (quick stop)", watchdog_events_);
+  add_counter("non_finite_events", "commands started holding NaN/inf (quick stop)", non_finite_events_);
+  add_counter("command_loss_recoveries", "drive RPDO timeouts reset and resumed from", command_loss_recoveries_);
+  add_counter("not_ready_cycles", "cycles the arm was not enabled (zero velocity)", not_ready_cycles_);
+  const auto percentiles = [this](const std::string& stat, const std::string& span, const rtm::LatencyHistogram& h) {
+    for (const auto& [suffix, what, q] : {std::tuple{"_p50", "median", 0.5}, {"_p99", "99th percentile", 0.99},
+                                          {"_max", "maximum", 1.0}}) {
+      add_statistic(stat + suffix, "us", span + ", " + what, [&h, q = q] {
+        return static_cast<double>(q >= 1.0 ? h.max_ns() : h.percentile_ns(q)) / 1000.0;
+      });
+    }
   };
-  count("cycles", "cycles run", cycles_);
-  count("commands", "new finite commands applied", commands_);
-  count("clamped", "commands the limiter changed", clamped_);
-  count("watchdog_events", "commands stopped arriving (quick stop)", watchdog_events_);
-  count("non_finite_events", "commands started holding NaN/inf (quick stop)", non_finite_events_);
-  count("command_loss_recoveries", "drive RPDO timeouts reset and resumed from", command_loss_recoveries_);
-  count("not_ready_cycles", "cycles the arm was not enabled (zero velocity)", not_ready_cycles_);
-  const auto percentile = [this](const char* stat, const char* text, const rtm::LatencyHistogram& h, double q) {
-    add_statistic(stat, "us", text, [&h, q] {
-      return static_cast<double>(q >= 1.0 ? h.max_ns() : h.percentile_ns(q)) / 1000.0;
-    });
-  };
-  percentile("latency_p50", "sensor sample to drive command leaving for the bus, median", latency_, 0.5);
-  percentile("latency_p99", "sensor sample to drive command leaving for the bus, 99th percentile", latency_, 0.99);
-  percentile("latency_max", "sensor sample to drive command leaving for the bus, maximum", latency_, 1.0);
+  percentiles("latency", "sensor sample to drive command leaving for the bus", latency_);
   add_statistic("latency_samples", "", "commands seen leaving for the bus",
                 [this] { return static_cast<double>(latency_.count()); });
-  percentile("handover_p50", "sensor sample to twist handed to the arm, median", handover_latency_, 0.5);
-  percentile("handover_p99", "sensor sample to twist handed to the arm, 99th percentile", handover_latency_, 0.99);
-  percentile("handover_max", "sensor sample to twist handed to the arm, maximum", handover_latency_, 1.0);
-  add_parameter({.name = "limit",
-                 .unit = "m/s, rad/s",
-                 .description = "6 limits |v|: vx vy vz, then wx wy wz",
-                 .access = rtm::ParameterAccess::live,
-                 .get = [this] { return rtm::format_numbers(std::span<const float>(limit_live_.published())); },
-                 .set = [this](std::string_view text) {
-                   const auto values = rtm::parse_numbers(text, 6);
-                   if (std::any_of(values.begin(), values.end(), [](double v) { return v < 0; }))
-                     throw std::invalid_argument("limits must be >= 0");
-                   std::array<float, 6> limit{};
-                   std::copy(values.begin(), values.end(), limit.begin());
-                   limit_live_.publish(limit);
-                 }});
-  add_parameter({.name = "watchdog_periods",
-                 .unit = "cycles",
-                 .description = "cycles without a new command before the drives brake",
-                 .access = rtm::ParameterAccess::when_off,
-                 .get = [this] { return std::to_string(params_.watchdog_periods); },
-                 .set = [this](std::string_view text) {
-                   params_.watchdog_periods = static_cast<std::uint32_t>(rtm::parse_whole_number(text, 1, 1'000'000));
-                 }});
+  percentiles("handover", "sensor sample to twist handed to the arm", handover_latency_);
+  add_parameter(rtm::live_numbers("limit", "m/s, rad/s", "6 limits |v|: vx vy vz, then wx wy wz", limit_live_,
+                                  [](const std::vector<double>& v) {
+                                    if (std::any_of(v.begin(), v.end(), [](double x) { return x < 0; }))
+                                      throw std::invalid_argument("limits must be >= 0");
+                                  }));
+  add_parameter(rtm::cycles_when_off("watchdog_periods", "cycles without a new command before the drives brake",
+                                     params_.watchdog_periods, 1, 1'000'000));
 }
 
 ActuatorParams Actuator::params() const {

@@ -7,9 +7,7 @@
 #include <fmt/format.h>
 #include <spdlog/logger.h>
 
-#include <algorithm>
 #include <cmath>
-#include <span>
 #include <stdexcept>
 
 namespace rtm::comp {
@@ -43,33 +41,14 @@ Controller::Controller(std::string name, ControllerParams params)
 
 void Controller::describe_self() {
   set_description("proportional force controller: twist = gain*(reference + wrench)");
-  const auto count = [this](const char* stat, const char* text, const std::atomic<std::uint64_t>& value) {
-    add_statistic(stat, "", text, [&value] { return static_cast<double>(value.load(std::memory_order_relaxed)); });
-  };
-  count("cycles", "cycles run", cycles_);
-  count("commands", "proportional commands written", commands_);
-  count("zero_commands", "zero commands written (stale, missing or bad input)", zero_commands_);
-  count("stale_events", "an input went stale after having been fresh", stale_events_);
-  count("non_finite_events", "an input started holding NaN/inf", non_finite_events_);
-  add_parameter({.name = "gain",
-                 .unit = "(m/s)/N, (rad/s)/(N·m)",
-                 .description = "6 gains: x y z, then rx ry rz",
-                 .access = rtm::ParameterAccess::live,
-                 .get = [this] { return rtm::format_numbers(std::span<const float>(gain_live_.published())); },
-                 .set = [this](std::string_view text) {
-                   const auto values = rtm::parse_numbers(text, 6);
-                   std::array<float, 6> gain{};
-                   std::copy(values.begin(), values.end(), gain.begin());
-                   gain_live_.publish(gain);
-                 }});
-  add_parameter({.name = "stale_periods",
-                 .unit = "cycles",
-                 .description = "cycles without a new input datum before the command is zero",
-                 .access = rtm::ParameterAccess::when_off,
-                 .get = [this] { return std::to_string(params_.stale_periods); },
-                 .set = [this](std::string_view text) {
-                   params_.stale_periods = static_cast<std::uint32_t>(rtm::parse_whole_number(text, 1, 1'000'000));
-                 }});
+  add_counter("cycles", "cycles run", cycles_);
+  add_counter("commands", "proportional commands written", commands_);
+  add_counter("zero_commands", "zero commands written (stale, missing or bad input)", zero_commands_);
+  add_counter("stale_events", "an input went stale after having been fresh", stale_events_);
+  add_counter("non_finite_events", "an input started holding NaN/inf", non_finite_events_);
+  add_parameter(rtm::live_numbers("gain", "(m/s)/N, (rad/s)/(N·m)", "6 gains: x y z, then rx ry rz", gain_live_));
+  add_parameter(rtm::cycles_when_off("stale_periods", "cycles without a new input datum before the command is zero",
+                                     params_.stale_periods, 1, 1'000'000));
 }
 
 ControllerParams Controller::params() const {

@@ -36,6 +36,11 @@ void Component::add_statistic(std::string stat_name, std::string unit, std::stri
   statistics_.push_back({std::move(stat_name), std::move(unit), std::move(text), std::move(read)});
 }
 
+void Component::add_counter(std::string stat_name, std::string text, const std::atomic<std::uint64_t>& count) {
+  add_statistic(std::move(stat_name), "", std::move(text),
+                [&count] { return static_cast<double>(count.load(std::memory_order_relaxed)); });
+}
+
 void Component::add_parameter(Parameter parameter) {
   check_new_name(parameters_, "parameter", name_, parameter.name);
   if (!parameter.get) throw std::invalid_argument(name_ + ": parameter '" + parameter.name + "' has no get function");

@@ -75,6 +75,18 @@ std::uint64_t parse_whole_number(std::string_view text, std::uint64_t min, std::
   return static_cast<std::uint64_t>(v);
 }
 
+Parameter cycles_when_off(std::string name, std::string description, std::uint32_t& field, std::uint32_t min,
+                          std::uint32_t max) {
+  return {.name = std::move(name),
+          .unit = "cycles",
+          .description = std::move(description),
+          .access = ParameterAccess::when_off,
+          .get = [&field] { return std::to_string(field); },
+          .set = [&field, min, max](std::string_view text) {
+            field = static_cast<std::uint32_t>(parse_whole_number(text, min, max));
+          }};
+}
+
 std::string format_numbers(std::span<const float> values) { return format_all(values); }
 std::string format_numbers(std::span<const double> values) { return format_all(values); }
 

@@ -12,6 +12,8 @@
 namespace {
 
 using comp_test::cycle;
+using comp_test::parameter;
+using comp_test::statistic;
 using comp_test::float6;
 
 constexpr std::array<float, 6> kZero{};
@@ -312,17 +314,6 @@ TEST(LatencyHistogram, PercentilesAreBucketEdgesCappedAtTheMaximum) {
   EXPECT_EQ(h.percentile_ns(0.99), 3'000'000);
   EXPECT_EQ(h.percentile_ns(1.0), 7'000'000) << "capped at the largest value recorded";
   EXPECT_EQ(h.max_ns(), 7'000'000);
-}
-
-const rtm::Parameter& parameter(const rtm::Component& c, const std::string& name) {
-  for (const auto& p : c.parameters())
-    if (p.name == name) return p;
-  throw std::out_of_range("no parameter " + name);
-}
-double statistic(const rtm::Component& c, const std::string& name) {
-  for (const auto& s : c.statistics())
-    if (s.name == name) return s.read();
-  throw std::out_of_range("no statistic " + name);
 }
 
 TEST(Actuator, ALimitSetWhileRunningClampsTheNextCommand) {

@@ -2,9 +2,12 @@
 #pragma once
 
 #include "rt/activity.h"
+#include "rtm/component.h"
 #include "rtm/data.h"
 
 #include <array>
+#include <stdexcept>
+#include <string>
 
 namespace comp_test {
 
@@ -19,6 +22,18 @@ inline std::array<float, 6> values(const RTM::TimedFloat6& d) {
   std::array<float, 6> v{};
   for (CORBA::ULong i = 0; i < 6; ++i) v[i] = d.val[i];
   return v;
+}
+
+// The parameter and statistic a component publishes (what `rtm cat` and `rtm set` reach).
+inline const rtm::Parameter& parameter(const rtm::Component& c, const std::string& name) {
+  for (const auto& p : c.parameters())
+    if (p.name == name) return p;
+  throw std::out_of_range("no parameter " + name);
+}
+inline double statistic(const rtm::Component& c, const std::string& name) {
+  for (const auto& s : c.statistics())
+    if (s.name == name) return s.read();
+  throw std::out_of_range("no statistic " + name);
 }
 
 inline rtm::CycleContext cycle(std::uint64_t n) {

@@ -11,6 +11,8 @@
 namespace {
 
 using comp_test::cycle;
+using comp_test::parameter;
+using comp_test::statistic;
 using comp_test::float6;
 using comp_test::values;
 
@@ -145,18 +147,6 @@ TEST(Controller, NonFiniteGainOrZeroStalePeriodsIsRefused) {
   rtm::comp::ControllerParams q;
   q.stale_periods = 0;
   EXPECT_THROW(rtm::comp::Controller("c", q), std::invalid_argument);
-}
-
-// The parameter and statistic a component publishes (what `rtm cat` and `rtm set` reach).
-const rtm::Parameter& parameter(const rtm::Component& c, const std::string& name) {
-  for (const auto& p : c.parameters())
-    if (p.name == name) return p;
-  throw std::out_of_range("no parameter " + name);
-}
-double statistic(const rtm::Component& c, const std::string& name) {
-  for (const auto& s : c.statistics())
-    if (s.name == name) return s.read();
-  throw std::out_of_range("no statistic " + name);
 }
 
 TEST(Controller, PortsAreNamedForWhatTheyCarryAndDescribeTheirUnits) {

@@ -86,47 +86,46 @@ void read_self_description(RTM::RtComponentEx_ptr ex, ComponentInfo& info) {
   }
 }
 
-PortInfo inspect_in(RTM::InPort_ptr port, int index) {
+// Name and type: what every port answers, the seed's too.
+template <class Port>
+PortInfo basic_info(Port* port, Direction direction, int index) {
   PortInfo info;
-  info.direction = Direction::in;
+  info.direction = direction;
   info.index = index;
   CORBA::String_var name = port->name();
   CORBA::TypeCode_var type = port->port_type();
   info.name = name.in();
   info.type = rtm::type_name(type);
+  return info;
+}
+
+// What an RTMExt port adds: counters, its last error, what it carries.
+template <class PortEx>
+void read_extension(PortEx* ex, PortInfo& info) {
+  info.extended = true;
+  info.counters = ex->counters();
+  CORBA::String_var err = ex->last_error();
+  info.last_error = err.in();
+  read_description(ex, info.description, info.elements);
+}
+
+PortInfo inspect_in(RTM::InPort_ptr port, int index) {
+  PortInfo info = basic_info(port, Direction::in, index);
   RTM::InPortEx_var ex = RTM::InPortEx::_narrow(port);
-  if (!CORBA::is_nil(ex)) {
-    info.extended = true;
-    info.counters = ex->counters();
-    CORBA::String_var err = ex->last_error();
-    info.last_error = err.in();
-    read_description(ex.in(), info.description, info.elements);
-  }
+  if (!CORBA::is_nil(ex)) read_extension(ex.in(), info);
   return info;
 }
 
 PortInfo inspect_out(RTM::OutPort_ptr port, int index) {
-  PortInfo info;
-  info.direction = Direction::out;
-  info.index = index;
-  CORBA::String_var name = port->name();
-  CORBA::TypeCode_var type = port->port_type();
-  info.name = name.in();
-  info.type = rtm::type_name(type);
+  PortInfo info = basic_info(port, Direction::out, index);
   RTM::OutPortEx_var ex = RTM::OutPortEx::_narrow(port);
-  if (!CORBA::is_nil(ex)) {
-    info.extended = true;
-    info.counters = ex->counters();
-    CORBA::String_var err = ex->last_error();
-    info.last_error = err.in();
-    read_description(ex.in(), info.description, info.elements);
-    RTM::SubscriptionInfoList_var subs = ex->subscriptions();
-    for (CORBA::ULong i = 0; i < subs->length(); ++i) {
-      const RTM::SubscriptionInfo& s = subs[i];
-      info.subscriptions.push_back({s.peer.in(), s.req_type == RTM::once ? "once" : "repeated",
-                                    static_cast<bool>(s.in_process), s.pushed, s.dropped,
-                                    s.failures});
-    }
+  if (CORBA::is_nil(ex)) return info;
+  read_extension(ex.in(), info);
+  RTM::SubscriptionInfoList_var subs = ex->subscriptions();
+  for (CORBA::ULong i = 0; i < subs->length(); ++i) {
+    const RTM::SubscriptionInfo& s = subs[i];
+    info.subscriptions.push_back({s.peer.in(), s.req_type == RTM::once ? "once" : "repeated",
+                                  static_cast<bool>(s.in_process), s.pushed, s.dropped, s.failures});
   }
   return info;
 }

@@ -99,6 +99,8 @@ class Component {
   // read() is called from ORB threads while the component runs. Throws std::invalid_argument
   // for an empty or repeated name or a missing read().
   void add_statistic(std::string stat_name, std::string unit, std::string text, std::function<double()> read);
+  // A count the component keeps in an atomic (read relaxed): a statistic without a unit.
+  void add_counter(std::string stat_name, std::string text, const std::atomic<std::uint64_t>& count);
   // Throws std::invalid_argument for an empty or repeated name, a missing get(), or a
   // writable parameter without set().
   void add_parameter(Parameter parameter);
