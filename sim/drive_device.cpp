@@ -147,14 +147,10 @@ JointCommand DriveDevice::command() const {
 
 void DriveDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
   // on_frame() returns before this when disconnected: `out` reaches the bus.
-  const auto request = pc::decode_sdo_request(frame);
-  if (!request.ok()) return;
-  // SDO is served in pre-operational and operational (CiA 301), not in stopped.
-  if (nmt_.is(pc::NmtState::stopped)) return;
-  pc::SdoResponse response{};
-  response.node = config_.node_id;
-  response.index = request->index;
-  response.subindex = request->subindex;
+  auto exchange = nmt_.sdo_exchange(frame);
+  if (!exchange) return;
+  const pc::SdoRequest* request = &exchange->request;
+  pc::SdoResponse& response = exchange->response;
   auto abort = [&](std::uint32_t code) {
     response.kind = pc::SdoResponseKind::abort;
     response.data = code;

@@ -120,13 +120,10 @@ void ForceSensorDevice::send_emcy(std::uint16_t code, FrameSink& out) {
 }
 
 void ForceSensorDevice::handle_sdo(const can_frame& frame, FrameSink& out) {
-  const auto request = pc::decode_sdo_request(frame);
-  if (!request.ok()) return;
-  if (nmt_.is(pc::NmtState::stopped)) return;
-  pc::SdoResponse response{};
-  response.node = config_.node_id;
-  response.index = request->index;
-  response.subindex = request->subindex;
+  auto exchange = nmt_.sdo_exchange(frame);
+  if (!exchange) return;
+  const pc::SdoRequest* request = &exchange->request;
+  pc::SdoResponse& response = exchange->response;
   if (request->kind == pc::SdoRequestKind::upload && request->index == 0x1017 &&
       request->subindex == 0) {
     response.kind = pc::SdoResponseKind::upload_data;

@@ -155,7 +155,10 @@ OnArrivalActivity::OnArrivalActivity(CycleFunction cycle, std::shared_ptr<Arriva
 OnArrivalActivity::~OnArrivalActivity() { stop(); }
 
 void OnArrivalActivity::start() {
-  start_thread(control_mu_, thread_, stop_requested_, running_, [this] { loop(); }, [] {});
+  // Counted here, not in the new thread: a datum put between start() and the thread's first
+  // look (a slow thread start on a loaded machine) must still wake it.
+  const std::uint64_t seen = signal_->count();
+  start_thread(control_mu_, thread_, stop_requested_, running_, [this, seen] { loop(seen); }, [] {});
 }
 
 void OnArrivalActivity::stop() {
@@ -176,10 +179,9 @@ ActivityStats OnArrivalActivity::stats() const {
   return s;
 }
 
-void OnArrivalActivity::loop() {
+void OnArrivalActivity::loop(std::uint64_t seen) {
   own_thread_id_.store(std::this_thread::get_id());
   set_thread_name(thread_name_);
-  std::uint64_t seen = signal_->count();
   std::uint64_t cycle = 0;
   while (!stop_requested_.load()) {
     if (!signal_->wait(seen, 50'000'000, &stop_requested_)) continue;

@@ -43,14 +43,8 @@ std::vector<Element> elements(std::string_view names, std::string_view units) {
   return out;
 }
 
-std::string_view to_string(ParameterAccess access) {
-  switch (access) {
-    case ParameterAccess::fixed: return "fixed";
-    case ParameterAccess::when_off: return "when off";
-    case ParameterAccess::live: return "live";
-  }
-  return "?";
-}
+std::vector<Element> wrench_elements() { return elements("fx fy fz tx ty tz", "N N N N·m N·m N·m"); }
+std::vector<Element> twist_elements() { return elements("vx vy vz wx wy wz", "m/s m/s m/s rad/s rad/s rad/s"); }
 
 std::vector<double> parse_numbers(std::string_view text, std::size_t count) {
   std::vector<double> out;

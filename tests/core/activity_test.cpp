@@ -223,6 +223,20 @@ TEST(OnArrivalActivity, RunsACycleWhenSignalled) {
   EXPECT_EQ(activity.stats().cycles, 2u);
 }
 
+// A datum that arrives right after on(), before the new thread has looked at the signal (a
+// slow thread start on a loaded machine), still runs a cycle.
+TEST(OnArrivalActivity, AnArrivalRightAfterStartIsNotLostToASlowThreadStart) {
+  auto signal = std::make_shared<rtm::ArrivalSignal>();
+  std::atomic<long> cycles{0};
+  rtm::OnArrivalActivity activity([&](const rtm::CycleContext&) { return ++cycles, true; }, signal);
+  for (long round = 1; round <= 50; ++round) {
+    activity.start();
+    signal->notify();  // at once: the thread has most likely not run yet
+    ASSERT_TRUE(eventually([&] { return cycles.load() == round; }, 5.0)) << "round " << round;
+    activity.stop();
+  }
+}
+
 TEST(SharedTick, RunsCyclesInOrderWithinOnePeriod) {
   rtm::SharedTick tick(fast());
   std::mutex mu;

@@ -2,14 +2,10 @@
 # check_exports.sh passes libraries that export their own folders and generated ones, and
 # names each library that exports the project root or another library's folder.
 # usage: check_exports_test.sh <check_exports.sh>
-set -uo pipefail
 check=$1
-dir=$(mktemp -d "${TMPDIR:-/tmp}/exports-test.XXXXXX")
-trap 'rm -rf "$dir"' EXIT
-failures=0
-expect() { # what, command...
-  if "${@:2}"; then echo "ok   $1"; else echo "FAIL $1"; failures=$((failures + 1)); fi
-}
+# shellcheck source=expect.sh
+source "$(dirname "$0")/expect.sh"
+dir=$scratch
 root=/p build=/p/build
 cat >"$dir/good" <<GOOD
 rtm_can|/p/arm/can|/p/arm/can/include
@@ -37,4 +33,4 @@ expect "three violations counted" grep -q "^3 export violation" <<<"$output"
 : >"$dir/empty"
 "$check" "$root" "$build" "$dir/empty" >/dev/null
 expect "an empty list is an error, not a pass" test $? -eq 2
-exit $((failures > 0))
+finish

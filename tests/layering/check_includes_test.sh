@@ -2,14 +2,10 @@
 # check_includes.sh finds each kind of violation in a small tree made here, names the file,
 # line and rule, and passes a tree that keeps the rules.
 # usage: check_includes_test.sh <check_includes.sh>
-set -uo pipefail
 check=$1
-tree=$(mktemp -d "${TMPDIR:-/tmp}/layering-test.XXXXXX")
-trap 'rm -rf "$tree"' EXIT
-failures=0
-expect() { # what, command...
-  if "${@:2}"; then echo "ok   $1"; else echo "FAIL $1"; failures=$((failures + 1)); fi
-}
+# shellcheck source=expect.sh
+source "$(dirname "$0")/expect.sh"
+tree=$scratch
 
 mkdir -p "$tree"/{src/rtm,src/rt,arm/can,sim,tools/rtm,components/controller,components/servo,tests/components}
 echo '#include "rtm/component.h"' >"$tree/components/controller/controller.h"
@@ -40,5 +36,4 @@ expect "the CAN library including the simulator is found" grep -q "^arm/can/sens
 expect "the real-time base including the core is found" grep -q "^src/rt/thread.cpp:1: the real-time base knows nothing of CORBA" <<<"$output"
 expect "the count is given" grep -q "^7 layering violation(s)" <<<"$output"
 
-if ((failures)); then echo "$failures check(s) failed"; exit 1; fi
-echo "all checks passed"
+finish

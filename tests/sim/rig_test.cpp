@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "arm/can/protocol.h"
+#include "lockstep_master.h"
 #include "recording_sink.h"
 #include "sim/kinematic_plant.h"
 
@@ -13,6 +14,7 @@ namespace pc = rtm::can;
 using rtm::sim::KinematicPlant;
 using rtm::sim::Pa10Rig;
 using rtm::sim::RigConfig;
+using rtm::sim::testing::LockStepMaster;
 using rtm::sim::testing::RecordingSink;
 
 namespace {
@@ -23,27 +25,11 @@ class KinematicRigTest : public ::testing::Test {
     rig_.set_mode(Pa10Rig::Mode::lock_step);
     rig_.power_on(out_);
   }
-  void feed(const pc::Result<can_frame>& frame) {
-    ASSERT_TRUE(frame.ok());
-    rig_.on_frame(*frame, out_);
-  }
-  void cycle(std::uint16_t controlword, double velocity_rad_s = 0) {
-    for (int j = 0; j < 7; ++j) feed(pc::encode_drive_command({pc::drive_node(j), controlword, velocity_rad_s}));
-    counter_ = pc::next_sync_counter(counter_);
-    feed(pc::encode_sync(counter_));
-  }
-  void start_up() {
-    for (int j = 0; j < 7; ++j)
-      feed(pc::encode_sdo_request({pc::drive_node(j), pc::SdoRequestKind::download, pc::object::kModesOfOperation, 0, 9, 1}));
-    feed(pc::encode_nmt(pc::NmtCommand::start, 0));
-    for (std::uint16_t cw : {pc::controlword::kShutdown, pc::controlword::kSwitchOn, pc::controlword::kEnableOperation})
-      cycle(cw);
-  }
 
   KinematicPlant plant_;
   Pa10Rig rig_;
   RecordingSink out_;
-  std::uint8_t counter_ = 0;
+  LockStepMaster<Pa10Rig> master_{rig_, out_};
 };
 
 TEST_F(KinematicRigTest, PowerOnBootsAllNineNodes) {
@@ -56,10 +42,10 @@ TEST_F(KinematicRigTest, PowerOnBootsAllNineNodes) {
 }
 
 TEST_F(KinematicRigTest, EachSyncAdvancesTheSyncPeriodAndAVelocityIntegratesExactly) {
-  start_up();
+  master_.start_up();
   const double start_rad = plant_.joint_state(2).position_rad;
   const std::int64_t before_ns = rig_.time_ns();
-  for (int i = 0; i < 10; ++i) cycle(pc::controlword::kEnableOperation, 0.5);
+  for (int i = 0; i < 10; ++i) master_.cycle_all(pc::controlword::kEnableOperation, 0.5);
   EXPECT_EQ(rig_.time_ns() - before_ns, 20'000'000);
   // The target latched at the first of these SYNCs acts from its own period on.
   EXPECT_NEAR(plant_.joint_state(2).position_rad - start_rad, 0.5 * 0.020, 1e-12);
@@ -72,11 +58,11 @@ TEST_F(KinematicRigTest, EachSyncAdvancesTheSyncPeriodAndAVelocityIntegratesExac
 }
 
 TEST_F(KinematicRigTest, TheSensorsReportTheWristContactAndTheOperatorsWrench) {
-  start_up();
+  master_.start_up();
   plant_.set_wrist_wrench({{1.5, 0, -2.0}, {0, 0.25, 0}});
   rig_.set_operator_override({{0, 3.0, 0}, {0, 0, -0.5}});
   out_.clear();
-  cycle(pc::controlword::kEnableOperation);
+  master_.cycle(pc::controlword::kEnableOperation);
   const auto wrist = pc::decode_sensor_force(out_.with_id(pc::cob::kTpdo1Base + pc::kWristSensorNode).at(0));
   const auto wrist_torque = pc::decode_sensor_torque(out_.with_id(pc::cob::kTpdo2Base + pc::kWristSensorNode).at(0));
   const auto joystick = pc::decode_sensor_force(out_.with_id(pc::cob::kTpdo1Base + pc::kJoystickSensorNode).at(0));

@@ -7,11 +7,13 @@
 
 #include "arm/can/protocol.h"
 #include "rtm_test/allocation_counter.h"
+#include "lockstep_master.h"
 #include "recording_sink.h"
 
 namespace pc = rtm::can;
 using rtm::sim::Pa10Simulator;
 using rtm::sim::SimulatorConfig;
+using rtm::sim::testing::LockStepMaster;
 using rtm::sim::testing::RecordingSink;
 
 namespace {
@@ -27,39 +29,10 @@ class LockStepSimulatorTest : public ::testing::Test {
     config.scene_path = RTM_PA10_SCENE;
     return config;
   }
-  void feed(const pc::Result<can_frame>& frame) {
-    ASSERT_TRUE(frame.ok());
-    sim_.on_frame(*frame, out_);
-  }
-  // One master cycle: RPDO to every drive, then SYNC.
-  void cycle(std::uint16_t controlword, const std::array<double, 7>& velocity_rad_s = {}) {
-    for (int j = 0; j < 7; ++j)
-      feed(pc::encode_drive_command(
-          {pc::drive_node(j), controlword, velocity_rad_s[static_cast<std::size_t>(j)]}));
-    sync_only();
-  }
-  void sync_only() {
-    counter_ = pc::next_sync_counter(counter_);
-    feed(pc::encode_sync(counter_));
-  }
-  void start_up() {
-    for (int j = 0; j < 7; ++j)
-      feed(pc::encode_sdo_request({pc::drive_node(j), pc::SdoRequestKind::download,
-                                   pc::object::kModesOfOperation, 0, 9, 1}));
-    feed(pc::encode_nmt(pc::NmtCommand::start, 0));
-    for (std::uint16_t cw : {pc::controlword::kShutdown, pc::controlword::kSwitchOn,
-                             pc::controlword::kEnableOperation})
-      cycle(cw);
-  }
-  std::optional<pc::DriveFeedback> last_feedback(int joint) const {
-    const auto frames = out_.with_id(pc::cob::kTpdo1Base + pc::drive_node(joint));
-    if (frames.empty()) return std::nullopt;
-    return *pc::decode_drive_feedback(frames.back());
-  }
 
   Pa10Simulator sim_;
   RecordingSink out_;
-  std::uint8_t counter_ = 0;
+  LockStepMaster<Pa10Simulator> master_{sim_, out_};
 };
 
 TEST_F(LockStepSimulatorTest, PowerOnBootsAllNineNodesAtSimTimeZero) {
@@ -73,14 +46,14 @@ TEST_F(LockStepSimulatorTest, PowerOnBootsAllNineNodesAtSimTimeZero) {
 }
 
 TEST_F(LockStepSimulatorTest, EachSyncAdvancesTwoMillisecondsAndIsAnsweredByEveryNode) {
-  start_up();
+  master_.start_up();
   const std::int64_t before_ns = sim_.time_ns();
   out_.clear();
-  cycle(pc::controlword::kEnableOperation);
+  master_.cycle(pc::controlword::kEnableOperation);
   EXPECT_EQ(sim_.time_ns() - before_ns, 2'000'000);
   EXPECT_EQ(sim_.steps(), 8u) << "4 SYNCs, 2 steps each";
   for (int j = 0; j < 7; ++j) {
-    const auto feedback = last_feedback(j);
+    const auto feedback = master_.last_feedback(j);
     ASSERT_TRUE(feedback) << "drive " << j + 1;
     EXPECT_EQ(feedback->statusword, pc::statusword::kOperationEnabled);
   }
@@ -91,29 +64,29 @@ TEST_F(LockStepSimulatorTest, EachSyncAdvancesTwoMillisecondsAndIsAnsweredByEver
 }
 
 TEST_F(LockStepSimulatorTest, CommandedJointVelocityMovesTheJointByItsIntegral) {
-  start_up();
+  master_.start_up();
   const double start_rad = sim_.plant().joint_state(0).position_rad;
-  for (int i = 0; i < 250; ++i) cycle(pc::controlword::kEnableOperation, {0.4, 0, 0, 0, 0, 0, 0});
-  for (int i = 0; i < 500; ++i) cycle(pc::controlword::kEnableOperation);
-  const auto feedback = last_feedback(0);
+  for (int i = 0; i < 250; ++i) master_.cycle(pc::controlword::kEnableOperation, {0.4, 0, 0, 0, 0, 0, 0});
+  for (int i = 0; i < 500; ++i) master_.cycle(pc::controlword::kEnableOperation);
+  const auto feedback = master_.last_feedback(0);
   ASSERT_TRUE(feedback);
   EXPECT_NEAR(feedback->position_rad - start_rad, 0.4 * 0.5, 2e-3);
   EXPECT_NEAR(feedback->velocity_rad_s, 0.0, 2e-3);
 }
 
 TEST_F(LockStepSimulatorTest, WithoutRpdosEveryDriveBrakesToZeroWithinThreeSyncs) {
-  start_up();
+  master_.start_up();
   // Every joint moving; the pitch joints backwards so the tool rises clear of the table.
   for (int i = 0; i < 100; ++i)
-    cycle(pc::controlword::kEnableOperation, {0.3, -0.3, 0.3, -0.3, 0.3, -0.3, 0.3});
+    master_.cycle(pc::controlword::kEnableOperation, {0.3, -0.3, 0.3, -0.3, 0.3, -0.3, 0.3});
   const std::int64_t last_rpdo_ns = sim_.time_ns();
   out_.clear();
-  sync_only();
-  sync_only();
-  sync_only();
+  master_.sync_only();
+  master_.sync_only();
+  master_.sync_only();
   EXPECT_EQ(sim_.time_ns() - last_rpdo_ns, 6'000'000);
   for (int j = 0; j < 7; ++j) {
-    const auto feedback = last_feedback(j);
+    const auto feedback = master_.last_feedback(j);
     ASSERT_TRUE(feedback);
     EXPECT_EQ(feedback->statusword & pc::statusword::kStateMask, pc::statusword::kFault);
     EXPECT_NEAR(feedback->velocity_rad_s, 0.0, 1e-3) << "drive " << j + 1;
@@ -124,20 +97,20 @@ TEST_F(LockStepSimulatorTest, WithoutRpdosEveryDriveBrakesToZeroWithinThreeSyncs
 }
 
 TEST_F(LockStepSimulatorTest, ASyncCycleAllocatesNothing) {
-  start_up();
-  cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
+  master_.start_up();
+  master_.cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
   out_.frames.reserve(out_.frames.size() + 10000);  // the recording sink's own growth
   const auto before = rtm_test::allocations_total();
-  for (int i = 0; i < 200; ++i) cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
+  for (int i = 0; i < 200; ++i) master_.cycle(pc::controlword::kEnableOperation, {0.1, 0, 0, 0, 0, 0, 0});
   EXPECT_EQ(rtm_test::allocations_total() - before, 0u);
 }
 
 TEST_F(LockStepSimulatorTest, WithASeparateSensorBusTheSensorsAnswerOnlyThere) {
   RecordingSink sensor_bus;
   sim_.set_sensor_sink(&sensor_bus);
-  start_up();
+  master_.start_up();
   out_.clear();
-  cycle(pc::controlword::kEnableOperation);
+  master_.cycle(pc::controlword::kEnableOperation);
   EXPECT_TRUE(out_.with_id(pc::cob::kTpdo1Base + pc::kWristSensorNode).empty());
   EXPECT_EQ(out_.with_id(pc::cob::kTpdo1Base + pc::drive_node(0)).size(), 1u);
   EXPECT_TRUE(sensor_bus.with_id(pc::cob::kTpdo1Base + pc::kWristSensorNode).empty())
@@ -187,8 +160,8 @@ TEST(LockStepSimulator, JoystickReportsTheProfilesWrenchOverSimTimeThenTheOverri
 }
 
 TEST_F(LockStepSimulatorTest, SensorsAreTaredSoTheyReadZeroAtRest) {
-  start_up();
-  cycle(pc::controlword::kEnableOperation);
+  master_.start_up();
+  master_.cycle(pc::controlword::kEnableOperation);
   const auto force = pc::decode_sensor_force(
       out_.with_id(pc::cob::kTpdo1Base + pc::kWristSensorNode).back());
   ASSERT_TRUE(force.ok());

@@ -58,6 +58,22 @@ class NmtNode {
     while (next_heartbeat_ns_ <= now_ns) next_heartbeat_ns_ += heartbeat_period_ns_;
   }
 
+  // An SDO request this node serves now (CiA 301: in pre-operational and operational, not in
+  // stopped), with its response addressed to it (node, index, subindex); nullopt otherwise.
+  struct SdoExchange {
+    rtm::can::SdoRequest request;
+    rtm::can::SdoResponse response;
+  };
+  std::optional<SdoExchange> sdo_exchange(const can_frame& frame) const {
+    const auto request = rtm::can::decode_sdo_request(frame);
+    if (!request.ok() || is(rtm::can::NmtState::stopped)) return std::nullopt;
+    rtm::can::SdoResponse response{};
+    response.node = node_id_;
+    response.index = request->index;
+    response.subindex = request->subindex;
+    return SdoExchange{*request, response};
+  }
+
   void send_heartbeat(FrameSink& out) const {
     if (powered()) send_if_ok(rtm::can::encode_heartbeat(node_id_, state_), out);
   }

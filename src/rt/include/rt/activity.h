@@ -126,7 +126,7 @@ class OnArrivalActivity final : public Activity {
   ActivityStats stats() const override;  // cycles only
 
  private:
-  void loop();
+  void loop(std::uint64_t seen);  // seen: the signal's count when start() was called
   CycleFunction cycle_;
   std::shared_ptr<ArrivalSignal> signal_;
   std::string thread_name_;

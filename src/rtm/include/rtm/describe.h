@@ -34,6 +34,10 @@ struct Element {
 // std::invalid_argument when the lengths differ or a list is empty.
 std::vector<Element> elements(std::string_view names, std::string_view units);
 
+// The elements of the six-vectors most force-control ports carry, in SI units.
+std::vector<Element> wrench_elements();  // fx fy fz [N], tx ty tz [N·m]
+std::vector<Element> twist_elements();   // vx vy vz [m/s], wx wy wz [rad/s]
+
 // What a port carries.
 struct PortInfo {
   std::string description;         // one line
@@ -66,9 +70,6 @@ struct Parameter {
   // changes nothing then. Not called for a fixed parameter.
   std::function<void(std::string_view text)> set = {};
 };
-
-// "fixed", "when off", "live".
-std::string_view to_string(ParameterAccess access);
 
 // Numbers separated by spaces or commas, each finite. Throws std::invalid_argument naming
 // the text when one is not a number, is NaN/inf, or when there are not exactly `count`

@@ -116,7 +116,7 @@ class Actuator final : public rtm::Component {
       not_ready_cycles_{0}, command_loss_recoveries_{0};
   rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>(
       "twist", {"velocity command for the tool, base frame; clamped to ±limit",
-                rtm::elements("vx vy vz wx wy wz", "m/s m/s m/s rad/s rad/s rad/s")});
+                rtm::twist_elements()});
 };
 
 }  // namespace rtm::comp

@@ -90,12 +90,12 @@ class Controller final : public rtm::Component {
   std::array<float, 6> gain_ = params_.gain;  // the cycle's copy of gain_live_
   std::atomic<std::uint64_t> cycles_{0}, commands_{0}, zero_commands_{0}, stale_events_{0}, non_finite_events_{0};
   rtm::InPort<RTM::TimedFloat6>& sensor_in_ = add_in_port<RTM::TimedFloat6>(
-      "wrench", {"wrench the sensor measures, base frame", rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
+      "wrench", {"wrench the sensor measures, base frame", rtm::wrench_elements()});
   rtm::InPort<RTM::TimedFloat6>& reference_in_ = add_in_port<RTM::TimedFloat6>(
-      "reference", {"reference wrench, base frame", rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
+      "reference", {"reference wrench, base frame", rtm::wrench_elements()});
   rtm::OutPort<RTM::TimedFloat6>& command_out_ = add_out_port<RTM::TimedFloat6>(
       "twist", {"velocity command gain*(reference + wrench), base frame",
-                rtm::elements("vx vy vz wx wy wz", "m/s m/s m/s rad/s rad/s rad/s")});
+                rtm::twist_elements()});
 };
 
 }  // namespace rtm::comp

@@ -77,7 +77,7 @@ class Joystick final : public rtm::Component {
   std::atomic<std::uint64_t> written_{0};
   rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>(
       "reference", {"reference wrench: the operator's force, base frame",
-                    rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
+                    rtm::wrench_elements()});
 };
 
 }  // namespace rtm::comp

@@ -54,7 +54,7 @@ class Sensor final : public rtm::Component {
   std::atomic<std::uint64_t> written_{0};
   rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>(
       "wrench", {"wrench the world exerts on the tool, base frame",
-                 rtm::elements("fx fy fz tx ty tz", "N N N N·m N·m N·m")});
+                 rtm::wrench_elements()});
 };
 
 }  // namespace rtm::comp
