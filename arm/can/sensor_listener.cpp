@@ -76,7 +76,7 @@ void SensorListener::handle(const can_frame& frame, std::int64_t received_ns) {
 }
 
 bool SensorListener::poll(std::int64_t timeout_ns) {
-  if (running_.load()) throw std::logic_error("SensorListener::poll() while the listener thread runs");
+  if (receiver_.started()) throw std::logic_error("SensorListener::poll() while the listener thread runs");
   const std::int64_t deadline_ns = monotonic_ns() + timeout_ns;
   const std::uint64_t before = latest().sequence;
   can_frame frame{};
@@ -89,29 +89,15 @@ bool SensorListener::poll(std::int64_t timeout_ns) {
 }
 
 void SensorListener::start() {
-  if (running_.exchange(true)) return;
-  thread_ = std::thread([this] { run(); });
+  receiver_.start(
+      *bus_, [this](const can_frame& frame, std::int64_t received_ns) { handle(frame, received_ns); },
+      [this](const BusError& e) {
+        std::lock_guard lock(mutex_);
+        bus_error_ = e.what();
+      });
 }
 
-void SensorListener::stop() {
-  if (!running_.exchange(false)) return;
-  if (thread_.joinable()) thread_.join();
-}
-
-void SensorListener::run() {
-  can_frame frame{};
-  // The short timeout bounds how long stop() waits for this thread.
-  constexpr std::int64_t kWakeUp_ns = 20'000'000;
-  while (running_.load()) {
-    try {
-      if (bus_->receive(frame, kWakeUp_ns)) handle(frame, monotonic_ns());
-    } catch (const BusError& e) {
-      std::lock_guard lock(mutex_);
-      bus_error_ = e.what();
-      return;
-    }
-  }
-}
+void SensorListener::stop() { receiver_.stop(); }
 
 Wrench SensorListener::latest() const {
   std::lock_guard lock(mutex_);

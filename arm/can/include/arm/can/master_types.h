@@ -1,6 +1,7 @@
 // The PA10 master's vocabulary: its configuration and what it reports (joint state, wrench,
 // fault (kinds in fault.h), counters, the last target sent). Shared by the master (master.h), its thread-free bus
-// cycle (bus_cycle.h) and its supervisor (supervisor.h).
+// cycle (bus_cycle.h), its supervisor (supervisor.h) and the passive listeners (sensor_listener.h,
+// joint_listener.h).
 #pragma once
 
 #include <array>
@@ -45,8 +46,8 @@ struct JointState {
   std::array<double, kDriveCount> velocity_rad_s{};
   std::array<std::uint16_t, kDriveCount> statusword{};
   std::uint8_t sync_counter = 0;  // the SYNC these values answer (0 = none yet)
-  std::int64_t sync_time_ns = 0;  // when that SYNC was sent (CLOCK_MONOTONIC)
-  std::uint64_t cycle = 0;        // cycle number of that SYNC, counting from 1
+  std::int64_t sync_time_ns = 0;  // when that SYNC was sent (master) or received (listener), CLOCK_MONOTONIC
+  std::uint64_t cycle = 0;        // cycle number of that SYNC, counting from 1 (listener: SYNCs heard)
   bool complete = false;          // all 7 drives answered that SYNC
 };
 

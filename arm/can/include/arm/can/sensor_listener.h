@@ -6,18 +6,17 @@
 // of the SYNC it answers. It also watches the sensor's heartbeat and EMCY frames.
 #pragma once
 
-#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 
 #include "arm/can/bus.h"
 #include "arm/can/master_types.h"
 #include "arm/can/protocol.h"
+#include "arm/can/receive_thread.h"
 #include "arm/can/wrench_assembly.h"
 
 namespace rtm::can {
@@ -43,7 +42,7 @@ class SensorListener {
   // complete wrench arrived (true) or when the time is up (false). Not with start().
   bool poll(std::int64_t timeout_ns);
 
-  // Or: a background thread reads continuously; use latest()/wait_newer_than().
+  // Or: a background thread (ReceiveThread) reads continuously; use latest()/wait_newer_than().
   void start();
   void stop();
 
@@ -63,7 +62,6 @@ class SensorListener {
 
  private:
   void handle(const can_frame& frame, std::int64_t received_ns);  // CLOCK_MONOTONIC
-  void run();
 
   std::unique_ptr<Bus> bus_;
   std::uint8_t node_;
@@ -79,8 +77,7 @@ class SensorListener {
   std::uint16_t emcy_code_ = 0;
   std::optional<std::int64_t> last_heartbeat_ns_;
   std::string bus_error_;  // set when the background thread lost the bus
-  std::atomic<bool> running_{false};
-  std::thread thread_;
+  ReceiveThread receiver_;  // last: stops before the state it writes goes
 };
 
 }  // namespace rtm::can

@@ -5,21 +5,17 @@
 //   MasterWristSource  the Pa10Master of this process (shared tick, lock-step tests)
 //   BusWristSource     passive listeners on the bus (a sensor process of its own): the wrist
 //                      sensor's TPDOs through rtm::can::SensorListener and the drives'
-//                      broadcast TPDO1s through JointStateListener
+//                      broadcast TPDO1s through rtm::can::JointListener
 #pragma once
 
-#include "arm/can/bus.h"
+#include "arm/can/joint_listener.h"
 #include "arm/can/master.h"
 #include "arm/can/sensor_listener.h"
 
 #include <array>
-#include <atomic>
 #include <cstdint>
-#include <memory>
-#include <mutex>
 #include <string>
 #include <string_view>
-#include <thread>
 
 namespace rtm::comp {
 
@@ -52,38 +48,6 @@ class MasterWristSource final : public WristSampleSource {
   const rtm::can::Pa10Master& master_;
 };
 
-// Passive reader of the drives' TPDO1 (statusword, position, velocity), broadcast after
-// every SYNC: any process on the bus can follow the arm's joint state without being master.
-class JointStateListener {
- public:
-  struct State {
-    std::array<double, 7> position_rad{};
-    std::array<double, 7> velocity_rad_s{};
-    std::uint64_t frames = 0;  // drive TPDO1s received
-    bool complete = false;     // every drive has reported at least once
-  };
-
-  // Opens bus_spec with a filter for the seven drive TPDO1s and starts reading on its own
-  // thread. Throws rtm::can::BusError naming the spec.
-  explicit JointStateListener(std::string_view bus_spec);
-  ~JointStateListener();
-  JointStateListener(const JointStateListener&) = delete;
-  JointStateListener& operator=(const JointStateListener&) = delete;
-
-  State latest() const;
-  std::string fault() const;  // "" while the bus works
-
- private:
-  void run();
-  std::unique_ptr<rtm::can::Bus> bus_;
-  mutable std::mutex mu_;
-  State state_;
-  std::uint8_t seen_mask_ = 0;
-  std::string bus_error_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
-
 // The sensor's own process: listens on sensor_bus_spec (the wrist sensor) and drive_bus_spec
 // (the drives). Throws rtm::can::BusError naming the spec when a bus cannot be opened.
 class BusWristSource final : public WristSampleSource {
@@ -94,7 +58,7 @@ class BusWristSource final : public WristSampleSource {
 
  private:
   rtm::can::SensorListener wrench_;
-  JointStateListener joints_;
+  rtm::can::JointListener joints_;
 };
 
 }  // namespace rtm::comp

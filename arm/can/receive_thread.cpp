@@ -1,0 +1,31 @@
+#include "arm/can/receive_thread.h"
+
+#include "rt/clock.h"
+
+#include <utility>
+
+namespace rtm::can {
+
+ReceiveThread::~ReceiveThread() { stop(); }
+
+void ReceiveThread::start(Bus& bus, FrameHandler on_frame, ErrorHandler on_error) {
+  if (started_.exchange(true)) return;
+  thread_ = std::thread([this, &bus, on_frame = std::move(on_frame), on_error = std::move(on_error)] {
+    can_frame frame{};
+    while (started_.load()) {
+      try {
+        if (bus.receive(frame, kWakeUp_ns)) on_frame(frame, monotonic_ns());
+      } catch (const BusError& e) {
+        on_error(e);
+        return;
+      }
+    }
+  });
+}
+
+void ReceiveThread::stop() {
+  if (!started_.exchange(false)) return;
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace rtm::can
