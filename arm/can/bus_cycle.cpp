@@ -58,11 +58,8 @@ void BusCycle::handle(const can_frame& frame, std::int64_t now_ns) {
     case FrameType::drive_feedback: {
       const auto fb = decode_drive_feedback(frame);
       if (!fb) { ++counters_.malformed_frames; return; }
-      const auto j = static_cast<std::size_t>(joint_index_of(fb->drive));
       if (!window_open_) { ++counters_.late_frames; return; }
-      if (got_feedback_[j]) ++counters_.late_frames;  // keep the newer
-      got_feedback_[j] = true;
-      feedback_[j] = *fb;
+      if (joints_.add(*fb)) ++counters_.late_frames;  // the newer is kept
       return;
     }
     case FrameType::sensor_force:
@@ -129,8 +126,7 @@ bool BusCycle::wait_readable(std::int64_t deadline_ns) {
 }
 
 bool BusCycle::window_complete() const {
-  for (bool got : got_feedback_)
-    if (!got) return false;
+  if (!joints_.complete()) return false;
   for (std::size_t s = 0; s < kSensorCount; ++s)
     if (sensor_enabled(s) && !wrenches_[s].complete()) return false;
   return true;
@@ -181,7 +177,7 @@ void BusCycle::send_cycle(std::int64_t now_ns) {
   if (separate_sensor_bus_) send(*separate_sensor_bus_, encode_sync(sync_counter_));
   ++cycle_;
   ++counters_.cycles;
-  got_feedback_.fill(false);
+  joints_.restart();
   for (WrenchAssembly& wrench : wrenches_) wrench.restart();
   window_open_ = true;
 }
@@ -191,25 +187,18 @@ void BusCycle::send_cycle(std::int64_t now_ns) {
 void BusCycle::close_window(std::int64_t now_ns) {
   window_open_ = false;
   for (std::size_t i = 0; i < kDriveCount; ++i)
-    if (got_feedback_[i]) last_statusword_[i] = feedback_[i].statusword;
-  publish(supervisor_.check_drives(got_feedback_, last_statusword_, now_ns));
+    if (joints_.answered(i)) last_statusword_[i] = joints_.feedback(i).statusword;
+  publish(supervisor_.check_drives(joints_.answers(), last_statusword_, now_ns));
 }
 
 void BusCycle::publish(const DriveSummary& drives) {
   std::lock_guard lock(mailbox_.mutex_);
   CycleReport& report = mailbox_.report_;
   JointState& s = report.state;
-  for (std::size_t i = 0; i < kDriveCount; ++i) {
-    if (!got_feedback_[i]) continue;
-    s.position_rad[i] = feedback_[i].position_rad;
-    s.velocity_rad_s[i] = feedback_[i].velocity_rad_s;
-    s.statusword[i] = feedback_[i].statusword;
-  }
+  joints_.fill(s);
   s.sync_counter = sync_counter_;
   s.sync_time_ns = sync_time_ns_;
   s.cycle = cycle_;
-  s.complete = true;
-  for (bool got : got_feedback_) s.complete = s.complete && got;
   for (std::size_t k = 0; k < kSensorCount; ++k) {
     if (!(sensor_enabled(k) && wrenches_[k].complete())) continue;
     Wrench& w = report.wrench[k];

@@ -1,6 +1,5 @@
 #include "arm/can/joint_listener.h"
 
-#include <algorithm>
 #include <stdexcept>
 
 namespace rtm::can {
@@ -54,10 +53,8 @@ void JointListener::handle(const can_frame& frame, std::int64_t received_ns) {
   if (!feedback) { ++counters_.malformed_frames; return; }
   ++counters_.feedback_frames;
   if (counters_.syncs == 0) return;  // answers a SYNC this listener did not hear
-  const auto joint = static_cast<std::size_t>(joint_index_of(feedback->drive));
-  feedback_[joint] = *feedback;
-  answered_[joint] = true;
-  if (!window_published_ && std::ranges::all_of(answered_, [](bool a) { return a; })) {
+  joints_.add(*feedback);
+  if (!window_published_ && joints_.complete()) {
     ++counters_.complete_syncs;
     publish();
   }
@@ -73,20 +70,13 @@ void JointListener::open_window(std::uint8_t sync_counter, std::int64_t received
   ++counters_.syncs;
   window_sync_counter_ = sync_counter;
   window_sync_time_ns_ = received_ns;
-  answered_.fill(false);
+  joints_.restart();
   window_published_ = false;
 }
 
 void JointListener::publish() {
   JointState& s = latest_;
-  s.complete = true;
-  for (std::size_t i = 0; i < kDriveCount; ++i) {
-    s.complete = s.complete && answered_[i];
-    if (!answered_[i]) continue;
-    s.position_rad[i] = feedback_[i].position_rad;
-    s.velocity_rad_s[i] = feedback_[i].velocity_rad_s;
-    s.statusword[i] = feedback_[i].statusword;
-  }
+  joints_.fill(s);
   s.sync_counter = window_sync_counter_;
   s.sync_time_ns = window_sync_time_ns_;
   s.cycle = counters_.syncs;

@@ -29,6 +29,7 @@
 #include "arm/can/bus.h"
 #include "arm/can/master_types.h"
 #include "arm/can/supervisor.h"
+#include "arm/can/joint_assembly.h"
 #include "arm/can/wrench_assembly.h"
 #include "rt/clock.h"
 
@@ -116,7 +117,7 @@ class BusCycle {
       if (!wait_readable(deadline_ns)) return done();
     }
   }
-  bool answered(std::size_t joint) const { return got_feedback_[joint]; }
+  bool answered(std::size_t joint) const { return joints_.answered(joint); }
   std::uint16_t statusword(std::size_t joint) const { return last_statusword_[joint]; }
   // Publishes everything as of now (start-up: once every drive is enabled).
   void publish_now(bool enabled) { publish(DriveSummary{enabled, false}); }
@@ -151,8 +152,7 @@ class BusCycle {
   std::uint64_t cycle_ = 0;
   std::int64_t sync_time_ns_ = 0;
   bool window_open_ = false;
-  std::array<bool, kDriveCount> got_feedback_{};
-  std::array<DriveFeedback, kDriveCount> feedback_{};
+  JointAssembly joints_;  // the drives' answers to the last SYNC
   std::array<std::uint16_t, kDriveCount> last_statusword_{};
   std::array<WrenchAssembly, kSensorCount> wrenches_{};
   std::uint8_t sdo_waiting_node_ = 0;

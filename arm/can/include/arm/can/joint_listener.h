@@ -17,6 +17,7 @@
 #include <string_view>
 
 #include "arm/can/bus.h"
+#include "arm/can/joint_assembly.h"
 #include "arm/can/master_types.h"
 #include "arm/can/protocol.h"
 #include "arm/can/receive_thread.h"
@@ -74,8 +75,7 @@ class JointListener {
   // The answers to the SYNC heard last (its window).
   std::uint8_t window_sync_counter_ = 0;
   std::int64_t window_sync_time_ns_ = 0;
-  std::array<bool, kDriveCount> answered_{};
-  std::array<DriveFeedback, kDriveCount> feedback_{};
+  JointAssembly joints_;
   bool window_published_ = true;  // no window before the first SYNC
   std::string bus_error_;         // set when the background thread lost the bus
   ReceiveThread receiver_;        // last: stops before the state it writes goes
