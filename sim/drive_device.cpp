@@ -43,21 +43,11 @@ void DriveDevice::on_frame(const can_frame& frame, std::int64_t now_ns, FrameSin
 }
 
 void DriveDevice::handle_nmt(const can_frame& frame, std::int64_t now_ns, FrameSink& out) {
-  const auto command = nmt_.on_nmt(frame);
-  if (!command) return;
-  switch (*command) {
-    case pc::NmtCommand::start:
-      break;
-    case pc::NmtCommand::stop:
-    case pc::NmtCommand::enter_pre_operational:
-      // A node out of operational takes no PDOs: the drive must not keep moving on an old target.
-      if (drive_.follows_target_velocity()) drive_.apply_controlword(pc::controlword::kSwitchOn);
-      break;
-    case pc::NmtCommand::reset_node:
-    case pc::NmtCommand::reset_communication:
-      power_on(now_ns, out);
-      break;
-  }
+  const NmtNode::NmtEffect effect = nmt_.on_nmt(frame);
+  if (effect == NmtNode::NmtEffect::reset) power_on(now_ns, out);
+  // A node out of operational takes no PDOs: the drive must not keep moving on an old target.
+  if (effect == NmtNode::NmtEffect::out_of_operational && drive_.follows_target_velocity())
+    drive_.apply_controlword(pc::controlword::kSwitchOn);
 }
 
 void DriveDevice::handle_rpdo(const can_frame& frame, std::int64_t now_ns) {

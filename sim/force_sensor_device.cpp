@@ -51,20 +51,9 @@ void ForceSensorDevice::on_frame(const can_frame& frame, std::int64_t now_ns, Fr
     return;
   }
   if (kind.type != pc::FrameType::nmt) return;
-  const auto command = nmt_.on_nmt(frame);
-  if (!command) return;
-  switch (*command) {
-    case pc::NmtCommand::start:
-      break;
-    case pc::NmtCommand::stop:
-    case pc::NmtCommand::enter_pre_operational:
-      tpdo_due_ = false;
-      break;
-    case pc::NmtCommand::reset_node:
-    case pc::NmtCommand::reset_communication:
-      power_on(now_ns, out);
-      break;
-  }
+  const NmtNode::NmtEffect effect = nmt_.on_nmt(frame);
+  if (effect == NmtNode::NmtEffect::reset) power_on(now_ns, out);
+  if (effect == NmtNode::NmtEffect::out_of_operational) tpdo_due_ = false;
 }
 
 ForceSensorDevice::Counts ForceSensorDevice::to_counts(const Wrench& raw) const {

@@ -13,45 +13,13 @@
 
 #include "arm/can/local_bus.h"
 #include "arm/can/master.h"
-#include "emulated_pa10.h"
-#include "test_paths.h"
+#include "master_rig.h"
 
-namespace rtm::can {
+namespace rtm::can::testing {
 namespace {
 
 using namespace std::chrono_literals;
 using ::testing::HasSubstr;
-using testing::EmulatedPa10;
-using testing::TempDir;
-
-// Long timeouts bound how long a broken build waits; no assertion is about speed.
-MasterConfig test_config() {
-  MasterConfig c;
-  c.sdo_timeout_ns = 2'000'000'000;
-  c.enable_timeout_ns = 5'000'000'000;
-  c.heartbeat_timeout_ns = 5'000'000'000;
-  c.step_timeout_ns = 2'000'000'000;
-  c.missed_feedback_limit = 1000;  // the master stays enabled while a drive is silent
-  return c;
-}
-
-// A master and the emulated nodes on one hub, and the listener on the same bus.
-struct Rig {
-  TempDir dir;
-  LocalHub hub{dir.file("bus")};
-  std::string spec = "local:" + dir.file("bus");
-  std::unique_ptr<Pa10Master> master;
-  std::unique_ptr<EmulatedPa10> nodes;
-
-  explicit Rig(MasterConfig config = test_config()) {
-    master = std::make_unique<Pa10Master>(open_bus(spec), nullptr, config);  // hears the boot-ups
-    nodes = std::make_unique<EmulatedPa10>(spec);
-  }
-  ~Rig() {
-    master.reset();  // before the nodes, so its shutdown frames have a reader
-    nodes.reset();
-  }
-};
 
 template <class Predicate>
 bool eventually(Predicate p, std::chrono::steady_clock::duration timeout = 5s) {
@@ -102,7 +70,7 @@ TEST(CanJointListener, HearsTheJointStateTheMasterReadsOfTheSameSyncOnceEveryDri
 TEST(CanJointListener, StaysIncompleteWhileADriveIsSilentAndKeepsItsLastPosition) {
   MasterConfig config = test_config();
   config.step_timeout_ns = 200'000'000;  // each step waits this long for the silent drive
-  Rig rig(config);
+  Rig rig({}, config);
   JointListener listener(rig.spec);
   listener.start();
   rig.master->start();
@@ -206,4 +174,4 @@ TEST(CanJointListener, NamesTheSpecOfABusItCannotOpen) {
 }
 
 }  // namespace
-}  // namespace rtm::can
+}  // namespace rtm::can::testing

@@ -13,8 +13,8 @@ rtm_idl|/p/idl|/p/build/idl
 rtm_cli|/p/tools/rtm|/p/tools/rtm
 rtm_none|/p/x|
 GOOD
-output=$("$check" "$root" "$build" "$dir/good")
-expect "own include folders and generated ones pass" test $? -eq 0
+run_check "$check" "$root" "$build" "$dir/good"
+expect "own include folders and generated ones pass" test $status -eq 0
 expect "the libraries are counted" grep -q "each of 4 libraries" <<<"$output"
 
 cat >"$dir/bad" <<BAD
@@ -22,9 +22,7 @@ rtm_can|/p/arm/can|/p/arm/can/include,/p
 rtm_pa10|/p/arm/pa10|/p/arm/can/include
 rtm_sim|/p/sim|/p/simulator/include
 BAD
-output=$("$check" "$root" "$build" "$dir/bad")
-status=$?
-echo "$output" | sed 's/^/  check: /'
+run_check "$check" "$root" "$build" "$dir/bad"
 expect "violations fail the check" test $status -eq 1
 expect "exporting the project root is named" grep -q "^rtm_can exports the project root /p" <<<"$output"
 expect "exporting another library's folder is named" grep -q "^rtm_pa10 (built in arm/pa10) exports arm/can/include" <<<"$output"

@@ -15,8 +15,8 @@ echo '#include "arm/can/bus.h"' >"$tree/sim/drive.cpp"
 echo '#include "rt/activity.h"' >"$tree/sim/runner.cpp"
 echo '#include "rt/schedule.h"' >"$tree/src/rtm/component.h"
 printf '#include <vector>\n#include "rtm/orb.h"\n' >"$tree/tools/rtm/main.cpp"
-output=$("$check" "$tree")
-expect "a tree that keeps the rules passes" test $? -eq 0
+run_check "$check" "$tree"
+expect "a tree that keeps the rules passes" test $status -eq 0
 
 printf '#include <string>\n#include "arm/can/bus.h"\n' >"$tree/src/rtm/runner.cpp"
 echo '  #  include <omniORB4/CORBA.h>' >"$tree/arm/can/master.cpp"
@@ -24,9 +24,7 @@ echo '#include "RTMExt.hh"' >"$tree/sim/runner.h"
 echo '#include "components/actuator/velocity_arm.h"' >"$tree/tools/rtm/units.cpp"
 echo '#include "sim/wrench.h"' >"$tree/arm/can/sensor.h"
 echo '#include "rtm/log.h"' >"$tree/src/rt/thread.cpp"
-output=$("$check" "$tree")
-status=$?
-echo "$output" | sed 's/^/  check: /'
+run_check "$check" "$tree"
 expect "violations fail the check" test $status -eq 1
 expect "the core including robot code is named with its line" grep -q "^src/rtm/runner.cpp:2: the core knows nothing of robots" <<<"$output"
 expect "the CAN library including omniORB is found (indented, spaced #include)" grep -q "^arm/can/master.cpp:1: the arm/CAN library knows nothing of CORBA" <<<"$output"

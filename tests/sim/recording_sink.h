@@ -5,6 +5,7 @@
 
 #include <vector>
 
+#include "arm/can/protocol.h"
 #include "sim/frame_sink.h"
 
 namespace rtm::sim::testing {
@@ -18,6 +19,15 @@ class RecordingSink final : public FrameSink {
     for (const auto& frame : frames)
       if (frame.can_id == id) found.push_back(frame);
     return found;
+  }
+  // Boot-up messages (heartbeats in state boot-up): one per node that powered on.
+  int bootups() const {
+    int count = 0;
+    for (const auto& frame : frames)
+      if (auto heartbeat = rtm::can::decode_heartbeat(frame);
+          heartbeat.ok() && heartbeat->state == rtm::can::NmtState::boot_up)
+        ++count;
+    return count;
   }
   void clear() { frames.clear(); }
 

@@ -10,14 +10,12 @@
 #include "recording_sink.h"
 #include "sim/kinematic_plant.h"
 
-namespace pc = rtm::can;
-using rtm::sim::KinematicPlant;
-using rtm::sim::Pa10Rig;
-using rtm::sim::RigConfig;
-using rtm::sim::testing::LockStepMaster;
-using rtm::sim::testing::RecordingSink;
-
+namespace rtm::sim {
 namespace {
+
+namespace pc = rtm::can;
+using testing::LockStepMaster;
+using testing::RecordingSink;
 
 class KinematicRigTest : public ::testing::Test {
  protected:
@@ -33,11 +31,7 @@ class KinematicRigTest : public ::testing::Test {
 };
 
 TEST_F(KinematicRigTest, PowerOnBootsAllNineNodes) {
-  int bootups = 0;
-  for (const auto& frame : out_.frames)
-    if (auto heartbeat = pc::decode_heartbeat(frame); heartbeat.ok() && heartbeat->state == pc::NmtState::boot_up)
-      ++bootups;
-  EXPECT_EQ(bootups, 9);
+  EXPECT_EQ(out_.bootups(), 9);
   EXPECT_EQ(rig_.time_ns(), 0);
 }
 
@@ -77,7 +71,8 @@ TEST_F(KinematicRigTest, TheSensorsReportTheWristContactAndTheOperatorsWrench) {
 
 TEST(KinematicRig, ATimestepThatDoesNotDivideTheSyncPeriodIsRefused) {
   KinematicPlant plant(0.0015);
-  EXPECT_THROW(Pa10Rig(plant, RigConfig{}), rtm::sim::RigError);
+  EXPECT_THROW(Pa10Rig(plant, RigConfig{}), RigError);
 }
 
 }  // namespace
+}  // namespace rtm::sim

@@ -4,19 +4,17 @@
 
 #include <gtest/gtest.h>
 
-
 #include "arm/can/protocol.h"
 #include "rtm_test/allocation_counter.h"
 #include "lockstep_master.h"
 #include "recording_sink.h"
 
-namespace pc = rtm::can;
-using rtm::sim::Pa10Simulator;
-using rtm::sim::SimulatorConfig;
-using rtm::sim::testing::LockStepMaster;
-using rtm::sim::testing::RecordingSink;
-
+namespace rtm::sim {
 namespace {
+
+namespace pc = rtm::can;
+using testing::LockStepMaster;
+using testing::RecordingSink;
 
 class LockStepSimulatorTest : public ::testing::Test {
  protected:
@@ -36,12 +34,7 @@ class LockStepSimulatorTest : public ::testing::Test {
 };
 
 TEST_F(LockStepSimulatorTest, PowerOnBootsAllNineNodesAtSimTimeZero) {
-  int bootups = 0;
-  for (const auto& frame : out_.frames)
-    if (auto heartbeat = pc::decode_heartbeat(frame);
-        heartbeat.ok() && heartbeat->state == pc::NmtState::boot_up)
-      ++bootups;
-  EXPECT_EQ(bootups, 9);
+  EXPECT_EQ(out_.bootups(), 9);
   EXPECT_EQ(sim_.time_ns(), 0);
 }
 
@@ -170,3 +163,4 @@ TEST_F(LockStepSimulatorTest, SensorsAreTaredSoTheyReadZeroAtRest) {
 }
 
 }  // namespace
+}  // namespace rtm::sim

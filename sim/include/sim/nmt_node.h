@@ -35,19 +35,26 @@ class NmtNode {
   }
 
   // An NMT frame: when it is well formed and addressed to this node (or to all), applies
-  // start / stop / enter pre-operational and returns the command, so the node can add its own
-  // reaction (a reset is left to the node's power_on()). nullopt otherwise.
-  std::optional<rtm::can::NmtCommand> on_nmt(const can_frame& frame) {
+  // start / stop / enter pre-operational and says what the device must add of its own (a
+  // reset is left to the device's power_on()).
+  enum class NmtEffect {
+    none,                // not for this node, malformed, or start (now operational)
+    out_of_operational,  // stop or enter pre-operational: the node takes no PDOs now
+    reset,               // reset node or communication: the device powers on again
+  };
+  NmtEffect on_nmt(const can_frame& frame) {
     const auto nmt = rtm::can::decode_nmt(frame);
-    if (!nmt.ok() || (nmt->node != rtm::can::kNmtAllNodes && nmt->node != node_id_)) return std::nullopt;
+    if (!nmt.ok() || (nmt->node != rtm::can::kNmtAllNodes && nmt->node != node_id_)) return NmtEffect::none;
     switch (nmt->command) {
-      case rtm::can::NmtCommand::start: state_ = rtm::can::NmtState::operational; break;
-      case rtm::can::NmtCommand::stop: state_ = rtm::can::NmtState::stopped; break;
-      case rtm::can::NmtCommand::enter_pre_operational: state_ = rtm::can::NmtState::pre_operational; break;
+      case rtm::can::NmtCommand::start: state_ = rtm::can::NmtState::operational; return NmtEffect::none;
+      case rtm::can::NmtCommand::stop: state_ = rtm::can::NmtState::stopped; return NmtEffect::out_of_operational;
+      case rtm::can::NmtCommand::enter_pre_operational:
+        state_ = rtm::can::NmtState::pre_operational;
+        return NmtEffect::out_of_operational;
       case rtm::can::NmtCommand::reset_node:
-      case rtm::can::NmtCommand::reset_communication: break;
+      case rtm::can::NmtCommand::reset_communication: return NmtEffect::reset;
     }
-    return nmt->command;
+    return NmtEffect::none;
   }
 
   // Advances the node's clock: the heartbeat when its period has elapsed (after a clock jump
