@@ -128,39 +128,149 @@ long syncs_between(const std::vector<Seen>& frames, long from, long to) {
   return n;
 }
 
+// The n-th line (from 1) of `output` that contains `text`, or "".
+std::string nth_line_with(const std::string& output, const std::string& text, std::size_t n) {
+  std::istringstream lines(output);
+  std::size_t seen = 0;
+  for (std::string line; std::getline(lines, line);)
+    if (line.find(text) != std::string::npos && ++seen == n) return line;
+  return "";
+}
+
+// The actuator's watchdog line: "since bus cycle A (SYNC counter a): quick stop after bus
+// cycle B (SYNC counter b)".
+struct WatchdogEvent {
+  long last_command_cycle = 0, fired_cycle = 0;
+  std::uint8_t last_command_counter = 0, fired_counter = 0;
+};
+std::optional<WatchdogEvent> parse_watchdog_event(const std::string& line) {
+  const std::size_t since = line.find("since bus cycle");
+  if (since == std::string::npos) return std::nullopt;
+  WatchdogEvent e;
+  int last_counter = 0, fired_counter = 0;
+  if (std::sscanf(line.c_str() + since,
+                  "since bus cycle %ld (SYNC counter %d): quick stop after bus cycle %ld (SYNC counter %d)",
+                  &e.last_command_cycle, &last_counter, &e.fired_cycle, &fired_counter) != 4)
+    return std::nullopt;
+  e.last_command_counter = static_cast<std::uint8_t>(last_counter);
+  e.fired_counter = static_cast<std::uint8_t>(fired_counter);
+  return e;
+}
+
+// Index of the first SYNC with this counter at or after `from`, or -1.
+long first_sync_with_counter(const std::vector<Seen>& frames, std::uint8_t counter, long from) {
+  for (long i = from; i < static_cast<long>(frames.size()); ++i) {
+    const Seen& f = frames[static_cast<std::size_t>(i)];
+    if (f.kind == Seen::Kind::sync && f.sync_counter == counter) return i;
+  }
+  return -1;
+}
+
+// Index of the first SYNC after `after` before which every drive got quick stop with zero
+// target, or -1.
+long first_quick_stop_sync(const std::vector<Seen>& frames, long after) {
+  std::array<bool, pc::kDriveCount> commanded{};
+  for (auto i = static_cast<std::size_t>(after) + 1; i < frames.size(); ++i) {
+    const Seen& f = frames[i];
+    if (f.kind == Seen::Kind::command && pc::is_drive_node(f.node)) {
+      commanded[static_cast<std::size_t>(pc::joint_index_of(f.node))] =
+          f.word == pc::controlword::kQuickStop && f.velocity_rad_s == 0.0;
+    } else if (f.kind == Seen::Kind::sync && std::ranges::all_of(commanded, [](bool b) { return b; })) {
+      return static_cast<long>(i);
+    }
+  }
+  return -1;
+}
+
+// A non-zero target among the RPDOs of the 8 cycles before frame `before`.
+bool moving_before(const std::vector<Seen>& frames, long before) {
+  for (long i = before - 1; i >= 0 && i >= before - 8 * 8; --i) {
+    const Seen& f = frames[static_cast<std::size_t>(i)];
+    if (f.kind == Seen::Kind::command && std::abs(f.velocity_rad_s) > 1e-4) return true;
+  }
+  return false;
+}
+
+// SYNCs after `quick_stop_sync` until every drive reported quick stop active at rest, or -1
+// when not within kSyncsToHalt + 1.
+long syncs_until_halted(const std::vector<Seen>& frames, long quick_stop_sync) {
+  std::array<bool, pc::kDriveCount> halted{};
+  long syncs = 0;
+  for (auto i = static_cast<std::size_t>(quick_stop_sync); i < frames.size() && syncs <= kSyncsToHalt + 1; ++i) {
+    const Seen& f = frames[i];
+    if (f.kind == Seen::Kind::sync) {
+      if (i != static_cast<std::size_t>(quick_stop_sync)) ++syncs;
+      continue;
+    }
+    if (f.kind != Seen::Kind::feedback || !pc::is_drive_node(f.node)) continue;
+    halted[static_cast<std::size_t>(pc::joint_index_of(f.node))] =
+        f.word == pc::statusword::kQuickStopActive && std::abs(f.velocity_rad_s) < kStopped_rad_s;
+    if (std::ranges::all_of(halted, [](bool b) { return b; })) return syncs;
+  }
+  return -1;
+}
+
+// Non-zero targets on the bus for 100 cycles, within `timeout`.
+bool wait_until_moving(const BusRecorder& recorder, std::chrono::seconds timeout) {
+  const auto moving = [&] {
+    int nonzero = 0;
+    for (const Seen& f : recorder.frames())
+      nonzero += f.kind == Seen::Kind::command && std::abs(f.velocity_rad_s) > 1e-4;
+    return nonzero > 7 * 100;
+  };
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (!moving() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
+  return moving();
+}
+
 rtm::Orb& test_orb() {
   static rtm::Orb orb;  // omniORB: one ORB per process
   return orb;
 }
 
-TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
-  // The operator pushes forward (free space) from 0.3 s on and keeps pushing.
-  const auto profile = unique_path("rtm-kill-profile", ".yaml");
-  std::ofstream(profile) << "segments:\n"
-                            "  - hold: 0.3\n"
-                            "  - ramp: {duration_s: 0.2, force_N: [5, 0, 0]}\n"
-                            "  - hold: 600\n";
+// pa10-sim and the paper's five members as processes on one bus and a test's omniNames, with
+// a passive recorder on the bus; the joystick's operator pushes forward (free space) from 0.3 s
+// on and keeps pushing. Members are stopped in the reverse order of their start.
+struct PaperSystem {
+  using Child = rtm_test::ChildProcess;
+  PaperSystem() {
+    const auto profile = unique_path("rtm-kill-profile", ".yaml");
+    std::ofstream(profile) << "segments:\n"
+                              "  - hold: 0.3\n"
+                              "  - ramp: {duration_s: 0.2, force_N: [5, 0, 0]}\n"
+                              "  - hold: 600\n";
+    sim = std::make_unique<Child>(std::vector<std::string>{PA10_SIM_EXE, "--bus", bus, "--profile", profile.string()});
+    sim->wait_for_line("pa10-sim: ready", 30s);
+    recorder = std::make_unique<BusRecorder>(bus);
+    actuator = member({RTM_ACTUATOR_EXE, "--name", "actuator0", "--bus", bus, "--watchdog-periods",
+                       std::to_string(kWatchdogPeriods)});
+    actuator->wait_until_bound(30s);  // the CAN master is up before the others start
+    sensor = member({RTM_SENSOR_EXE, "--name", "sensor0", "--bus", bus});
+    joystick = member({RTM_JOYSTICK_EXE, "--name", "joystick0", "--bus", bus});
+    controller = member({RTM_CONTROLLER_EXE, "--name", "controller0", "--gain", "0.003", "0.003", "0.003", "0", "0", "0"});
+    for (Child* c : {sensor.get(), joystick.get(), controller.get()}) c->wait_until_bound(30s);
+    servo = member({RTM_SERVO_EXE, "--name", "servo0", "--sensor", "sensor0", "--controller", "controller0",
+                    "--actuator", "actuator0"});
+    servo->wait_until_bound(30s);
+  }
+  std::unique_ptr<Child> member(std::vector<std::string> argv) const {
+    argv.insert(argv.end(), {"--naming", naming});
+    return std::make_unique<Child>(std::move(argv));
+  }
+
   const std::string bus = "local:" + unique_path("rtm-kill", ".bus").string();
   rtm_test::OmniNames names;
   const std::string naming = names.address();
+  std::unique_ptr<Child> sim;
+  std::unique_ptr<BusRecorder> recorder;
+  std::unique_ptr<Child> actuator, sensor, joystick, controller, servo;
+};
 
-  rtm_test::ChildProcess sim({PA10_SIM_EXE, "--bus", bus, "--profile", profile.string()});
-  sim.wait_for_line("pa10-sim: ready", 30s);
-  BusRecorder recorder(bus);
-
-  rtm_test::ChildProcess actuator({RTM_ACTUATOR_EXE, "--name", "actuator0", "--naming", naming, "--bus", bus,
-                                   "--watchdog-periods", std::to_string(kWatchdogPeriods)});
-  actuator.wait_until_bound(30s);
-  rtm_test::ChildProcess sensor({RTM_SENSOR_EXE, "--name", "sensor0", "--naming", naming, "--bus", bus});
-  rtm_test::ChildProcess joystick({RTM_JOYSTICK_EXE, "--name", "joystick0", "--naming", naming, "--bus", bus});
-  rtm_test::ChildProcess controller(
-      {RTM_CONTROLLER_EXE, "--name", "controller0", "--naming", naming, "--gain", "0.003", "0.003", "0.003", "0", "0", "0"});
-  sensor.wait_until_bound(30s);
-  joystick.wait_until_bound(30s);
-  controller.wait_until_bound(30s);
-  rtm_test::ChildProcess servo({RTM_SERVO_EXE, "--name", "servo0", "--naming", naming, "--sensor", "sensor0",
-                                "--controller", "controller0", "--actuator", "actuator0"});
-  servo.wait_until_bound(30s);
+TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
+  PaperSystem system;
+  const std::string& naming = system.naming;
+  BusRecorder& recorder = *system.recorder;
+  rtm_test::ChildProcess& actuator = *system.actuator;
 
   // The paper's procedure: joystick.out0 -> servo.in0, then on() the servo and the joystick.
   const rtm::NamingClient client(test_orb().orb(), rtm::NamingAddress::parse(naming));
@@ -172,16 +282,7 @@ TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
   servo_ref->on();
   joystick_ref->on();
 
-  // Moving: non-zero targets on the bus for a while.
-  const auto moving = [&] {
-    const auto frames = recorder.frames();
-    int nonzero = 0;
-    for (const Seen& f : frames) nonzero += f.kind == Seen::Kind::command && std::abs(f.velocity_rad_s) > 1e-4;
-    return nonzero > 7 * 100;  // 100 cycles of targets
-  };
-  const auto deadline = std::chrono::steady_clock::now() + 60s;
-  while (!moving() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
-  ASSERT_TRUE(moving()) << "the arm never moved\n" << actuator.output();
+  ASSERT_TRUE(wait_until_moving(recorder, 60s)) << "the arm never moved\n" << actuator.output();
 
   // A loaded machine may have stalled the controller before (a watchdog event and a quick
   // stop the next command released): the event that counts is the one after the kill. Every
@@ -189,69 +290,34 @@ TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
   const std::string kWatchdog = "watchdog: no new command";
   const std::size_t events_before = actuator.count_lines(kWatchdog);
   const auto frames_before_kill = static_cast<long>(recorder.frames().size());
-  controller.kill_now();
+  system.controller->kill_now();
   const auto event_deadline = std::chrono::steady_clock::now() + 30s;
   while (actuator.count_lines(kWatchdog) == events_before && std::chrono::steady_clock::now() < event_deadline)
     std::this_thread::sleep_for(10ms);
-  std::string event;
-  {
-    std::istringstream lines(actuator.output());
-    std::size_t seen = 0;
-    for (std::string line; std::getline(lines, line);) {
-      if (line.find(kWatchdog) != std::string::npos && ++seen == events_before + 1) event = line;
-    }
-  }
+  const std::string event = nth_line_with(actuator.output(), kWatchdog, events_before + 1);
   ASSERT_FALSE(event.empty()) << "no watchdog event after the kill\n" << actuator.output();
   std::this_thread::sleep_for(200ms);  // the halt and some more SYNCs reach the recorder
   const std::vector<Seen> frames = recorder.frames();
   joystick_ref->off();
   servo_ref->off();
 
-  // "since bus cycle A (SYNC counter a): quick stop after bus cycle B (SYNC counter b)"
-  long last_command_cycle = 0, fired_cycle = 0;
-  int last_command_counter_value = 0, fired_counter_value = 0;
-  const std::size_t since = event.find("since bus cycle");
-  ASSERT_NE(since, std::string::npos) << event;
-  ASSERT_EQ(std::sscanf(event.c_str() + since,
-                        "since bus cycle %ld (SYNC counter %d): quick stop after bus cycle %ld (SYNC counter %d)",
-                        &last_command_cycle, &last_command_counter_value, &fired_cycle, &fired_counter_value),
-            4)
-      << event;
-  const auto last_command_counter = static_cast<std::uint8_t>(last_command_counter_value);
-  const auto fired_counter = static_cast<std::uint8_t>(fired_counter_value);
+  const std::optional<WatchdogEvent> parsed = parse_watchdog_event(event);
+  ASSERT_TRUE(parsed) << event;
+  const WatchdogEvent& e = *parsed;
   // The watchdog counts the actuator's own cycles; the bus position it reports comes from the
   // master's thread, which may lag one SYNC behind on a loaded machine.
-  EXPECT_GE(fired_cycle - last_command_cycle, kWatchdogPeriods - 1) << event;
+  EXPECT_GE(e.fired_cycle - e.last_command_cycle, kWatchdogPeriods - 1) << event;
 
   // The firing's SYNC was sent after the kill, so after every frame recorded before it.
-  long fired_sync = -1;
-  for (long i = frames_before_kill; i < static_cast<long>(frames.size()) && fired_sync < 0; ++i) {
-    const Seen& f = frames[static_cast<std::size_t>(i)];
-    if (f.kind == Seen::Kind::sync && f.sync_counter == fired_counter) fired_sync = i;
-  }
-  ASSERT_GE(fired_sync, 0) << "the recorder missed SYNC " << int(fired_counter);
+  const long fired_sync = first_sync_with_counter(frames, e.fired_counter, frames_before_kill);
+  ASSERT_GE(fired_sync, 0) << "the recorder missed SYNC " << int(e.fired_counter);
 
   // The first SYNC after the firing before which every drive got quick stop with zero target.
-  long quick_stop_sync = -1;
-  std::array<bool, pc::kDriveCount> commanded{};
-  for (std::size_t i = static_cast<std::size_t>(fired_sync) + 1; i < frames.size() && quick_stop_sync < 0; ++i) {
-    const Seen& f = frames[i];
-    if (f.kind == Seen::Kind::command && pc::is_drive_node(f.node)) {
-      commanded[static_cast<std::size_t>(pc::joint_index_of(f.node))] =
-          f.word == pc::controlword::kQuickStop && f.velocity_rad_s == 0.0;
-    } else if (f.kind == Seen::Kind::sync && std::all_of(commanded.begin(), commanded.end(), [](bool b) { return b; })) {
-      quick_stop_sync = static_cast<long>(i);
-    }
-  }
+  const long quick_stop_sync = first_quick_stop_sync(frames, fired_sync);
   ASSERT_GE(quick_stop_sync, 0) << "no quick stop reached every drive\n" << actuator.output();
 
   // Before it, the arm was moving: the last command cycle's RPDOs were not zero.
-  bool moving_before = false;
-  for (long i = quick_stop_sync - 1; i >= 0 && i >= quick_stop_sync - 8 * 8; --i) {
-    const Seen& f = frames[static_cast<std::size_t>(i)];
-    if (f.kind == Seen::Kind::command && std::abs(f.velocity_rad_s) > 1e-4) moving_before = true;
-  }
-  EXPECT_TRUE(moving_before) << "the RPDOs before the quick stop already held zero";
+  EXPECT_TRUE(moving_before(frames, quick_stop_sync)) << "the RPDOs before the quick stop already held zero";
 
   const long brake_delay = syncs_between(frames, fired_sync, quick_stop_sync);
   EXPECT_GE(brake_delay, 1);
@@ -259,28 +325,15 @@ TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
   // it may already be on its way, so the quick stop leaves with the second one (+1 of slack
   // for a preemption of the actuator's thread between reading the position and braking).
   EXPECT_LE(brake_delay, 3) << "SYNCs from the watchdog firing to the one carrying the quick stop";
-  const long last_command_sync = last_sync_with_counter(frames, last_command_counter, fired_sync);
+  const long last_command_sync = last_sync_with_counter(frames, e.last_command_counter, fired_sync);
   if (last_command_sync >= 0) {
     // Shown, not asserted: the actuator's own thread can be preempted on a loaded machine.
     std::fprintf(stderr, "kill test: last command after SYNC %d, watchdog after %ld SYNCs more, quick stop %ld SYNC(s) later\n",
-                 int(last_command_counter), syncs_between(frames, last_command_sync, fired_sync), brake_delay);
+                 int(e.last_command_counter), syncs_between(frames, last_command_sync, fired_sync), brake_delay);
   }
 
   // Halted: every drive reports quick stop active and no motion within 3 SYNCs.
-  std::array<bool, pc::kDriveCount> halted{};
-  long syncs = 0;
-  long halted_after = -1;
-  for (std::size_t i = static_cast<std::size_t>(quick_stop_sync); i < frames.size() && syncs <= kSyncsToHalt + 1; ++i) {
-    const Seen& f = frames[i];
-    if (f.kind == Seen::Kind::sync) {
-      if (i != static_cast<std::size_t>(quick_stop_sync)) ++syncs;
-      continue;
-    }
-    if (f.kind != Seen::Kind::feedback || !pc::is_drive_node(f.node)) continue;
-    halted[static_cast<std::size_t>(pc::joint_index_of(f.node))] =
-        f.word == pc::statusword::kQuickStopActive && std::abs(f.velocity_rad_s) < kStopped_rad_s;
-    if (halted_after < 0 && std::all_of(halted.begin(), halted.end(), [](bool b) { return b; })) halted_after = syncs;
-  }
+  const long halted_after = syncs_until_halted(frames, quick_stop_sync);
   ASSERT_GE(halted_after, 0) << "the drives did not all report quick stop active at rest";
   EXPECT_LE(halted_after, kSyncsToHalt) << "SYNCs after the quick stop until every drive was at rest";
   std::fprintf(stderr, "kill test: every drive at rest %ld SYNC(s) after the one that carried the quick stop\n", halted_after);
