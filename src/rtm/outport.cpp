@@ -26,6 +26,10 @@ OutPortCounters OutPortBase::counters_snapshot() const {
   c.dropped = dropped_.load(std::memory_order_relaxed);
   c.pushed = pushed_.load(std::memory_order_relaxed);
   c.failed = failed_.load(std::memory_order_relaxed);
+  c.by_writer = by_writer_.load(std::memory_order_relaxed);
+  c.write_p50_ns = write_cost_.percentile_ns(0.5);
+  c.write_p99_ns = write_cost_.percentile_ns(0.99);
+  c.write_max_ns = write_cost_.max_ns();
   return c;
 }
 
@@ -70,10 +74,13 @@ RTM::OutPortEx_ptr OutPortBase::reference() const {
 void OutPortBase::stop_and_join(std::unique_ptr<Subscription> sub,
                                 std::vector<std::unique_ptr<Subscription>>& parked) {
   {
-    std::lock_guard slot_lock(sub->slot_mu);
+    std::unique_lock slot_lock(sub->slot_mu);
     sub->stop = true;
+    sub->slot_cv.notify_all();
+    // A call write() took on is made with no lock held: it must end before sub goes (the
+    // delivery thread's own call ends before the join below).
+    sub->slot_cv.wait(slot_lock, [&] { return !sub->writer_calling; });
   }
-  sub->slot_cv.notify_all();
   if (sub->thread.joinable()) {
     // A delivery thread that unsubscribes itself (e.g. from a callback) cannot join itself.
     if (sub->thread.get_id() == std::this_thread::get_id()) {
@@ -194,7 +201,8 @@ void OutPortBase::delivery_loop(Subscription* sub) {
   pthread_setname_np(pthread_self(), "rtm-deliver");
   std::unique_lock lock(sub->slot_mu);
   for (;;) {
-    sub->slot_cv.wait(lock, [&] { return sub->stop || sub->written_seq != sub->delivered_seq; });
+    // Not while write() makes a call for this subscription: data leave in order.
+    sub->slot_cv.wait(lock, [&] { return sub->stop || (sub->written_seq != sub->delivered_seq && !sub->in_flight); });
     if (sub->stop) return;
     // Oldest first; what the ring no longer holds was overwritten: count it as dropped.
     const std::uint64_t behind = sub->written_seq - sub->delivered_seq;
@@ -206,23 +214,13 @@ void OutPortBase::delivery_loop(Subscription* sub) {
       sub->delivered_seq += missed;
     }
     const std::uint64_t seq = ++sub->delivered_seq;
+    sub->in_flight = true;
     bool drop = false;
-    try {
-      deliver_slot(*sub, seq, lock);
-      sub->failures.store(0, std::memory_order_relaxed);
-      sub->pushed.fetch_add(1, std::memory_order_relaxed);
-      pushed_.fetch_add(1, std::memory_order_relaxed);
+    const std::string failure = guarded_call(*sub, [&] { deliver_slot(*sub, seq, lock); }, &drop);
+    sub->in_flight = false;
+    if (failure.empty()) {
+      sub->writer_may_call = true;  // delivered: write() may call again
       drop = sub->req_type == RTM::once;
-    } catch (const CORBA::OBJECT_NOT_EXIST& e) {
-      drop = count_failure(*sub, e._name(), true);
-    } catch (const CORBA::COMM_FAILURE& e) {
-      drop = count_failure(*sub, e._name(), true);
-    } catch (const CORBA::TRANSIENT& e) {
-      drop = count_failure(*sub, e._name(), true);
-    } catch (const CORBA::Exception& e) {
-      drop = count_failure(*sub, e._name(), false);
-    } catch (const std::exception& e) {
-      drop = count_failure(*sub, e.what(), false);
     }
     if (drop) {
       sub->done = true;
@@ -231,6 +229,40 @@ void OutPortBase::delivery_loop(Subscription* sub) {
       return;
     }
   }
+}
+
+void OutPortBase::finish_writer_call(Subscription& sub, const std::string& failure, bool dead) {
+  if (dead || (failure.empty() && sub.req_type == RTM::once)) {
+    {
+      std::lock_guard slot_lock(sub.slot_mu);
+      sub.done = true;
+    }
+    retire(&sub);  // still calling: sub stays until the flag below is cleared
+  }
+  {
+    std::lock_guard slot_lock(sub.slot_mu);
+    sub.in_flight = false;
+    sub.writer_calling = false;
+    // After a failure the thread takes the next data (a slow subscriber then costs write() no
+    // more), until it has delivered again.
+    if (!failure.empty()) sub.writer_may_call = false;
+  }
+  sub.slot_cv.notify_all();  // the delivery thread may go on; a stop_and_join() may finish
+}
+
+void OutPortBase::make_writer_references(Subscription& sub) const {
+  Orb* orb = Orb::instance();
+  if (orb == nullptr) return;  // the thread delivers
+  // A reference of write()'s own, unmarshalled anew: omniORB keeps call timeouts per
+  // reference, so the delivery thread's longer bound stays on sub.port.
+  CORBA::String_var ior = orb->orb()->object_to_string(sub.port.in());
+  CORBA::Object_var copy = orb->orb()->string_to_object(ior.in());
+  if (options_.oneway && !CORBA::is_nil(sub.port_ex)) {
+    sub.writer_port_ex = RTM::InPortEx::_unchecked_narrow(copy.in());
+    omniORB::setClientCallTimeout(sub.writer_port_ex.in(), options_.writer_call_timeout_ms);
+  }
+  sub.writer_port = RTM::InPort::_unchecked_narrow(copy.in());
+  omniORB::setClientCallTimeout(sub.writer_port.in(), options_.writer_call_timeout_ms);
 }
 
 void OutPortBase::refuse(const std::string& why) {

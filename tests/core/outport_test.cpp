@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <fstream>
 #include <thread>
 
 namespace {
@@ -388,6 +389,20 @@ class PeerProcess {
     kill(pid_, SIGKILL);
     waitpid(pid_, nullptr, 0);
   }
+  // Its ORB answers nothing until resume(); returns once the kernel has stopped it.
+  void pause() {
+    kill(pid_, SIGSTOP);
+    const std::string stat = "/proc/" + std::to_string(pid_) + "/stat";
+    for (int i = 0; i < 2000; ++i) {
+      std::ifstream in(stat);
+      std::string pid, comm, state;
+      in >> pid >> comm >> state;
+      if (state == "T") return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    throw std::runtime_error("the peer did not stop");
+  }
+  void resume() { kill(pid_, SIGCONT); }
   // The IOR the peer printed (empty if it printed nothing within 20 s).
   std::string read_ior() {
     std::string line;
@@ -434,6 +449,107 @@ TEST_F(OutPortTest, InPortOfAnotherProcessIsDeliveredThroughTheOrb) {
   EXPECT_EQ(local_in->counters_snapshot().accepted, 0u);
   out->close();
   local_in->deactivate();
+}
+
+// ---- who makes the remote call: write() itself when the subscription is idle ----
+
+struct Peer {
+  PeerProcess process;
+  RTM::InPortEx_var port;
+  explicit Peer(rtm::Orb& orb) {
+    const std::string ior = process.read_ior();
+    if (ior.rfind("IOR:", 0) != 0) throw std::runtime_error("peer printed '" + ior + "'");
+    CORBA::Object_var obj = orb.from_string(ior);
+    port = RTM::InPortEx::_narrow(obj);
+  }
+  std::uint64_t accepted() { return port->counters().accepted; }
+};
+
+TEST_F(OutPortTest, AnIdleRemoteSubscriptionIsDeliveredByWriteItselfInOrder) {
+  Peer peer(orb());
+  auto out = make_out();  // Delivery::writer_when_idle is the default
+  ASSERT_TRUE(out->subscribe(RTM::repeated, peer.port.in()));
+  for (int i = 1; i <= 20; ++i) {
+    out->write(float6(static_cast<float>(i)));
+    ASSERT_TRUE(eventually([&] { return peer.accepted() == static_cast<std::uint64_t>(i); })) << "datum " << i;
+  }
+  const rtm::OutPortCounters c = out->counters_snapshot();
+  EXPECT_EQ(c.pushed, 20u);
+  EXPECT_EQ(c.by_writer, 20u) << "nothing was in flight before any write: write() made every call";
+  EXPECT_GT(c.write_max_ns, 0) << "write()'s own cost is recorded";
+  out->close();
+}
+
+TEST_F(OutPortTest, WithDeliveryThreadWriteNeverCallsTheSubscriber) {
+  Peer peer(orb());
+  rtm::OutPortOptions options;
+  options.delivery = rtm::OutPortOptions::Delivery::thread;
+  auto out = make_out(options);
+  ASSERT_TRUE(out->subscribe(RTM::repeated, peer.port.in()));
+  for (int i = 1; i <= 10; ++i) {
+    out->write(float6(static_cast<float>(i)));
+    ASSERT_TRUE(eventually([&] { return peer.accepted() == static_cast<std::uint64_t>(i); }));
+  }
+  EXPECT_EQ(out->counters_snapshot().by_writer, 0u);
+  EXPECT_EQ(out->counters_snapshot().pushed, 10u);
+  out->close();
+}
+
+// A subscriber that stops answering costs write() one bounded call: after it failed, the data
+// go to the delivery thread (queued, oldest dropped past the ring), and write() calls again
+// only once that thread has delivered. Nothing here is timed: the counters say who called.
+TEST_F(OutPortTest, AStalledSubscriberCostsWriteOneFailedCallThenItsThreadTakesOver) {
+  Peer peer(orb());
+  rtm::OutPortOptions options;
+  options.call_timeout_ms = 60'000;   // the thread waits the stall out
+  options.writer_call_timeout_ms = 5;  // write() does not
+  auto out = make_out(options);
+  ASSERT_TRUE(out->subscribe(RTM::repeated, peer.port.in()));
+  out->write(float6(1.0f));
+  ASSERT_TRUE(eventually([&] { return peer.accepted() == 1; }));
+  ASSERT_EQ(out->counters_snapshot().by_writer, 1u);
+
+  peer.process.pause();
+  for (int i = 2; i <= 30; ++i) out->write(float6(static_cast<float>(i)));
+  rtm::OutPortCounters c = out->counters_snapshot();
+  EXPECT_EQ(c.failed, 1u) << "one call of write()'s timed out; the rest were queued, not called";
+  EXPECT_EQ(c.by_writer, 1u);
+  EXPECT_EQ(out->subscription_count(), 1u) << "one failure does not drop a subscriber";
+
+  peer.process.resume();
+  // Every datum is accounted for once the thread has caught up: delivered (1, and what the
+  // thread's ring held), failed (the call write() gave up), or dropped as stale. Whether the
+  // thread's call in the stall was datum 3 or a later one depends on when it got the CPU.
+  const auto accounted = [&] {
+    const rtm::OutPortCounters now = out->counters_snapshot();
+    return now.pushed + now.failed + now.dropped;
+  };
+  ASSERT_TRUE(eventually([&] { return accounted() == 30; })) << accounted();
+  EXPECT_GE(out->counters_snapshot().pushed, 1u + 8) << "the ring's 8 newest reach the subscriber";
+  // Then write() calls again.
+  ASSERT_TRUE(eventually([&] {
+    out->write(float6(99.0f));
+    return out->counters_snapshot().by_writer > 1;
+  }));
+  c = out->counters_snapshot();
+  EXPECT_EQ(c.failed, 1u);
+  EXPECT_LE(c.dropped, 29u - 1 - 8) << "data 2..30: one failed in write(), 8 fit the ring";
+  out->close();
+}
+
+TEST_F(OutPortTest, ASubscriberThatDiedIsDroppedWhetherWriteOrItsThreadFindsOut) {
+  auto peer = std::make_unique<Peer>(orb());
+  auto out = make_out();
+  ASSERT_TRUE(out->subscribe(RTM::repeated, peer->port.in()));
+  out->write(float6(1.0f));
+  ASSERT_TRUE(eventually([&] { return peer->accepted() == 1; }));
+  peer.reset();  // the process exits: its endpoint refuses connections
+  ASSERT_TRUE(eventually([&] {
+    out->write(float6(2.0f));
+    return out->subscription_count() == 0;
+  }));
+  EXPECT_GE(out->counters_snapshot().failed, 1u);
+  out->close();
 }
 
 }  // namespace

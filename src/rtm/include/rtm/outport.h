@@ -3,6 +3,7 @@
 
 #include "RTMExt.hh"
 #include "rtm/data.h"
+#include "rt/histogram.h"
 #include "rtm/inport.h"
 
 #include <atomic>
@@ -34,6 +35,20 @@ struct OutPortOptions {
   // out a subscriber's or the host's short stall without loss, and lets one wake-up deliver
   // a batch. 1 = latest value only. Pre-allocated per subscription.
   std::uint32_t queue_depth = 8;
+  // Who makes the remote call for a datum.
+  //   writer_when_idle: write() itself, when the subscription has nothing in flight or queued
+  //     (no thread wake-up between the writer and the wire: the datum leaves at once); else,
+  //     and after a call of the writer's failed, the subscription's delivery thread, until
+  //     that thread has delivered again.
+  //   thread: always the delivery thread; write() never makes a CORBA call.
+  enum class Delivery { writer_when_idle, thread };
+  Delivery delivery = Delivery::writer_when_idle;
+  // Bound on one call made by write() (omniORB client call timeout on a reference of its
+  // own), ms; a call that takes longer fails (counted) and moves that subscription to its
+  // thread. write() makes at most writer_calls such calls: it holds its caller for at most
+  // writer_calls x writer_call_timeout_ms beyond copying into the rings.
+  std::uint32_t writer_call_timeout_ms = 2;
+  std::uint32_t writer_calls = 4;
 };
 
 // Counters of one OutPort (same meaning as RTM::PortCounters).
@@ -43,6 +58,9 @@ struct OutPortCounters {
   std::uint64_t dropped = 0;   // stale data slow subscribers skipped
   std::uint64_t pushed = 0;    // deliveries completed (in-process ones included)
   std::uint64_t failed = 0;    // deliveries that raised
+  std::uint64_t by_writer = 0; // deliveries write() made itself (Delivery::writer_when_idle)
+  // Time write() held its caller, ns (p50/p99 bucket edges, max).
+  std::int64_t write_p50_ns = 0, write_p99_ns = 0, write_max_ns = 0;
 };
 
 // ============================ OutPortBase =============================
@@ -112,6 +130,12 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
     std::uint64_t delivered_seq = 0;
     bool stop = false;
     bool done = false;               // once-subscription delivered, or dropped as dead
+    bool in_flight = false;          // a call for this subscription is being made (writer or thread)
+    bool writer_calling = false;     // ... by write(), with no lock held
+    bool writer_may_call = true;     // false after a writer's call failed, until the thread delivered
+    // Remote and Delivery::writer_when_idle: write()'s own reference (its own call timeout).
+    RTM::InPort_var writer_port;
+    RTM::InPortEx_var writer_port_ex;
     std::thread thread;
     std::atomic<std::uint64_t> pushed{0};
     std::atomic<std::uint64_t> dropped{0};
@@ -131,6 +155,14 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   virtual std::uint64_t ring_size(const Subscription& sub) const = 0;
   // Counts a failed delivery; true when sub must be dropped as dead. Logs the drop once.
   bool count_failure(Subscription& sub, const char* exception_name, bool dead_kind);
+  // Runs call() (a remote delivery) and counts what came of it: "" when it returned, else the
+  // failure; *dead when sub must be dropped.
+  template <class Call>
+  std::string guarded_call(Subscription& sub, Call call, bool* dead);
+  // write()'s part after its lock: the calls it took on (sub->in_flight set by write()).
+  void finish_writer_call(Subscription& sub, const std::string& failure, bool dead);
+  // subscribe(): write()'s own references to a remote subscriber, with their call timeout.
+  void make_writer_references(Subscription& sub) const;
   // Removes the subscriptions matching (under mu_) and stops/joins them (without it).
   bool remove_matching(const std::function<bool(const Subscription&)>& match);
   static void stop_and_join(std::unique_ptr<Subscription> sub, std::vector<std::unique_ptr<Subscription>>& parked);
@@ -156,6 +188,8 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   std::atomic<std::uint64_t> dropped_{0};
   std::atomic<std::uint64_t> pushed_{0};
   std::atomic<std::uint64_t> failed_{0};
+  std::atomic<std::uint64_t> by_writer_{0};
+  LatencyHistogram write_cost_;
   bool closed_ = false;
   std::atomic<bool> get_before_data_logged_{false};
 
@@ -202,7 +236,11 @@ class OutPort final : public OutPortBase {
     std::vector<T> ring;
     T sending{};  // the datum being delivered (delivery thread only)
   };
+  static constexpr std::size_t kMaxWriterCalls = 8;  // OutPortOptions::writer_calls is capped here
   void deliver_slot(Subscription& sub, std::uint64_t seq, std::unique_lock<std::mutex>& slot_lock) override;
+  bool deliver_direct(TypedSubscription& sub, const T& value);
+  bool queue_or_take(TypedSubscription& sub, const T& value, bool may_call);
+  void call_remote(TypedSubscription& sub, const T& value, bool by_writer);
   std::uint64_t ring_size(const Subscription& sub) const override {
     return static_cast<const TypedSubscription&>(sub).ring.size();
   }

@@ -1,7 +1,11 @@
 // Template definitions of rtm/outport.h; include that header, not this one.
 #pragma once
 
+#include "rt/clock.h"
 #include "rtm/log.h"
+
+#include <algorithm>
+#include <array>
 
 #include <omniORB4/omniORB.h>
 
@@ -17,46 +21,114 @@ OutPort<T>::~OutPort() {
   close();
 }
 
+template <class Call>
+std::string OutPortBase::guarded_call(Subscription& sub, Call call, bool* dead) {
+  *dead = false;
+  try {
+    call();
+    sub.failures.store(0, std::memory_order_relaxed);
+    sub.pushed.fetch_add(1, std::memory_order_relaxed);
+    pushed_.fetch_add(1, std::memory_order_relaxed);
+    return "";
+  } catch (const CORBA::OBJECT_NOT_EXIST& e) {
+    *dead = count_failure(sub, e._name(), true);
+    return e._name();
+  } catch (const CORBA::COMM_FAILURE& e) {
+    *dead = count_failure(sub, e._name(), true);
+    return e._name();
+  } catch (const CORBA::TRANSIENT& e) {
+    *dead = count_failure(sub, e._name(), true);
+    return e._name();
+  } catch (const CORBA::Exception& e) {
+    *dead = count_failure(sub, e._name(), false);
+    return e._name();
+  } catch (const std::exception& e) {
+    *dead = count_failure(sub, e.what(), false);
+    return e.what();
+  }
+}
+
 template <PortData T>
 void OutPort<T>::write(const T& value) {
-  std::lock_guard lock(mu_);
-  latest_ = value;
-  has_latest_ = true;
-  written_.fetch_add(1, std::memory_order_relaxed);
-  for (std::size_t i = 0; i < subs_.size();) {
-    auto& sub = static_cast<TypedSubscription&>(*subs_[i]);
-    if (sub.direct) {
-      if (sub.check_active && !sub.local->active()) {
-        // The InPort was deactivated: the same as OBJECT_NOT_EXIST from a remote one.
-        if (count_failure(sub, "OBJECT_NOT_EXIST", true)) {
+  const std::int64_t start_ns = monotonic_ns();
+  // Subscriptions write() delivers to itself, after its lock is released (fixed capacity:
+  // write() allocates nothing).
+  std::array<TypedSubscription*, kMaxWriterCalls> calls{};
+  std::size_t call_count = 0;
+  const std::size_t call_limit = std::min<std::size_t>(options_.writer_calls, kMaxWriterCalls);
+  {
+    std::lock_guard lock(mu_);
+    latest_ = value;
+    has_latest_ = true;
+    written_.fetch_add(1, std::memory_order_relaxed);
+    for (std::size_t i = 0; i < subs_.size();) {
+      auto& sub = static_cast<TypedSubscription&>(*subs_[i]);
+      if (sub.direct) {
+        if (!deliver_direct(sub, value)) {
           retire_locked(i);
           continue;
         }
-      } else {
-        static_cast<InPort<T>*>(sub.local.in())->deliver(value);
-        sub.failures.store(0, std::memory_order_relaxed);
-        sub.pushed.fetch_add(1, std::memory_order_relaxed);
-        pushed_.fetch_add(1, std::memory_order_relaxed);
-        if (sub.req_type == RTM::once) {
-          retire_locked(i);
-          continue;
-        }
+      } else if (queue_or_take(sub, value, call_count < call_limit)) {
+        calls[call_count++] = &sub;
       }
-    } else {
-      bool wake = false;
-      {
-        std::lock_guard slot_lock(sub.slot_mu);
-        // A once-subscription takes exactly the first datum written after it was made.
-        if (!(sub.req_type == RTM::once && sub.written_seq > 0)) {
-          sub.ring[sub.written_seq % sub.ring.size()] = value;
-          ++sub.written_seq;
-          wake = true;
-        }
-      }
-      if (wake) sub.slot_cv.notify_one();
+      ++i;
     }
-    ++i;
   }
+  for (std::size_t k = 0; k < call_count; ++k) {
+    TypedSubscription& sub = *calls[k];
+    bool dead = false;
+    const std::string failure = guarded_call(sub, [&] { call_remote(sub, value, true); }, &dead);
+    by_writer_.fetch_add(failure.empty() ? 1 : 0, std::memory_order_relaxed);
+    finish_writer_call(sub, failure, dead);
+  }
+  write_cost_.record(monotonic_ns() - start_ns);
+}
+
+// An in-process subscriber filled by write() itself; false when it must be retired.
+template <PortData T>
+bool OutPort<T>::deliver_direct(TypedSubscription& sub, const T& value) {
+  if (sub.check_active && !sub.local->active()) {
+    // The InPort was deactivated: the same as OBJECT_NOT_EXIST from a remote one.
+    return !count_failure(sub, "OBJECT_NOT_EXIST", true);
+  }
+  static_cast<InPort<T>*>(sub.local.in())->deliver(value);
+  sub.failures.store(0, std::memory_order_relaxed);
+  sub.pushed.fetch_add(1, std::memory_order_relaxed);
+  pushed_.fetch_add(1, std::memory_order_relaxed);
+  return sub.req_type != RTM::once;
+}
+
+// Queues value for the delivery thread, or - when write() may call and the subscription is
+// idle - takes the call on (in_flight set) and returns true.
+template <PortData T>
+bool OutPort<T>::queue_or_take(TypedSubscription& sub, const T& value, bool may_call) {
+  {
+    std::lock_guard slot_lock(sub.slot_mu);
+    // A once-subscription takes exactly the first datum written after it was made.
+    if (sub.req_type == RTM::once && sub.written_seq > 0) return false;
+    const bool idle = !sub.in_flight && sub.written_seq == sub.delivered_seq;
+    if (may_call && idle && sub.writer_may_call && !CORBA::is_nil(sub.writer_port)) {
+      sub.in_flight = true;
+      sub.writer_calling = true;
+      ++sub.written_seq;
+      ++sub.delivered_seq;
+      return true;
+    }
+    sub.ring[sub.written_seq % sub.ring.size()] = value;
+    ++sub.written_seq;
+  }
+  sub.slot_cv.notify_one();
+  return false;
+}
+
+// One datum to a remote subscriber: by_writer selects write()'s own references.
+template <PortData T>
+void OutPort<T>::call_remote(TypedSubscription& sub, const T& value, bool by_writer) {
+  CORBA::Any any;
+  any <<= value;
+  RTM::InPortEx_ptr ex = by_writer ? sub.writer_port_ex.in() : sub.port_ex.in();
+  if (options_.oneway && !CORBA::is_nil(ex)) ex->push(any);
+  else (by_writer ? sub.writer_port.in() : sub.port.in())->put(any);
 }
 
 template <PortData T>
@@ -89,10 +161,7 @@ void OutPort<T>::deliver_slot(Subscription& base, std::uint64_t seq,
     static_cast<InPort<T>*>(sub.local.in())->deliver(sub.sending);
     return;
   }
-  CORBA::Any any;
-  any <<= sub.sending;
-  if (options_.oneway && !CORBA::is_nil(sub.port_ex)) sub.port_ex->push(any);
-  else sub.port->put(any);
+  call_remote(sub, sub.sending, false);
 }
 
 template <PortData T>
@@ -172,6 +241,7 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
   if (sub->local.in() == nullptr) {
     omniORB::setClientCallTimeout(sub->port.in(), options_.call_timeout_ms);
     if (!CORBA::is_nil(sub->port_ex)) omniORB::setClientCallTimeout(sub->port_ex.in(), options_.call_timeout_ms);
+    if (options_.delivery == OutPortOptions::Delivery::writer_when_idle) make_writer_references(*sub);
   }
   const bool threaded = !sub->direct;
   std::string why;
