@@ -1,14 +1,21 @@
 // Two processes over loopback: one-way latency of TimedFloat6 paced at 1 kHz and burst
-// throughput, through RTM's ports (OutPort::write in the publisher process -> delivery
-// thread -> InPort::put in this process), beside a bare omniORB put(any) on a servant with
-// no RTM code as the floor. Each transport is chosen by the publisher's client transport
+// throughput, through RTM's ports (OutPort::write in the publisher process -> put/push ->
+// InPort in this process), beside a bare omniORB put(any) on a servant with no RTM code as
+// the floor, in the same run. Each transport is chosen by the publisher's client transport
 // rule: the receiving InPort offers both TCP and a unix socket.
 //
 //   rtm_bench_twoproc [--cpu N] [--paced N] [--burst N] [--transport tcp|unix|both]
+//                     [--neighbour none|busy|both]
 //
-// --cpu N pins both processes to CPU N (MACHINE-NOTES: stages that wake each other are
-// fastest on one CPU). This process is the receiver; it runs itself again as the publisher
-// (--role publisher ...), one child per row.
+// One-way latency is measured in this process, from the stamp the publisher puts in the datum
+// just before write() (or the bare put) to the receiving upcall: RTM's and the bare rows
+// measure the same span. The RTM paced rows run once per delivery policy (write() calls
+// itself when idle; always the delivery thread) and report what write() cost the publisher's
+// periodic thread. --neighbour busy starts a process that keeps one CPU busy (a spinning loop
+// at normal priority) for the rows, as another program on the machine would; both = each row
+// quiet, then busy. --cpu N pins both processes to CPU N (MACHINE-NOTES: stages that wake each
+// other are fastest on one CPU). This process is the receiver; it runs itself again as the
+// publisher (--role publisher ...), one child per row.
 #include "bench_stats.h"
 
 #include "rt/activity.h"
@@ -18,6 +25,7 @@
 #include "rtm/outport.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sched.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -27,6 +35,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <map>
+#include <optional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -74,12 +83,13 @@ std::int64_t stamp_ns(const RTM::TimedFloat6& d) { return std::int64_t{d.tm.sec}
 // ---------------------------------------------------------------------------------------------
 
 // The bare modes: put() on the target's InPort with no OutPort in between, paced at 1 kHz or
-// back to back; prints the round trips.
+// back to back; each datum stamped just before its put (the receiver measures one-way);
+// prints the round trips.
 int run_bare_publisher(RTM::InPort_ptr target, const std::string& mode, std::size_t count) {
   CORBA::Any any;
   RTM::TimedFloat6 datum{};
   any <<= datum;
-  for (int i = 0; i < 1000; ++i) target->put(any);  // connect and warm up
+  for (int i = 0; i < 1000; ++i) target->put(any);  // connect and warm up (not counted: stamp 0)
   std::vector<std::int64_t> rtt_ns;
   rtt_ns.reserve(count);
   const auto start = rtm_bench::monotonic_ns();
@@ -94,6 +104,8 @@ int run_bare_publisher(RTM::InPort_ptr target, const std::string& mode, std::siz
       }
       clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
     }
+    stamp(datum);
+    any <<= datum;
     const auto before = rtm_bench::monotonic_ns();
     target->put(any);
     rtt_ns.push_back(rtm_bench::monotonic_ns() - before);
@@ -123,6 +135,13 @@ void write_through_port(Float6Out& out, const std::string& mode, std::size_t cou
     activity.start();
     while (written.load() < count) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     activity.stop();
+  } else if (mode == "stream-oneway") {
+    // A pipelined stream: each write as soon as the previous one returned, never waiting for
+    // the subscriber; the receiver counts what it got.
+    for (std::size_t i = 0; i < count; ++i) {
+      stamp(datum);
+      out.write(datum);
+    }
   } else if (mode == "flood") {
     // A writer that never waits, for one second (yielding between writes so that a delivery
     // thread on the same CPU runs): the subscriber gets what the delivery thread manages,
@@ -156,7 +175,8 @@ int run_publisher(const Args& args) {
   if (mode == "bare-paced" || mode == "bare-burst") return run_bare_publisher(target, mode, count);
 
   rtm::OutPortOptions options;
-  options.oneway = mode == "burst-oneway";
+  options.oneway = mode == "burst-oneway" || mode == "stream-oneway";
+  if (args.get("--delivery", "writer") == "thread") options.delivery = rtm::OutPortOptions::Delivery::thread;
   rtm::log().set_level(spdlog::level::warn);
   PortableServer::Servant_var<Float6Out> out(new Float6Out("out", "publisher", options));
   RTM::OutPortEx_var out_ref = out->activate(orb);
@@ -168,9 +188,11 @@ int run_publisher(const Args& args) {
   // Let the delivery thread finish what is in flight.
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const auto c = out->counters_snapshot();
-  std::printf("RESULT written=%llu pushed=%llu dropped=%llu failed=%llu\n",
+  std::printf("RESULT written=%llu pushed=%llu (by write() %llu) dropped=%llu failed=%llu; write() p50 %.1f p99 %.1f max %.1f us\n",
               static_cast<unsigned long long>(c.written), static_cast<unsigned long long>(c.pushed),
-              static_cast<unsigned long long>(c.dropped), static_cast<unsigned long long>(c.failed));
+              static_cast<unsigned long long>(c.by_writer), static_cast<unsigned long long>(c.dropped),
+              static_cast<unsigned long long>(c.failed), static_cast<double>(c.write_p50_ns) / 1e3,
+              static_cast<double>(c.write_p99_ns) / 1e3, static_cast<double>(c.write_max_ns) / 1e3);
   out->close();
   out->deactivate();
   return 0;
@@ -180,16 +202,19 @@ int run_publisher(const Args& args) {
 // Receiver (this process)
 // ---------------------------------------------------------------------------------------------
 
+struct Receiver;
+
 // A servant with no RTM code: the floor of what any put(any) costs.
 class BareInPort : public POA_RTM::InPort {
  public:
-  void put(const CORBA::Any& value) override {
-    const RTM::TimedFloat6* d = nullptr;
-    if (value >>= d) received.fetch_add(1, std::memory_order_relaxed);
-  }
+  explicit BareInPort(Receiver& receiver) : receiver_(receiver) {}
+  void put(const CORBA::Any& value) override;
   char* name() override { return CORBA::string_dup("bare"); }
   CORBA::TypeCode_ptr port_type() override { return CORBA::TypeCode::_duplicate(RTM::_tc_TimedFloat6); }
   std::atomic<std::uint64_t> received{0};
+
+ private:
+  Receiver& receiver_;
 };
 
 struct Receiver {
@@ -208,11 +233,41 @@ struct Receiver {
   }
   void on_datum(const RTM::TimedFloat6& d) {
     const auto now = rtm_bench::monotonic_ns();
+    if (stamp_ns(d) == 0) return;  // a warm-up datum
     std::lock_guard lock(mu);
     if (latency_ns.size() < latency_ns.capacity()) latency_ns.push_back(now - stamp_ns(d));
     if (count++ == 0) first_ns = now;
     last_ns = now;
   }
+};
+
+void BareInPort::put(const CORBA::Any& value) {
+  const RTM::TimedFloat6* d = nullptr;
+  if (!(value >>= d)) return;
+  received.fetch_add(1, std::memory_order_relaxed);
+  receiver_.on_datum(*d);
+}
+
+// Another program on the machine: a process that keeps one CPU busy until it is stopped.
+class BusyNeighbour {
+ public:
+  BusyNeighbour() {
+    pid_ = fork();
+    if (pid_ == 0) {
+      volatile std::uint64_t spin = 0;
+      for (;;) spin = spin + 1;
+    }
+  }
+  ~BusyNeighbour() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+  }
+  BusyNeighbour(const BusyNeighbour&) = delete;
+  BusyNeighbour& operator=(const BusyNeighbour&) = delete;
+
+ private:
+  pid_t pid_ = -1;
 };
 
 std::string run_child(const char* self, const std::vector<std::string>& child_args) {
@@ -249,12 +304,69 @@ std::string result_line(const std::string& output) {
   return output.substr(at + 7, output.find('\n', at) - at - 7);
 }
 
+// One condition's rows (a transport, quiet or beside a busy neighbour), every figure beside
+// the bare floor of the same condition.
+struct Rows {
+  const char* self;
+  Receiver& receiver;
+  std::string in_ior, bare_ior, tag;
+  std::vector<std::string> common;
+  std::size_t paced = 0, burst = 0;
+
+  std::string child(std::vector<std::string> extra) const {
+    auto all = common;
+    all.insert(all.end(), extra.begin(), extra.end());
+    return run_child(self, all);
+  }
+  // Paced 1 kHz one-way latency through a publisher child in `mode` ("paced" or "bare-paced").
+  rtm_bench::Summary paced_row(const std::string& label, const std::string& ior, const std::string& mode,
+                               const std::string& delivery) {
+    receiver.reset(paced);
+    const auto out = child({"--target", ior, "--mode", mode, "--delivery", delivery, "--count", std::to_string(paced)});
+    std::lock_guard lock(receiver.mu);
+    const auto s = rtm_bench::summarize(receiver.latency_ns);
+    rtm_bench::print_row((tag + " " + label).c_str(), s);
+    std::printf("%-44s publisher: %s\n", "", result_line(out).c_str());
+    return s;
+  }
+  // Data per second the receiver got, first to last; prints the row.
+  double rate_row(const std::string& label, const std::string& mode, std::size_t count) {
+    receiver.reset(0);
+    const auto out = child({"--target", in_ior, "--mode", mode, "--count", std::to_string(count)});
+    std::lock_guard lock(receiver.mu);
+    const double seconds = static_cast<double>(receiver.last_ns - receiver.first_ns) / 1e9;
+    const double rate = seconds > 0 ? static_cast<double>(receiver.count) / seconds : 0.0;
+    std::printf("%s %-38s %9.0f msg/s received (%llu of %zu written)\n", tag.c_str(), label.c_str(), rate,
+                static_cast<unsigned long long>(receiver.count), count);
+    std::printf("%-44s publisher: %s\n", "", result_line(out).c_str());
+    return rate;
+  }
+
+  void run() {
+    const auto by_writer = paced_row("RTM one-way, paced 1 kHz, write() calls", in_ior, "paced", "writer");
+    const auto by_thread = paced_row("RTM one-way, paced 1 kHz, delivery thread", in_ior, "paced", "thread");
+    const auto bare = paced_row("bare omniORB put(any) one-way, paced 1 kHz", bare_ior, "bare-paced", "");
+    std::printf("%s   ratio to bare, p50 / p99: write() calls %.2f / %.2f, delivery thread %.2f / %.2f\n", tag.c_str(),
+                by_writer.p50_us / bare.p50_us, by_writer.p99_us / bare.p99_us, by_thread.p50_us / bare.p50_us,
+                by_thread.p99_us / bare.p99_us);
+
+    const double twoway = rate_row("RTM burst, put (twoway), every datum", "burst", burst);
+    const auto bare_burst = child({"--target", bare_ior, "--mode", "bare-burst", "--count", std::to_string(burst / 4)});
+    const std::string bare_line = result_line(bare_burst);
+    std::printf("%s bare omniORB put(any) back to back:      %s\n", tag.c_str(), bare_line.c_str());
+    const auto at = bare_line.find("rate_per_s=");
+    const double bare_rate = at == std::string::npos ? 0.0 : std::atof(bare_line.c_str() + at + 11);
+    std::printf("%s   ratio to bare, twoway every datum: %.2f\n", tag.c_str(), bare_rate > 0 ? twoway / bare_rate : 0.0);
+    rate_row("RTM stream, push (oneway), pipelined", "stream-oneway", burst);
+    rate_row("RTM flood, writer never waits, 1 s", "flood", burst);
+  }
+};
+
 int run_receiver(const char* self, const Args& args) {
   const int cpu = static_cast<int>(args.number("--cpu", -1));
   pin(cpu);
-  const auto paced = static_cast<std::size_t>(args.number("--paced", 5000));
-  const auto burst = static_cast<std::size_t>(args.number("--burst", 200000));
   const std::string which = args.get("--transport", "both");
+  const std::string neighbour = args.get("--neighbour", "none");
   rtm::log().set_level(spdlog::level::warn);
 
   rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBendPoint", "giop:unix:"});
@@ -263,57 +375,24 @@ int run_receiver(const char* self, const Args& args) {
       "in", "receiver",
       rtm::InPortPolicy::callback<RTM::TimedFloat6>([&](const RTM::TimedFloat6& d) { receiver.on_datum(d); })));
   RTM::InPortEx_var in_ref = in->activate(orb);
-  const std::string in_ior = orb.to_string(in_ref);
-  PortableServer::Servant_var<BareInPort> bare(new BareInPort);
+  PortableServer::Servant_var<BareInPort> bare(new BareInPort(receiver));
   CORBA::Object_var bare_ref = orb.activate(bare.in());
-  const std::string bare_ior = orb.to_string(bare_ref);
 
   std::printf("two processes, TimedFloat6, %s\n", cpu >= 0 ? ("both pinned to CPU " + std::to_string(cpu)).c_str()
                                                             : "unpinned");
   for (const std::string transport : {"tcp", "unix"}) {
     if (which != "both" && which != transport) continue;
-    const std::vector<std::string> common{"--role", "publisher", "--transport", transport, "--cpu", std::to_string(cpu)};
-    auto with = [&](std::vector<std::string> extra) {
-      auto all = common;
-      all.insert(all.end(), extra.begin(), extra.end());
-      return all;
-    };
-
-    receiver.reset(paced);
-    const auto paced_out = run_child(self, with({"--target", in_ior, "--mode", "paced", "--count", std::to_string(paced)}));
-    {
-      std::lock_guard lock(receiver.mu);
-      const auto label = "[" + transport + "] RTM one-way, paced 1 kHz";
-      rtm_bench::print_row(label.c_str(), rtm_bench::summarize(receiver.latency_ns));
-      std::printf("%-44s publisher: %s\n", "", result_line(paced_out).c_str());
+    for (const std::string busy : {"none", "busy"}) {
+      if (neighbour != "both" && neighbour != busy) continue;
+      Rows rows{self, receiver, orb.to_string(in_ref), orb.to_string(bare_ref),
+                "[" + transport + (busy == "busy" ? ", busy neighbour]" : "]"),
+                {"--role", "publisher", "--transport", transport, "--cpu", std::to_string(cpu)},
+                static_cast<std::size_t>(args.number("--paced", 5000)),
+                static_cast<std::size_t>(args.number("--burst", 200000))};
+      std::optional<BusyNeighbour> load;
+      if (busy == "busy") load.emplace();
+      rows.run();
     }
-
-    for (const std::string mode : {"burst", "burst-oneway"}) {
-      receiver.reset(0);
-      const auto out = run_child(self, with({"--target", in_ior, "--mode", mode, "--count", std::to_string(burst)}));
-      std::lock_guard lock(receiver.mu);
-      const double seconds = static_cast<double>(receiver.last_ns - receiver.first_ns) / 1e9;
-      std::printf("[%s] RTM burst, %-28s %9.0f msg/s received (%llu of %zu written)\n", transport.c_str(),
-                  mode == "burst" ? "put (twoway), every datum" : "push (oneway), every datum",
-                  seconds > 0 ? static_cast<double>(receiver.count) / seconds : 0.0,
-                  static_cast<unsigned long long>(receiver.count), burst);
-      std::printf("%-44s publisher: %s\n", "", result_line(out).c_str());
-    }
-
-    {
-      receiver.reset(0);
-      const auto out = run_child(self, with({"--target", in_ior, "--mode", "flood", "--count", std::to_string(burst)}));
-      std::lock_guard lock(receiver.mu);
-      const double seconds = static_cast<double>(receiver.last_ns - receiver.first_ns) / 1e9;
-      std::printf("[%s] RTM flood, writer never waits, 1 s  %9.0f msg/s received\n",
-                  transport.c_str(), seconds > 0 ? static_cast<double>(receiver.count) / seconds : 0.0);
-      std::printf("%-44s publisher: %s\n", "", result_line(out).c_str());
-    }
-
-    const auto bare_paced = run_child(self, with({"--target", bare_ior, "--mode", "bare-paced", "--count", std::to_string(paced)}));
-    std::printf("[%s] bare omniORB put(any) round trip, 1 kHz: %s\n", transport.c_str(), result_line(bare_paced).c_str());
-    const auto bare_burst = run_child(self, with({"--target", bare_ior, "--mode", "bare-burst", "--count", std::to_string(burst / 4)}));
-    std::printf("[%s] bare omniORB put(any) back to back:      %s\n", transport.c_str(), result_line(bare_burst).c_str());
   }
   in->deactivate();
   orb.deactivate(bare.in());
