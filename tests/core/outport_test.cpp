@@ -552,4 +552,24 @@ TEST_F(OutPortTest, ASubscriberThatDiedIsDroppedWhetherWriteOrItsThreadFindsOut)
   out->close();
 }
 
+// write() begins no call once its budget (writer_call_timeout_ms) is spent: behind a stalled
+// subscriber, the next one gets the datum from its own thread.
+TEST_F(OutPortTest, BehindACallThatUsedWritesBudgetTheNextSubscriberIsServedByItsThread) {
+  Peer stalled(orb());
+  Peer healthy(orb());
+  rtm::OutPortOptions options;
+  options.call_timeout_ms = 60'000;
+  options.writer_call_timeout_ms = 5;
+  auto out = make_out(options);
+  ASSERT_TRUE(out->subscribe(RTM::repeated, stalled.port.in()));  // called first
+  ASSERT_TRUE(out->subscribe(RTM::repeated, healthy.port.in()));
+  stalled.process.pause();
+  out->write(float6(1.0f));
+  ASSERT_TRUE(eventually([&] { return healthy.accepted() == 1; }));
+  EXPECT_EQ(out->counters_snapshot().by_writer, 0u) << "the healthy subscriber's datum went through its thread";
+  EXPECT_EQ(out->counters_snapshot().failed, 1u) << "the stalled one's call timed out";
+  stalled.process.resume();
+  out->close();
+}
+
 }  // namespace

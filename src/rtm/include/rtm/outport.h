@@ -45,8 +45,9 @@ struct OutPortOptions {
   Delivery delivery = Delivery::writer_when_idle;
   // Bound on one call made by write() (omniORB client call timeout on a reference of its
   // own), ms; a call that takes longer fails (counted) and moves that subscription to its
-  // thread. write() makes at most writer_calls such calls: it holds its caller for at most
-  // writer_calls x writer_call_timeout_ms beyond copying into the rings.
+  // thread. write() begins no call once writer_call_timeout_ms have passed since it was
+  // entered (the rest go to their threads), and makes at most writer_calls (≤ 8): it holds its
+  // caller for less than 2 x writer_call_timeout_ms beyond copying into the rings.
   std::uint32_t writer_call_timeout_ms = 2;
   std::uint32_t writer_calls = 4;
 };
@@ -241,6 +242,7 @@ class OutPort final : public OutPortBase {
   bool deliver_direct(TypedSubscription& sub, const T& value);
   bool queue_or_take(TypedSubscription& sub, const T& value, bool may_call);
   void call_remote(TypedSubscription& sub, const T& value, bool by_writer);
+  void hand_to_thread(TypedSubscription& sub, const T& value);
   std::uint64_t ring_size(const Subscription& sub) const override {
     return static_cast<const TypedSubscription&>(sub).ring.size();
   }

@@ -74,8 +74,13 @@ void OutPort<T>::write(const T& value) {
       ++i;
     }
   }
+  const std::int64_t budget_ns = std::int64_t{options_.writer_call_timeout_ms} * 1'000'000;
   for (std::size_t k = 0; k < call_count; ++k) {
     TypedSubscription& sub = *calls[k];
+    if (monotonic_ns() - start_ns >= budget_ns) {
+      hand_to_thread(sub, value);  // write() has spent its budget: no call begins after it
+      continue;
+    }
     bool dead = false;
     const std::string failure = guarded_call(sub, [&] { call_remote(sub, value, true); }, &dead);
     by_writer_.fetch_add(failure.empty() ? 1 : 0, std::memory_order_relaxed);
@@ -119,6 +124,19 @@ bool OutPort<T>::queue_or_take(TypedSubscription& sub, const T& value, bool may_
   }
   sub.slot_cv.notify_one();
   return false;
+}
+
+// A call write() took on but will not make: the datum goes to the delivery thread after all.
+template <PortData T>
+void OutPort<T>::hand_to_thread(TypedSubscription& sub, const T& value) {
+  {
+    std::lock_guard slot_lock(sub.slot_mu);
+    sub.ring[(sub.written_seq - 1) % sub.ring.size()] = value;
+    --sub.delivered_seq;
+    sub.in_flight = false;
+    sub.writer_calling = false;
+  }
+  sub.slot_cv.notify_all();
 }
 
 // One datum to a remote subscriber: by_writer selects write()'s own references.
