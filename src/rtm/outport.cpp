@@ -246,8 +246,10 @@ void OutPortBase::finish_writer_call(Subscription& sub, const std::string& failu
     // After a failure the thread takes the next data (a slow subscriber then costs write() no
     // more), until it has delivered again.
     if (!failure.empty()) sub.writer_may_call = false;
+    // The delivery thread may go on; a stop_and_join() may finish and free sub, so notify
+    // before the lock is released: after it, sub is not touched again.
+    sub.slot_cv.notify_all();
   }
-  sub.slot_cv.notify_all();  // the delivery thread may go on; a stop_and_join() may finish
 }
 
 void OutPortBase::make_writer_references(Subscription& sub) const {

@@ -135,8 +135,8 @@ void OutPort<T>::hand_to_thread(TypedSubscription& sub, const T& value) {
     --sub.delivered_seq;
     sub.in_flight = false;
     sub.writer_calling = false;
+    sub.slot_cv.notify_all();  // under the lock: once it is released, sub may be freed
   }
-  sub.slot_cv.notify_all();
 }
 
 // One datum to a remote subscriber: by_writer selects write()'s own references.
