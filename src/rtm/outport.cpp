@@ -216,9 +216,9 @@ void OutPortBase::delivery_loop(Subscription* sub) {
     const std::uint64_t seq = ++sub->delivered_seq;
     sub->in_flight = true;
     bool drop = false;
-    const std::string failure = guarded_call(*sub, [&] { deliver_slot(*sub, seq, lock); }, &drop);
+    const bool delivered = guarded_call(*sub, [&] { deliver_slot(*sub, seq, lock); }, &drop);
     sub->in_flight = false;
-    if (failure.empty()) {
+    if (delivered) {
       sub->writer_may_call = true;  // delivered: write() may call again
       drop = sub->req_type == RTM::once;
     }
@@ -231,8 +231,14 @@ void OutPortBase::delivery_loop(Subscription* sub) {
   }
 }
 
-void OutPortBase::finish_writer_call(Subscription& sub, const std::string& failure, bool dead) {
-  if (dead || (failure.empty() && sub.req_type == RTM::once)) {
+void OutPortBase::count_pushed(Subscription& sub) {
+  sub.failures.store(0, std::memory_order_relaxed);
+  sub.pushed.fetch_add(1, std::memory_order_relaxed);
+  pushed_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void OutPortBase::finish_writer_call(Subscription& sub, bool delivered, bool dead) {
+  if (dead || (delivered && sub.req_type == RTM::once)) {
     {
       std::lock_guard slot_lock(sub.slot_mu);
       sub.done = true;
@@ -245,7 +251,7 @@ void OutPortBase::finish_writer_call(Subscription& sub, const std::string& failu
     sub.writer_calling = false;
     // After a failure the thread takes the next data (a slow subscriber then costs write() no
     // more), until it has delivered again.
-    if (!failure.empty()) sub.writer_may_call = false;
+    if (!delivered) sub.writer_may_call = false;
     // The delivery thread may go on; a stop_and_join() may finish and free sub, so notify
     // before the lock is released: after it, sub is not touched again.
     sub.slot_cv.notify_all();

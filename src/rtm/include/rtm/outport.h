@@ -69,11 +69,12 @@ struct OutPortCounters {
 // The type-independent part: subscriptions, delivery threads, counters, IDL attributes.
 //
 // Each subscription has a pre-allocated ring of options().queue_depth data not yet delivered.
-// write() copies into the rings and wakes the delivery threads (one per remote subscription)
-// and never makes a CORBA call; a delivery thread takes the data oldest first and calls put()
-// with no lock held. A subscriber that falls further behind than the ring loses the oldest
-// data, counted as dropped: it only ever misses stale data. In-process subscribers whose policy stores without waiting are filled
-// directly by write() (a copy under the InPort's lock, no thread hand-off).
+// To an idle remote subscription (Delivery::writer_when_idle) write() makes the call itself,
+// with no lock held; otherwise it copies into the ring and wakes the subscription's delivery
+// thread, which takes the data oldest first and calls put() with no lock held. A subscriber
+// that falls further behind than the ring loses the oldest data, counted as dropped: it only
+// ever misses stale data. In-process subscribers whose policy stores without waiting are
+// filled directly by write() (a copy under the InPort's lock, no thread hand-off).
 class OutPortBase : public virtual POA_RTM::OutPortEx {
  public:
   ~OutPortBase() override;
@@ -156,12 +157,14 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   virtual std::uint64_t ring_size(const Subscription& sub) const = 0;
   // Counts a failed delivery; true when sub must be dropped as dead. Logs the drop once.
   bool count_failure(Subscription& sub, const char* exception_name, bool dead_kind);
-  // Runs call() (a remote delivery) and counts what came of it: "" when it returned, else the
-  // failure; *dead when sub must be dropped.
+  // Counts a datum delivered to sub.
+  void count_pushed(Subscription& sub);
+  // Runs call() (a delivery) and counts what came of it: true when it returned; *dead when
+  // sub must be dropped.
   template <class Call>
-  std::string guarded_call(Subscription& sub, Call call, bool* dead);
+  bool guarded_call(Subscription& sub, Call call, bool* dead);
   // write()'s part after its lock: the calls it took on (sub->in_flight set by write()).
-  void finish_writer_call(Subscription& sub, const std::string& failure, bool dead);
+  void finish_writer_call(Subscription& sub, bool delivered, bool dead);
   // subscribe(): write()'s own references to a remote subscriber, with their call timeout.
   void make_writer_references(Subscription& sub) const;
   // Removes the subscriptions matching (under mu_) and stops/joins them (without it).
@@ -208,9 +211,10 @@ class OutPort final : public OutPortBase {
   OutPort(std::string name, std::string owner, OutPortOptions options = {});
   ~OutPort() override;
 
-  // Publishes value: keeps it for get(), fills every subscription. Never blocks on a
-  // subscriber and makes no CORBA call; for a fixed-size T it allocates nothing (except when
-  // a once-subscription is retired).
+  // Publishes value: keeps it for get(), fills every subscription. With Delivery::thread it
+  // makes no CORBA call and, for a fixed-size T, allocates nothing (except when a
+  // once-subscription is retired); with writer_when_idle it also makes the calls it takes on
+  // (each marshals an any), bounded as OutPortOptions says.
   void write(const T& value);
   // The last written value; false before the first write().
   bool latest(T& out) const;

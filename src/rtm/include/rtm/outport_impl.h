@@ -22,30 +22,24 @@ OutPort<T>::~OutPort() {
 }
 
 template <class Call>
-std::string OutPortBase::guarded_call(Subscription& sub, Call call, bool* dead) {
+bool OutPortBase::guarded_call(Subscription& sub, Call call, bool* dead) {
   *dead = false;
   try {
     call();
-    sub.failures.store(0, std::memory_order_relaxed);
-    sub.pushed.fetch_add(1, std::memory_order_relaxed);
-    pushed_.fetch_add(1, std::memory_order_relaxed);
-    return "";
+    count_pushed(sub);
+    return true;
   } catch (const CORBA::OBJECT_NOT_EXIST& e) {
     *dead = count_failure(sub, e._name(), true);
-    return e._name();
   } catch (const CORBA::COMM_FAILURE& e) {
     *dead = count_failure(sub, e._name(), true);
-    return e._name();
   } catch (const CORBA::TRANSIENT& e) {
     *dead = count_failure(sub, e._name(), true);
-    return e._name();
   } catch (const CORBA::Exception& e) {
     *dead = count_failure(sub, e._name(), false);
-    return e._name();
   } catch (const std::exception& e) {
     *dead = count_failure(sub, e.what(), false);
-    return e.what();
   }
+  return false;
 }
 
 template <PortData T>
@@ -82,9 +76,9 @@ void OutPort<T>::write(const T& value) {
       continue;
     }
     bool dead = false;
-    const std::string failure = guarded_call(sub, [&] { call_remote(sub, value, true); }, &dead);
-    by_writer_.fetch_add(failure.empty() ? 1 : 0, std::memory_order_relaxed);
-    finish_writer_call(sub, failure, dead);
+    const bool delivered = guarded_call(sub, [&] { call_remote(sub, value, true); }, &dead);
+    if (delivered) by_writer_.fetch_add(1, std::memory_order_relaxed);
+    finish_writer_call(sub, delivered, dead);
   }
   write_cost_.record(monotonic_ns() - start_ns);
 }
@@ -97,9 +91,7 @@ bool OutPort<T>::deliver_direct(TypedSubscription& sub, const T& value) {
     return !count_failure(sub, "OBJECT_NOT_EXIST", true);
   }
   static_cast<InPort<T>*>(sub.local.in())->deliver(value);
-  sub.failures.store(0, std::memory_order_relaxed);
-  sub.pushed.fetch_add(1, std::memory_order_relaxed);
-  pushed_.fetch_add(1, std::memory_order_relaxed);
+  count_pushed(sub);
   return sub.req_type != RTM::once;
 }
 
