@@ -10,7 +10,7 @@
 namespace rtm {
 
 OutPortBase::OutPortBase(std::string name, std::string owner, OutPortOptions options)
-    : name_(std::move(name)), owner_(std::move(owner)), options_(options) {
+    : name_(std::move(name)), owner_(std::move(owner)), options_(options), delivery_(options.delivery) {
   if (name_.empty()) throw std::invalid_argument("OutPort: empty port name (owner '" + owner_ + "')");
   if (options_.max_failures == 0) throw std::invalid_argument("OutPort " + full_name() + ": max_failures must be >= 1");
 }
@@ -26,11 +26,18 @@ OutPortCounters OutPortBase::counters_snapshot() const {
   c.dropped = dropped_.load(std::memory_order_relaxed);
   c.pushed = pushed_.load(std::memory_order_relaxed);
   c.failed = failed_.load(std::memory_order_relaxed);
+  c.timed_out = timed_out_.load(std::memory_order_relaxed);
   c.by_writer = by_writer_.load(std::memory_order_relaxed);
-  c.write_p50_ns = write_cost_.percentile_ns(0.5);
-  c.write_p99_ns = write_cost_.percentile_ns(0.99);
-  c.write_max_ns = write_cost_.max_ns();
   return c;
+}
+
+WriteCost OutPortBase::write_cost() const {
+  WriteCost w;
+  w.count = write_cost_.count();
+  w.p50_ns = write_cost_.percentile_ns(0.5);
+  w.p99_ns = write_cost_.percentile_ns(0.99);
+  w.max_ns = write_cost_.max_ns();
+  return w;
 }
 
 std::string OutPortBase::last_refusal() const {
@@ -265,6 +272,15 @@ void OutPortBase::make_writer_references(Subscription& sub) const {
   // reference, so the delivery thread's longer bound stays on sub.port.
   CORBA::String_var ior = orb->orb()->object_to_string(sub.port.in());
   CORBA::Object_var copy = orb->orb()->string_to_object(ior.in());
+  // One round trip on it under the long bound first: the first call through a reference runs
+  // code and touches memory no later call does, and on a loaded machine outlived the short
+  // bound (the first datum then failed as TIMEOUT). A subscriber that does not answer here
+  // is found out by the first write() as before.
+  omniORB::setClientCallTimeout(copy.in(), options_.call_timeout_ms);
+  try {
+    (void)copy->_non_existent();
+  } catch (const CORBA::Exception&) {
+  }
   if (options_.oneway && !CORBA::is_nil(sub.port_ex)) {
     sub.writer_port_ex = RTM::InPortEx::_unchecked_narrow(copy.in());
     omniORB::setClientCallTimeout(sub.writer_port_ex.in(), options_.writer_call_timeout_ms);

@@ -476,7 +476,11 @@ TEST_F(OutPortTest, AnIdleRemoteSubscriptionIsDeliveredByWriteItselfInOrder) {
   const rtm::OutPortCounters c = out->counters_snapshot();
   EXPECT_EQ(c.pushed, 20u);
   EXPECT_EQ(c.by_writer, 20u) << "nothing was in flight before any write: write() made every call";
-  EXPECT_GT(c.write_max_ns, 0) << "write()'s own cost is recorded";
+  EXPECT_EQ(c.failed, 0u) << "not even the first call outlived write()'s bound: the reference was warmed";
+  const rtm::WriteCost cost = out->write_cost();
+  EXPECT_EQ(cost.count, 20u) << "every write() is measured";
+  EXPECT_GT(cost.max_ns, 0);
+  EXPECT_LE(cost.p50_ns, cost.p99_ns);
   out->close();
 }
 
@@ -513,6 +517,7 @@ TEST_F(OutPortTest, AStalledSubscriberCostsWriteOneFailedCallThenItsThreadTakesO
   for (int i = 2; i <= 30; ++i) out->write(float6(static_cast<float>(i)));
   rtm::OutPortCounters c = out->counters_snapshot();
   EXPECT_EQ(c.failed, 1u) << "one call of write()'s timed out; the rest were queued, not called";
+  EXPECT_EQ(c.timed_out, 1u) << "and that failure is told apart as a timeout (its datum's fate is unknown)";
   EXPECT_EQ(c.by_writer, 1u);
   EXPECT_EQ(out->subscription_count(), 1u) << "one failure does not drop a subscriber";
 

@@ -59,9 +59,17 @@ struct OutPortCounters {
   std::uint64_t dropped = 0;   // stale data slow subscribers skipped
   std::uint64_t pushed = 0;    // deliveries completed (in-process ones included)
   std::uint64_t failed = 0;    // deliveries that raised
+  std::uint64_t timed_out = 0; // of failed: calls that outlived their bound (TIMEOUT). Such a
+                               // datum's fate is unknown (COMPLETED_MAYBE): it may still
+                               // arrive, after data sent later on another connection.
   std::uint64_t by_writer = 0; // deliveries write() made itself (Delivery::writer_when_idle)
-  // Time write() held its caller, ns (p50/p99 bucket edges, max).
-  std::int64_t write_p50_ns = 0, write_p99_ns = 0, write_max_ns = 0;
+};
+
+// How long write() held its caller (OutPortBase::write_cost()).
+struct WriteCost {
+  std::uint64_t count = 0;  // write() calls measured
+  std::int64_t p50_ns = 0, p99_ns = 0;  // upper edges of the 1 us buckets holding them
+  std::int64_t max_ns = 0;
 };
 
 // ============================ OutPortBase =============================
@@ -89,8 +97,15 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   // What the port carries: as InPortBase::set_info().
   void set_info(PortInfo info);
   const PortInfo& info() const { return info_; }
-  const OutPortOptions& options() const { return options_; }
+  const OutPortOptions& options() const { return options_; }  // as constructed
+  // Who makes the remote calls of subscriptions made from now on (those made before keep
+  // theirs): e.g. set from a runner's command line after the component built its ports.
+  void set_delivery(OutPortOptions::Delivery delivery) { delivery_.store(delivery, std::memory_order_relaxed); }
+  OutPortOptions::Delivery delivery() const { return delivery_.load(std::memory_order_relaxed); }
+  // Cheap (a few relaxed loads): may be polled.
   OutPortCounters counters_snapshot() const;
+  // Percentiles of the time write() held its caller (walks a histogram: not for a hot loop).
+  WriteCost write_cost() const;
   std::string last_refusal() const;  // why the last subscribe was refused, "" when none
   std::size_t subscription_count() const;
 
@@ -182,6 +197,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   const std::string name_;
   const std::string owner_;
   const OutPortOptions options_;
+  std::atomic<OutPortOptions::Delivery> delivery_;
   PortInfo info_;
   mutable std::mutex mu_;  // guards subs_, retired_, the latest value (derived)
   std::vector<std::unique_ptr<Subscription>> subs_;
@@ -192,6 +208,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   std::atomic<std::uint64_t> dropped_{0};
   std::atomic<std::uint64_t> pushed_{0};
   std::atomic<std::uint64_t> failed_{0};
+  std::atomic<std::uint64_t> timed_out_{0};
   std::atomic<std::uint64_t> by_writer_{0};
   LatencyHistogram write_cost_;
   bool closed_ = false;

@@ -34,6 +34,9 @@ bool OutPortBase::guarded_call(Subscription& sub, Call call, bool* dead) {
     *dead = count_failure(sub, e._name(), true);
   } catch (const CORBA::TRANSIENT& e) {
     *dead = count_failure(sub, e._name(), true);
+  } catch (const CORBA::TIMEOUT& e) {
+    timed_out_.fetch_add(1, std::memory_order_relaxed);
+    *dead = count_failure(sub, e._name(), false);
   } catch (const CORBA::Exception& e) {
     *dead = count_failure(sub, e._name(), false);
   } catch (const std::exception& e) {
@@ -251,7 +254,7 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
   if (sub->local.in() == nullptr) {
     omniORB::setClientCallTimeout(sub->port.in(), options_.call_timeout_ms);
     if (!CORBA::is_nil(sub->port_ex)) omniORB::setClientCallTimeout(sub->port_ex.in(), options_.call_timeout_ms);
-    if (options_.delivery == OutPortOptions::Delivery::writer_when_idle) make_writer_references(*sub);
+    if (delivery() == OutPortOptions::Delivery::writer_when_idle) make_writer_references(*sub);
   }
   const bool threaded = !sub->direct;
   std::string why;
