@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <tuple>
 
 namespace rtm {
 
@@ -39,6 +40,22 @@ void Component::add_statistic(std::string stat_name, std::string unit, std::stri
 void Component::add_counter(std::string stat_name, std::string text, const std::atomic<std::uint64_t>& count) {
   add_statistic(std::move(stat_name), "", std::move(text),
                 [&count] { return static_cast<double>(count.load(std::memory_order_relaxed)); });
+}
+
+void Component::add_out_port_statistics() {
+  for (OutPortBase* port : out_ptrs_) {
+    const std::string& name = port->port_name();
+    for (const auto& [suffix, what, field] :
+         {std::tuple{"_p50", "median", &WriteCost::p50_ns}, {"_p99", "99th percentile", &WriteCost::p99_ns},
+          {"_max", "maximum", &WriteCost::max_ns}}) {
+      add_statistic(name + ".write" + suffix, "us", std::string("time write() held the activity, ") + what,
+                    [port, field = field] { return static_cast<double>(port->write_cost().*field) / 1000.0; });
+    }
+    add_statistic(name + ".by_writer", "", "data write() delivered itself (no thread wake-up)",
+                  [port] { return static_cast<double>(port->counters_snapshot().by_writer); });
+    add_statistic(name + ".timed_out", "", "remote calls that outlived their bound (their data's fate unknown)",
+                  [port] { return static_cast<double>(port->counters_snapshot().timed_out); });
+  }
 }
 
 void Component::add_parameter(Parameter parameter) {

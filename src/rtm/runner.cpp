@@ -143,6 +143,12 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   app.add_option("--endpoint", settings.endpoints,
                  "omniORB endpoint, repeatable (default: giop:tcp:127.0.0.1: and giop:unix:)");
   app.add_flag("--on", settings.turn_on, "turn the component on once it is up");
+  std::string delivery_text;
+  app.add_option("--delivery", delivery_text,
+                 "who makes an OutPort's remote calls: writer (write() itself when the subscription is idle) "
+                 "or thread (always the subscription's delivery thread)")
+      ->check(CLI::IsMember({"writer", "thread"}))
+      ->default_str("as each port was built (writer)");
   app.footer("Options -ORB<name> <value> go to omniORB unchanged.");
   if (main.add_options) main.add_options(app);
   // A wrapper script may add its own default before the user's: the last one given wins.
@@ -155,6 +161,9 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   try {
     app.parse(static_cast<int>(own_argv.size()), own_argv.data());
     settings.period_ns = parse_period_ns(period_text);
+    if (!delivery_text.empty())
+      settings.delivery = delivery_text == "thread" ? OutPortOptions::Delivery::thread
+                                                    : OutPortOptions::Delivery::writer_when_idle;
     settings.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
     if (main.validate) main.validate(settings);
   } catch (const CLI::ParseError& e) {
@@ -176,6 +185,10 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   auto component = main.create_with_orb ? main.create_with_orb(context) : main.create(settings);
   if (!component) throw std::runtime_error("the factory made no component");
   if (component->description().empty()) component->set_description(main.description);
+  for (OutPortBase* port : component->out_ports()) {
+    if (settings.delivery) port->set_delivery(*settings.delivery);
+  }
+  component->add_out_port_statistics();
   ActivitySpec activity =
       main.activity ? main.activity(settings, *component) : ActivitySpec{settings.periodic_options()};
   servant = new ComponentServant(std::move(component), std::move(activity));

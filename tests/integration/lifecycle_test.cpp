@@ -63,6 +63,15 @@ TEST_F(IntegrationTest, AnUnknownOptionIsOneErrorAndExitStatusTwo) {
   EXPECT_NE(process.output().find("--no-such-option"), std::string::npos) << process.output();
 }
 
+TEST_F(IntegrationTest, AnUnknownDeliveryPolicyIsOneErrorNamingTheChoicesAndExitStatusTwo) {
+  rtm_test::ChildProcess process({RTM_TEST_COMPONENT, "--delivery", "fast", "--naming", names_.address()});
+  const auto status = process.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_EQ(status->code, 2) << process.output();
+  EXPECT_NE(process.output().find("--delivery"), std::string::npos) << process.output();
+  EXPECT_NE(process.output().find("writer"), std::string::npos) << "the choices are named: " << process.output();
+}
+
 TEST_F(IntegrationTest, TheValidateHookRefusesTheCommandLineWithExitStatusTwoBeforeAnythingStarts) {
   rtm_test::ChildProcess process(
       {RTM_TEST_COMPONENT, "--name", "twice0", "--also-bind", "twice0", "--naming", names_.address()});

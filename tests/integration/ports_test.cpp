@@ -8,6 +8,8 @@
 
 #include <signal.h>
 
+#include <limits>
+
 namespace rtm_it {
 namespace {
 
@@ -206,6 +208,37 @@ TEST_F(IntegrationTest, AReferenceFromAnotherProcessIsNotTakenForAnInProcessOne)
   EXPECT_FALSE(local_subs[1].in_process);
   local_out->close();
   local_out->deactivate();
+}
+
+// The component's statistics, by name (a missing one: NaN, so that comparisons fail).
+double statistic(RTM::RtComponentEx_ptr component, const std::string& name) {
+  RTM::StatisticList_var stats = component->statistics();
+  for (CORBA::ULong i = 0; i < stats->length(); ++i) {
+    if (name == stats[i].name.in()) return stats[i].value;
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+// --delivery reaches every OutPort of a component process, and each port's statistics say
+// who made its calls: by default write() itself, with --delivery thread never.
+TEST_F(IntegrationTest, DeliveryOptionChoosesWhoCallsAndThePortsStatisticsSayWho) {
+  start_component("writer0", {"--on"});
+  start_component("thread0", {"--on", "--delivery", "thread"});
+  Probe from_writer, from_thread;
+  ASSERT_TRUE(out_port("writer0", "out0")->subscribe(RTM::repeated, from_writer.ref));
+  ASSERT_TRUE(out_port("thread0", "out0")->subscribe(RTM::repeated, from_thread.ref));
+  ASSERT_TRUE(eventually([&] { return from_writer.accepted() >= 50 && from_thread.accepted() >= 50; }));
+
+  auto writer = component("writer0");
+  auto thread = component("thread0");
+  EXPECT_GT(statistic(writer, "out0.by_writer"), 0.0) << "an idle subscription is called by write() itself";
+  EXPECT_EQ(statistic(thread, "out0.by_writer"), 0.0) << "--delivery thread: write() never calls";
+  for (auto* c : {writer.in(), thread.in()}) {
+    EXPECT_GT(statistic(c, "out0.write_max"), 0.0) << "write()'s cost is measured";
+    EXPECT_LE(statistic(c, "out0.write_p50"), statistic(c, "out0.write_p99"));
+    EXPECT_LE(statistic(c, "out0.write_p99"), statistic(c, "out0.write_max"));
+    EXPECT_EQ(statistic(c, "echo.timed_out"), 0.0) << "every OutPort reports, not only the first";
+  }
 }
 
 }  // namespace

@@ -51,6 +51,11 @@ class Component {
   const std::string& kind() const { return kind_; }
   // One line saying what the component does ("" until set; the runner sets its --help line).
   const std::string& description() const { return description_; }
+  // Adds, for every OutPort made so far, how long write() held the activity
+  // (<port>.write_p50 / _p99 / _max, us), the data write() delivered itself (<port>.by_writer)
+  // and the calls that outlived their bound (<port>.timed_out) to the statistics. The runner
+  // calls it once the component is built; std::invalid_argument when called twice.
+  void add_out_port_statistics();
   void set_description(std::string text) { description_ = std::move(text); }
 
   // Called by the activity: on_start() before the first cycle, on_stop() after the last.
