@@ -259,9 +259,11 @@ void OutPortBase::finish_writer_call(Subscription& sub, bool delivered, bool dea
     // After a failure the thread takes the next data (a slow subscriber then costs write() no
     // more), until it has delivered again.
     if (!delivered) sub.writer_may_call = false;
-    // The delivery thread may go on; a stop_and_join() may finish and free sub, so notify
-    // before the lock is released: after it, sub is not touched again.
-    sub.slot_cv.notify_all();
+    // Wake only whom this call held up: the delivery thread when data were queued meanwhile,
+    // a stop_and_join() (stop set) waiting for the call to end. A wake-up nobody needs is a
+    // context switch per datum (on a shared CPU, the price of a round trip). Notified before
+    // the lock is released: once it is, a stop_and_join() may free sub.
+    if (sub.stop || sub.written_seq != sub.delivered_seq) sub.slot_cv.notify_all();
   }
 }
 
@@ -281,6 +283,7 @@ void OutPortBase::make_writer_references(Subscription& sub) const {
     (void)copy->_non_existent();
   } catch (const CORBA::Exception&) {
   }
+  // A timeout of 0 is omniORB's "none" too.
   if (options_.oneway && !CORBA::is_nil(sub.port_ex)) {
     sub.writer_port_ex = RTM::InPortEx::_unchecked_narrow(copy.in());
     omniORB::setClientCallTimeout(sub.writer_port_ex.in(), options_.writer_call_timeout_ms);

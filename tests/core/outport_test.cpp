@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <fstream>
 #include <thread>
 
@@ -574,6 +575,35 @@ TEST_F(OutPortTest, BehindACallThatUsedWritesBudgetTheNextSubscriberIsServedByIt
   EXPECT_EQ(out->counters_snapshot().by_writer, 0u) << "the healthy subscriber's datum went through its thread";
   EXPECT_EQ(out->counters_snapshot().failed, 1u) << "the stalled one's call timed out";
   stalled.process.resume();
+  out->close();
+}
+
+// writer_call_timeout_ms = 0 takes the bound off write()'s calls (opt-in): behind a stalled
+// subscriber write() waits until it answers, and the datum is delivered, not failed.
+TEST_F(OutPortTest, WithoutAWriterBoundWriteWaitsOutAStalledSubscriberAndDelivers) {
+  Peer peer(orb());
+  rtm::OutPortOptions options;
+  options.writer_call_timeout_ms = 0;
+  auto out = make_out(options);
+  ASSERT_TRUE(out->subscribe(RTM::repeated, peer.port.in()));
+  out->write(float6(1.0f));
+  ASSERT_EQ(out->counters_snapshot().by_writer, 1u);
+
+  peer.process.pause();
+  std::atomic<bool> returned{false};
+  std::thread writer([&] {
+    out->write(float6(2.0f));
+    returned = true;
+  });
+  // Far beyond the default 2 ms bound: with a bound write() would have given up by now.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_FALSE(returned.load()) << "write() gave up on a stalled subscriber although no bound was set";
+  peer.process.resume();
+  writer.join();
+  const rtm::OutPortCounters c = out->counters_snapshot();
+  EXPECT_EQ(c.by_writer, 2u) << "write() delivered the datum itself once the subscriber answered";
+  EXPECT_EQ(c.failed, 0u);
+  EXPECT_EQ(peer.accepted(), 2u);
   out->close();
 }
 

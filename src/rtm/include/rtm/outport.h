@@ -48,6 +48,9 @@ struct OutPortOptions {
   // thread. write() begins no call once writer_call_timeout_ms have passed since it was
   // entered (the rest go to their threads), and makes at most writer_calls (≤ 8): it holds its
   // caller for less than 2 x writer_call_timeout_ms beyond copying into the rings.
+  // 0: no bound: write() waits for a stalled subscriber as long as it stalls (as OpenRTM's
+  // flush policy does) and saves what omniORB's bound costs each call (a poll() before the
+  // send and a timer armed while waiting: docs/performance.md measures it). Opt-in only.
   std::uint32_t writer_call_timeout_ms = 2;
   std::uint32_t writer_calls = 4;
 };

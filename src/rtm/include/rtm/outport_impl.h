@@ -74,7 +74,7 @@ void OutPort<T>::write(const T& value) {
   const std::int64_t budget_ns = std::int64_t{options_.writer_call_timeout_ms} * 1'000'000;
   for (std::size_t k = 0; k < call_count; ++k) {
     TypedSubscription& sub = *calls[k];
-    if (monotonic_ns() - start_ns >= budget_ns) {
+    if (budget_ns > 0 && monotonic_ns() - start_ns >= budget_ns) {
       hand_to_thread(sub, value);  // write() has spent its budget: no call begins after it
       continue;
     }
