@@ -9,10 +9,13 @@
 //
 // One-way latency is measured in this process, from the stamp the publisher puts in the datum
 // just before write() (or the bare put) to the receiving upcall: RTM's and the bare rows
-// measure the same span. The RTM paced rows run once per delivery policy (write() calls
-// itself when idle; always the delivery thread) and report what write() cost the publisher's
-// periodic thread; the three paced rows run in five alternating slices, so that all three
-// see the same machine. --neighbour busy starts a process that keeps one CPU busy (a spinning loop
+// measure the same span, and both publishers pace on the same PeriodicActivity. The RTM paced
+// rows run once per delivery policy (write() calls itself when idle; always the delivery
+// thread) and report what write() cost the publisher's periodic thread; a second bare row
+// sets the 2 ms call timeout write() puts on its calls (what a bounded call costs omniORB).
+// The paced rows run in ten alternating slices, the twoway bursts (RTM and bare) in four, so
+// that the rows compared see the same machine; rates are counted at the receiver for both.
+// --neighbour busy starts a process that keeps one CPU busy (a spinning loop
 // at normal priority) for the rows, as another program on the machine would; both = each row
 // quiet, then busy. --cpu N pins both processes to CPU N (MACHINE-NOTES: stages that wake each
 // other are fastest on one CPU). This process is the receiver; it runs itself again as the
@@ -32,6 +35,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstdlib>
@@ -41,6 +45,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 
 extern char** environ;
 
@@ -84,38 +89,57 @@ std::int64_t stamp_ns(const RTM::TimedFloat6& d) { return std::int64_t{d.tm.sec}
 // Publisher (child process)
 // ---------------------------------------------------------------------------------------------
 
-// The bare modes: put() on the target's InPort with no OutPort in between, paced at 1 kHz or
-// back to back; each datum stamped just before its put (the receiver measures one-way);
-// prints the round trips.
-int run_bare_publisher(RTM::InPort_ptr target, const std::string& mode, std::size_t count) {
+// The bare modes: put() on the target's InPort with no OutPort in between, paced at 1 kHz on
+// the same periodic thread as the RTM rows (so that pacing and thread set-up are the same
+// work on both sides), or back to back; each datum stamped just before its put (the receiver
+// measures one-way); prints the round trips. timeout_ms > 0: with that omniORB call timeout.
+int run_bare_publisher(RTM::InPort_ptr target, const std::string& mode, std::size_t count, int cpu,
+                       CORBA::ULong timeout_ms) {
   CORBA::Any any;
   RTM::TimedFloat6 datum{};
   any <<= datum;
   for (int i = 0; i < 1000; ++i) target->put(any);  // connect and warm up (not counted: stamp 0)
+  // The bound RTM's write() puts on its calls, for the row that shows what the bound costs.
+  if (timeout_ms > 0) omniORB::setClientCallTimeout(target, timeout_ms);
   std::vector<std::int64_t> rtt_ns;
   rtt_ns.reserve(count);
-  const auto start = rtm_bench::monotonic_ns();
-  timespec next{};
-  clock_gettime(CLOCK_MONOTONIC, &next);
-  for (std::size_t i = 0; i < count; ++i) {
-    if (mode == "bare-paced") {
-      next.tv_nsec += 1'000'000;
-      if (next.tv_nsec >= 1'000'000'000) {
-        next.tv_nsec -= 1'000'000'000;
-        ++next.tv_sec;
-      }
-      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
-    }
+  std::uint64_t timed_out = 0;
+  const auto one = [&] {
     stamp(datum);
     any <<= datum;
     const auto before = rtm_bench::monotonic_ns();
-    target->put(any);
+    try {
+      target->put(any);
+    } catch (const CORBA::TIMEOUT&) {
+      ++timed_out;  // the bounded row: a host stall outlived the bound; counted, not fatal
+    }
     rtt_ns.push_back(rtm_bench::monotonic_ns() - before);
+  };
+  const auto start = rtm_bench::monotonic_ns();
+  if (mode == "bare-paced") {
+    rtm::PeriodicOptions periodic;
+    periodic.period_ns = 1'000'000;
+    periodic.cpu = cpu;
+    std::atomic<bool> done{false};
+    rtm::PeriodicActivity activity(
+        [&](const rtm::CycleContext&) {
+          one();
+          const bool more = rtt_ns.size() < count;
+          if (!more) done.store(true);
+          return more;
+        },
+        periodic);
+    activity.start();
+    while (!done.load()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    activity.stop();
+  } else {
+    for (std::size_t i = 0; i < count; ++i) one();
   }
   const auto elapsed_ns = rtm_bench::monotonic_ns() - start;
   const auto s = rtm_bench::summarize(rtt_ns);
-  std::printf("RESULT rtt_p50_us=%.2f rtt_p99_us=%.2f rtt_max_us=%.2f rate_per_s=%.0f\n", s.p50_us, s.p99_us,
-              s.max_us, static_cast<double>(count) / (static_cast<double>(elapsed_ns) / 1e9));
+  std::printf("RESULT rtt_p50_us=%.2f rtt_p99_us=%.2f rtt_max_us=%.2f rate_per_s=%.0f timed_out=%llu\n", s.p50_us,
+              s.p99_us, s.max_us, static_cast<double>(count) / (static_cast<double>(elapsed_ns) / 1e9),
+              static_cast<unsigned long long>(timed_out));
   return 0;
 }
 
@@ -179,10 +203,13 @@ int run_publisher(const Args& args) {
   rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBclientTransportRule", "* " + transport});
   CORBA::Object_var target_object = orb.from_string(args.get("--target", ""));
   RTM::InPort_var target = RTM::InPort::_narrow(target_object);
-  if (mode == "bare-paced" || mode == "bare-burst") return run_bare_publisher(target, mode, count);
+  if (mode == "bare-paced" || mode == "bare-burst")
+    return run_bare_publisher(target, mode, count, cpu, static_cast<CORBA::ULong>(args.number("--bare-timeout-ms", 0)));
 
   rtm::OutPortOptions options;
-  options.oneway = mode == "burst-oneway" || mode == "stream-oneway";
+  options.oneway = mode == "burst-oneway" || mode == "stream-oneway" || args.get("--delivery", "") == "writer-oneway";
+  options.writer_call_timeout_ms = static_cast<std::uint32_t>(args.number("--writer-timeout-ms", 2));
+  // "writer-unbounded" is writer_when_idle with --writer-timeout-ms 0 (set by the receiver).
   if (args.get("--delivery", "writer") == "thread") options.delivery = rtm::OutPortOptions::Delivery::thread;
   rtm::log().set_level(spdlog::level::warn);
   PortableServer::Servant_var<Float6Out> out(new Float6Out("out", "publisher", options));
@@ -195,11 +222,13 @@ int run_publisher(const Args& args) {
   // Let the delivery thread finish what is in flight.
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const auto c = out->counters_snapshot();
-  std::printf("RESULT written=%llu pushed=%llu (by write() %llu) dropped=%llu failed=%llu; write() p50 %.1f p99 %.1f max %.1f us\n",
+  const rtm::WriteCost w = out->write_cost();
+  std::printf("RESULT written=%llu pushed=%llu (by write() %llu) dropped=%llu failed=%llu (timed out %llu); write() p50 %.1f p99 %.1f max %.1f us\n",
               static_cast<unsigned long long>(c.written), static_cast<unsigned long long>(c.pushed),
               static_cast<unsigned long long>(c.by_writer), static_cast<unsigned long long>(c.dropped),
-              static_cast<unsigned long long>(c.failed), static_cast<double>(c.write_p50_ns) / 1e3,
-              static_cast<double>(c.write_p99_ns) / 1e3, static_cast<double>(c.write_max_ns) / 1e3);
+              static_cast<unsigned long long>(c.failed), static_cast<unsigned long long>(c.timed_out),
+              static_cast<double>(w.p50_ns) / 1e3, static_cast<double>(w.p99_ns) / 1e3,
+              static_cast<double>(w.max_ns) / 1e3);
   out->close();
   out->deactivate();
   return 0;
@@ -326,61 +355,131 @@ struct Rows {
     return run_child(self, all);
   }
   // Paced 1 kHz one-way latency through a publisher child in `mode` ("paced" or
-  // "bare-paced"): one slice of `count` data, added to `latency_ns`; the publisher's line.
-  std::string paced_slice(const std::string& ior, const std::string& mode, const std::string& delivery,
-                          std::size_t count, std::vector<std::int64_t>& latency_ns) {
+  // "bare-paced"): one slice of `count` data, added to `latency_ns`; the slice's p50 [us]
+  // and the publisher's line.
+  std::pair<double, std::string> paced_slice(const std::string& ior, const std::string& mode,
+                                             const std::string& delivery, std::size_t count,
+                                             std::vector<std::int64_t>& latency_ns) {
     receiver.reset(count);
-    const auto out = child({"--target", ior, "--mode", mode, "--delivery", delivery, "--count", std::to_string(count)});
+    const auto out = child({"--target", ior, "--mode", mode, "--delivery", delivery, "--count", std::to_string(count),
+                            "--bare-timeout-ms", delivery == "timeout" ? "2" : "0", "--writer-timeout-ms",
+                            delivery == "writer-unbounded" ? "0" : "2"});
     std::lock_guard lock(receiver.mu);
-    latency_ns.insert(latency_ns.end(), receiver.latency_ns.begin(), receiver.latency_ns.end());
-    return result_line(out);
+    std::vector<std::int64_t> slice = receiver.latency_ns;
+    latency_ns.insert(latency_ns.end(), slice.begin(), slice.end());
+    return {rtm_bench::summarize(slice).p50_us, result_line(out)};
   }
-  // Data per second the receiver got, first to last; prints the row.
-  double rate_row(const std::string& label, const std::string& mode, std::size_t count) {
+  // Data the receiver got from one publisher child in `mode`, and the time from its first to
+  // its last (the same measure for RTM's rows and the bare one).
+  struct Received {
+    std::uint64_t count = 0;
+    std::int64_t span_ns = 0;
+    std::string publisher;
+  };
+  // timeout_ms: the bare rows' call timeout, or RTM's writer_call_timeout_ms.
+  Received receive(const std::string& ior, const std::string& mode, std::size_t count, int timeout_ms = 0) {
     receiver.reset(0);
-    const auto out = child({"--target", in_ior, "--mode", mode, "--count", std::to_string(count)});
+    const auto ms = std::to_string(timeout_ms);
+    const auto out = child({"--target", ior, "--mode", mode, "--count", std::to_string(count), "--bare-timeout-ms", ms,
+                            "--writer-timeout-ms", ms});
     std::lock_guard lock(receiver.mu);
-    const double seconds = static_cast<double>(receiver.last_ns - receiver.first_ns) / 1e9;
-    const double rate = seconds > 0 ? static_cast<double>(receiver.count) / seconds : 0.0;
-    std::printf("%s %-38s %9.0f msg/s received (%llu of %zu written)\n", tag.c_str(), label.c_str(), rate,
-                static_cast<unsigned long long>(receiver.count), count);
-    std::printf("%-44s publisher: %s\n", "", result_line(out).c_str());
-    return rate;
+    return {receiver.count, receiver.last_ns - receiver.first_ns, result_line(out)};
+  }
+  static double rate(std::uint64_t count, std::int64_t span_ns) {
+    return span_ns > 0 ? static_cast<double>(count) / (static_cast<double>(span_ns) / 1e9) : 0.0;
+  }
+  // One rate row, as the receiver saw it.
+  double rate_row(const std::string& label, const std::string& mode, std::size_t count) {
+    const Received r = receive(in_ior, mode, count, 2);  // write()'s default bound
+    const double per_s = rate(r.count, r.span_ns);
+    std::printf("%s %-38s %9.0f msg/s received (%llu of %zu written)\n", tag.c_str(), label.c_str(), per_s,
+                static_cast<unsigned long long>(r.count), count);
+    std::printf("%-44s publisher: %s\n", "", r.publisher.c_str());
+    return per_s;
   }
 
-  // The three paced rows in kSlices alternating slices, so that each sees the same machine.
-  static constexpr std::size_t kSlices = 5;
-  void run() {
+  // The paced rows in kSlices alternating slices (a new publisher process each), so that each
+  // row sees the same machine; the spread of the per-slice p50 ratios is printed beside the
+  // pooled figures.
+  static constexpr std::size_t kSlices = 10;
+  void paced_rows() {
     struct Paced {
       const char* label;
       std::string ior, mode, delivery;
       std::vector<std::int64_t> latency_ns;
+      std::vector<double> slice_p50_us;
       std::string last_publisher_line;
     };
-    std::array<Paced, 3> rows{{{"RTM one-way, paced 1 kHz, write() calls", in_ior, "paced", "writer", {}, {}},
-                               {"RTM one-way, paced 1 kHz, delivery thread", in_ior, "paced", "thread", {}, {}},
-                               {"bare omniORB put(any) one-way, paced 1 kHz", bare_ior, "bare-paced", "", {}, {}}}};
-    for (std::size_t slice = 0; slice < kSlices; ++slice)
-      for (Paced& row : rows)
-        row.last_publisher_line = paced_slice(row.ior, row.mode, row.delivery, paced / kSlices, row.latency_ns);
-    std::array<rtm_bench::Summary, 3> summary;
+    std::array<Paced, 5> rows{{{"RTM one-way, paced 1 kHz, write() calls", in_ior, "paced", "writer", {}, {}, {}},
+                               {"RTM one-way, paced 1 kHz, delivery thread", in_ior, "paced", "thread", {}, {}, {}},
+                               {"bare omniORB put(any) one-way, paced 1 kHz", bare_ior, "bare-paced", "", {}, {}, {}},
+                               {"bare put(any), 2 ms call timeout set", bare_ior, "bare-paced", "timeout", {}, {}, {}},
+                               {"RTM write() calls, its bound off", in_ior, "paced", "writer-unbounded", {}, {}, {}}}};
+    for (std::size_t slice = 0; slice < kSlices; ++slice) {
+      for (Paced& row : rows) {
+        auto [p50, line] = paced_slice(row.ior, row.mode, row.delivery, paced / kSlices, row.latency_ns);
+        row.slice_p50_us.push_back(p50);
+        row.last_publisher_line = line;
+      }
+    }
+    std::array<rtm_bench::Summary, 5> summary;
     for (std::size_t i = 0; i < rows.size(); ++i) {
       summary[i] = rtm_bench::summarize(rows[i].latency_ns);
       rtm_bench::print_row((tag + " " + rows[i].label).c_str(), summary[i]);
       std::printf("%-44s publisher (last of %zu slices): %s\n", "", kSlices, rows[i].last_publisher_line.c_str());
     }
-    const auto& [by_writer, by_thread, bare] = summary;
-    std::printf("%s   ratio to bare, p50 / p99: write() calls %.2f / %.2f, delivery thread %.2f / %.2f\n", tag.c_str(),
-                by_writer.p50_us / bare.p50_us, by_writer.p99_us / bare.p99_us, by_thread.p50_us / bare.p50_us,
-                by_thread.p99_us / bare.p99_us);
+    const auto& [by_writer, by_thread, bare, bare_timeout, unbounded] = summary;
+    std::printf("%s   ratio to bare, p50 / p99: write() calls %.2f / %.2f, delivery thread %.2f / %.2f, bare with a "
+                "call timeout %.2f / %.2f, write() with its bound off %.2f / %.2f\n",
+                tag.c_str(), by_writer.p50_us / bare.p50_us, by_writer.p99_us / bare.p99_us,
+                by_thread.p50_us / bare.p50_us, by_thread.p99_us / bare.p99_us, bare_timeout.p50_us / bare.p50_us,
+                bare_timeout.p99_us / bare.p99_us, unbounded.p50_us / bare.p50_us, unbounded.p99_us / bare.p99_us);
+    std::vector<double> slice_ratio;
+    for (std::size_t k = 0; k < kSlices; ++k) slice_ratio.push_back(rows[0].slice_p50_us[k] / rows[2].slice_p50_us[k]);
+    std::sort(slice_ratio.begin(), slice_ratio.end());
+    std::printf("%s   write() calls / bare p50, slice by slice: median %.2f, range %.2f-%.2f (%zu slices)\n",
+                tag.c_str(), slice_ratio[kSlices / 2], slice_ratio.front(), slice_ratio.back(), kSlices);
+  }
 
-    const double twoway = rate_row("RTM burst, put (twoway), every datum", "burst", burst);
-    const auto bare_burst = child({"--target", bare_ior, "--mode", "bare-burst", "--count", std::to_string(burst / 4)});
-    const std::string bare_line = result_line(bare_burst);
-    std::printf("%s bare omniORB put(any) back to back:      %s\n", tag.c_str(), bare_line.c_str());
-    const auto at = bare_line.find("rate_per_s=");
-    const double bare_rate = at == std::string::npos ? 0.0 : std::atof(bare_line.c_str() + at + 11);
-    std::printf("%s   ratio to bare, twoway every datum: %.2f\n", tag.c_str(), bare_rate > 0 ? twoway / bare_rate : 0.0);
+  // Twoway, every datum: RTM's and the bare burst in alternating slices, each rate as the
+  // receiver saw it (slices summed: data over time).
+  static constexpr std::size_t kBurstSlices = 4;
+  void burst_rows() {
+    struct Burst {
+      const char* label;
+      std::string ior, mode;
+      int timeout_ms;
+      std::uint64_t count = 0;
+      std::int64_t span_ns = 0;
+      std::string publisher;
+    };
+    std::array<Burst, 4> rows{{{"RTM burst, put (twoway), every datum", in_ior, "burst", 2, 0, 0, {}},
+                               {"RTM burst, write()'s bound off", in_ior, "burst", 0, 0, 0, {}},
+                               {"bare put(any) back to back", bare_ior, "bare-burst", 0, 0, 0, {}},
+                               {"bare, 2 ms call timeout set", bare_ior, "bare-burst", 2, 0, 0, {}}}};
+    for (std::size_t slice = 0; slice < kBurstSlices; ++slice) {
+      for (Burst& row : rows) {
+        const Received r = receive(row.ior, row.mode, burst / kBurstSlices, row.timeout_ms);
+        row.count += r.count;
+        row.span_ns += r.span_ns;
+        row.publisher = r.publisher;
+      }
+    }
+    std::array<double, 4> per_s{};
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      per_s[i] = rate(rows[i].count, rows[i].span_ns);
+      std::printf("%s %-38s %9.0f msg/s received (%llu of %zu)\n", tag.c_str(), rows[i].label, per_s[i],
+                  static_cast<unsigned long long>(rows[i].count), burst);
+      std::printf("%-44s publisher (last slice): %s\n", "", rows[i].publisher.c_str());
+    }
+    const double bare = per_s[2] > 0 ? per_s[2] : 1.0;
+    std::printf("%s   ratio to bare, twoway every datum: RTM %.2f, RTM bound off %.2f, bare with a call timeout %.2f\n",
+                tag.c_str(), per_s[0] / bare, per_s[1] / bare, per_s[3] / bare);
+  }
+
+  void run() {
+    paced_rows();
+    burst_rows();
     rate_row("RTM stream, push (oneway), pipelined", "stream-oneway", burst);
     rate_row("RTM flood, writer never waits, 1 s", "flood", burst);
   }
