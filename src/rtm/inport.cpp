@@ -77,6 +77,7 @@ InPortCounters InPortBase::counters_snapshot() const {
   c.dropped = dropped_.load(std::memory_order_relaxed);
   c.in_process = in_process_.load(std::memory_order_relaxed);
   c.callback_failures = callback_failures_.load(std::memory_order_relaxed);
+  c.late = late_.load(std::memory_order_relaxed);
   return c;
 }
 
@@ -185,6 +186,14 @@ void InPortBase::push(const CORBA::Any& value) {
     put(value);
   } catch (const CORBA::BAD_PARAM&) {
     // Already counted and remembered by reject(); a oneway has nobody to tell.
+  }
+}
+
+void InPortBase::push_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) {
+  try {
+    put_in_order(value, sender, seq);
+  } catch (const CORBA::BAD_PARAM&) {
+    // As push().
   }
 }
 

@@ -87,6 +87,37 @@ TEST_F(InPortTest, OnewayPushStoresOrCountsWithoutRaising) {
   port->deactivate();
 }
 
+// put_in_order keeps each sender's order: a datum that arrives after a later one of its
+// sender (behind a call that timed out) is dropped and counted, and cannot replace it.
+TEST_F(InPortTest, AnOrderedPutOlderThanOneAlreadyTakenFromItsSenderIsDroppedAsLate) {
+  auto port = make_port();
+  RTM::InPortEx_var ex = port->activate(orb());
+  RTM::InPortOrdered_var ref = RTM::InPortOrdered::_narrow(ex);
+  ASSERT_FALSE(CORBA::is_nil(ref)) << "every RTM InPort keeps senders' order";
+  ref->put_in_order(any_of(float6(1.0f)), 42, 1);
+  ref->put_in_order(any_of(float6(3.0f)), 42, 3);
+  ref->put_in_order(any_of(float6(2.0f)), 42, 2);  // late
+  ref->put_in_order(any_of(float6(9.0f)), 43, 1);  // another sender
+  RTM::TimedFloat6 got{};
+  ASSERT_EQ(port->read(got), ReadResult::NewData);
+  EXPECT_FLOAT_EQ(got.val[0], 9.0f);
+  const rtm::InPortCounters c = port->counters_snapshot();
+  EXPECT_EQ(c.accepted, 3u);
+  EXPECT_EQ(c.late, 1u);
+  EXPECT_EQ(c.dropped, 3u) << "1 and 3 overwritten unread, 2 late";
+  EXPECT_EQ(ref->counters().dropped, c.dropped);
+
+  // A wrong type is refused as by put(), also oneway.
+  CORBA::Any wrong;
+  wrong <<= float3(1.0f);
+  EXPECT_THROW(ref->put_in_order(wrong, 42, 10), CORBA::BAD_PARAM);
+  ref->push_in_order(wrong, 42, 11);
+  ref->push_in_order(any_of(float6(5.0f)), 42, 12);
+  ASSERT_TRUE(rtm::test::eventually([&] { return port->counters_snapshot().accepted == 4; }));
+  EXPECT_EQ(port->counters_snapshot().rejected, 2u);
+  port->deactivate();
+}
+
 TEST_F(InPortTest, AttributesNameTypeAndOwner) {
   auto port = make_port();
   RTM::InPortEx_var ref = port->activate(orb());

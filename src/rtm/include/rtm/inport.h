@@ -6,6 +6,7 @@
 #include "rt/activity.h"
 #include "rtm/data.h"
 #include "rtm/describe.h"
+#include "rtm/sender_order.h"
 
 #include <atomic>
 #include <chrono>
@@ -87,7 +88,8 @@ class InPortPolicy {
 struct InPortCounters {
   std::uint64_t accepted = 0;  // data stored
   std::uint64_t rejected = 0;  // puts refused: wrong type
-  std::uint64_t dropped = 0;   // data overwritten unread (latest) or lost to a full FIFO
+  std::uint64_t dropped = 0;   // data overwritten unread (latest) or lost to a full FIFO, or late
+  std::uint64_t late = 0;      // of dropped: put_in_order data older than one already taken
   std::uint64_t in_process = 0;  // of accepted: delivered without an any (in-process path)
   std::uint64_t callback_failures = 0;  // callback policy: calls that threw
 };
@@ -104,7 +106,7 @@ RTM::PortDescription* to_idl(const PortInfo& info);
 
 // The type-independent part of every InPort: IDL attributes, counters, activation, the
 // process registry that lets an OutPort of this process find it (in-process fast path).
-class InPortBase : public virtual POA_RTM::InPortEx {
+class InPortBase : public virtual POA_RTM::InPortOrdered {
  public:
   ~InPortBase() override;
 
@@ -146,6 +148,7 @@ class InPortBase : public virtual POA_RTM::InPortEx {
   RTM::PortCounters counters() override;
   char* last_error() override;
   void push(const CORBA::Any& value) override;  // put() that swallows the BAD_PARAM
+  void push_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override;
   RTM::PortDescription* describe() override;
 
   // The local InPort servant behind ref (with a reference count added), or nullptr when ref
@@ -171,6 +174,8 @@ class InPortBase : public virtual POA_RTM::InPortEx {
   std::atomic<std::uint64_t> dropped_{0};
   std::atomic<std::uint64_t> in_process_{0};
   std::atomic<std::uint64_t> callback_failures_{0};
+  std::atomic<std::uint64_t> late_{0};
+  SenderOrder order_;  // guarded by mu_
 
  private:
   std::mutex activation_mu_;  // serialises activate()/deactivate()
@@ -201,9 +206,16 @@ class InPort final : public InPortBase {
   // IDL: extracts T; any other type raises BAD_PARAM(kMinorWrongDataType, COMPLETED_NO) and
   // stores nothing (see last_error for the reason).
   void put(const CORBA::Any& value) override;
+  // The same, unless the datum is late for its sender (then dropped, counted as late).
+  void put_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override;
 
  private:
-  void store(const T& value, bool in_process);  // caller holds no lock
+  struct Order {
+    std::uint64_t sender, seq;
+  };
+  const T& extract(const CORBA::Any& value);  // the datum, or reject() and BAD_PARAM
+  // order: checked under the same lock as the store. Caller holds no lock.
+  void store(const T& value, bool in_process, const Order* order = nullptr);
   std::vector<T> ring_;        // latest: 1 slot; FIFO: capacity slots
   std::size_t head_ = 0;       // FIFO: index of the oldest
   std::size_t count_ = 0;      // FIFO: stored; latest: 1 once written

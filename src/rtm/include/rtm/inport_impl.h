@@ -19,8 +19,13 @@ InPort<T>::InPort(std::string name, std::string owner, InPortPolicy policy)
 }
 
 template <PortData T>
-void InPort<T>::store(const T& value, bool in_process) {
+void InPort<T>::store(const T& value, bool in_process, const Order* order) {
   std::unique_lock lock(mu_);
+  if (order != nullptr && !order_.admit(order->sender, order->seq)) {
+    late_.fetch_add(1, std::memory_order_relaxed);
+    dropped_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
   if (policy_.kind() == InPortPolicy::Kind::Fifo) {
     const std::size_t capacity = ring_.size();
     if (count_ == capacity) {
@@ -104,14 +109,25 @@ std::size_t InPort<T>::queued() const {
 }
 
 template <PortData T>
-void InPort<T>::put(const CORBA::Any& value) {
+const T& InPort<T>::extract(const CORBA::Any& value) {
   CORBA::TypeCode_var got = value.type();
   const T* datum = nullptr;
   if (!got->equivalent(type_code()) || !(value >>= datum) || datum == nullptr) {
     reject(got.in());
     throw CORBA::BAD_PARAM(kMinorWrongDataType, CORBA::COMPLETED_NO);
   }
-  store(*datum, false);
+  return *datum;  // owned by value
+}
+
+template <PortData T>
+void InPort<T>::put(const CORBA::Any& value) {
+  store(extract(value), false);
+}
+
+template <PortData T>
+void InPort<T>::put_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) {
+  const Order order{sender, seq};
+  store(extract(value), false, &order);
 }
 
 }  // namespace rtm
