@@ -5,6 +5,7 @@
 
 #include <pthread.h>
 
+#include <random>
 #include <stdexcept>
 
 namespace rtm {
@@ -288,8 +289,17 @@ void OutPortBase::make_writer_references(Subscription& sub) const {
     sub.writer_port_ex = RTM::InPortEx::_unchecked_narrow(copy.in());
     omniORB::setClientCallTimeout(sub.writer_port_ex.in(), options_.writer_call_timeout_ms);
   }
+  if (!CORBA::is_nil(sub.port_ordered)) {
+    sub.writer_port_ordered = RTM::InPortOrdered::_unchecked_narrow(copy.in());
+    omniORB::setClientCallTimeout(sub.writer_port_ordered.in(), options_.writer_call_timeout_ms);
+  }
   sub.writer_port = RTM::InPort::_unchecked_narrow(copy.in());
   omniORB::setClientCallTimeout(sub.writer_port.in(), options_.writer_call_timeout_ms);
+}
+
+std::uint64_t OutPortBase::random_sender() {
+  std::random_device random;
+  return (std::uint64_t{random()} << 32) ^ random();
 }
 
 void OutPortBase::refuse(const std::string& why) {

@@ -13,7 +13,10 @@
 
 #include <atomic>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <thread>
+#include <vector>
 
 namespace {
 
@@ -576,6 +579,77 @@ TEST_F(OutPortTest, BehindACallThatUsedWritesBudgetTheNextSubscriberIsServedByIt
   EXPECT_EQ(out->counters_snapshot().failed, 1u) << "the stalled one's call timed out";
   stalled.process.resume();
   out->close();
+}
+
+// A peer at the protocol level: an RTM::InPortOrdered that records what each call carried.
+class OrderRecorder : public virtual POA_RTM::InPortOrdered {
+ public:
+  struct Call {
+    std::uint64_t sender, seq;
+    float first;
+  };
+  void put_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override {
+    const RTM::TimedFloat6* d = nullptr;
+    if (!(value >>= d)) throw CORBA::BAD_PARAM(0, CORBA::COMPLETED_NO);
+    std::lock_guard lock(mu_);
+    calls_.push_back({sender, seq, d->val[0]});
+  }
+  void push_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override {
+    put_in_order(value, sender, seq);
+  }
+  void put(const CORBA::Any&) override { ++unordered_; }
+  void push(const CORBA::Any&) override { ++unordered_; }
+  char* name() override { return CORBA::string_dup("recorder"); }
+  char* owner() override { return CORBA::string_dup("test"); }
+  CORBA::TypeCode_ptr port_type() override { return CORBA::TypeCode::_duplicate(RTM::_tc_TimedFloat6); }
+  RTM::PortCounters counters() override { return {}; }
+  char* last_error() override { return CORBA::string_dup(""); }
+  RTM::PortDescription* describe() override { return new RTM::PortDescription; }
+
+  std::vector<Call> calls() {
+    std::lock_guard lock(mu_);
+    return calls_;
+  }
+  std::atomic<int> unordered_{0};
+
+ private:
+  std::mutex mu_;
+  std::vector<Call> calls_;
+};
+
+// To an InPortOrdered every datum goes with its subscription's sender number and its own
+// rising number, whoever makes the call (write() or the delivery thread), so that the
+// receiver can drop one that arrives late.
+TEST_F(OutPortTest, AnOrderedSubscriberGetsEachDatumWithItsSenderAndRisingNumber) {
+  PortableServer::Servant_var<OrderRecorder> recorder(new OrderRecorder);
+  CORBA::Object_var obj = orb().activate(recorder.in());
+  RTM::InPort_var ref = RTM::InPort::_narrow(obj);
+  auto by_writer = make_out(via_orb());
+  rtm::OutPortOptions threaded = via_orb();
+  threaded.delivery = rtm::OutPortOptions::Delivery::thread;
+  auto by_thread = make_out(threaded);
+  ASSERT_TRUE(by_writer->subscribe(RTM::repeated, ref.in()));
+  ASSERT_TRUE(by_thread->subscribe(RTM::repeated, ref.in()));
+  for (int i = 1; i <= 10; ++i) {
+    by_writer->write(float6(static_cast<float>(i)));
+    by_thread->write(float6(static_cast<float>(100 + i)));
+    ASSERT_TRUE(eventually([&] { return recorder->calls().size() == static_cast<std::size_t>(2 * i); }));
+  }
+  EXPECT_EQ(recorder->unordered_.load(), 0) << "no plain put to a port that keeps order";
+  EXPECT_GT(by_writer->counters_snapshot().by_writer, 0u);
+  std::map<std::uint64_t, std::vector<std::uint64_t>> seqs;
+  for (const auto& c : recorder->calls()) {
+    seqs[c.sender].push_back(c.seq);
+    EXPECT_FLOAT_EQ(c.first, static_cast<float>(c.seq + (c.first > 100 ? 100 : 0))) << "datum and number match";
+  }
+  ASSERT_EQ(seqs.size(), 2u) << "each subscription has a sender number of its own";
+  for (const auto& [sender, numbers] : seqs) {
+    EXPECT_NE(sender, 0u);
+    EXPECT_EQ(numbers, (std::vector<std::uint64_t>{1, 2, 3, 4, 5, 6, 7, 8, 9, 10}));
+  }
+  by_writer->close();
+  by_thread->close();
+  orb().deactivate(recorder.in());
 }
 
 // writer_call_timeout_ms = 0 takes the bound off write()'s calls (opt-in): behind a stalled

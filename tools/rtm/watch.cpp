@@ -131,15 +131,16 @@ void print_summary(const ResolvedPort& port, const WatchSubscription& sub, std::
                               {"seconds", elapsed},
                               {"dropped_publisher", dropped_publisher},
                               {"dropped_display", sub.servant->overflowed()},
+                              {"dropped_late", sub.servant->late()},
                               {"rejected", sub.servant->rejected()}}}}
                            .dump());
     return;
   }
   fmt::print(stderr,
-             "{}: received {} in {:.2f} s ({:.1f} Hz), dropped {} by the publisher, {} by the display, {} of a "
-             "wrong type\n",
+             "{}: received {} in {:.2f} s ({:.1f} Hz), dropped {} by the publisher, {} by the display, {} late "
+             "(after a later one), {} of a wrong type\n",
              port.address, shown, elapsed, elapsed > 0 ? shown / elapsed : 0.0, dropped_publisher,
-             sub.servant->overflowed(), sub.servant->rejected());
+             sub.servant->overflowed(), sub.servant->late(), sub.servant->rejected());
 }
 
 }  // namespace

@@ -9,13 +9,32 @@ namespace rtm::cli {
 WatchPort::WatchPort(std::string owner, CORBA::TypeCode_ptr type, std::size_t capacity)
     : owner_(std::move(owner)), type_(CORBA::TypeCode::_duplicate(type)), capacity_(capacity) {}
 
-void WatchPort::put(const CORBA::Any& value) {
+void WatchPort::put(const CORBA::Any& value) { take(value, nullptr); }
+
+void WatchPort::put_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) {
+  const Order order{sender, seq};
+  take(value, &order);
+}
+
+void WatchPort::push_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) {
+  try {
+    put_in_order(value, sender, seq);
+  } catch (const CORBA::BAD_PARAM&) {
+    // oneway: as push()
+  }
+}
+
+void WatchPort::take(const CORBA::Any& value, const Order* order) {
   CORBA::TypeCode_var got = value.type();
   std::lock_guard lock(mutex_);
   if (!got->equivalent(type_)) {
     ++rejected_;
     last_error_ = fmt::format("{}.in ({}) got {}", owner_, rtm::type_name(type_), rtm::type_name(got));
     throw CORBA::BAD_PARAM(rtm::kMinorWrongDataType, CORBA::COMPLETED_NO);
+  }
+  if (order != nullptr && !order_.admit(order->sender, order->seq)) {
+    ++late_;  // arrived after a later datum of its sender: shown out of order, so not at all
+    return;
   }
   ++received_;
   if (queue_.size() >= capacity_) {
@@ -43,7 +62,7 @@ RTM::PortCounters WatchPort::counters() {
   RTM::PortCounters c{};
   c.accepted = received_;
   c.rejected = rejected_;
-  c.dropped = overflowed_;
+  c.dropped = overflowed_ + late_;
   return c;
 }
 
@@ -75,6 +94,10 @@ std::uint64_t WatchPort::received() const {
 std::uint64_t WatchPort::overflowed() const {
   std::lock_guard lock(mutex_);
   return overflowed_;
+}
+std::uint64_t WatchPort::late() const {
+  std::lock_guard lock(mutex_);
+  return late_;
 }
 std::uint64_t WatchPort::rejected() const {
   std::lock_guard lock(mutex_);

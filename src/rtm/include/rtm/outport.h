@@ -139,6 +139,8 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
     RTM::ReqType req_type = RTM::repeated;
     RTM::InPort_var port;            // nil for a C++ connect()
     RTM::InPortEx_var port_ex;       // narrowed when the subscriber is an InPortEx
+    RTM::InPortOrdered_var port_ordered;  // ... and when it keeps each sender's order
+    std::uint64_t sender = 0;        // this subscription's number for InPortOrdered (random)
     PortableServer::Servant_var<InPortBase> local;  // set for in-process delivery
     std::string peer;
     bool direct = false;             // filled by write() itself (no thread)
@@ -156,6 +158,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
     // Remote and Delivery::writer_when_idle: write()'s own reference (its own call timeout).
     RTM::InPort_var writer_port;
     RTM::InPortEx_var writer_port_ex;
+    RTM::InPortOrdered_var writer_port_ordered;
     std::thread thread;
     std::atomic<std::uint64_t> pushed{0};
     std::atomic<std::uint64_t> dropped{0};
@@ -185,6 +188,9 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void finish_writer_call(Subscription& sub, bool delivered, bool dead);
   // subscribe(): write()'s own references to a remote subscriber, with their call timeout.
   void make_writer_references(Subscription& sub) const;
+  // A subscription's sender number for InPortOrdered: random, so that two publishers (or
+  // two runs of one) do not share one.
+  static std::uint64_t random_sender();
   // Removes the subscriptions matching (under mu_) and stops/joins them (without it).
   bool remove_matching(const std::function<bool(const Subscription&)>& match);
   static void stop_and_join(std::unique_ptr<Subscription> sub, std::vector<std::unique_ptr<Subscription>>& parked);
@@ -264,8 +270,8 @@ class OutPort final : public OutPortBase {
   static constexpr std::size_t kMaxWriterCalls = 8;  // OutPortOptions::writer_calls is capped here
   void deliver_slot(Subscription& sub, std::uint64_t seq, std::unique_lock<std::mutex>& slot_lock) override;
   bool deliver_direct(TypedSubscription& sub, const T& value);
-  bool queue_or_take(TypedSubscription& sub, const T& value, bool may_call);
-  void call_remote(TypedSubscription& sub, const T& value, bool by_writer);
+  std::uint64_t queue_or_take(TypedSubscription& sub, const T& value, bool may_call);
+  void call_remote(TypedSubscription& sub, const T& value, bool by_writer, std::uint64_t seq);
   void hand_to_thread(TypedSubscription& sub, const T& value);
   std::uint64_t ring_size(const Subscription& sub) const override {
     return static_cast<const TypedSubscription&>(sub).ring.size();

@@ -50,7 +50,11 @@ void OutPort<T>::write(const T& value) {
   const std::int64_t start_ns = monotonic_ns();
   // Subscriptions write() delivers to itself, after its lock is released (fixed capacity:
   // write() allocates nothing).
-  std::array<TypedSubscription*, kMaxWriterCalls> calls{};
+  struct Call {
+    TypedSubscription* sub;
+    std::uint64_t seq;
+  };
+  std::array<Call, kMaxWriterCalls> calls{};
   std::size_t call_count = 0;
   const std::size_t call_limit = std::min<std::size_t>(options_.writer_calls, kMaxWriterCalls);
   {
@@ -65,21 +69,21 @@ void OutPort<T>::write(const T& value) {
           retire_locked(i);
           continue;
         }
-      } else if (queue_or_take(sub, value, call_count < call_limit)) {
-        calls[call_count++] = &sub;
+      } else if (const std::uint64_t seq = queue_or_take(sub, value, call_count < call_limit); seq != 0) {
+        calls[call_count++] = {&sub, seq};
       }
       ++i;
     }
   }
   const std::int64_t budget_ns = std::int64_t{options_.writer_call_timeout_ms} * 1'000'000;
   for (std::size_t k = 0; k < call_count; ++k) {
-    TypedSubscription& sub = *calls[k];
+    TypedSubscription& sub = *calls[k].sub;
     if (budget_ns > 0 && monotonic_ns() - start_ns >= budget_ns) {
       hand_to_thread(sub, value);  // write() has spent its budget: no call begins after it
       continue;
     }
     bool dead = false;
-    const bool delivered = guarded_call(sub, [&] { call_remote(sub, value, true); }, &dead);
+    const bool delivered = guarded_call(sub, [&] { call_remote(sub, value, true, calls[k].seq); }, &dead);
     if (delivered) by_writer_.fetch_add(1, std::memory_order_relaxed);
     finish_writer_call(sub, delivered, dead);
   }
@@ -98,27 +102,26 @@ bool OutPort<T>::deliver_direct(TypedSubscription& sub, const T& value) {
   return sub.req_type != RTM::once;
 }
 
-// Queues value for the delivery thread, or - when write() may call and the subscription is
-// idle - takes the call on (in_flight set) and returns true.
+// Queues value for the delivery thread (returns 0), or - when write() may call and the
+// subscription is idle - takes the call on (in_flight set) and returns the datum's number.
 template <PortData T>
-bool OutPort<T>::queue_or_take(TypedSubscription& sub, const T& value, bool may_call) {
+std::uint64_t OutPort<T>::queue_or_take(TypedSubscription& sub, const T& value, bool may_call) {
   {
     std::lock_guard slot_lock(sub.slot_mu);
     // A once-subscription takes exactly the first datum written after it was made.
-    if (sub.req_type == RTM::once && sub.written_seq > 0) return false;
+    if (sub.req_type == RTM::once && sub.written_seq > 0) return 0;
     const bool idle = !sub.in_flight && sub.written_seq == sub.delivered_seq;
     if (may_call && idle && sub.writer_may_call && !CORBA::is_nil(sub.writer_port)) {
       sub.in_flight = true;
       sub.writer_calling = true;
-      ++sub.written_seq;
       ++sub.delivered_seq;
-      return true;
+      return ++sub.written_seq;
     }
     sub.ring[sub.written_seq % sub.ring.size()] = value;
     ++sub.written_seq;
   }
   sub.slot_cv.notify_one();
-  return false;
+  return 0;
 }
 
 // A call write() took on but will not make: the datum goes to the delivery thread after all.
@@ -134,11 +137,19 @@ void OutPort<T>::hand_to_thread(TypedSubscription& sub, const T& value) {
   }
 }
 
-// One datum to a remote subscriber: by_writer selects write()'s own references.
+// Datum number seq to a remote subscriber: by_writer selects write()'s own references. An
+// InPortOrdered is told the subscription's sender number and seq, so that a datum that
+// arrives after a later one (behind a call that timed out) is dropped there, not taken.
 template <PortData T>
-void OutPort<T>::call_remote(TypedSubscription& sub, const T& value, bool by_writer) {
+void OutPort<T>::call_remote(TypedSubscription& sub, const T& value, bool by_writer, std::uint64_t seq) {
   CORBA::Any any;
   any <<= value;
+  RTM::InPortOrdered_ptr ordered = by_writer ? sub.writer_port_ordered.in() : sub.port_ordered.in();
+  if (!CORBA::is_nil(ordered)) {
+    if (options_.oneway) ordered->push_in_order(any, sub.sender, seq);
+    else ordered->put_in_order(any, sub.sender, seq);
+    return;
+  }
   RTM::InPortEx_ptr ex = by_writer ? sub.writer_port_ex.in() : sub.port_ex.in();
   if (options_.oneway && !CORBA::is_nil(ex)) ex->push(any);
   else (by_writer ? sub.writer_port.in() : sub.port.in())->put(any);
@@ -174,7 +185,7 @@ void OutPort<T>::deliver_slot(Subscription& base, std::uint64_t seq,
     static_cast<InPort<T>*>(sub.local.in())->deliver(sub.sending);
     return;
   }
-  call_remote(sub, sub.sending, false);
+  call_remote(sub, sub.sending, false, seq);
 }
 
 template <PortData T>
@@ -234,6 +245,7 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
     sub->peer = peer_name(i_port);
     their_type = i_port->port_type();
     sub->port_ex = RTM::InPortEx::_narrow(i_port);
+    if (!CORBA::is_nil(sub->port_ex)) sub->port_ordered = RTM::InPortOrdered::_narrow(i_port);
   } catch (const CORBA::Exception& e) {
     refuse(full_name() + " -> " + (sub->peer.empty() ? std::string("<InPort>") : sub->peer) +
            ": the InPort does not answer (" + e._name() + ")");
@@ -254,6 +266,10 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
   if (sub->local.in() == nullptr) {
     omniORB::setClientCallTimeout(sub->port.in(), options_.call_timeout_ms);
     if (!CORBA::is_nil(sub->port_ex)) omniORB::setClientCallTimeout(sub->port_ex.in(), options_.call_timeout_ms);
+    if (!CORBA::is_nil(sub->port_ordered)) {
+      omniORB::setClientCallTimeout(sub->port_ordered.in(), options_.call_timeout_ms);
+      sub->sender = random_sender();
+    }
     if (delivery() == OutPortOptions::Delivery::writer_when_idle) make_writer_references(*sub);
   }
   const bool threaded = !sub->direct;
