@@ -340,7 +340,7 @@ NameBinding::NameBinding(CORBA::ORB_ptr orb, NamingAddress address, ComponentPat
       object_(CORBA::Object::_duplicate(object)),
       options_(std::move(options)) {
   if (path_.host.empty()) path_.host = local_host_name();
-  check_once();
+  check_once(true);
   watcher_ = std::thread([this] { watch(); });
 }
 
@@ -400,57 +400,79 @@ void NameBinding::watch() {
     wake_.wait_for(lock, options_.check_interval, [this] { return stopping_; });
     if (stopping_) break;
     lock.unlock();
-    check_once();
+    check_once(false);
     lock.lock();
   }
 }
 
-// One look at the naming service; no lock is held across the remote calls.
-void NameBinding::check_once() {
+// Whether obj answers: a component that still runs holds its name. A stopped or hung process
+// (TIMEOUT) counts as running: it is not ours to displace.
+bool NameBinding::answers(CORBA::Object_ptr obj) const {
+  omniORB::setClientCallTimeout(obj, static_cast<CORBA::ULong>(options_.call_timeout.count()));
+  try {
+    return !obj->_non_existent();
+  } catch (const CORBA::TRANSIENT&) {
+  } catch (const CORBA::COMM_FAILURE&) {
+  } catch (const CORBA::OBJECT_NOT_EXIST&) {
+  } catch (const CORBA::Exception&) {
+    return true;  // something answered, if only with an error
+  }
+  return false;
+}
+
+NameBinding::Found NameBinding::look() const {
+  CORBA::Object_var current;
+  try {
+    current = client_.resolve_object(path_);
+  } catch (const NamingError&) {
+    if (!client_.is_bound(path_)) return Found::missing;
+    throw;
+  }
+  if (current->_is_equivalent(object_)) return Found::ours;
+  return answers(current.in()) ? Found::running_other : Found::stale;
+}
+
+// One look at the naming service; no lock is held across the remote calls. The name is bound
+// when it is free, ours, or held by a component that no longer answers; never over one that
+// runs (at the first look that is an error the constructor throws: two components of one
+// name would otherwise take the name from each other at every check).
+void NameBinding::check_once(bool first) {
   bool was_bound = false;
-  bool was_unreachable = false;
   {
     std::lock_guard lock(mutex_);
     was_bound = bound_;
-    was_unreachable = reported_unreachable_;
   }
-
-  enum class Found { ours, missing, someone_else } found = Found::missing;
   try {
-    // After an outage the service may have come back with its old data: bind anyway.
-    if (was_bound && !was_unreachable) {
-      CORBA::Object_var current;
-      try {
-        current = client_.resolve_object(path_);
-        found = current->_is_equivalent(object_) ? Found::ours : Found::someone_else;
-      } catch (const NamingError&) {
-        if (!client_.is_bound(path_)) found = Found::missing;
-        else throw;
-      }
-    }
-    if (found == Found::someone_else) {
+    const Found found = look();
+    if (found == Found::running_other) {
+      const std::string line = fmt::format("{} in naming service at {} names another component, which answers",
+                                           path_.to_string(), client_.address().to_string());
+      if (first) throw NameTaken(line + ": refusing to take its name (stop it, or choose another --name)");
       std::lock_guard lock(mutex_);
       if (!reported_taken_) {
         reported_taken_ = true;
-        log(true, fmt::format("{} in naming service at {} now names another object; not re-binding",
-                              path_.to_string(), client_.address().to_string()));
+        log(true, line + "; not re-binding while it runs");
       }
       bound_ = false;
       return;
     }
-    if (found == Found::missing) {
-      client_.bind(path_, object_);
+    if (found == Found::ours && was_bound) {
       std::lock_guard lock(mutex_);
-      bound_ = true;
       reported_unreachable_ = false;
-      reported_taken_ = false;
-      ++bind_count_;
-      log(false, fmt::format("{} {} at {} via {}", bind_count_ == 1 ? "bound" : "re-bound",
-                             path_.name, path_.to_string(), client_.address().to_string()));
       return;
     }
+    // Missing, stale, or ours again after an outage or a restart: (re-)bind.
+    client_.bind(path_, object_);
     std::lock_guard lock(mutex_);
     bound_ = true;
+    reported_unreachable_ = false;
+    reported_taken_ = false;
+    ++bind_count_;
+    log(false, fmt::format("{} {} at {} via {}{}", bind_count_ == 1 ? "bound" : "re-bound", path_.name,
+                           path_.to_string(), client_.address().to_string(),
+                           found == Found::stale ? " (in place of a component that no longer answers)" : ""));
+  } catch (const NameTaken&) {
+    throw;
   } catch (const NamingError& ex) {
     std::lock_guard lock(mutex_);
     bound_ = false;

@@ -6,6 +6,8 @@
 
 #include <signal.h>
 
+#include <thread>
+
 namespace rtm_it {
 namespace {
 
@@ -61,18 +63,37 @@ TEST_F(IntegrationTest, SigtermUnbindsTheNameAndExitsCleanly) {
   EXPECT_FALSE(naming().is_bound(path));
 }
 
-TEST_F(IntegrationTest, ASecondComponentOfTheSameNameTakesTheNameAndTheFirstLeavesItBound) {
+// One name, one component: a second process of the same name is refused at start while the
+// first answers, instead of taking the name and losing it again at the first's next check.
+TEST_F(IntegrationTest, ASecondComponentOfTheSameNameIsRefusedWhileTheFirstAnswers) {
   auto& first = start_component("twin0");
-  auto& second = start_component("twin0");
   const auto path = ComponentPath::on_this_host("twin0");
-  // The first one goes away at once, most likely before its next check saw the takeover:
-  // either way the name must still lead to the second, which answers.
-  const auto status = first.stop();
-  EXPECT_TRUE(status.clean()) << status.to_string();
-  ASSERT_TRUE(naming().is_bound(path));
+  CORBA::Object_var held = naming().resolve_object(path);
+  rtm_test::ChildProcess second({RTM_TEST_COMPONENT, "--name", "twin0", "--naming", names_.address()});
+  const auto status = second.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value()) << "the second twin0 kept running";
+  EXPECT_EQ(status->code, 1) << second.output();
+  EXPECT_NE(second.output().find("names another component, which answers"), std::string::npos) << second.output();
+  // Several of the first's checks later the name still leads to it, never re-bound.
+  std::this_thread::sleep_for(1500ms);
+  CORBA::Object_var now = naming().resolve_object(path);
+  EXPECT_TRUE(now->_is_equivalent(held.in())) << "the name changed hands";
+  EXPECT_EQ(first.count_lines("re-bound"), 0u) << first.output();
   component("twin0")->on();
   EXPECT_EQ(component("twin0")->state(), RTM::COMPONENT_ON);
-  EXPECT_TRUE(second.running());
+}
+
+// A binding left by a component that was killed (it cannot unbind) does not block its
+// successor: a name whose component no longer answers is taken over.
+TEST_F(IntegrationTest, ANameWhoseComponentNoLongerAnswersIsTakenOver) {
+  auto& first = start_component("phoenix2");
+  const auto killed = first.kill_now();
+  EXPECT_FALSE(killed.clean());
+  ASSERT_TRUE(naming().is_bound(ComponentPath::on_this_host("phoenix2"))) << "SIGKILL left the binding";
+  auto& second = start_component("phoenix2");
+  EXPECT_EQ(second.count_lines("in place of a component that no longer answers"), 1u) << second.output();
+  component("phoenix2")->on();
+  EXPECT_EQ(component("phoenix2")->state(), RTM::COMPONENT_ON);
 }
 
 TEST_F(IntegrationTest, ComponentsRebindAfterNamingServiceRestartsWithoutItsData) {

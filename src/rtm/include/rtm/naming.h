@@ -40,6 +40,12 @@ class NamingError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// NameBinding's constructor: the name is bound to another component that still answers.
+class NameTaken : public NamingError {
+ public:
+  using NamingError::NamingError;
+};
+
 // host:port of a naming service (omniNames' default port is 2809).
 struct NamingAddress {
   std::string host = "127.0.0.1";
@@ -133,8 +139,11 @@ class NamingClient {
 
 // Binds a component for as long as it lives. The first bind is attempted in the constructor;
 // if the naming service is unreachable, one error line is logged and the component carries on
-// unbound. A background thread checks every check_interval that the binding is still there
-// and re-binds when the service restarted (entry missing, or service back after an outage).
+// unbound; if the name is bound to another component that still answers, the constructor
+// throws NameTaken (one name, one component); a binding whose component no longer answers is
+// taken over. A background thread checks every check_interval that the binding is still there
+// and re-binds when the service restarted (entry missing, or service back after an outage),
+// never over another component that answers (it logs that once and waits).
 // The destructor stops the thread and unbinds. No hot path is involved: the thread only
 // sleeps and talks to the naming service.
 class NameBinding {
@@ -164,8 +173,11 @@ class NameBinding {
   const NamingAddress& address() const { return client_.address(); }
 
  private:
+  enum class Found { missing, ours, running_other, stale };
   void watch();
-  void check_once();
+  void check_once(bool first);
+  Found look() const;
+  bool answers(CORBA::Object_ptr obj) const;
   void log(bool is_error, const std::string& line) const;
 
   NamingClient client_;
