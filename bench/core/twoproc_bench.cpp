@@ -207,7 +207,7 @@ int run_publisher(const Args& args) {
     return run_bare_publisher(target, mode, count, cpu, static_cast<CORBA::ULong>(args.number("--bare-timeout-ms", 0)));
 
   rtm::OutPortOptions options;
-  options.oneway = mode == "burst-oneway" || mode == "stream-oneway" || args.get("--delivery", "") == "writer-oneway";
+  options.oneway = mode == "stream-oneway";
   options.writer_call_timeout_ms = static_cast<std::uint32_t>(args.number("--writer-timeout-ms", 2));
   // "writer-unbounded" is writer_when_idle with --writer-timeout-ms 0 (set by the receiver).
   if (args.get("--delivery", "writer") == "thread") options.delivery = rtm::OutPortOptions::Delivery::thread;

@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <tuple>
 #include <stdexcept>
 
 namespace rtm::comp {
@@ -50,18 +49,10 @@ void Actuator::describe_self() {
   add_counter("non_finite_events", "commands started holding NaN/inf (quick stop)", non_finite_events_);
   add_counter("command_loss_recoveries", "drive RPDO timeouts reset and resumed from", command_loss_recoveries_);
   add_counter("not_ready_cycles", "cycles the arm was not enabled (zero velocity)", not_ready_cycles_);
-  const auto percentiles = [this](const std::string& stat, const std::string& span, const rtm::LatencyHistogram& h) {
-    for (const auto& [suffix, what, q] : {std::tuple{"_p50", "median", 0.5}, {"_p99", "99th percentile", 0.99},
-                                          {"_max", "maximum", 1.0}}) {
-      add_statistic(stat + suffix, "us", span + ", " + what, [&h, q = q] {
-        return static_cast<double>(q >= 1.0 ? h.max_ns() : h.percentile_ns(q)) / 1000.0;
-      });
-    }
-  };
-  percentiles("latency", "sensor sample to drive command leaving for the bus", latency_);
+  add_percentile_statistics("latency", "sensor sample to drive command leaving for the bus", latency_);
   add_statistic("latency_samples", "", "commands seen leaving for the bus",
                 [this] { return static_cast<double>(latency_.count()); });
-  percentiles("handover", "sensor sample to twist handed to the arm", handover_latency_);
+  add_percentile_statistics("handover", "sensor sample to twist handed to the arm", handover_latency_);
   add_parameter(rtm::live_numbers("limit", "m/s, rad/s", "6 limits |v|: vx vy vz, then wx wy wz", limit_live_,
                                   [](const std::vector<double>& v) {
                                     if (std::any_of(v.begin(), v.end(), [](double x) { return x < 0; }))

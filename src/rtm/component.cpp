@@ -42,15 +42,20 @@ void Component::add_counter(std::string stat_name, std::string text, const std::
                 [&count] { return static_cast<double>(count.load(std::memory_order_relaxed)); });
 }
 
+void Component::add_percentile_statistics(const std::string& stat, const std::string& span,
+                                          const LatencyHistogram& h) {
+  for (const auto& [suffix, what, q] :
+       {std::tuple{"_p50", "median", 0.5}, {"_p99", "99th percentile", 0.99}, {"_max", "maximum", 1.0}}) {
+    add_statistic(stat + suffix, "us", span + ", " + what, [&h, q = q] {
+      return static_cast<double>(q >= 1.0 ? h.max_ns() : h.percentile_ns(q)) / 1000.0;
+    });
+  }
+}
+
 void Component::add_out_port_statistics() {
   for (OutPortBase* port : out_ptrs_) {
     const std::string& name = port->port_name();
-    for (const auto& [suffix, what, field] :
-         {std::tuple{"_p50", "median", &WriteCost::p50_ns}, {"_p99", "99th percentile", &WriteCost::p99_ns},
-          {"_max", "maximum", &WriteCost::max_ns}}) {
-      add_statistic(name + ".write" + suffix, "us", std::string("time write() held the activity, ") + what,
-                    [port, field = field] { return static_cast<double>(port->write_cost().*field) / 1000.0; });
-    }
+    add_percentile_statistics(name + ".write", "time write() held the activity", port->write_cost_histogram());
     add_statistic(name + ".by_writer", "", "data write() delivered itself (no thread wake-up)",
                   [port] { return static_cast<double>(port->counters_snapshot().by_writer); });
     add_statistic(name + ".timed_out", "", "remote calls that outlived their bound (their data's fate unknown)",

@@ -12,7 +12,7 @@ WatchPort::WatchPort(std::string owner, CORBA::TypeCode_ptr type, std::size_t ca
 void WatchPort::put(const CORBA::Any& value) { take(value, nullptr); }
 
 void WatchPort::put_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) {
-  const Order order{sender, seq};
+  const rtm::SenderSeq order{sender, seq};
   take(value, &order);
 }
 
@@ -24,7 +24,7 @@ void WatchPort::push_in_order(const CORBA::Any& value, CORBA::ULongLong sender, 
   }
 }
 
-void WatchPort::take(const CORBA::Any& value, const Order* order) {
+void WatchPort::take(const CORBA::Any& value, const rtm::SenderSeq* order) {
   CORBA::TypeCode_var got = value.type();
   std::lock_guard lock(mutex_);
   if (!got->equivalent(type_)) {

@@ -43,10 +43,7 @@ class WatchPort final : public virtual POA_RTM::InPortOrdered {
   std::uint64_t rejected() const;    // wrong type
 
  private:
-  struct Order {
-    std::uint64_t sender, seq;
-  };
-  void take(const CORBA::Any& value, const Order* order);  // put(), with the order check
+  void take(const CORBA::Any& value, const rtm::SenderSeq* order);  // put(), with the order check
 
   const std::string owner_;
   CORBA::TypeCode_var type_;

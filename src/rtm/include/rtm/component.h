@@ -4,6 +4,7 @@
 
 #include "RTMExt.hh"
 #include "rt/activity.h"
+#include "rt/histogram.h"
 #include "rtm/describe.h"
 #include "rtm/inport.h"
 #include "rtm/outport.h"
@@ -106,6 +107,9 @@ class Component {
   void add_statistic(std::string stat_name, std::string unit, std::string text, std::function<double()> read);
   // A count the component keeps in an atomic (read relaxed): a statistic without a unit.
   void add_counter(std::string stat_name, std::string text, const std::atomic<std::uint64_t>& count);
+  // <stat>_p50, <stat>_p99 and <stat>_max of h, in us, described as "<span>, median" etc. h
+  // must outlive the component's servant.
+  void add_percentile_statistics(const std::string& stat, const std::string& span, const LatencyHistogram& h);
   // Throws std::invalid_argument for an empty or repeated name, a missing get(), or a
   // writable parameter without set().
   void add_parameter(Parameter parameter);

@@ -210,12 +210,9 @@ class InPort final : public InPortBase {
   void put_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override;
 
  private:
-  struct Order {
-    std::uint64_t sender, seq;
-  };
   const T& extract(const CORBA::Any& value);  // the datum, or reject() and BAD_PARAM
   // order: checked under the same lock as the store. Caller holds no lock.
-  void store(const T& value, bool in_process, const Order* order = nullptr);
+  void store(const T& value, bool in_process, const SenderSeq* order = nullptr);
   std::vector<T> ring_;        // latest: 1 slot; FIFO: capacity slots
   std::size_t head_ = 0;       // FIFO: index of the oldest
   std::size_t count_ = 0;      // FIFO: stored; latest: 1 once written

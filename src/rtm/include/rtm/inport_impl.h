@@ -19,7 +19,7 @@ InPort<T>::InPort(std::string name, std::string owner, InPortPolicy policy)
 }
 
 template <PortData T>
-void InPort<T>::store(const T& value, bool in_process, const Order* order) {
+void InPort<T>::store(const T& value, bool in_process, const SenderSeq* order) {
   std::unique_lock lock(mu_);
   if (order != nullptr && !order_.admit(order->sender, order->seq)) {
     late_.fetch_add(1, std::memory_order_relaxed);
@@ -126,7 +126,7 @@ void InPort<T>::put(const CORBA::Any& value) {
 
 template <PortData T>
 void InPort<T>::put_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) {
-  const Order order{sender, seq};
+  const SenderSeq order{sender, seq};
   store(extract(value), false, &order);
 }
 

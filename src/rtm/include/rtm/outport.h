@@ -109,6 +109,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   OutPortCounters counters_snapshot() const;
   // Percentiles of the time write() held its caller (walks a histogram: not for a hot loop).
   WriteCost write_cost() const;
+  const LatencyHistogram& write_cost_histogram() const { return write_cost_; }
   std::string last_refusal() const;  // why the last subscribe was refused, "" when none
   std::size_t subscription_count() const;
 

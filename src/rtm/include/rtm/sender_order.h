@@ -9,6 +9,11 @@
 
 namespace rtm {
 
+// A datum's place in its sender's stream, as RTM::InPortOrdered's calls carry it.
+struct SenderSeq {
+  std::uint64_t sender, seq;
+};
+
 class SenderOrder {
  public:
   static constexpr std::size_t kSenders = 8;
