@@ -1,5 +1,6 @@
 #include "arm/can/bus_cycle.h"
 
+#include <cmath>
 #include <cstdio>
 
 namespace rtm::can {
@@ -20,10 +21,24 @@ BusCycle::BusCycle(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_b
     : drive_bus_(std::move(drive_bus)),
       separate_sensor_bus_(std::move(sensor_bus)),
       config_(std::move(config)),
-      supervisor_(config_, expected_nodes(config_)) {
+      supervisor_(config_, expected_nodes(config_)),
+      following_(config_) {
   if (!drive_bus_) throw std::invalid_argument("Pa10Master: no drive bus");
   if (config_.period_ns <= 0) throw std::invalid_argument("Pa10Master: period must be > 0");
+  if (config_.answer_expiry_periods < 1 || config_.answer_expiry_periods > AnswerLedger::kMaxExpiry)
+    throw std::invalid_argument("Pa10Master: answer_expiry_periods must be 1..256");
+  const auto window_ok = [](double w) { return std::isfinite(w) && w >= 0; };
+  if (!window_ok(config_.following_velocity_window_rad_s) || !window_ok(config_.following_position_window_rad) ||
+      !window_ok(config_.following_rest_velocity_rad_s) || config_.following_error_periods < 1)
+    throw std::invalid_argument("Pa10Master: following-error windows must be finite and >= 0, periods >= 1");
+  // Our own SYNC on a second socket of the same bus would read as another master's.
+  if (separate_sensor_bus_ && separate_sensor_bus_->name() == drive_bus_->name())
+    throw std::invalid_argument("Pa10Master: the sensor bus " + drive_bus_->name() +
+                                " is the drive bus; give it once (no separate sensor bus)");
   sensor_bus_ = separate_sensor_bus_ ? separate_sensor_bus_.get() : drive_bus_.get();
+  drive_ledgers_.fill(AnswerLedger(config_.answer_expiry_periods));
+  force_ledgers_.fill(AnswerLedger(config_.answer_expiry_periods));
+  torque_ledgers_.fill(AnswerLedger(config_.answer_expiry_periods));
 }
 
 std::string BusCycle::describe_buses() const {
@@ -58,6 +73,7 @@ void BusCycle::handle(const can_frame& frame, std::int64_t now_ns) {
     case FrameType::drive_feedback: {
       const auto fb = decode_drive_feedback(frame);
       if (!fb) { ++counters_.malformed_frames; return; }
+      if (!solicited(drive_ledgers_[static_cast<std::size_t>(joint_index_of(fb->drive))], fb->drive, "TPDO1")) return;
       if (!window_open_) { ++counters_.late_frames; return; }
       if (joints_.add(*fb)) ++counters_.late_frames;  // the newer is kept
       return;
@@ -86,7 +102,7 @@ void BusCycle::handle(const can_frame& frame, std::int64_t now_ns) {
     case FrameType::nmt:
     case FrameType::sync:
     case FrameType::drive_command:
-    case FrameType::sdo_request: ++counters_.foreign_frames; return;
+    case FrameType::sdo_request: foreign(frame, c); return;
     case FrameType::unknown: ++counters_.unknown_frames; return;
   }
 }
@@ -94,16 +110,60 @@ void BusCycle::handle(const can_frame& frame, std::int64_t now_ns) {
 // A force or torque frame: one half of a sensor's wrench for the open window.
 void BusCycle::handle_sensor(const can_frame& frame, const Classified& c) {
   if (!supervisor_.node_expected(c.node)) return;
-  WrenchAssembly& wrench = wrenches_[sensor_slot(c.node)];
+  const std::size_t slot = sensor_slot(c.node);
+  WrenchAssembly& wrench = wrenches_[slot];
   if (c.type == FrameType::sensor_force) {
     const auto f = decode_sensor_force(frame);
     if (!f) { ++counters_.malformed_frames; return; }
+    if (!solicited(force_ledgers_[slot], c.node, "force TPDO1")) { wrench_spoofed_[slot] = true; return; }
     if (!window_open_ || wrench.add_force(f->force_N)) ++counters_.late_frames;
   } else {
     const auto t = decode_sensor_torque(frame);
     if (!t) { ++counters_.malformed_frames; return; }
+    if (!solicited(torque_ledgers_[slot], c.node, "torque TPDO2")) { wrench_spoofed_[slot] = true; return; }
     if (!window_open_ || wrench.add_torque(t->torque_Nm)) ++counters_.late_frames;
   }
+}
+
+bool BusCycle::solicited(AnswerLedger& ledger, std::uint8_t node, const char* what) {
+  if (ledger.on_answer() != AnswerLedger::Match::unsolicited) return true;
+  ++counters_.unsolicited_frames;
+  if (supervisor_.started() && !supervisor_.faulted()) {
+    supervisor_.latch(FaultKind::spoofed_frame, node, 0,
+                      "%s: a %s nobody asked for (more answers than SYNCs): another sender uses its id",
+                      node_description(node).c_str(), what);
+  }
+  return false;
+}
+
+void BusCycle::foreign(const can_frame& frame, const Classified& c) {
+  ++counters_.foreign_frames;
+  if (!supervisor_.started() || supervisor_.faulted()) return;
+  char what[96];
+  switch (c.type) {
+    case FrameType::sync: std::snprintf(what, sizeof what, "a SYNC"); break;
+    case FrameType::drive_command:
+      std::snprintf(what, sizeof what, "an RPDO to %s", node_description(c.node).c_str());
+      break;
+    case FrameType::nmt: {
+      const auto nmt = decode_nmt(frame);
+      if (nmt) std::snprintf(what, sizeof what, "NMT command 0x%02x to node %u", static_cast<unsigned>(nmt->command), nmt->node);
+      else std::snprintf(what, sizeof what, "an NMT frame");
+      break;
+    }
+    case FrameType::sdo_request: {
+      // Reading an object (a diagnostic tool) is counted; writing one to our nodes is not allowed.
+      const auto r = decode_sdo_request(frame);
+      if (!r || r->kind != SdoRequestKind::download || !supervisor_.node_expected(r->node)) return;
+      std::snprintf(what, sizeof what, "an SDO write of 0x%04x:%02x to %s", r->index, r->subindex,
+                    node_description(r->node).c_str());
+      break;
+    }
+    default: return;
+  }
+  supervisor_.latch(FaultKind::foreign_master, c.node, static_cast<std::uint16_t>(frame.can_id),
+                    "%s on the bus that this master did not send: another master (id 0x%03x)", what,
+                    static_cast<unsigned>(frame.can_id & CAN_SFF_MASK));
 }
 
 // Reads everything already queued on both buses without waiting.
@@ -165,8 +225,20 @@ void BusCycle::send_cycle(std::int64_t now_ns) {
     const std::uint16_t cw = supervisor_.controlword(i, last_statusword_[i]);
     add(encode_drive_command(DriveCommand{drive_node(j), cw, command_rad_s_[i]}));
   }
+  acting_rad_s_ = sent_rad_s_;
+  sent_rad_s_ = command_rad_s_;
   sync_counter_ = next_sync_counter(sync_counter_);
   add(encode_sync(sync_counter_));
+  // The drives latched the quick stop at that SYNC; out of operational they take no RPDO from
+  // anyone. Repeated each cycle while the fault holds (another master may start them again).
+  if (takes_drives_down(supervisor_.fault().kind))
+    for (int j = 0; j < kDriveCount; ++j) add(encode_nmt(NmtCommand::enter_pre_operational, drive_node(j)));
+  for (AnswerLedger& ledger : drive_ledgers_) ledger.on_sync();
+  for (std::size_t k = 0; k < kSensorCount; ++k) {
+    force_ledgers_[k].on_sync();
+    torque_ledgers_[k].on_sync();
+  }
+  wrench_spoofed_.fill(false);
   // The seven RPDOs and SYNC leave in one write: a node woken by the first frame cannot hold
   // the rest back, and on a real bus they go out back to back.
   sync_time_ns_ = monotonic_ns();
@@ -188,7 +260,32 @@ void BusCycle::close_window(std::int64_t now_ns) {
   window_open_ = false;
   for (std::size_t i = 0; i < kDriveCount; ++i)
     if (joints_.answered(i)) last_statusword_[i] = joints_.feedback(i).statusword;
-  publish(supervisor_.check_drives(joints_.answers(), last_statusword_, now_ns));
+  const DriveSummary drives = supervisor_.check_drives(joints_.answers(), last_statusword_, now_ns);
+  check_following();
+  publish(drives);
+}
+
+// While the master commands the drives: each answer against the command it followed.
+void BusCycle::check_following() {
+  const bool commanding = supervisor_.started() && supervisor_.may_move();
+  for (std::size_t i = 0; i < kDriveCount; ++i) {
+    const bool enabled = state_from_statusword(last_statusword_[i]) == DriveState::operation_enabled;
+    if (!commanding || !enabled) {
+      following_.rearm(i);
+      continue;
+    }
+    if (!joints_.answered(i)) continue;
+    const DriveFeedback& fb = joints_.feedback(i);
+    FollowingViolation v;
+    if (!following_.check(i, acting_rad_s_[i], fb.position_rad, fb.velocity_rad_s, v)) continue;
+    const std::uint8_t node = drive_node(static_cast<int>(i));
+    supervisor_.latch(FaultKind::following_error, node, 0,
+                      "%s: following error: %s %.3f %s outside the window of %.3f for %d SYNCs",
+                      node_description(node).c_str(), v.position ? "position" : "velocity", v.error,
+                      v.position ? "rad" : "rad/s", v.window, v.answers);
+    following_.rearm_all();
+    return;
+  }
 }
 
 void BusCycle::publish(const DriveSummary& drives) {
@@ -200,7 +297,7 @@ void BusCycle::publish(const DriveSummary& drives) {
   s.sync_time_ns = sync_time_ns_;
   s.cycle = cycle_;
   for (std::size_t k = 0; k < kSensorCount; ++k) {
-    if (!(sensor_enabled(k) && wrenches_[k].complete())) continue;
+    if (!(sensor_enabled(k) && wrenches_[k].complete()) || wrench_spoofed_[k]) continue;
     Wrench& w = report.wrench[k];
     w.values = wrenches_[k].values();
     w.sync_counter = sync_counter_;
@@ -216,6 +313,8 @@ void BusCycle::publish(const DriveSummary& drives) {
   report.enabled = drives.all_enabled && !fault.active() && !supervisor_.enabling();
   report.quick_stopped = drives.all_quick_stopped && mailbox_.requests_.quick_stop;
   report.counters = counters_;
+  report.counters.peak_velocity_error_rad_s = following_.peak_velocity_error_rad_s();
+  report.counters.peak_position_error_rad = following_.peak_position_error_rad();
 }
 
 // Right after the RPDOs of target `sequence` (and the SYNC behind them) were written: the end

@@ -15,6 +15,9 @@ std::string_view to_string(FaultKind kind) {
     case FaultKind::missing_feedback: return "missing_feedback";
     case FaultKind::node_not_operational: return "node_not_operational";
     case FaultKind::cycle_owner_lost: return "cycle_owner_lost";
+    case FaultKind::foreign_master: return "foreign_master";
+    case FaultKind::spoofed_frame: return "spoofed_frame";
+    case FaultKind::following_error: return "following_error";
     case FaultKind::ik_failed: return "ik_failed";
   }
   return "invalid";

@@ -60,6 +60,9 @@ bool Supervisor::quick_stop_expected(std::int64_t now_ns) const {
 std::uint16_t Supervisor::controlword(std::size_t joint, std::uint16_t statusword) {
   if (enabling_) return enablers_[joint].next_controlword(statusword, /*reset_faults=*/true);
   if (quick_stop_ && !fault_.active()) return controlword::kQuickStop;
+  // The bus cannot be trusted or a drive moves on its own: brake (the cycle then takes the
+  // drives out of operational).
+  if (takes_drives_down(fault_.kind)) return controlword::kQuickStop;
   if (fault_.active()) {
     // Hold: enabled drives stay enabled at zero velocity, the others stay off.
     return state_from_statusword(statusword) == DriveState::operation_enabled ? controlword::kEnableOperation

@@ -76,6 +76,10 @@ class EmulatedPa10 {
       else rig.drive(joint_index_of(node)).set_connected(connected);
     });
   }
+  // The drive's joint moves at this velocity whatever it is commanded (KinematicPlant).
+  void set_runaway_velocity(std::uint8_t drive, double velocity_rad_s) {
+    with_rig([&](sim::Pa10Rig&, sim::FrameSink&) { plant_.set_runaway_velocity(joint_index_of(drive), velocity_rad_s); });
+  }
   void lose_next_tpdo(std::uint8_t drive) {
     with_rig([&](sim::Pa10Rig& rig, sim::FrameSink&) { rig.drive(joint_index_of(drive)).lose_next_tpdos(1); });
   }

@@ -22,11 +22,15 @@ class KinematicPlant final : public Plant {
   // The contact wrench on the tool, as the wrist sensor measures it.
   void set_wrist_wrench(const Wrench& wrench) { wrist_ = wrench; }
   void set_joint_position(int joint, double position_rad) { joints_[index(joint)].position_rad = position_rad; }
+  // A joint that moves at this velocity whatever it is commanded (a released brake under load,
+  // a drive running on someone else's command): what the master's following-error check is for.
+  // 0 ends it.
+  void set_runaway_velocity(int joint, double velocity_rad_s) { runaway_[index(joint)] = velocity_rad_s; }
 
   void step() override {
     for (std::size_t j = 0; j < joints_.size(); ++j) {
       const bool moving = commands_[j].mode == JointCommand::Mode::velocity;
-      joints_[j].velocity_rad_s = moving ? commands_[j].target_velocity_rad_s : 0.0;
+      joints_[j].velocity_rad_s = (moving ? commands_[j].target_velocity_rad_s : 0.0) + runaway_[j];
       joints_[j].position_rad += joints_[j].velocity_rad_s * timestep_s_;
     }
   }
@@ -41,6 +45,7 @@ class KinematicPlant final : public Plant {
 
   double timestep_s_;
   std::array<JointCommand, kJointCount> commands_{};
+  std::array<double, kJointCount> runaway_{};
   std::array<JointState, kJointCount> joints_{};
   Wrench wrist_{};
   Wrench joystick_{};

@@ -26,7 +26,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "arm/can/answer_ledger.h"
 #include "arm/can/bus.h"
+#include "arm/can/following_error.h"
 #include "arm/can/master_types.h"
 #include "arm/can/supervisor.h"
 #include "arm/can/joint_assembly.h"
@@ -126,6 +128,12 @@ class BusCycle {
  private:
   void handle(const can_frame& frame, std::int64_t now_ns);
   void handle_sensor(const can_frame& frame, const Classified& c);
+  // A master-side frame we did not send (we never read our own): a fault once started.
+  void foreign(const can_frame& frame, const Classified& c);
+  // A TPDO from `node`, matched in its ledger: false when nobody asked for it (a fault once
+  // started, and the window's values from that node are not published).
+  bool solicited(AnswerLedger& ledger, std::uint8_t node, const char* what);
+  void check_following();
   void drain();
   bool wait_readable(std::int64_t deadline_ns);  // false once deadline_ns has passed
   bool window_complete() const;
@@ -160,7 +168,17 @@ class BusCycle {
   MasterCounters counters_{};
   std::array<double, kDriveCount> command_rad_s_{};
   std::uint64_t command_sequence_ = 0;  // of the target in command_rad_s_; 0 = zero, not a target
-  std::array<can_frame, kDriveCount + 1> outgoing_{};  // a cycle's frames, one send_batch()
+  std::array<double, kDriveCount> sent_rad_s_{};    // the command sent with the last SYNC
+  std::array<double, kDriveCount> acting_rad_s_{};  // the one sent with the SYNC before: what the
+                                                    // answers to the last SYNC followed
+  std::array<AnswerLedger, kDriveCount> drive_ledgers_;
+  std::array<AnswerLedger, kSensorCount> force_ledgers_;
+  std::array<AnswerLedger, kSensorCount> torque_ledgers_;
+  std::array<bool, kSensorCount> wrench_spoofed_{};  // in this window: not published
+  FollowingErrorCheck following_;
+  // A cycle's frames, one send_batch(): 7 RPDOs, SYNC, and while a fault takes the drives
+  // down, 7 NMT pre-operational after the SYNC.
+  std::array<can_frame, 2 * kDriveCount + 1> outgoing_{};
   std::size_t outgoing_count_ = 0;
 };
 

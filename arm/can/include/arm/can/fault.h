@@ -28,6 +28,11 @@ enum class FaultKind : std::uint8_t {
   missing_feedback,      // a drive did not answer several SYNCs in a row
   node_not_operational,  // a heartbeat reports boot-up/stopped/pre-operational after start
   cycle_owner_lost,      // the thread that took the cycles over stopped running them
+  // The three below stop the arm harder than the others: quick stop to every drive, then NMT
+  // pre-operational, repeated each cycle, so that RPDOs (ours or anyone's) no longer act.
+  foreign_master,        // a SYNC, RPDO, NMT command or SDO write on the bus that we did not send
+  spoofed_frame,         // a node sent more TPDOs than it was asked for: another sender uses its id
+  following_error,       // a drive's actual velocity or position left the window around our command
   ik_failed,             // Pa10Arm: the twist (or the measured q) was not finite
 };
 
@@ -36,5 +41,11 @@ std::string_view to_string(FaultKind kind);
 
 // A fault that holds until a reset: anything but none and not_enabled.
 constexpr bool latched(FaultKind kind) { return kind != FaultKind::none && kind != FaultKind::not_enabled; }
+
+// A fault that takes the drives out of operational (see foreign_master above): the bus cannot be
+// trusted, or a drive moves on something other than our command.
+constexpr bool takes_drives_down(FaultKind kind) {
+  return kind == FaultKind::foreign_master || kind == FaultKind::spoofed_frame || kind == FaultKind::following_error;
+}
 
 }  // namespace rtm::can

@@ -27,6 +27,21 @@ struct MasterConfig {
   // A drive silent for more consecutive SYNCs -> fault. 25 cycles = 50 ms: longer than the
   // 5-40 ms host stalls a VM shows (a dead node is caught by the heartbeat after 300 ms anyway).
   int missed_feedback_limit = 25;
+  // A TPDO answers one of our last `answer_expiry_periods` SYNCs (1..256, see answer_ledger.h);
+  // one more than a node was asked for is a spoofed frame (FaultKind::spoofed_frame). Longer
+  // than the stalls a simulated node on a loaded host shows before answering a backlog.
+  int answer_expiry_periods = 64;
+  // Following error (CiA 402's following-error and velocity windows): while the master commands
+  // a drive, its actual velocity may differ from the command (the one acting since the previous
+  // SYNC) by at most the velocity window, and its position from the integral of the commands by
+  // at most the position window; outside either for more than following_error_periods SYNCs
+  // in a row -> FaultKind::following_error. A joint commanded zero and slower than
+  // following_rest_velocity_rad_s is at rest: the integral restarts from its position there.
+  // 0 turns a window off. See docs/safety.md for how the defaults were chosen.
+  double following_velocity_window_rad_s = 0.3;
+  double following_position_window_rad = 0.1;
+  int following_error_periods = 25;
+  double following_rest_velocity_rad_s = 0.01;
   // Force sensors the master listens to (and waits for at startup and in step()).
   std::vector<ForceSensor> sensors{ForceSensor::wrist, ForceSensor::joystick};
   // While another thread runs the cycles (take_over_cycles()): if it sends no SYNC for this
@@ -75,6 +90,11 @@ struct MasterCounters {
   std::uint64_t unknown_frames = 0;    // id outside the protocol
   std::uint64_t late_frames = 0;       // TPDO answering an older SYNC: ignored
   std::uint64_t foreign_frames = 0;    // master-side frames (SYNC, NMT, RPDO, SDO request) from another master
+  std::uint64_t unsolicited_frames = 0;  // TPDOs beyond what a node was asked for (answer_ledger.h)
+  // The largest following errors seen while commanding (rad/s, rad): what the windows above
+  // leave as margin on this arm and load.
+  double peak_velocity_error_rad_s = 0;
+  double peak_position_error_rad = 0;
   std::uint64_t emcy_frames = 0;
   std::uint64_t send_dropped = 0;      // transmit queue full
 };
