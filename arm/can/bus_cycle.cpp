@@ -29,8 +29,11 @@ BusCycle::BusCycle(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_b
     throw std::invalid_argument("Pa10Master: answer_expiry_periods must be 1..256");
   const auto window_ok = [](double w) { return std::isfinite(w) && w >= 0; };
   if (!window_ok(config_.following_velocity_window_rad_s) || !window_ok(config_.following_position_window_rad) ||
-      !window_ok(config_.following_rest_velocity_rad_s) || config_.following_error_periods < 1)
-    throw std::invalid_argument("Pa10Master: following-error windows must be finite and >= 0, periods >= 1");
+      config_.following_error_periods < 1 || config_.following_position_periods < 1 ||
+      config_.following_position_periods > FollowingErrorCheck::kMaxPositionPeriods)
+    throw std::invalid_argument(
+        "Pa10Master: following-error windows must be finite and >= 0, following_error_periods >= 1, "
+        "following_position_periods 1..1000");
   // Our own SYNC on a second socket of the same bus would read as another master's.
   if (separate_sensor_bus_ && separate_sensor_bus_->name() == drive_bus_->name())
     throw std::invalid_argument("Pa10Master: the sensor bus " + drive_bus_->name() +

@@ -52,6 +52,14 @@ void Actuator::describe_self() {
   add_percentile_statistics("latency", "sensor sample to drive command leaving for the bus", latency_);
   add_statistic("latency_samples", "", "commands seen leaving for the bus",
                 [this] { return static_cast<double>(latency_.count()); });
+  add_statistic("bus_foreign_frames", "", "frames of another master on the arm's bus (a fault once started)",
+                [this] { return static_cast<double>(arm_->bus_health().foreign_frames); });
+  add_statistic("bus_unsolicited_frames", "", "TPDOs beyond what a node was asked for (spoofed: a fault)",
+                [this] { return static_cast<double>(arm_->bus_health().unsolicited_frames); });
+  add_statistic("following_velocity_peak", "rad/s", "largest |actual - commanded| joint velocity seen",
+                [this] { return arm_->bus_health().peak_velocity_error_rad_s; });
+  add_statistic("following_position_peak", "rad", "largest |actual - integrated command| joint position seen",
+                [this] { return arm_->bus_health().peak_position_error_rad; });
   add_percentile_statistics("handover", "sensor sample to twist handed to the arm", handover_latency_);
   add_parameter(rtm::live_numbers("limit", "m/s, rad/s", "6 limits |v|: vx vy vz, then wx wy wz", limit_live_,
                                   [](const std::vector<double>& v) {

@@ -3,16 +3,48 @@
 #include <CLI/CLI.hpp>
 
 #include <chrono>
+#include <cmath>
+#include <string>
 #include <thread>
 
 #include "rt/clock.h"
 
 namespace rtm::comp {
 
+namespace {
+
+// CLI::Range lets a NaN through (every comparison with it is false).
+const CLI::Validator kFinite(
+    [](std::string& text) {
+      const double v = std::stod(text);
+      return std::isfinite(v) ? std::string() : "'" + text + "' is not a finite number";
+    },
+    "FINITE");
+
+}  // namespace
+
 void ArmHardware::Options::add_options(CLI::App& app) {
   app.add_option("--bus", bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
   app.add_option("--sensor-bus", sensor_bus, "separate bus of the force sensors (default: --bus)");
   app.add_option("--urdf", urdf, "arm model URDF for the velocity IK (default: the built-in PA10 model)");
+  app.add_option("--following-velocity-window", following_velocity_window_rad_s,
+                 "rad/s a drive's velocity may differ from its command (0: off)")
+      ->check(kFinite)
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  app.add_option("--following-position-window", following_position_window_rad,
+                 "rad a drive's position may differ from the integral of its commands (0: off)")
+      ->check(kFinite)
+      ->check(CLI::Range(0.0, 3.2))
+      ->capture_default_str();
+  app.add_option("--following-position-periods", following_position_periods,
+                 "SYNCs over which the position window compares motion with the commands")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  app.add_option("--following-periods", following_error_periods,
+                 "SYNCs in a row outside a window before the drives are stopped")
+      ->check(CLI::Range(1, 500))
+      ->capture_default_str();
 }
 
 namespace pc = rtm::can;
@@ -23,6 +55,10 @@ ArmHardware::ArmHardware(const Options& options) : options_(options) {
   config.realtime_priority = options.rt_priority;
   config.cpu = options.cpu;
   config.step_timeout_ns = options.step_timeout_ns;
+  config.following_velocity_window_rad_s = options.following_velocity_window_rad_s;
+  config.following_position_window_rad = options.following_position_window_rad;
+  config.following_position_periods = options.following_position_periods;
+  config.following_error_periods = options.following_error_periods;
   master_ = std::make_unique<pc::Pa10Master>(options.bus, options.sensor_bus, config);
   master_->start();
   rtm::pa10::ArmOptions arm_options;
@@ -47,6 +83,11 @@ bool ArmHardware::in_fault() const {
 VelocityArm::BusPosition ArmHardware::bus_position() const {
   const pc::JointState state = master_->joint_state();
   return {state.cycle, state.sync_counter};
+}
+
+VelocityArm::BusHealth ArmHardware::bus_health() const {
+  const pc::MasterCounters c = master_->counters();
+  return {c.foreign_frames, c.unsolicited_frames, c.peak_velocity_error_rad_s, c.peak_position_error_rad};
 }
 
 VelocityArm::SentCommand ArmHardware::last_sent() const {

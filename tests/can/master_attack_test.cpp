@@ -293,6 +293,19 @@ TEST(Pa10MasterFollowingError, ASlowCreepUnderTheVelocityWindowIsCaughtByThePosi
   EXPECT_LE(steps, 50 + config.following_error_periods + 5);
 }
 
+TEST(Pa10MasterFollowingError, ALongPressWhereASmallCommandIntegratesWhileTheJointStaysIsNoFault) {
+  MasterConfig config = attack_config();
+  config.following_position_window_rad = 0.01;
+  Rig rig({}, config);
+  rig.master->start();
+  // The force servo pressing on a table: a small command into the surface, the joint blocked.
+  rig.master->set_target_velocities({0, 0, 0.004, 0, 0, 0, 0});
+  rig.nodes->set_runaway_velocity(drive_node(2), -0.004);
+  for (int i = 0; i < 3000; ++i) ASSERT_TRUE(rig.master->step());  // 6 s: 0.024 rad of command
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+  EXPECT_LT(rig.master->counters().peak_position_error_rad, 0.0025) << "0.5 s of 0.004 rad/s, and one step";
+}
+
 TEST(Pa10MasterFollowingError, ADriveFollowingChangingCommandsIsNoFaultAndThePeakErrorsAreReported) {
   Rig rig;
   rig.master->start();

@@ -59,6 +59,20 @@ TEST(ComponentCommandLine, AZeroWatchdogIsRefusedBeforeTheActuatorOpensItsBus) {
   EXPECT_EQ(r.output.find("/nonexistent/dir/bus"), std::string::npos) << "the bus was opened:\n" << r.output;
 }
 
+TEST(ComponentCommandLine, AFollowingErrorWindowOutOfRangeOrNotFiniteIsRefusedBeforeTheActuatorOpensItsBus) {
+  const std::vector<std::vector<std::string>> bad{{"--following-velocity-window", "nan"},
+                                                  {"--following-velocity-window", "-0.1"},
+                                                  {"--following-position-window", "inf"},
+                                                  {"--following-periods", "0"},
+                                                  {"--following-position-periods", "4000000000"}};
+  for (const auto& option : bad) {
+    const auto r = run({RTM_ACTUATOR_EXE, option[0], option[1], "--bus", "local:/nonexistent/dir/bus"});
+    EXPECT_EQ(r.code, 2) << option[0] << " " << option[1] << ":\n" << r.output;
+    EXPECT_NE(r.output.find(option[0]), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("/nonexistent/dir/bus"), std::string::npos) << "the bus was opened:\n" << r.output;
+  }
+}
+
 TEST(ComponentCommandLine, TheWrongNumberOfGainsIsABadCommandLine) {
   const auto r = run({RTM_CONTROLLER_EXE, "--gain", "1", "2"});
   EXPECT_EQ(r.code, 2) << r.output;

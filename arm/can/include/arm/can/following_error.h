@@ -1,14 +1,14 @@
-// The following-error check (CiA 402's following-error window, for cyclic synchronous velocity):
-// a drive that moves other than it is told is stopped, whatever the cause (a spoofed command, a
-// drive fault that reports nothing, a broken brake, an obstruction).
+// The following-error check (CiA 402's velocity and following-error windows, for cyclic
+// synchronous velocity): a drive that moves other than it is told is stopped, whatever the cause
+// (a spoofed command, a drive fault that reports nothing, a released brake, an obstruction).
 //
 // For each drive, on each answer to a SYNC while the master commands it:
 //   velocity error = actual velocity - the command acting since the previous SYNC
-//   position error = actual position - (position at the anchor + the integral of the commands)
+//   position error = how far the joint moved over the last N answers - the integral of the
+//                    commands over them (N = following_position_periods; fewer just after
+//                    rearm())
 // Outside either window (MasterConfig::following_*) for more than following_error_periods
-// answers in a row is a violation. The anchor is the first answer after rearm() and every answer
-// at rest (commanded zero, slower than the rest velocity), so the integral cannot drift over a
-// long run. Thread-free, no allocation.
+// answers in a row is a violation. Thread-free; fixed-size buffers, no allocation.
 #pragma once
 
 #include <array>
@@ -29,11 +29,13 @@ struct FollowingViolation {
 
 class FollowingErrorCheck {
  public:
+  static constexpr int kMaxPositionPeriods = 1000;
+
   explicit FollowingErrorCheck(const MasterConfig& config);
 
-  // The drive is not being commanded (enabling, quick stop, fault): its next answer re-anchors.
+  // The drive is not being commanded (enabling, quick stop, fault): its history is forgotten.
   void rearm(std::size_t joint) {
-    anchored_[joint] = false;
+    history_[joint].count = 0;
     outside_[joint] = 0;
   }
   void rearm_all() {
@@ -48,13 +50,21 @@ class FollowingErrorCheck {
   double peak_position_error_rad() const { return peak_position_; }
 
  private:
+  // The last N values of (position - integral of commands since rearm): their difference over
+  // the window is the position error.
+  struct History {
+    std::array<double, kMaxPositionPeriods + 1> offset{};
+    int next = 0;   // where the next value goes
+    int count = 0;  // values held (<= periods + 1)
+    double demand_rad = 0;
+  };
+
   double velocity_window_;
   double position_window_;
+  int position_periods_;
   int periods_;
-  double rest_velocity_;
   double period_s_;
-  std::array<bool, kDriveCount> anchored_{};
-  std::array<double, kDriveCount> demand_rad_{};
+  std::array<History, kDriveCount> history_{};
   std::array<int, kDriveCount> outside_{};
   double peak_velocity_ = 0;
   double peak_position_ = 0;

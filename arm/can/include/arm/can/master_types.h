@@ -31,17 +31,18 @@ struct MasterConfig {
   // one more than a node was asked for is a spoofed frame (FaultKind::spoofed_frame). Longer
   // than the stalls a simulated node on a loaded host shows before answering a backlog.
   int answer_expiry_periods = 64;
-  // Following error (CiA 402's following-error and velocity windows): while the master commands
-  // a drive, its actual velocity may differ from the command (the one acting since the previous
-  // SYNC) by at most the velocity window, and its position from the integral of the commands by
-  // at most the position window; outside either for more than following_error_periods SYNCs
-  // in a row -> FaultKind::following_error. A joint commanded zero and slower than
-  // following_rest_velocity_rad_s is at rest: the integral restarts from its position there.
-  // 0 turns a window off. See docs/safety.md for how the defaults were chosen.
+  // Following error (CiA 402's velocity and following-error windows), while the master commands
+  // the drives:
+  //   velocity: a drive's actual velocity against the command acting since the previous SYNC;
+  //   position: how far it moved over the last following_position_periods SYNCs against the
+  //             integral of its commands over them (a sliding window, so a long press on a
+  //             surface, where the small command integrates while the arm stays, never adds up).
+  // Outside either window for more than following_error_periods SYNCs in a row ->
+  // FaultKind::following_error. 0 turns a window off. docs/safety.md: how the defaults were chosen.
   double following_velocity_window_rad_s = 0.3;
   double following_position_window_rad = 0.1;
+  int following_position_periods = 250;  // 0.5 s at 2 ms; 1..1000
   int following_error_periods = 25;
-  double following_rest_velocity_rad_s = 0.01;
   // Force sensors the master listens to (and waits for at startup and in step()).
   std::vector<ForceSensor> sensors{ForceSensor::wrist, ForceSensor::joystick};
   // While another thread runs the cycles (take_over_cycles()): if it sends no SYNC for this

@@ -58,6 +58,15 @@ class VelocityArm {
   };
   virtual std::uint64_t command_sequence() const { return 0; }
   virtual SentCommand last_sent() const { return {}; }
+  // What the bus master saw of frames it did not send and of the drives' following errors
+  // (rtm::can::MasterCounters); zeros when the arm has no bus.
+  struct BusHealth {
+    std::uint64_t foreign_frames = 0;
+    std::uint64_t unsolicited_frames = 0;
+    double peak_velocity_error_rad_s = 0;
+    double peak_position_error_rad = 0;
+  };
+  virtual BusHealth bus_health() const { return {}; }
 };
 
 // The PA10 behind its CANopen master: owns the master (NMT master, SYNC producer) and the arm
@@ -75,8 +84,14 @@ class ArmHardware final : public VelocityArm {
     int rt_priority = 0;  // of the master's thread; 0 = SCHED_OTHER
     int cpu = -1;
     std::int64_t step_timeout_ns = 2'000'000'000;  // lock-step wait per SYNC
+    // The master's following-error windows (rtm::can::MasterConfig; 0 turns one off).
+    double following_velocity_window_rad_s = rtm::can::MasterConfig{}.following_velocity_window_rad_s;
+    double following_position_window_rad = rtm::can::MasterConfig{}.following_position_window_rad;
+    int following_position_periods = rtm::can::MasterConfig{}.following_position_periods;
+    int following_error_periods = rtm::can::MasterConfig{}.following_error_periods;
 
-    // Registers --bus, --sensor-bus and --urdf on app, bound to these fields.
+    // Registers --bus, --sensor-bus, --urdf and the following-error windows on app, bound to
+    // these fields, each with its range.
     void add_options(CLI::App& app);
   };
 
@@ -94,6 +109,7 @@ class ArmHardware final : public VelocityArm {
   BusPosition bus_position() const override;
   std::uint64_t command_sequence() const override { return master_->target_sequence(); }
   SentCommand last_sent() const override;
+  BusHealth bus_health() const override;
 
   rtm::can::Pa10Master& master() { return *master_; }
   rtm::pa10::Pa10Arm& arm() { return *arm_; }
