@@ -1,8 +1,18 @@
 #include "rtm/orb.h"
 
+#include "rtm/access.h"
 #include "rtm/log.h"
 
 #include <omniORB4/omniPolicy.h>
+
+#include <dirent.h>
+#include <pwd.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
 
 #include <atomic>
 #include <chrono>
@@ -13,6 +23,29 @@ namespace rtm {
 
 namespace {
 std::atomic<Orb*> g_instance{nullptr};
+
+// omniORB names its giop:unix: sockets /tmp/omni-<user>/<pid, 9 digits>-<time> and leaves them
+// behind when a process is killed: those of processes that no longer exist are removed.
+void remove_stale_unix_sockets() {
+  const passwd* pw = getpwuid(geteuid());
+  if (!pw) return;
+  const std::string folder = std::string("/tmp/omni-") + pw->pw_name;
+  DIR* dir = opendir(folder.c_str());
+  if (!dir) return;
+  int removed = 0;
+  while (const dirent* entry = readdir(dir)) {
+    const std::string name = entry->d_name;
+    if (name.size() < 11 || name[9] != '-' || name.find_first_not_of("0123456789") != 9) continue;
+    const long pid = std::strtol(name.substr(0, 9).c_str(), nullptr, 10);
+    if (pid <= 0 || kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    const std::string path = folder + "/" + name;
+    struct stat st {};
+    if (lstat(path.c_str(), &st) != 0 || !S_ISSOCK(st.st_mode) || st.st_uid != geteuid()) continue;
+    if (unlink(path.c_str()) == 0) ++removed;
+  }
+  closedir(dir);
+  if (removed > 0) log().debug("removed {} giop:unix: sockets of processes that no longer exist from {}", removed, folder);
+}
 
 std::string describe(const CORBA::Exception& e) {
   const char* name = e._name();
@@ -29,8 +62,11 @@ Orb::Orb(const std::vector<std::string>& args) {
   std::vector<char*> argv;
   for (auto& s : storage) argv.push_back(s.data());
   int argc = static_cast<int>(argv.size());
+  configure_default_access();
+  remove_stale_unix_sockets();
   try {
     orb_ = CORBA::ORB_init(argc, argv.data());
+    register_access_interceptors();
     CORBA::Object_var root_obj = orb_->resolve_initial_references("RootPOA");
     PortableServer::POA_var root = PortableServer::POA::_narrow(root_obj);
     PortableServer::POAManager_var manager = root->the_POAManager();

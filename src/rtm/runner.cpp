@@ -143,6 +143,13 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   app.add_option("--endpoint", settings.endpoints,
                  "omniORB endpoint, repeatable (default: giop:tcp:127.0.0.1: and giop:unix:)");
   app.add_flag("--on", settings.turn_on, "turn the component on once it is up");
+  std::string access_text = "owner";
+  app.add_option("--access", access_text,
+                 "who may change it (on/off/reset, parameters, connections, puts): owner (processes "
+                 "carrying this user's access key) or open (anyone who reaches its endpoints, e.g. a "
+                 "client of the 2004 IDL)")
+      ->check(CLI::IsMember({"owner", "open"}))
+      ->capture_default_str();
   std::string delivery_text;
   app.add_option("--delivery", delivery_text,
                  "who makes an OutPort's remote calls: writer (write() itself when the subscription is idle) "
@@ -161,6 +168,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   try {
     app.parse(static_cast<int>(own_argv.size()), own_argv.data());
     settings.period_ns = parse_period_ns(period_text);
+    settings.access = *parse_access_policy(access_text);
     if (!delivery_text.empty())
       settings.delivery = delivery_text == "thread" ? OutPortOptions::Delivery::thread
                                                     : OutPortOptions::Delivery::writer_when_idle;
@@ -218,8 +226,18 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   if (auto exit_status = parse_command_line(argc, argv, program, main, settings)) return *exit_status;
   if (settings.cpu >= 0 && main.pin_process_to_cpu) pin_process_to_cpu(settings.cpu);
 
-  // ---- bring up: ORB, component, servant, names ----
-  std::vector<std::string> orb_args;
+  // ---- bring up: access key, ORB, component, servant, names ----
+  try {
+    std::optional<AccessKey> key;
+    if (settings.access == AccessPolicy::owner) key = load_or_make_access_key();
+    configure_access(key, settings.access);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s (or start it with --access open)\n", program, e.what());
+    return 1;
+  }
+  // Only this user may connect to the giop:unix: socket (omniORB's default is 0777); others
+  // reach the TCP endpoint, where the access key decides.
+  std::vector<std::string> orb_args{"-ORBunixTransportPermission", "0600"};
   for (const auto& endpoint : settings.endpoints) orb_args.insert(orb_args.end(), {"-ORBendPoint", endpoint});
   orb_args.insert(orb_args.end(), settings.orb_args.begin(), settings.orb_args.end());
 

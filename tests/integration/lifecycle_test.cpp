@@ -2,7 +2,12 @@
 // extension interface.
 #include "integration_fixture.h"
 
+#include <pwd.h>
 #include <signal.h>
+#include <sys/stat.h>
+
+#include <cstdio>
+#include <filesystem>
 
 namespace rtm_it {
 namespace {
@@ -43,6 +48,25 @@ TEST_F(IntegrationTest, ComponentNameKindAndPortsAreVisibleRemotely) {
   EXPECT_EQ(ins->length(), 2u);
   EXPECT_EQ(outs->length(), 2u);
   EXPECT_EQ(c->timing().period_ns, 5'000'000u);
+}
+
+// omniORB makes giop:unix: sockets 0777 unless told: a component's is its user's only, so other
+// users come over TCP, where the access key decides (rtm/access.h).
+TEST_F(IntegrationTest, AComponentsUnixSocketIsReadableAndWritableByItsUserOnly) {
+  auto& process = start_component("private0");
+  const std::string folder = "/tmp/omni-" + std::string(::getpwuid(::geteuid())->pw_name);
+  char prefix[16];
+  std::snprintf(prefix, sizeof prefix, "%09d-", static_cast<int>(process.pid()));
+  int sockets = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    if (entry.path().filename().string().rfind(prefix, 0) != 0) continue;
+    ++sockets;
+    struct stat st {};
+    ASSERT_EQ(::stat(entry.path().c_str(), &st), 0);
+    EXPECT_TRUE(S_ISSOCK(st.st_mode)) << entry.path();
+    EXPECT_EQ(st.st_mode & 0777, 0600u) << entry.path();
+  }
+  EXPECT_EQ(sockets, 1) << "no socket of pid " << process.pid() << " in " << folder;
 }
 
 TEST_F(IntegrationTest, BadCommandLineIsOneErrorAndExitStatusTwo) {

@@ -1,6 +1,8 @@
 // A client of 2004: it knows only the paper's RTM.idl and the CORBA naming service. It finds
 // an RTM component, lists its ports, subscribes an InPort servant of its own and receives
-// TimedFloat6 data, as the paper's component browser did.
+// TimedFloat6 data, as the paper's component browser did. It carries no access key
+// (rtm/access.h): its changes are taken only from a component its owner started with
+// --access open, as the fixture's is.
 #include <RTM.hh>
 #include <omniORB4/CORBA.h>
 #include <omniORB4/Naming.hh>
@@ -64,7 +66,7 @@ class SeedClient : public ::testing::Test {
 
     component_process_ = std::make_unique<rtm_test::ChildProcess>(std::vector<std::string>{
         RTM_TEST_COMPONENT, "--name", "seedpeer0", "--naming", names_.address(), "--period",
-        "2ms", "--on"});
+        "2ms", "--on", "--access", "open"});
     component_process_->wait_until_bound();
   }
 
@@ -181,6 +183,27 @@ TEST_F(SeedClient, GetReturnsTimedFloat6InAny) {
   const RTM::TimedFloat6* datum = nullptr;
   ASSERT_TRUE(value.in() >>= datum);
   EXPECT_GE(datum->val[0], 0.0f);
+}
+
+TEST_F(SeedClient, ItsChangesAreRefusedWithNoPermissionByAComponentNotOpenedByItsOwnerButReadingWorks) {
+  rtm_test::ChildProcess owned({RTM_TEST_COMPONENT, "--name", "owned0", "--naming", names_.address(), "--on"});
+  owned.wait_until_bound();
+  auto component = find_component("owned0");
+  RTM::OutPortList_var outs = component->out_ports();  // reading stays open
+  ASSERT_GT(outs->length(), 0u);
+  SeedInPort servant;
+  PortableServer::ObjectId_var id = poa_->activate_object(&servant);
+  CORBA::Object_var object = poa_->id_to_reference(id);
+  RTM::InPort_var in = RTM::InPort::_narrow(object);
+  EXPECT_THROW(outs[0]->subscribe(RTM::repeated, in), CORBA::NO_PERMISSION);
+  EXPECT_THROW(component->off(), CORBA::NO_PERMISSION);
+  RTM::InPortList_var ins = component->in_ports();
+  ASSERT_GT(ins->length(), 0u);
+  CORBA::Any datum;
+  datum <<= RTM::TimedFloat6{};
+  EXPECT_THROW(ins[0]->put(datum), CORBA::NO_PERMISSION);
+  poa_->deactivate_object(id);
+  EXPECT_TRUE(servant.received().empty());
 }
 
 }  // namespace

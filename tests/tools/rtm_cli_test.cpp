@@ -13,6 +13,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <thread>
 
@@ -360,6 +361,58 @@ TEST_F(RtmCli, BadCommandLineExitsWithUsageCode) {
   EXPECT_EQ(rtm({"frobnicate"}).exit_code, 2);
   EXPECT_EQ(rtm({"connect", "only-one-port.out0"}).exit_code, 2);
   EXPECT_EQ(rtm({"get", "noport"}).exit_code, 2);
+}
+
+// ------------------------------------------------------------------ access
+
+// What another user can do to components this user started: read them, change nothing.
+void expect_changes_refused_and_reads_allowed(const std::function<CommandResult(std::vector<std::string>)>& other) {
+  for (const std::vector<std::string>& change :
+       {std::vector<std::string>{"off", "alpha"}, {"on", "beta"}, {"connect", "alpha.force", "beta.in0"},
+        {"put", "beta.in0", "0", "0", "1", "0", "0", "0"}, {"set", "alpha", "gain", "2"}}) {
+    const auto r = other(change);
+    EXPECT_NE(r.exit_code, 0) << change[0] << ": " << r.out << r.err;
+    EXPECT_NE(r.err.find("not allowed: only the user who started it may change it"), std::string::npos)
+        << change[0] << ": " << r.err;
+  }
+  const auto ls = other({"ls"});
+  EXPECT_EQ(ls.exit_code, 0) << ls.err;
+  EXPECT_NE(ls.out.find("alpha"), std::string::npos) << ls.out;
+}
+
+TEST_F(RtmCli, AnotherUsersKeyChangesNothingOffOnConnectPutSetAreRefusedAndReadingWorks) {
+  talker("alpha", {"--on"});
+  talker("beta");
+  const auto dir = std::filesystem::temp_directory_path() / ("rtm-other-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  auto other = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {RTM_CLI_PATH, "--naming", names_.address()});
+    return rtm_test::run_command(args, {"RTM_KEY_FILE=" + (dir / "key").string()});  // made on first use
+  };
+  expect_changes_refused_and_reads_allowed(other);
+  std::filesystem::remove_all(dir);
+  auto list = rtm_json({"ls"});
+  EXPECT_EQ(find(list, "alpha")["state"], "on") << "another user's off changed it";
+  EXPECT_EQ(rtm({"connect", "alpha.force", "beta.in0"}).exit_code, 0) << "the owner may";
+  EXPECT_EQ(rtm({"off", "alpha"}).exit_code, 0) << "the owner may";
+}
+
+// The same as the user nobody (needs root to switch user; skipped otherwise).
+TEST_F(RtmCli, RunAsTheUserNobodyRtmCanReadButNotChangeComponentsAnotherUserStarted) {
+  if (::geteuid() != 0) GTEST_SKIP() << "switching to the user nobody needs root";
+  if (::access("/usr/bin/setpriv", X_OK) != 0) GTEST_SKIP() << "no setpriv";
+  talker("alpha", {"--on"});
+  talker("beta");
+  auto as_nobody = [&](std::vector<std::string> args) {
+    std::vector<std::string> argv{"/usr/bin/setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "--",
+                                  RTM_CLI_PATH,       "--naming",      names_.address()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return rtm_test::run_command(argv, {"HOME=/nonexistent", "RTM_KEY_FILE="});
+  };
+  const auto probe = as_nobody({"ls"});
+  if (probe.exit_code == 126 || probe.exit_code == 127) GTEST_SKIP() << "nobody cannot run " << RTM_CLI_PATH;
+  expect_changes_refused_and_reads_allowed(as_nobody);
+  EXPECT_EQ(find(rtm_json({"ls"}), "alpha")["state"], "on") << "nobody's off changed it";
 }
 
 // ------------------------------------------------------------------ up / down

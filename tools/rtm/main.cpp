@@ -21,6 +21,7 @@
 #include "values.h"
 #include "watch.h"
 
+#include "rtm/access.h"
 #include "rtm/data.h"
 #include "rtm/log.h"
 #include "rtm/orb.h"
@@ -53,6 +54,16 @@ class Failure : public std::runtime_error {
 };
 
 std::string corba_name(const CORBA::Exception& e) {
+  if (const auto* refused = dynamic_cast<const CORBA::NO_PERMISSION*>(&e);
+      refused && refused->minor() == rtm::kAccessRefusedMinor) {
+    std::string key = "~/.rtm/key";
+    try {
+      key = rtm::access_key_path();
+    } catch (const std::exception&) {
+    }
+    return "not allowed: only the user who started it may change it (this process's access key, " + key +
+           ", is not its owner's; docs/safety.md)";
+  }
   const char* n = e._name();
   return n ? n : "CORBA exception";
 }

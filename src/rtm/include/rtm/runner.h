@@ -54,6 +54,8 @@
 #include <string_view>
 #include <vector>
 
+#include "rtm/access.h"
+
 namespace rtm {
 
 // What the command line asked for.
@@ -69,6 +71,7 @@ struct RunSettings {
   // port keeps what it was built with.
   std::optional<OutPortOptions::Delivery> delivery;
   std::vector<std::string> endpoints;  // omniORB endpoints, e.g. giop:tcp:127.0.0.1:
+  AccessPolicy access = AccessPolicy::owner;  // --access: who may change it (rtm/access.h)
   std::vector<std::string> orb_args;   // -ORB... options, passed through
 
   // The periodic activity these settings describe (thread named after the component).
