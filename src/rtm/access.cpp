@@ -17,6 +17,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 
 #include "rtm/log.h"
@@ -36,6 +37,7 @@ struct AccessState {
   std::atomic<AccessPolicy> policy{AccessPolicy::owner};
   AccessKey key{};
   std::atomic<std::uint64_t> refused{0};
+  std::atomic<std::uint64_t> refused_data{0};
 };
 AccessState g_access;
 
@@ -143,10 +145,61 @@ bool carries_our_key(omni::GIOP_S& request) {
   return false;
 }
 
+// The kind of the first argument's TypeCode (put's any) read in place from the request buffer,
+// without consuming it: nullopt when it is not in the buffer.
+struct StreamWindow : cdrStream {
+  static void* end(cdrStream& s) { return static_cast<StreamWindow&>(s).pd_inb_end; }
+  static bool swapped(cdrStream& s) { return static_cast<StreamWindow&>(s).pd_unmarshal_byte_swap; }
+};
+
+std::optional<CORBA::ULong> first_typecode_kind(omni::GIOP_S& request) {
+  cdrStream& stream = request.getStream();
+  auto p = reinterpret_cast<omni::ptr_arith_t>(stream.inPtr());
+  const GIOP::Version version = request.version();
+  if (version.major == 1 && version.minor >= 2) p = omni::align_to(p, omni::ALIGN_8);  // the body
+  p = omni::align_to(p, omni::ALIGN_4);
+  if (reinterpret_cast<void*>(p + 4) > StreamWindow::end(stream)) return std::nullopt;
+  CORBA::ULong kind = 0;
+  std::memcpy(&kind, reinterpret_cast<const void*>(p), sizeof kind);
+  return StreamWindow::swapped(stream) ? __builtin_bswap32(kind) : kind;
+}
+
+// A datum is plain data: an any holding an any (whose unmarshalling omniORB 4.2 does in time
+// that doubles per level), an object reference, a value type or a TypeCode never is.
+bool plain_data_kind(CORBA::ULong kind) {
+  switch (static_cast<CORBA::TCKind>(kind)) {
+    case CORBA::tk_any:
+    case CORBA::tk_objref:
+    case CORBA::tk_TypeCode:
+    case CORBA::tk_Principal:
+    case CORBA::tk_value:
+    case CORBA::tk_value_box:
+    case CORBA::tk_native:
+    case CORBA::tk_abstract_interface:
+    case CORBA::tk_local_interface: return false;
+    default: return kind <= static_cast<CORBA::ULong>(CORBA::tk_local_interface);  // 0xffffffff: indirection
+  }
+}
+
+bool is_put_operation(std::string_view name) {
+  return name == "put" || name == "push" || name == "put_in_order" || name == "push_in_order";
+}
+
 CORBA::Boolean check_key(omni::omniInterceptors::serverReceiveRequest_T::info_T& info) {
-  if (g_access.policy.load(std::memory_order_acquire) == AccessPolicy::open) return true;
   const char* operation = info.operation();
-  if (!operation || !is_change_operation(operation)) return true;
+  if (!operation) return true;
+  if (is_put_operation(operation)) {
+    const std::optional<CORBA::ULong> kind = first_typecode_kind(info.giop_s);
+    if (kind && !plain_data_kind(*kind)) {
+      const std::uint64_t refused = g_access.refused_data.fetch_add(1, std::memory_order_relaxed) + 1;
+      if (refused <= 3 || refused % 1000 == 0)
+        log().warn("refused {} from {}: the datum's type (TypeCode kind {}) is no data type ({} refused so far)",
+                   operation, info.peeraddress() ? info.peeraddress() : "?", *kind, refused);
+      throw CORBA::BAD_PARAM(kNotPlainDataMinor, CORBA::COMPLETED_NO);
+    }
+  }
+  if (g_access.policy.load(std::memory_order_acquire) == AccessPolicy::open) return true;
+  if (!is_change_operation(operation)) return true;
   if (carries_our_key(info.giop_s)) return true;
   const std::uint64_t refused = g_access.refused.fetch_add(1, std::memory_order_relaxed) + 1;
   if (refused <= 3 || refused % 1000 == 0) {
@@ -232,5 +285,6 @@ bool is_change_operation(std::string_view name) {
 }
 
 std::uint64_t refused_changes() { return g_access.refused.load(std::memory_order_relaxed); }
+std::uint64_t refused_non_data() { return g_access.refused_data.load(std::memory_order_relaxed); }
 
 }  // namespace rtm

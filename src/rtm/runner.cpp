@@ -118,6 +118,22 @@ SplitArguments split_orb_arguments(int argc, const char* const* argv) {
 
 namespace {
 
+// Started under chrt (SCHED_FIFO or SCHED_RR inherited): the activity keeps that priority
+// (unless --rt-priority says otherwise), and every other thread (the ORB's, the delivery
+// threads) runs at SCHED_OTHER, so that a request that costs much CPU cannot starve the loops
+// or the machine. The main thread is switched back before any other thread exists.
+void keep_real_time_for_the_activity(RunSettings& settings) {
+  int policy = SCHED_OTHER;
+  sched_param param{};
+  if (pthread_getschedparam(pthread_self(), &policy, &param) != 0) return;
+  if (policy != SCHED_FIFO && policy != SCHED_RR) return;
+  if (settings.rt_priority == 0) settings.rt_priority = param.sched_priority;
+  const sched_param other{};
+  if (pthread_setschedparam(pthread_self(), SCHED_OTHER, &other) != 0) return;
+  log().info("{}: started with real-time priority {}: kept for its activity only (SCHED_FIFO {}); ORB and delivery "
+             "threads run at SCHED_OTHER", settings.name, param.sched_priority, settings.rt_priority);
+}
+
 // Parses the command line into settings; returns an exit status when the process should stop
 // here (--help, or a bad command line: 2).
 std::optional<int> parse_command_line(int argc, char** argv, const char* program, const ComponentMain& main,
@@ -225,6 +241,7 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   RunSettings settings;
   if (auto exit_status = parse_command_line(argc, argv, program, main, settings)) return *exit_status;
   if (settings.cpu >= 0 && main.pin_process_to_cpu) pin_process_to_cpu(settings.cpu);
+  keep_real_time_for_the_activity(settings);
 
   // ---- bring up: access key, ORB, component, servant, names ----
   try {

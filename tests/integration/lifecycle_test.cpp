@@ -7,7 +7,14 @@
 #include <sys/stat.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <thread>
+#include <utility>
+#include <vector>
 
 namespace rtm_it {
 namespace {
@@ -67,6 +74,43 @@ TEST_F(IntegrationTest, AComponentsUnixSocketIsReadableAndWritableByItsUserOnly)
     EXPECT_EQ(st.st_mode & 0777, 0600u) << entry.path();
   }
   EXPECT_EQ(sockets, 1) << "no socket of pid " << process.pid() << " in " << folder;
+}
+
+// Each thread of a process: its name and scheduling policy (/proc/<pid>/task/<tid>/stat).
+std::vector<std::pair<std::string, int>> thread_policies(pid_t pid) {
+  std::vector<std::pair<std::string, int>> threads;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/" + std::to_string(pid) + "/task")) {
+    std::ifstream stat(task.path() / "stat");
+    std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+    const auto open = text.find('('), close = text.rfind(')');
+    if (open == std::string::npos || close == std::string::npos) continue;
+    std::istringstream fields(text.substr(close + 2));
+    std::string field;
+    for (int i = 3; i <= 41 && fields >> field; ++i) {
+      if (i == 41) threads.emplace_back(text.substr(open + 1, close - open - 1), std::stoi(field));
+    }
+  }
+  return threads;
+}
+
+TEST_F(IntegrationTest, StartedUnderChrtOnlyTheActivityKeepsRealTimePriorityOrbThreadsDoNot) {
+  if (std::system("chrt -f 1 true >/dev/null 2>&1") != 0) GTEST_SKIP() << "SCHED_FIFO not allowed here";
+  rtm_test::ChildProcess process({"chrt", "-f", "5", RTM_TEST_COMPONENT, "--name", "chrt0", "--naming",
+                                  names_.address(), "--on"});
+  process.wait_until_bound();
+  std::this_thread::sleep_for(100ms);  // a few cycles: the activity has set its priority
+  int real_time = 0, others = 0;
+  for (const auto& [name, policy] : thread_policies(process.pid())) {
+    if (policy == SCHED_FIFO) {
+      ++real_time;
+      EXPECT_EQ(name, "chrt0") << "only the activity runs at SCHED_FIFO";
+    } else {
+      ++others;
+    }
+  }
+  EXPECT_EQ(real_time, 1);
+  EXPECT_GE(others, 2) << "the main thread and the ORB's";
+  EXPECT_TRUE(process.stop().clean());
 }
 
 TEST_F(IntegrationTest, BadCommandLineIsOneErrorAndExitStatusTwo) {

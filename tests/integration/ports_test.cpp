@@ -2,13 +2,20 @@
 // put, a subscriber that dies mid-stream, and in-process detection across processes.
 #include "integration_fixture.h"
 
+#include "rtm/access.h"
 #include "rtm/data.h"
 #include "rtm/inport.h"
 #include "rtm/outport.h"
+#include "rtm_test/raw_giop.h"
 
 #include <signal.h>
 
+#include <unistd.h>
+
+#include <fstream>
+#include <iterator>
 #include <limits>
+#include <sstream>
 
 namespace rtm_it {
 namespace {
@@ -239,6 +246,51 @@ TEST_F(IntegrationTest, DeliveryOptionChoosesWhoCallsAndThePortsStatisticsSayWho
     EXPECT_LE(statistic(c, "out0.write_p99"), statistic(c, "out0.write_max"));
     EXPECT_EQ(statistic(c, "echo.timed_out"), 0.0) << "every OutPort reports, not only the first";
   }
+}
+
+// omniORB 4.2 unmarshals an any holding an any in time that doubles per level: 40 levels in a
+// 232-byte request once kept a component's ORB thread busy for hours. Such a request (built
+// byte by byte: omniORB's own marshalling of it takes as long) is refused from its first
+// TypeCode, before its argument is read; the component answers and stops as usual.
+// CPU time (user + system) the process has used, from /proc.
+std::int64_t cpu_us(pid_t pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  std::istringstream fields(text.substr(text.rfind(')') + 2));
+  std::string skip;
+  for (int i = 0; i < 11; ++i) fields >> skip;  // state .. cmajflt
+  long long utime = 0, stime = 0;
+  fields >> utime >> stime;
+  return (utime + stime) * 1'000'000 / ::sysconf(_SC_CLK_TCK);
+}
+
+TEST_F(IntegrationTest, APutOfAnAnyNestedFortyDeepIsRefusedBeforeItIsReadAndTheComponentStillStops) {
+  // Open to anyone: the screen does not depend on the access key.
+  auto& process = start_component("nest0", {"--access", "open"});
+  auto c = component("nest0");
+  RTM::InPortList_var ins = c->in_ports();
+  ASSERT_GT(ins->length(), 0u);
+  const rtm_test::IiopProfile target = rtm_test::iiop_profile(test_orb().to_string(ins[0]));
+  rtm_test::CdrWriter nested;  // put(any): an any holding an any ... 40 deep, then a null
+  for (int level = 0; level < 40; ++level) nested.ulong(static_cast<std::uint32_t>(CORBA::tk_any));
+  nested.ulong(static_cast<std::uint32_t>(CORBA::tk_null));
+  for (const char* operation : {"put", "put_in_order"}) {
+    const auto reply = rtm_test::giop_request(target, operation, nested.bytes(), 10'000);
+    ASSERT_TRUE(reply.has_value()) << operation << ": no reply within 10 s";
+    EXPECT_EQ(reply->status, 2u) << operation << ": a system exception";
+    EXPECT_EQ(reply->exception, "IDL:omg.org/CORBA/BAD_PARAM:1.0") << operation;
+    EXPECT_EQ(reply->minor, rtm::kNotPlainDataMinor) << operation;
+    EXPECT_EQ(reply->completed, 1u) << operation << ": COMPLETED_NO";
+  }
+  // The figure (docs/safety.md): the component's CPU time per refused request, over 200.
+  const std::int64_t cpu_before = cpu_us(process.pid());
+  for (int i = 0; i < 200; ++i) ASSERT_TRUE(rtm_test::giop_request(target, "put", nested.bytes(), 10'000));
+  RecordProperty("component_cpu_us_per_refusal", static_cast<int>((cpu_us(process.pid()) - cpu_before) / 200));
+  EXPECT_EQ(c->state(), RTM::COMPONENT_OFF) << "it still answers";
+  CORBA::Any good;
+  good <<= RTM::TimedFloat6{};
+  EXPECT_NO_THROW(ins[0]->put(good)) << "a plain datum still goes in";
+  EXPECT_TRUE(process.stop().clean()) << "stops on SIGTERM";
 }
 
 }  // namespace

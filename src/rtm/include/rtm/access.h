@@ -59,6 +59,13 @@ bool is_change_operation(std::string_view name);
 // Changes refused in this process since start.
 std::uint64_t refused_changes();
 
+// The same interceptor screens every put before its argument is read: a datum whose type is
+// no data type (an any holding an any, whose unmarshalling omniORB 4.2 does in time doubling
+// per level; an object reference, a value, a TypeCode) is refused with CORBA::BAD_PARAM
+// (minor kNotPlainDataMinor), whatever the access policy. Counted here.
+std::uint64_t refused_non_data();
+inline constexpr std::uint32_t kNotPlainDataMinor = 0x52544d02;  // "RTM" 2
+
 // The minor code of the NO_PERMISSION a refused change raises.
 inline constexpr std::uint32_t kAccessRefusedMinor = 0x52544d01;  // "RTM" 1
 
