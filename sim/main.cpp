@@ -1,5 +1,6 @@
 // pa10-sim: the MuJoCo PA10 behind a CAN bus, standing in for the real arm's drives and
 // force sensors. See sim/README.md.
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <exception>
@@ -37,7 +38,12 @@ int main(int argc, char** argv) {
       ->excludes(profile);
   app.add_option("--log", options.log_path, "CSV of the state after each SYNC");
   app.add_option("--duration", options.duration_s, "stop after this much sim time [s]")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            const double v = std::stod(text);  // CLI::Range lets a NaN through
+            return std::isfinite(v) && v >= 0 ? std::string() : "'" + text + "' is not a finite duration >= 0";
+          },
+          "FINITE >= 0"));
   app.add_option("--velocity-bandwidth", options.velocity_bandwidth_rad_s,
                  "the drives' velocity loop bandwidth [rad/s]")
       ->capture_default_str();
@@ -45,7 +51,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
-    return app.exit(error);
+    return app.exit(error) == 0 ? 0 : 2;  // --help: 0; CLI11's own codes (105, 106, ...) are all "bad command line"
   }
 
   struct sigaction action {};

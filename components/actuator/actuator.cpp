@@ -16,6 +16,7 @@ namespace rtm::comp {
 void ActuatorParams::add_options(CLI::App& app) {
   rtm::add_array_option(app, "--limit", limit, "6 limits: vx vy vz in m/s, wx wy wz in rad/s");
   app.add_option("--watchdog-periods", watchdog_periods, "cycles without a new command before zero velocity")
+      ->check(CLI::Range(1u, kMaxWatchdogPeriods))
       ->capture_default_str();
 }
 
@@ -25,6 +26,9 @@ void ActuatorParams::validate() const {
       throw std::invalid_argument(fmt::format("actuator limit[{}] = {}: want a finite value >= 0", i, limit[i]));
   }
   if (watchdog_periods == 0) throw std::invalid_argument("actuator watchdog_periods must be at least 1");
+  if (watchdog_periods > kMaxWatchdogPeriods)
+    throw std::invalid_argument(fmt::format("actuator watchdog_periods = {}: at most {} (a longer watchdog is none)",
+                                            watchdog_periods, kMaxWatchdogPeriods));
 }
 
 std::array<float, 6> clamp_twist(const std::array<float, 6>& limit, const RTM::Float6& command) {
@@ -67,7 +71,7 @@ void Actuator::describe_self() {
                                       throw std::invalid_argument("limits must be >= 0");
                                   }));
   add_parameter(rtm::cycles_when_off("watchdog_periods", "cycles without a new command before the drives brake",
-                                     params_.watchdog_periods, 1, 1'000'000));
+                                     params_.watchdog_periods, 1, ActuatorParams::kMaxWatchdogPeriods));
 }
 
 ActuatorParams Actuator::params() const {

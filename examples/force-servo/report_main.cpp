@@ -58,7 +58,11 @@ int main(int argc, char** argv) {
   app.add_option("--min-phase", options.min_duration_s, "shortest phase of constant reference, s")
       ->capture_default_str()->check(CLI::PositiveNumber);
   app.add_flag("--check", check, "exit 3 when a contact phase misses the band, or on overruns or watchdog events");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error) == 0 ? 0 : 2;  // CLI11's own codes (105, 106, ...) are all "bad command line"
+  }
 
   try {
     const auto samples = rtm::demo::align(rtm::demo::read_watch_csv(reference_csv),

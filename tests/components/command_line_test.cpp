@@ -55,7 +55,7 @@ TEST(ComponentCommandLine, ANonFiniteGainIsRefusedWithExitStatusTwoNamingIt) {
 TEST(ComponentCommandLine, AZeroWatchdogIsRefusedBeforeTheActuatorOpensItsBus) {
   const auto r = run({RTM_ACTUATOR_EXE, "--watchdog-periods", "0", "--bus", "local:/nonexistent/dir/bus"});
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_NE(r.output.find("watchdog_periods must be at least 1"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--watchdog-periods: Value 0 not in range 1 to 1000"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("/nonexistent/dir/bus"), std::string::npos) << "the bus was opened:\n" << r.output;
 }
 
@@ -69,6 +69,16 @@ TEST(ComponentCommandLine, AFollowingErrorWindowOutOfRangeOrNotFiniteIsRefusedBe
     const auto r = run({RTM_ACTUATOR_EXE, option[0], option[1], "--bus", "local:/nonexistent/dir/bus"});
     EXPECT_EQ(r.code, 2) << option[0] << " " << option[1] << ":\n" << r.output;
     EXPECT_NE(r.output.find(option[0]), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("/nonexistent/dir/bus"), std::string::npos) << "the bus was opened:\n" << r.output;
+  }
+}
+
+TEST(ComponentCommandLine, AWatchdogSoLongItIsNoneOrAPeriodOfOneNanosecondIsRefused) {
+  for (const std::vector<std::string>& bad : {std::vector<std::string>{"--watchdog-periods", "4000000000"},
+                                              {"--watchdog-periods", "1001"},
+                                              {"--period", "1ns"}}) {
+    const auto r = run({RTM_ACTUATOR_EXE, bad[0], bad[1], "--bus", "local:/nonexistent/dir/bus"});
+    EXPECT_EQ(r.code, 2) << bad[0] << " " << bad[1] << ":\n" << r.output;
     EXPECT_EQ(r.output.find("/nonexistent/dir/bus"), std::string::npos) << "the bus was opened:\n" << r.output;
   }
 }

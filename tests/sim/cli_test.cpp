@@ -62,6 +62,20 @@ TEST(Pa10SimCli, UnknownBusSchemeIsOneLineAndExit1) {
   EXPECT_NE(output.find("pa10-sim: CAN bus 'carrier-pigeon:coop'"), std::string::npos) << output;
 }
 
+TEST(Pa10SimCli, ABadCommandLineIsExitStatusTwoNotCli11sOwnCode) {
+  for (const std::vector<std::string>& bad :
+       {std::vector<std::string>{"--duration", "nan", "--bus", "local:" + temp_path("d.bus")}, {"--no-such-option"}, {}}) {
+    std::vector<std::string> argv{PA10_SIM_EXE};
+    argv.insert(argv.end(), bad.begin(), bad.end());
+    rtm_test::ChildProcess::Options quiet;
+    quiet.echo_output = false;
+    rtm_test::ChildProcess sim(argv, quiet);
+    const auto status = sim.wait_for_exit(30s);
+    ASSERT_TRUE(status.has_value()) << "still running";
+    EXPECT_TRUE(status->exited && status->code == 2) << status->to_string() << "\n" << sim.output();
+  }
+}
+
 TEST(Pa10SimCli, SigtermStopsItCleanlyAndRemovesTheHubSocket) {
   const std::string bus = temp_path("c.bus");
   rtm_test::ChildProcess sim({PA10_SIM_EXE, "--bus", "local:" + bus});

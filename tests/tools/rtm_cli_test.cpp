@@ -363,6 +363,14 @@ TEST_F(RtmCli, BadCommandLineExitsWithUsageCode) {
   EXPECT_EQ(rtm({"get", "noport"}).exit_code, 2);
 }
 
+TEST_F(RtmCli, APutOfAValueAFloatCannotHoldIsRefusedNotSentAsInfinity) {
+  talker("alpha");
+  const auto r = rtm({"put", "alpha.in0", "1e39", "0", "0", "0", "0", "0"});
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  EXPECT_NE(r.err.find("1e+39 is out of the range of RTM::TimedFloat6's float elements"), std::string::npos) << r.err;
+  EXPECT_EQ(rtm({"put", "alpha.in0", "3e38", "0", "0", "0", "0", "0"}).exit_code, 0) << "the largest floats go";
+}
+
 // ------------------------------------------------------------------ access
 
 // What another user can do to components this user started: read them, change nothing.

@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cmath>
 #include <ctime>
+#include <limits>
 
 namespace rtm::cli {
 namespace {
@@ -126,20 +127,26 @@ CORBA::Any parse_value(CORBA::TypeCode_ptr type, const std::vector<std::string>&
     if (!std::isfinite(x)) throw ValueError(fmt::format("{} is not a finite value", x));
     return x;
   };
+  // A value a float cannot hold would be sent as inf.
+  auto to_float = [&](double x) {
+    if (std::abs(narrow(x)) > static_cast<double>(std::numeric_limits<float>::max()))
+      throw ValueError(fmt::format("{} is out of the range of {}'s float elements (|x| <= 3.4e38)", x, name));
+    return static_cast<float>(x);
+  };
   if (type->equivalent(RTM::_tc_TimedFloat6)) {
     auto v = parse_numbers(words, 6, name);
     RTM::TimedFloat6 d;
     d.tm = rtm::now();
-    for (int i = 0; i < 6; ++i) d.val[i] = static_cast<float>(narrow(v[i]));
+    for (int i = 0; i < 6; ++i) d.val[i] = to_float(v[i]);
     any <<= d;
   } else if (type->equivalent(RTM::_tc_TimedFloat3)) {
     auto v = parse_numbers(words, 3, name);
     RTM::TimedFloat3 d;
     d.tm = rtm::now();
-    for (int i = 0; i < 3; ++i) d.val[i] = static_cast<float>(narrow(v[i]));
+    for (int i = 0; i < 3; ++i) d.val[i] = to_float(v[i]);
     any <<= d;
   } else if (type->equivalent(RTM::_tc_TimedFloat)) {
-    RTM::TimedFloat d{rtm::now(), static_cast<float>(narrow(parse_numbers(words, 1, name)[0]))};
+    RTM::TimedFloat d{rtm::now(), to_float(parse_numbers(words, 1, name)[0])};
     any <<= d;
   } else if (type->equivalent(RTM::_tc_TimedDouble)) {
     RTM::TimedDouble d{rtm::now(), narrow(parse_numbers(words, 1, name)[0])};
@@ -159,7 +166,7 @@ CORBA::Any parse_value(CORBA::TypeCode_ptr type, const std::vector<std::string>&
     RTM::TimedFloatSeq d;
     d.tm = rtm::now();
     d.data.length(static_cast<CORBA::ULong>(v.size()));
-    for (CORBA::ULong i = 0; i < v.size(); ++i) d.data[i] = static_cast<float>(narrow(v[i]));
+    for (CORBA::ULong i = 0; i < v.size(); ++i) d.data[i] = to_float(v[i]);
     any <<= d;
   } else if (type->equivalent(RTM::_tc_TimedDoubleSeq)) {
     auto v = parse_numbers(words, 0, name);

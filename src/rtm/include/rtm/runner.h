@@ -13,7 +13,7 @@
 // Command line (besides the component's own options):
 //   --name NAME          component name (default <kind>0), bound as <host>.host_cxt/NAME.rtc
 //   --naming HOST:PORT   naming service (default $RTM_NAMING, else 127.0.0.1:2809)
-//   --period 2ms         cycle period: 2ms, 500us, 1000ns, 0.002 or 0.002s
+//   --period 2ms         cycle period, 50us to 1h: 2ms, 500us, 250000ns, 0.002 or 0.002s
 //   --rt-priority N      SCHED_FIFO priority of the activity thread (1..99)
 //   --cpu N              pin the process (and so its activity) to CPU N
 //   --mlock              lock the process's memory

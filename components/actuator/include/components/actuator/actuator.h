@@ -44,6 +44,8 @@ struct ActuatorParams {
   // |component| limits: m/s for vx vy vz, rad/s for wx wy wz.
   std::array<float, 6> limit{0.05f, 0.05f, 0.05f, 0.3f, 0.3f, 0.3f};
   std::uint32_t watchdog_periods = 3;
+  // A watchdog longer than this is none: 1000 cycles are 2 s at 2 ms.
+  static constexpr std::uint32_t kMaxWatchdogPeriods = 1000;
 
   // Throws std::invalid_argument for a negative or non-finite limit, or watchdog_periods 0.
   void validate() const;
