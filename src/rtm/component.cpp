@@ -4,6 +4,7 @@
 #include "rtm/orb.h"
 
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <stdexcept>
@@ -50,6 +51,11 @@ void Component::add_percentile_statistics(const std::string& stat, const std::st
       return static_cast<double>(q >= 1.0 ? h.max_ns() : h.percentile_ns(q)) / 1000.0;
     });
   }
+}
+
+void Component::add_process_statistic() {
+  const auto pid = static_cast<double>(::getpid());
+  add_statistic("pid", "", "the process the component runs in", [pid] { return pid; });
 }
 
 void Component::add_out_port_statistics() {

@@ -91,6 +91,21 @@ std::string NamingAddress::corbaloc() const {
   return fmt::format("corbaloc::{}/NameService", to_string());
 }
 
+void check_name(std::string_view name, std::string_view what) {
+  const auto bad = [&](std::string_view why) {
+    throw std::invalid_argument(fmt::format("{} '{}': {} (1 to 64 of A-Z a-z 0-9 _ - ., not starting with . or -)",
+                                            what, name, why));
+  };
+  if (name.empty()) bad("empty");
+  if (name.size() > 64) bad("longer than 64 characters");
+  if (name.front() == '.' || name.front() == '-') bad("starts with '.' or '-'");
+  for (char c : name) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' ||
+                    c == '-' || c == '.';
+    if (!ok) bad(c == '/' ? "holds '/'" : "holds a character outside the rule");
+  }
+}
+
 ComponentPath ComponentPath::parse(std::string_view text) {
   const auto slash = text.find('/');
   if (slash == std::string_view::npos) {
@@ -339,6 +354,7 @@ NameBinding::NameBinding(CORBA::ORB_ptr orb, NamingAddress address, ComponentPat
       path_(std::move(path)),
       object_(CORBA::Object::_duplicate(object)),
       options_(std::move(options)) {
+  check_name(path_.name);
   if (path_.host.empty()) path_.host = local_host_name();
   check_once(true);
   watcher_ = std::thread([this] { watch(); });

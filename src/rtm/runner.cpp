@@ -8,6 +8,7 @@
 #include <pthread.h>
 #include <sched.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <charconv>
 #include <cmath>
@@ -185,6 +186,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
     app.parse(static_cast<int>(own_argv.size()), own_argv.data());
     settings.period_ns = parse_period_ns(period_text);
     settings.access = *parse_access_policy(access_text);
+    check_name(settings.name);
     if (!delivery_text.empty())
       settings.delivery = delivery_text == "thread" ? OutPortOptions::Delivery::thread
                                                     : OutPortOptions::Delivery::writer_when_idle;
@@ -213,6 +215,7 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
     if (settings.delivery) port->set_delivery(*settings.delivery);
   }
   component->add_out_port_statistics();
+  component->add_process_statistic();
   ActivitySpec activity =
       main.activity ? main.activity(settings, *component) : ActivitySpec{settings.periodic_options()};
   servant = new ComponentServant(std::move(component), std::move(activity));

@@ -518,4 +518,59 @@ TEST_F(RtmUpDown, UpWithAMissingProgramStartsNothing) {
   EXPECT_NE(up.err.find("program 'rtm-no-such-component' not found"), std::string::npos) << up.err;
 }
 
+TEST_F(RtmUpDown, ANameThatEscapesTheRuntimeFolderIsRefusedBeforeAnythingStarts) {
+  for (const std::string& yaml : {std::string("name: ../x\ncomponents: [{name: a, command: rtm-test-talker}]\n"),
+                                  std::string("components: [{name: /var/log/dpkg, command: rtm-test-talker}]\n")}) {
+    auto up = rtm_env({"up", write_system(yaml).string()});
+    EXPECT_NE(up.exit_code, 0) << yaml;
+    EXPECT_NE(up.err.find("1 to 64 of A-Z a-z 0-9 _ - ."), std::string::npos) << up.err;
+    EXPECT_TRUE(rtm_json({"ls"}).empty()) << "nothing started";
+  }
+  const auto talker = rtm_test::run_command({TALKER_PATH, "--name", "../x", "--naming", names_.address()});
+  EXPECT_EQ(talker.exit_code, 2) << talker.err;
+  EXPECT_NE(talker.err.find("component name '../x'"), std::string::npos) << talker.err;
+}
+
+TEST_F(RtmUpDown, UpRefusesANameBoundToAnotherSystemsComponentAndTurnsNothingOn) {
+  talker("a");  // another system's a, off
+  auto up = rtm_env({"up", write_system("components: [{name: a, command: rtm-test-talker}]\nactivate: [a]\n").string()});
+  EXPECT_NE(up.exit_code, 0) << up.out;
+  EXPECT_NE(up.err.find("a is bound to another process (pid " + std::to_string(talkers_.back()->pid()) + ")"),
+            std::string::npos)
+      << up.err;
+  EXPECT_EQ(find(rtm_json({"ls"}), "a")["state"], "off") << "rtm up turned on another system's component";
+}
+
+TEST_F(RtmUpDown, UpThatCannotWriteItsStateFailsAndLeavesNothingRunning) {
+  auto file = write_system("name: trio\ncomponents: [{name: a, command: rtm-test-talker}]\n");
+  std::filesystem::create_directories(dir_ / "rtm" / "trio.state.yaml.tmp");  // the write cannot happen
+  auto up = rtm_env({"up", file.string()});
+  EXPECT_NE(up.exit_code, 0) << up.out;
+  EXPECT_NE(up.err.find("cannot write the state of system 'trio'"), std::string::npos) << up.err;
+  EXPECT_TRUE(rtm_json({"ls"}).empty()) << "a still bound: its process was left running";
+  std::filesystem::remove_all(dir_ / "rtm" / "trio.state.yaml.tmp");
+}
+
+TEST_F(RtmUpDown, CtrlCDuringUpStopsWhatItStartedAndExits130) {
+  auto file = write_system(R"(
+name: slow
+components:
+  - {name: a, command: rtm-test-talker}
+  - {name: never, command: [sh, -c, "sleep 30"]}
+activate: [a]
+)");
+  rtm_test::ChildProcess::Options quiet;
+  quiet.echo_output = false;
+  quiet.extra_env = {"RTM_BIN_PATH=" + std::string(RTM_TEST_BIN_DIR), "XDG_RUNTIME_DIR=" + dir_.string()};
+  rtm_test::ChildProcess up({RTM_CLI_PATH, "--naming", names_.address(), "up", file.string()}, quiet);
+  up.wait_for_line("bound a", 20s);  // now waiting for `never`
+  up.send_signal(SIGINT);
+  const auto status = up.wait_for_exit(20s);
+  ASSERT_TRUE(status.has_value()) << "rtm up still runs after Ctrl-C";
+  EXPECT_TRUE(status->exited && status->code == 130) << status->to_string() << "\n" << up.output();
+  EXPECT_NE(up.output().find("interrupted: stopped what `rtm up slow` had started"), std::string::npos) << up.output();
+  EXPECT_TRUE(rtm_json({"ls"}).empty()) << "a was left running";
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "rtm" / "slow.state.yaml")) << "a state file of a system that is not up";
+}
+
 }  // namespace

@@ -152,13 +152,32 @@ void SystemState::save() const {
   }
   out << YAML::EndSeq << YAML::Key << "activated" << YAML::Value << YAML::Flow << activated
       << YAML::EndMap;
+  // Written whole or not at all: a temporary file, flushed to disk, then renamed over the old
+  // state. A write that fails (a full disk) is an error, never an empty state file: `rtm down`
+  // needs it to find the processes.
   const fs::path target = path_for(system);
   const fs::path tmp = target.string() + ".tmp";
-  {
-    std::ofstream f(tmp);
-    f << out.c_str() << "\n";
+  const std::string text = std::string(out.c_str()) + "\n";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  int error = fd < 0 ? errno : 0;
+  if (fd >= 0) {
+    std::size_t written = 0;
+    while (error == 0 && written < text.size()) {
+      const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) error = n < 0 ? errno : EIO;
+      else written += static_cast<std::size_t>(n);
+    }
+    if (error == 0 && ::fsync(fd) != 0) error = errno;
+    if (::close(fd) != 0 && error == 0) error = errno;
   }
-  fs::rename(tmp, target);
+  if (error == 0 && ::rename(tmp.c_str(), target.c_str()) != 0) error = errno;
+  if (error != 0) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw SystemFileError(fmt::format("cannot write the state of system '{}' to {}: {}", system, target.string(),
+                                      std::strerror(error)));
+  }
 }
 
 SystemState SystemState::load(const std::string& system) {
@@ -188,22 +207,64 @@ SystemState SystemState::load(const std::string& system) {
   return s;
 }
 
+// The name must be bound to the process we started, not to another system's component of the
+// same name (the runner reports its pid as a statistic).
+void check_bound_to(const Browser& browser, const std::string& host, const LaunchedProcess& p) {
+  RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(browser.component(host + "/" + p.name));
+  if (CORBA::is_nil(ex)) throw BrowseError(fmt::format("{} is bound to a component that is no RTM component", p.name));
+  RTM::StatisticList_var stats = ex->statistics();
+  for (CORBA::ULong i = 0; i < stats->length(); ++i) {
+    if (std::string_view(stats[i].name.in()) != "pid") continue;
+    const auto bound_pid = static_cast<pid_t>(stats[i].value);
+    if (bound_pid == p.pid) return;
+    throw BrowseError(fmt::format("{} is bound to another process (pid {}), not to the one rtm up started (pid {}): "
+                                  "another system uses that name",
+                                  p.name, bound_pid, p.pid));
+  }
+  throw BrowseError(fmt::format("{} is bound to a component that does not say its process: not the one rtm up started",
+                                p.name));
+}
+
+// Until `p`'s name is bound to `p` itself (check_bound_to); throws when p exits first, when
+// bind_timeout passes, or (check_interrupt) on Ctrl-C.
+void wait_until_bound(const Browser& browser, const std::string& host, const LaunchedProcess& p,
+                      std::chrono::milliseconds bind_timeout, const std::function<void()>& check_interrupt) {
+  const auto deadline = std::chrono::steady_clock::now() + bind_timeout;
+  while (!browser.naming().is_bound(ComponentPath{host, p.name})) {
+    check_interrupt();
+    if (!process_alive(p))
+      throw BrowseError(fmt::format("{} exited before it was bound; its log:{}", p.name, log_tail(p.log, 10)));
+    if (std::chrono::steady_clock::now() > deadline) {
+      throw BrowseError(fmt::format("{} was not bound in the naming service within {} ms; its log:{}", p.name,
+                                    bind_timeout.count(), log_tail(p.log, 10)));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  check_bound_to(browser, host, p);
+}
+
+// A system whose recorded processes still run is up: it must go down first.
+void refuse_if_up(const std::string& system) {
+  if (!fs::exists(SystemState::path_for(system))) return;
+  const SystemState old = SystemState::load(system);
+  for (const auto& p : old.processes) {
+    if (process_alive(p)) {
+      throw SystemFileError(fmt::format("system '{}' is already up ({} runs as pid {}); `rtm down {}` first", system,
+                                        p.name, p.pid, system));
+    }
+  }
+}
+
 SystemState system_up(const SystemFile& file, const Browser& browser, const NamingAddress& naming,
                       const LaunchOptions& options) {
   auto say = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
-  const fs::path existing = SystemState::path_for(file.name);
-  if (fs::exists(existing)) {
-    SystemState old = SystemState::load(file.name);
-    for (const auto& p : old.processes) {
-      if (process_alive(p)) {
-        throw SystemFileError(fmt::format("system '{}' is already up ({} runs as pid {}); "
-                                          "`rtm down {}` first", file.name, p.name, p.pid,
-                                          file.name));
-      }
-    }
-  }
+  auto check_interrupt = [&] {
+    if (options.interrupted && options.interrupted())
+      throw LaunchInterrupted(fmt::format("interrupted: stopped what `rtm up {}` had started", file.name));
+  };
+  refuse_if_up(file.name);
   SystemState state;
   state.system = file.name;
   state.naming = naming.to_string();
@@ -220,6 +281,7 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
       argvs.push_back(std::move(argv));
     }
     for (std::size_t i = 0; i < file.components.size(); ++i) {
+      check_interrupt();
       const auto& c = file.components[i];
       LaunchedProcess p{c.name, 0, 0, logs / (c.name + ".log")};
       p.pid = spawn_detached(argvs[i], p.log);
@@ -230,22 +292,11 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
     }
     const std::string host = local_host_name();
     for (const auto& p : state.processes) {
-      const auto deadline = std::chrono::steady_clock::now() + options.bind_timeout;
-      while (!browser.naming().is_bound(ComponentPath{host, p.name})) {
-        if (!process_alive(p)) {
-          throw BrowseError(fmt::format("{} exited before it was bound; its log:{}", p.name,
-                                        log_tail(p.log, 10)));
-        }
-        if (std::chrono::steady_clock::now() > deadline) {
-          throw BrowseError(fmt::format("{} was not bound in the naming service within {} ms; "
-                                        "its log:{}", p.name, options.bind_timeout.count(),
-                                        log_tail(p.log, 10)));
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(5));
-      }
+      wait_until_bound(browser, host, p, options.bind_timeout, check_interrupt);
       say(fmt::format("bound {}", p.name));
     }
     for (const auto& c : file.connections) {
+      check_interrupt();
       browser.connect(PortAddress::parse(c.from), PortAddress::parse(c.to),
                       c.once ? RTM::once : RTM::repeated);
       state.connections.push_back(c);
@@ -253,11 +304,13 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
       say(fmt::format("connected {} -> {}", c.from, c.to));
     }
     for (const auto& name : file.activate) {
+      check_interrupt();
       browser.component(name)->on();
       state.activated.push_back(name);
       state.save();
       say(fmt::format("on {}", name));
     }
+    check_interrupt();
   } catch (...) {
     system_down(state, &browser, options);
     throw;

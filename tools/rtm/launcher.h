@@ -17,6 +17,7 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,15 @@ struct LaunchOptions {
   std::chrono::milliseconds bind_timeout{10000};
   std::chrono::milliseconds stop_timeout{5000};
   std::function<void(const std::string&)> progress;  // one line per step
+  // Polled between the steps of system_up and while it waits: true (Ctrl-C) stops what was
+  // started and throws LaunchInterrupted.
+  std::function<bool()> interrupted;
+};
+
+// system_up was interrupted; everything it had started is stopped again.
+class LaunchInterrupted : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 // Starts the system; on failure stops what it started and throws (BrowseError or

@@ -41,7 +41,7 @@ namespace {
 using namespace rtm::cli;
 using nlohmann::json;
 
-constexpr int kOk = 0, kFailed = 1, kUsage = 2;
+constexpr int kOk = 0, kFailed = 1, kUsage = 2, kInterrupted = 130;  // 130: 128 + SIGINT, as shells do
 
 std::atomic<bool> g_interrupted{false};
 extern "C" void on_interrupt(int) { g_interrupted.store(true); }
@@ -375,7 +375,13 @@ int run(const Cli& c) {
   std::signal(SIGTERM, on_interrupt);
   LaunchOptions launch;
   launch.bind_timeout = std::chrono::milliseconds(c.up_timeout_ms);
-  if (!c.json) launch.progress = [](const std::string& line) { fmt::print("{}\n", line); };
+  if (!c.json) {
+    launch.progress = [](const std::string& line) {
+      fmt::print("{}\n", line);
+      std::fflush(stdout);  // one line per step as it happens, into a pipe or log too
+    };
+  }
+  launch.interrupted = [] { return g_interrupted.load(); };
 
   if (c.ls->parsed()) return run_ls(browser, c);
   if (c.cat->parsed()) return run_cat(browser, c);
@@ -415,6 +421,9 @@ int main(int argc, char** argv) {
   } catch (const Failure& e) {
     fmt::print(stderr, "rtm: {}\n", e.what());
     return e.code;
+  } catch (const LaunchInterrupted& e) {
+    fmt::print(stderr, "rtm: {}\n", e.what());
+    return kInterrupted;
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "rtm: {}\n", e.what());
     return kUsage;

@@ -1,5 +1,7 @@
 #include "system_file.h"
 
+#include "rtm/naming.h"
+
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
@@ -34,6 +36,27 @@ std::string component_of(const std::string& port_address) {
   return dot == std::string::npos ? port_address : port_address.substr(0, dot);
 }
 
+// One entry of 'components': its name (the one name rule) and its command.
+SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) {
+  SystemFile::Component comp;
+  comp.name = scalar(f, c["name"], "a component's 'name'");
+  try {
+    rtm::check_name(comp.name);  // it names the component's log file
+  } catch (const std::invalid_argument& e) {
+    fail(f, c["name"], e.what());
+  }
+  const YAML::Node cmd = c["command"];
+  if (cmd && cmd.IsScalar()) {
+    comp.command.push_back(cmd.as<std::string>());
+  } else if (cmd && cmd.IsSequence() && cmd.size() > 0) {
+    for (const auto& w : cmd) comp.command.push_back(scalar(f, w, "a command word"));
+  } else {
+    fail(f, cmd ? cmd : c,
+         fmt::format("component '{}' needs a 'command' (program, or list of program and arguments)", comp.name));
+  }
+  return comp;
+}
+
 }  // namespace
 
 SystemFile SystemFile::load(const std::filesystem::path& file) {
@@ -63,6 +86,11 @@ SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem
     }
   }
   f.name = root["name"] ? scalar(f, root["name"], "'name'") : path.stem().string();
+  try {
+    rtm::check_name(f.name, "system name");  // it names the state file and the log folder
+  } catch (const std::invalid_argument& e) {
+    fail(f, root["name"] ? root["name"] : root, e.what());
+  }
   if (root["naming"]) f.naming = scalar(f, root["naming"], "'naming'");
 
   const YAML::Node comps = root["components"];
@@ -72,18 +100,8 @@ SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem
   std::set<std::string> names;
   for (const auto& c : comps) {
     if (!c.IsMap()) fail(f, c, "each component must be a mapping with 'name' and 'command'");
-    Component comp;
-    comp.name = scalar(f, c["name"], "a component's 'name'");
+    SystemFile::Component comp = parse_component(f, c);
     if (!names.insert(comp.name).second) fail(f, c, fmt::format("component '{}' listed twice", comp.name));
-    const YAML::Node cmd = c["command"];
-    if (cmd && cmd.IsScalar()) {
-      comp.command.push_back(cmd.as<std::string>());
-    } else if (cmd && cmd.IsSequence() && cmd.size() > 0) {
-      for (const auto& w : cmd) comp.command.push_back(scalar(f, w, "a command word"));
-    } else {
-      fail(f, cmd ? cmd : c, fmt::format("component '{}' needs a 'command' (program, or list "
-                                         "of program and arguments)", comp.name));
-    }
     f.components.push_back(std::move(comp));
   }
 

@@ -57,6 +57,9 @@ class Component {
   // and the calls that outlived their bound (<port>.timed_out) to the statistics. The runner
   // calls it once the component is built; std::invalid_argument when called twice.
   void add_out_port_statistics();
+  // Adds "pid": the process the component runs in (`rtm up` checks that a name it waits for is
+  // bound to the process it started). The runner calls it.
+  void add_process_statistic();
   void set_description(std::string text) { description_ = std::move(text); }
 
   // Called by the activity: on_start() before the first cycle, on_stop() after the last.

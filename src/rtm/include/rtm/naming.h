@@ -62,6 +62,12 @@ struct NamingAddress {
   bool operator==(const NamingAddress&) const = default;
 };
 
+// The one rule for a component's (and a system's) name, used by the runner (--name), `rtm up`
+// (its system file) and the naming path: 1 to 64 of A-Z a-z 0-9 _ - . , not starting with '.'
+// or '-'. Such a name is safe as a file name in the runtime folder (no '/', no "..") and as a
+// naming-service id. Throws std::invalid_argument saying what is wrong, naming `what`.
+void check_name(std::string_view name, std::string_view what = "component name");
+
 // Where one component is bound: <host>.host_cxt/<name>.rtc
 struct ComponentPath {
   std::string host;  // host context id, normally this machine's host name
