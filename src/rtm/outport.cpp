@@ -14,6 +14,8 @@ OutPortBase::OutPortBase(std::string name, std::string owner, OutPortOptions opt
     : name_(std::move(name)), owner_(std::move(owner)), options_(options), delivery_(options.delivery) {
   if (name_.empty()) throw std::invalid_argument("OutPort: empty port name (owner '" + owner_ + "')");
   if (options_.max_failures == 0) throw std::invalid_argument("OutPort " + full_name() + ": max_failures must be >= 1");
+  if (options_.max_subscriptions == 0)
+    throw std::invalid_argument("OutPort " + full_name() + ": max_subscriptions must be >= 1");
 }
 
 OutPortBase::~OutPortBase() { close(); }
@@ -132,6 +134,11 @@ bool OutPortBase::add_subscription(std::unique_ptr<Subscription> sub, bool start
   std::lock_guard lock(mu_);
   if (closed_) {
     why = full_name() + " -> " + sub->peer + ": the OutPort is closed";
+    return false;
+  }
+  if (subs_.size() >= options_.max_subscriptions) {
+    why = full_name() + " -> " + sub->peer + ": already " + std::to_string(options_.max_subscriptions) +
+          " subscriptions, the most it takes (OutPortOptions::max_subscriptions)";
     return false;
   }
   for (const auto& existing : subs_) {
@@ -309,10 +316,11 @@ void OutPortBase::refuse(const std::string& why) {
   last_refusal_ = why;
 }
 
-std::string OutPortBase::peer_name(RTM::InPort_ptr port) {
+std::string OutPortBase::peer_name(RTM::InPort_ptr port, std::uint32_t call_timeout_ms) {
   CORBA::String_var name = port->name();
   RTM::InPortEx_var ex = RTM::InPortEx::_narrow(port);
   if (CORBA::is_nil(ex)) return std::string(name.in());
+  omniORB::setClientCallTimeout(ex.in(), call_timeout_ms);
   CORBA::String_var owner = ex->owner();
   return std::string(owner.in()) + "." + name.in();
 }

@@ -504,6 +504,40 @@ TEST_F(OutPortTest, WithDeliveryThreadWriteNeverCallsTheSubscriber) {
   out->close();
 }
 
+TEST_F(OutPortTest, SubscribeToAnInPortThatNeverAnswersIsRefusedAfterTheCallTimeoutNotHeldForEver) {
+  Peer peer(orb());
+  rtm::OutPortOptions options;
+  options.call_timeout_ms = 200;
+  auto out = make_out(options);
+  peer.process.pause();  // its ORB answers nothing: name(), owner(), port_type() would wait for ever
+  EXPECT_FALSE(out->subscribe(RTM::repeated, peer.port.in()));
+  EXPECT_NE(out->last_refusal().find("does not answer (TIMEOUT)"), std::string::npos) << out->last_refusal();
+  peer.process.resume();
+  EXPECT_TRUE(out->subscribe(RTM::repeated, peer.port.in())) << "once it answers: " << out->last_refusal();
+  out->close();
+}
+
+TEST_F(OutPortTest, AnOutPortTakesAtMostMaxSubscriptionsAndRefusesMoreNamingTheLimit) {
+  rtm::OutPortOptions options;
+  options.max_subscriptions = 4;
+  auto out = make_out(options);
+  std::vector<PortableServer::Servant_var<In6>> ins;
+  std::vector<RTM::InPortEx_var> refs;
+  for (int i = 0; i < 5; ++i) {
+    ins.push_back(make_in());
+    refs.push_back(ins.back()->activate(orb()));
+  }
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(out->subscribe(RTM::repeated, refs[i].in())) << i << out->last_refusal();
+  EXPECT_FALSE(out->subscribe(RTM::repeated, refs[4].in()));
+  EXPECT_NE(out->last_refusal().find("already 4 subscriptions, the most it takes"), std::string::npos)
+      << out->last_refusal();
+  EXPECT_EQ(out->counters_snapshot().refused, 1u);
+  ASSERT_TRUE(out->unsubscribe(RTM::repeated, refs[0].in()));
+  EXPECT_TRUE(out->subscribe(RTM::repeated, refs[4].in())) << "room again after an unsubscribe";
+  out->close();
+  for (auto& in : ins) in->deactivate();
+}
+
 // A subscriber that stops answering costs write() one bounded call: after it failed, the data
 // go to the delivery thread (queued, oldest dropped past the ring), and write() calls again
 // only once that thread has delivered. Nothing here is timed: the counters say who called.

@@ -35,6 +35,9 @@ struct OutPortOptions {
   // out a subscriber's or the host's short stall without loss, and lets one wake-up deliver
   // a batch. 1 = latest value only. Pre-allocated per subscription.
   std::uint32_t queue_depth = 8;
+  // Subscriptions one OutPort takes; more are refused (each remote one has a delivery thread:
+  // a flood of subscribe() calls must not make threads without bound).
+  std::uint32_t max_subscriptions = 32;
   // Who makes the remote call for a datum.
   //   writer_when_idle: write() itself, when the subscription has nothing in flight or queued
   //     (no thread wake-up between the writer and the wire: the datum leaves at once); else,
@@ -202,7 +205,8 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void reap_retired();  // joins parked threads; never from a delivery thread
   void refuse(const std::string& why);
   // "<owner>.<name>" of an InPort (asks it; RTM::InPort without owner: its name only).
-  static std::string peer_name(RTM::InPort_ptr port);
+  // "owner.name" of a subscriber, each call bounded by call_timeout_ms.
+  static std::string peer_name(RTM::InPort_ptr port, std::uint32_t call_timeout_ms);
 
   const std::string name_;
   const std::string owner_;

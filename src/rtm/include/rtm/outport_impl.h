@@ -236,13 +236,20 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
     refuse(full_name() + ": nil InPort reference");
     return false;
   }
+  if (subscription_count() >= options_.max_subscriptions) {
+    refuse(full_name() + ": already " + std::to_string(options_.max_subscriptions) +
+           " subscriptions, the most it takes (OutPortOptions::max_subscriptions)");
+    return false;
+  }
   auto sub = new_subscription();
   sub->req_type = r_type;
   sub->port = RTM::InPort::_duplicate(i_port);
-  // Remote calls: made before any lock is taken.
+  // Remote calls: made before any lock is taken, each bounded (an InPort that never answers
+  // must not hold this upcall, and the component's shutdown, for ever).
+  omniORB::setClientCallTimeout(i_port, options_.call_timeout_ms);
   CORBA::TypeCode_var their_type;
   try {
-    sub->peer = peer_name(i_port);
+    sub->peer = peer_name(i_port, options_.call_timeout_ms);
     their_type = i_port->port_type();
     sub->port_ex = RTM::InPortEx::_narrow(i_port);
     if (!CORBA::is_nil(sub->port_ex)) sub->port_ordered = RTM::InPortOrdered::_narrow(i_port);
