@@ -43,7 +43,8 @@ void Controller::describe_self() {
   set_description("proportional force controller: twist = gain*(reference + wrench)");
   add_counter("cycles", "cycles run", cycles_);
   add_counter("commands", "proportional commands written", commands_);
-  add_counter("zero_commands", "zero commands written (stale, missing or bad input)", zero_commands_);
+  add_counter("withheld_commands", "cycles without a command (stale, missing or bad input): the actuator brakes",
+              withheld_commands_);
   add_counter("stale_events", "an input went stale after having been fresh", stale_events_);
   add_counter("non_finite_events", "an input started holding NaN/inf", non_finite_events_);
   add_parameter(rtm::live_numbers("gain", "(m/s)/N, (rad/s)/(N·m)", "6 gains: x y z, then rx ry rz", gain_live_));
@@ -74,13 +75,14 @@ rtm::Freshness::Change Controller::update(rtm::InPort<RTM::TimedFloat6>& port, I
 bool Controller::usable(Input& input, rtm::Freshness::Change change, const char* what) {
   if (change == rtm::Freshness::Change::went_stale) {
     stale_events_.fetch_add(1, std::memory_order_relaxed);
-    log().warn("{}: {} input stale (no new datum for {} periods): zero command", name(), what, params_.stale_periods);
+    log().warn("{}: {} input stale (no new datum for {} periods): command withheld, the actuator brakes", name(), what,
+               params_.stale_periods);
   }
   if (!input.freshness.fresh()) return false;
   const bool bad = rtm::has_non_finite(input.datum);
   if (bad && !input.was_bad) {
     non_finite_events_.fetch_add(1, std::memory_order_relaxed);
-    log().warn("{}: {} input holds NaN/inf: zero command", name(), what);
+    log().warn("{}: {} input holds NaN/inf: command withheld, the actuator brakes", name(), what);
   }
   input.was_bad = bad;
   return !bad;
@@ -93,21 +95,22 @@ void Controller::on_cycle(const rtm::CycleContext&) {
   const bool sensor_ok = usable(sensor_, sensor_change, "sensor (wrench)");
   const bool reference_ok = usable(reference_, reference_change, "reference");
   gain_live_.take(gain_);
-  if (sensor_ok && reference_ok) {
-    const auto out = proportional_command(gain_, reference_.datum.val, sensor_.datum.val);
-    for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = out[i];
-    command_.tm = sensor_.datum.tm;
-    commands_.fetch_add(1, std::memory_order_relaxed);
-  } else {
-    for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = 0.0f;
-    command_.tm = rtm::now();
-    zero_commands_.fetch_add(1, std::memory_order_relaxed);
+  if (!(sensor_ok && reference_ok)) {
+    // No command at all, not a zero one: the actuator's watchdog then brakes the drives (quick
+    // stop), as fast as when the controller itself is lost; a zero command would let them
+    // coast down through their velocity loops.
+    withheld_commands_.fetch_add(1, std::memory_order_relaxed);
+    return;
   }
+  const auto out = proportional_command(gain_, reference_.datum.val, sensor_.datum.val);
+  for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = out[i];
+  command_.tm = sensor_.datum.tm;
+  commands_.fetch_add(1, std::memory_order_relaxed);
   command_out_.write(command_);
 }
 
 ControllerCounters Controller::counters() const {
-  return {cycles_.load(), commands_.load(), zero_commands_.load(), stale_events_.load(), non_finite_events_.load()};
+  return {cycles_.load(), commands_.load(), withheld_commands_.load(), stale_events_.load(), non_finite_events_.load()};
 }
 
 }  // namespace rtm::comp

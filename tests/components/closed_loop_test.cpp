@@ -171,17 +171,22 @@ TEST_F(ClosedLoopTest, ChangingConnectionsWhileRunningNeitherCrashesNorJumps) {
       for (float v : commanded()) ASSERT_LE(std::abs(v), 0.05f);
     }
   };
-  // The sensor link goes away: stale input, zero command, the arm holds where it is.
+  // The sensor link goes away: stale input, the controller withholds its command and the
+  // actuator's watchdog brakes the drives, as fast as when the controller itself is lost.
   ASSERT_TRUE(sensor_->out().disconnect(controller_->sensor_in()));
   run_and_watch(100);
-  EXPECT_EQ(commanded(), (std::array<float, 6>{})) << "a stale sensor gives a zero command";
+  EXPECT_TRUE(hardware_->master().quick_stopped()) << "a stale sensor brakes the drives";
+  EXPECT_EQ(actuator_->counters().watchdog_events, 1u);
   ASSERT_TRUE(sensor_->out().connect(controller_->sensor_in()));
   run_and_watch(100);
+  EXPECT_FALSE(hardware_->master().quick_stopped()) << "released by the next command";
   // The reference link is cut and made again; a duplicate connect is refused, not doubled.
   ASSERT_TRUE(joystick_->out().disconnect(controller_->reference_in()));
   run_and_watch(50);
   ASSERT_TRUE(joystick_->out().connect(controller_->reference_in()));
   EXPECT_FALSE(joystick_->out().connect(controller_->reference_in()));
+  run_and_watch(10);
+  EXPECT_FALSE(hardware_->master().quick_stopped()) << "the reference back: released";
   // The command link too: the actuator's watchdog brakes the drives (quick stop) meanwhile and
   // the next command releases them; the brake holds the load the joints bore, so the contact
   // force neither drops while braked nor jumps when released.
@@ -194,7 +199,7 @@ TEST_F(ClosedLoopTest, ChangingConnectionsWhileRunningNeitherCrashesNorJumps) {
   run_and_watch(500);
   EXPECT_LE(largest_step_N, 1.0f) << "no jump in the contact force from one period to the next";
   EXPECT_NEAR(measured()[2], 10.0f, 0.5f) << "back at the reference after the changes";
-  EXPECT_EQ(actuator_->counters().watchdog_events, 1u) << "only the cut command link trips the watchdog";
+  EXPECT_EQ(actuator_->counters().watchdog_events, 3u) << "each lost link (sensor, reference, command) brakes once";
 }
 
 }  // namespace

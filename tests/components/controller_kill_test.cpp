@@ -266,7 +266,12 @@ struct PaperSystem {
   std::unique_ptr<Child> actuator, sensor, joystick, controller, servo;
 };
 
-TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
+enum class Victim { controller, sensor, joystick };
+
+// Kills one member of the running loop and checks the brake: the actuator's watchdog fires
+// (the controller's command stops, or the controller withholds it once an input went stale)
+// and every drive gets quick stop within 3 SYNCs of the firing, at rest within 3 more.
+void check_loop_member_kill(Victim victim) {
   PaperSystem system;
   const std::string& naming = system.naming;
   BusRecorder& recorder = *system.recorder;
@@ -290,7 +295,8 @@ TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
   const std::string kWatchdog = "watchdog: no new command";
   const std::size_t events_before = actuator.count_lines(kWatchdog);
   const auto frames_before_kill = static_cast<long>(recorder.frames().size());
-  system.controller->kill_now();
+  (victim == Victim::controller ? system.controller : victim == Victim::sensor ? system.sensor : system.joystick)
+      ->kill_now();
   const auto event_deadline = std::chrono::steady_clock::now() + 30s;
   while (actuator.count_lines(kWatchdog) == events_before && std::chrono::steady_clock::now() < event_deadline)
     std::this_thread::sleep_for(10ms);
@@ -298,7 +304,7 @@ TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
   ASSERT_FALSE(event.empty()) << "no watchdog event after the kill\n" << actuator.output();
   std::this_thread::sleep_for(200ms);  // the halt and some more SYNCs reach the recorder
   const std::vector<Seen> frames = recorder.frames();
-  joystick_ref->off();
+  if (victim != Victim::joystick) joystick_ref->off();
   servo_ref->off();
 
   const std::optional<WatchdogEvent> parsed = parse_watchdog_event(event);
@@ -338,7 +344,21 @@ TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) {
   EXPECT_LE(halted_after, kSyncsToHalt) << "SYNCs after the quick stop until every drive was at rest";
   std::fprintf(stderr, "kill test: every drive at rest %ld SYNC(s) after the one that carried the quick stop\n", halted_after);
 
+  // Shown, not asserted: from the last frame before the kill to the quick stop.
+  std::fprintf(stderr, "kill test: quick stop %ld SYNC(s) after the kill\n",
+               syncs_between(frames, frames_before_kill > 0 ? frames_before_kill - 1 : 0, quick_stop_sync));
   EXPECT_EQ(actuator.count_lines(kWatchdog), events_before + 1) << "one event for the kill, logged once";
+}
+
+TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) { check_loop_member_kill(Victim::controller); }
+
+// Losing an input of the loop brakes as losing the controller does: the controller withholds
+// its command and the actuator's watchdog brakes (before, the command went to zero and the
+// drives coasted down through their velocity loops for ~0.45 s).
+TEST(LoopMemberKill, KillingTheSensorBrakesTheArmThroughTheActuatorWatchdog) { check_loop_member_kill(Victim::sensor); }
+
+TEST(LoopMemberKill, KillingTheJoystickBrakesTheArmThroughTheActuatorWatchdog) {
+  check_loop_member_kill(Victim::joystick);
 }
 
 }  // namespace

@@ -9,10 +9,11 @@
 //
 // Each cycle out[i] = gain[i] * (ref[i] + sen[i]). The plus is the paper's: the hand sensor
 // reads the reaction force, opposite in sign to the reference, so the command is zero when
-// they balance. An input with no new datum for stale_periods cycles, or holding NaN/inf,
-// makes the command zero (never the last one). A command's stamp is the stamp of the sensor
-// sample it was computed from, so a receiver can measure sample-to-drive latency; a zero
-// command from stale or bad input is stamped with the time it was made.
+// they balance. While an input has had no new datum for stale_periods cycles, or holds NaN/inf,
+// no command is written at all (never the last one, never a zero one): the actuator's watchdog
+// then brakes the drives, as when the controller itself is lost. A command's stamp is the
+// stamp of the sensor sample it was computed from, so a receiver can measure sample-to-drive
+// latency.
 #pragma once
 
 #include "rtm/component.h"
@@ -50,7 +51,7 @@ std::array<float, 6> proportional_command(const std::array<float, 6>& gain, cons
 struct ControllerCounters {
   std::uint64_t cycles = 0;
   std::uint64_t commands = 0;         // proportional commands written
-  std::uint64_t zero_commands = 0;    // zero commands written (stale, missing or bad input)
+  std::uint64_t withheld = 0;         // cycles without a command (stale, missing or bad input)
   std::uint64_t stale_events = 0;     // an input went stale after having been fresh
   std::uint64_t non_finite_events = 0;  // an input started holding NaN/inf
 };
@@ -88,7 +89,7 @@ class Controller final : public rtm::Component {
   Input reference_{params_.stale_periods};
   RTM::TimedFloat6 command_{};
   std::array<float, 6> gain_ = params_.gain;  // the cycle's copy of gain_live_
-  std::atomic<std::uint64_t> cycles_{0}, commands_{0}, zero_commands_{0}, stale_events_{0}, non_finite_events_{0};
+  std::atomic<std::uint64_t> cycles_{0}, commands_{0}, withheld_commands_{0}, stale_events_{0}, non_finite_events_{0};
   rtm::InPort<RTM::TimedFloat6>& sensor_in_ = add_in_port<RTM::TimedFloat6>(
       "wrench", {"wrench the sensor measures, base frame", rtm::wrench_elements()});
   rtm::InPort<RTM::TimedFloat6>& reference_in_ = add_in_port<RTM::TimedFloat6>(
