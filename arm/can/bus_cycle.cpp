@@ -25,6 +25,8 @@ BusCycle::BusCycle(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_b
       following_(config_) {
   if (!drive_bus_) throw std::invalid_argument("Pa10Master: no drive bus");
   if (config_.period_ns <= 0) throw std::invalid_argument("Pa10Master: period must be > 0");
+  if (config_.missed_feedback_limit < 1 || config_.missed_feedback_limit > 10'000)
+    throw std::invalid_argument("Pa10Master: missed_feedback_limit must be 1..10000");
   if (config_.answer_expiry_periods < 1 || config_.answer_expiry_periods > AnswerLedger::kMaxExpiry)
     throw std::invalid_argument("Pa10Master: answer_expiry_periods must be 1..256");
   const auto window_ok = [](double w) { return std::isfinite(w) && w >= 0; };
@@ -259,11 +261,12 @@ void BusCycle::send_cycle(std::int64_t now_ns) {
 
 // Closes the window of the last SYNC: the supervisor checks the drives, and what arrived is
 // published.
-void BusCycle::close_window(std::int64_t now_ns) {
+void BusCycle::close_window(std::int64_t now_ns, bool count_silence) {
   window_open_ = false;
   for (std::size_t i = 0; i < kDriveCount; ++i)
     if (joints_.answered(i)) last_statusword_[i] = joints_.feedback(i).statusword;
-  const DriveSummary drives = supervisor_.check_drives(joints_.answers(), last_statusword_, now_ns);
+  if (!count_silence) ++counters_.stalled_windows;
+  const DriveSummary drives = supervisor_.check_drives(joints_.answers(), last_statusword_, now_ns, count_silence);
   check_following();
   publish(drives);
 }
@@ -335,7 +338,11 @@ void BusCycle::bus_failure(const std::exception& error) {
 
 void BusCycle::receive(std::int64_t now_ns) {
   drain();
-  if (cycle_ > 0) close_window(now_ns);
+  // A window much longer than a period means this cycle ran late: our process or the whole
+  // host stalled, and the nodes (the simulator among them) may have stalled with it. A drive
+  // that did not answer then is not counted as silent; the heartbeat still catches a dead one.
+  const bool on_time = now_ns - sync_time_ns_ <= config_.period_ns + config_.period_ns / 2;
+  if (cycle_ > 0) close_window(now_ns, on_time);
   supervisor_.check_heartbeats(now_ns);
 }
 
@@ -352,7 +359,7 @@ bool BusCycle::step() {
   transmit(now_ns);
   const bool complete = receive_until(monotonic_ns() + config_.step_timeout_ns, [this] { return window_complete(); });
   if (!complete) ++counters_.step_timeouts;
-  close_window(monotonic_ns());
+  close_window(monotonic_ns(), true);  // lock-step waited step_timeout_ns for the answers
   return complete;
 }
 

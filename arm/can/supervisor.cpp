@@ -109,7 +109,7 @@ void Supervisor::check_heartbeats(std::int64_t now_ns) {
 
 DriveSummary Supervisor::check_drives(const std::array<bool, kDriveCount>& got,
                                       const std::array<std::uint16_t, kDriveCount>& statusword,
-                                      std::int64_t now_ns) {
+                                      std::int64_t now_ns, bool count_silence) {
   DriveSummary summary;
   summary.all_quick_stopped = quick_stop_;
   bool all_operation_enabled = true;
@@ -118,7 +118,7 @@ DriveSummary Supervisor::check_drives(const std::array<bool, kDriveCount>& got,
     const auto i = static_cast<std::size_t>(j);
     if (got[i]) {
       missed_[i] = 0;
-    } else if (started_ && ++missed_[i] > missed_feedback_limit_ && !fault_.active()) {
+    } else if (started_ && count_silence && ++missed_[i] > missed_feedback_limit_ && !fault_.active()) {
       latch(FaultKind::missing_feedback, drive_node(j), 0, "%s: no TPDO for %d consecutive SYNCs",
             node_description(drive_node(j)).c_str(), missed_[i]);
     }

@@ -41,6 +41,11 @@ void ArmHardware::Options::add_options(CLI::App& app) {
                  "SYNCs over which the position window compares motion with the commands")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
+  app.add_option("--missed-feedback-limit", missed_feedback_limit,
+                 "SYNCs in a row a drive may leave unanswered before the drives are stopped (windows that "
+                 "closed late, a stall of this process or the host, do not count)")
+      ->check(CLI::Range(1, 10'000))
+      ->capture_default_str();
   app.add_option("--following-periods", following_error_periods,
                  "SYNCs in a row outside a window before the drives are stopped")
       ->check(CLI::Range(1, 500))
@@ -59,6 +64,7 @@ ArmHardware::ArmHardware(const Options& options) : options_(options) {
   config.following_position_window_rad = options.following_position_window_rad;
   config.following_position_periods = options.following_position_periods;
   config.following_error_periods = options.following_error_periods;
+  config.missed_feedback_limit = options.missed_feedback_limit;
   master_ = std::make_unique<pc::Pa10Master>(options.bus, options.sensor_bus, config);
   master_->start();
   rtm::pa10::ArmOptions arm_options;

@@ -141,7 +141,8 @@ class BusCycle {
   void send(Bus& bus, const Result<can_frame>& frame);
   void add(const Result<can_frame>& frame);
   void send_cycle(std::int64_t now_ns);
-  void close_window(std::int64_t now_ns);
+  // count_silence: whether a drive that did not answer counts towards missed_feedback_limit.
+  void close_window(std::int64_t now_ns, bool count_silence);
   void publish(const DriveSummary& drives);
   void publish_sent(std::uint64_t sequence);
   // The sensor in slot k is configured (MasterConfig::sensors): the supervisor watches it.

@@ -24,8 +24,11 @@ struct MasterConfig {
   std::int64_t enable_timeout_ns = 2'000'000'000;    // all drives operation enabled
   std::int64_t heartbeat_timeout_ns = 300'000'000;   // node silent longer -> fault
   std::int64_t step_timeout_ns = 100'000'000;        // lock-step wait
-  // A drive silent for more consecutive SYNCs -> fault. 25 cycles = 50 ms: longer than the
-  // 5-40 ms host stalls a VM shows (a dead node is caught by the heartbeat after 300 ms anyway).
+  // A drive that does not answer more consecutive SYNCs -> FaultKind::missing_feedback.
+  // 25 cycles = 50 ms. Only windows closed on time count (receive() within 1.5 periods of the
+  // SYNC): when the master's own cycle ran late, its process or the whole host stalled (these
+  // VMs show 100-120 ms), and the nodes may have stalled with it (counted as stalled_windows).
+  // A dead node is caught by the heartbeat after heartbeat_timeout_ns anyway. 1..10000.
   int missed_feedback_limit = 25;
   // A TPDO answers one of our last `answer_expiry_periods` SYNCs (1..256, see answer_ledger.h);
   // one more than a node was asked for is a spoofed frame (FaultKind::spoofed_frame). Longer
@@ -87,6 +90,7 @@ struct MasterCounters {
   std::uint64_t cycles = 0;            // SYNCs sent
   std::uint64_t overruns = 0;          // run_periodic: cycle found its deadline already past
   std::uint64_t step_timeouts = 0;     // step(): not all expected TPDOs within step_timeout_ns
+  std::uint64_t stalled_windows = 0;   // receive() ran so late that silence did not count
   std::uint64_t malformed_frames = 0;  // protocol id, but the decoder refused it
   std::uint64_t unknown_frames = 0;    // id outside the protocol
   std::uint64_t late_frames = 0;       // TPDO answering an older SYNC: ignored

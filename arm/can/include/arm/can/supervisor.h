@@ -78,9 +78,12 @@ class Supervisor {
   // ---- watchdogs, once per cycle ----
   void check_heartbeats(std::int64_t now_ns);
   // The answers to one SYNC closed at now_ns: got[j] whether drive j answered, statusword[j]
-  // its latest statusword (kept from earlier SYNCs when it did not answer).
+  // its latest statusword (kept from earlier SYNCs when it did not answer). count_silence:
+  // whether a drive that did not answer counts towards missed_feedback_limit (not when the
+  // window closed late: a stall of the master's process or host).
   DriveSummary check_drives(const std::array<bool, kDriveCount>& got,
-                            const std::array<std::uint16_t, kDriveCount>& statusword, std::int64_t now_ns);
+                            const std::array<std::uint16_t, kDriveCount>& statusword, std::int64_t now_ns,
+                            bool count_silence = true);
 
  private:
   bool quick_stop_expected(std::int64_t now_ns) const;

@@ -89,6 +89,7 @@ class ArmHardware final : public VelocityArm {
     double following_position_window_rad = rtm::can::MasterConfig{}.following_position_window_rad;
     int following_position_periods = rtm::can::MasterConfig{}.following_position_periods;
     int following_error_periods = rtm::can::MasterConfig{}.following_error_periods;
+    int missed_feedback_limit = rtm::can::MasterConfig{}.missed_feedback_limit;
 
     // Registers --bus, --sensor-bus, --urdf and the following-error windows on app, bound to
     // these fields, each with its range.
