@@ -84,7 +84,9 @@ void Supervisor::on_heartbeat(std::uint8_t node, NmtState state, std::int64_t no
 }
 
 void Supervisor::on_emcy(std::uint8_t node, std::uint16_t code) {
-  if (code == emcy::kErrorReset || !expected_[node] || enabling_) return;
+  // Before NMT start an EMCY belongs to the previous session (a drive that timed out after
+  // the last master stopped); the enable sequence resets such a fault. While enabling, too.
+  if (code == emcy::kErrorReset || !expected_[node] || !started_ || enabling_) return;
   // A drive's RPDO timeout is its own kind: the commands came late, the drive is not broken.
   const FaultKind kind = code == emcy::kRpdoTimeout ? FaultKind::command_loss : FaultKind::emergency;
   latch(kind, node, code, "%s: EMCY 0x%04x %s", node_description(node).c_str(), code, emcy_description(code).data());

@@ -71,6 +71,20 @@ TEST(Pa10Master, StartupSetsCyclicSyncVelocityModeAndEnablesEveryDrive) {
   for (auto sw : s.statusword) EXPECT_EQ(sw & statusword::kStateMask, statusword::kOperationEnabled);
 }
 
+// A master restarted right after the last one stopped finds a drive that timed out meanwhile
+// (EMCY 0x8250, drive in fault): that EMCY belongs to the previous session, and start-up's
+// enable sequence resets the fault.
+TEST(Pa10Master, AnEmcyFromBeforeStartUpIsNoFaultAndTheEnableSequenceResetsTheDrive) {
+  Rig rig;
+  rig.nodes->inject_fault(drive_node(3), emcy::kRpdoTimeout);
+  std::this_thread::sleep_for(20ms);  // the EMCY waits in the master's socket
+  ASSERT_NO_THROW(rig.master->start());
+  EXPECT_TRUE(rig.master->enabled()) << rig.master->fault().reason;
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+  EXPECT_EQ(rig.nodes->drive_state(drive_node(3)), DriveState::operation_enabled);
+  EXPECT_GE(rig.master->counters().emcy_frames, 1u) << "seen and counted";
+}
+
 TEST(Pa10Master, StartupTimeoutNamesEveryMissingNode) {
   EmulatedPa10::Options options;
   options.disconnected = {3, kJoystickSensorNode};
