@@ -60,9 +60,14 @@ LocalHub::LocalHub(std::string socket_path) : socket_path_(std::move(socket_path
   remove_stale_socket(socket_path_, address);
   listen_fd_ = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
   if (listen_fd_ < 0) fail(socket_path_, "socket(AF_UNIX, SOCK_SEQPACKET)", errno);
-  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 ||
-      ::listen(listen_fd_, 64) != 0) {
-    const int error = errno;
+  // The socket stands for the bus cable: only this user may plug into it (bound with umask
+  // 077, so it is never open to others, not even for an instant).
+  const mode_t old_mask = ::umask(077);
+  const int bound = ::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&address), sizeof address);
+  const int bind_error = errno;
+  ::umask(old_mask);
+  if (bound != 0 || ::listen(listen_fd_, 64) != 0) {
+    const int error = bound != 0 ? bind_error : errno;
     ::close(listen_fd_);
     fail(socket_path_, "bind/listen", error);
   }
@@ -159,6 +164,13 @@ void LocalHub::run() {
       for (;;) {
         const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
         if (fd < 0) break;
+        if (endpoints.size() >= kMaxEndpoints) {
+          // Every frame is copied to every endpoint: their number bounds the hub's work per
+          // frame (and the simulator's, on the same CPU). One more is closed at once.
+          ::close(fd);
+          ++local.endpoints_refused;
+          continue;
+        }
         ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &kEndpointSendBuffer_bytes,
                      sizeof kEndpointSendBuffer_bytes);
         endpoints.push_back(fd);

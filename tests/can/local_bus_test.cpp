@@ -9,6 +9,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <chrono>
 #include <cstring>
@@ -133,6 +134,27 @@ TEST(CanLocalBus, SurvivesAnEndpointDying) {
   ASSERT_TRUE(c->receive(got, kArrives_ns));
   EXPECT_EQ(got.can_id, 0x321u);
   EXPECT_EQ(hub.counters().endpoints_closed, 1u);
+}
+
+TEST(CanLocalBus, ServesAtMostMaxEndpointsAndClosesMoreAtOnceSoAFloodOfConnectionsCannotStallIt) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  std::vector<std::unique_ptr<Bus>> endpoints;
+  for (std::size_t i = 0; i < LocalHub::kMaxEndpoints + 20; ++i) endpoints.push_back(open_local(dir.file("bus")));
+  ASSERT_TRUE(eventually([&] { return hub.counters().endpoints_refused == 20u; })) << hub.counters().endpoints_refused;
+  EXPECT_EQ(hub.endpoint_count(), LocalHub::kMaxEndpoints);
+  // The ones served still talk to each other.
+  ASSERT_TRUE(endpoints[0]->send(frame(0x181, 1)));
+  can_frame got{};
+  EXPECT_TRUE(endpoints[1]->receive(got, kArrives_ns));
+}
+
+TEST(CanLocalBus, TheHubSocketIsItsUsersOnly) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  struct stat st {};
+  ASSERT_EQ(::stat(dir.file("bus").c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 077, 0u) << "group or others may connect: " << std::oct << (st.st_mode & 0777);
 }
 
 TEST(CanLocalBus, ASlowEndpointLosesFramesWithoutBlockingTheOthers) {

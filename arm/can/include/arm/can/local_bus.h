@@ -26,7 +26,10 @@ class LocalHub {
     std::uint64_t datagrams_malformed = 0;  // wrong size or can_dlc > 8: dropped
     std::uint64_t endpoints_connected = 0;  // total connections accepted
     std::uint64_t endpoints_closed = 0;     // total connections that went away
+    std::uint64_t endpoints_refused = 0;    // connections closed at once: kMaxEndpoints reached
   };
+  // Endpoints the hub serves at once (a bus has a master, the nodes, a few listeners).
+  static constexpr std::size_t kMaxEndpoints = 32;
 
   // Binds and listens at `socket_path` (an existing stale socket file there is replaced;
   // anything else there is an error), then forwards on its own thread. Throws BusError with
