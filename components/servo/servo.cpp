@@ -8,6 +8,7 @@
 
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 namespace rtm::comp {
 
@@ -144,13 +145,61 @@ void RemoteServo::on_start() {
     undo(turned_on, subscribed);
     throw std::runtime_error(fmt::format("servo {}: {}", name(), e.what()));
   }
+  start_holding();
   log().info("servo {}: members connected and on ({})", name(),
              phase_offset_.count() == 0 ? std::string("downstream first")
                                         : fmt::format("sensor, controller, actuator {} us apart",
                                                       phase_offset_.count() / 1000));
 }
 
+void RemoteServo::start_holding() {
+  {
+    std::lock_guard lock(holder_mutex_);
+    holder_stop_ = false;
+  }
+  std::vector<RTM::RtComponentEx_var> members;
+  for (RTM::RtComponent_ptr m : {sensor_.in(), controller_.in(), actuator_.in()}) {
+    RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(m);
+    if (!CORBA::is_nil(ex)) members.push_back(ex);  // a plain RtComponent cannot be held
+  }
+  holder_ = std::thread([this, members = std::move(members)] {
+    std::vector<bool> failed(members.size(), false);
+    std::unique_lock lock(holder_mutex_);
+    while (!holder_stop_) {
+      lock.unlock();
+      for (std::size_t i = 0; i < members.size(); ++i) {
+        try {
+          members[i]->hold(name().c_str(), kLeaseMs);
+          failed[i] = false;
+        } catch (const CORBA::Exception& e) {
+          if (!failed[i]) log().warn("servo {}: hold on a member raised {}", name(), e._name());
+          failed[i] = true;
+        }
+      }
+      lock.lock();
+      holder_wake_.wait_for(lock, std::chrono::milliseconds(kLeaseMs / 5), [this] { return holder_stop_; });
+    }
+    lock.unlock();
+    for (const auto& m : members) {
+      try {
+        m->release(name().c_str());
+      } catch (const CORBA::Exception&) {
+      }
+    }
+  });
+}
+
+void RemoteServo::stop_holding() {
+  {
+    std::lock_guard lock(holder_mutex_);
+    holder_stop_ = true;
+  }
+  holder_wake_.notify_all();
+  if (holder_.joinable()) holder_.join();
+}
+
 void RemoteServo::on_stop() {
+  stop_holding();
   bool all[3] = {true, true, true};
   bool both[2] = {true, true};
   undo(all, both);

@@ -278,7 +278,8 @@ AccessPolicy access_policy() { return g_access.policy.load(std::memory_order_acq
 bool is_change_operation(std::string_view name) {
   static constexpr std::string_view kChanges[] = {"on",        "off",         "reset",        "set_parameter",
                                                   "subscribe", "unsubscribe", "put",          "push",
-                                                  "put_in_order", "push_in_order"};
+                                                  "put_in_order", "push_in_order", "hold",
+                                                  "release"};
   for (std::string_view change : kChanges)
     if (name == change) return true;
   return false;

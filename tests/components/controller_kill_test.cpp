@@ -21,6 +21,8 @@
 #include "rtm_test/child_process.h"
 #include "rtm_test/omni_names.h"
 
+#include <RTMExt.hh>
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -359,6 +361,41 @@ TEST(LoopMemberKill, KillingTheSensorBrakesTheArmThroughTheActuatorWatchdog) { c
 
 TEST(LoopMemberKill, KillingTheJoystickBrakesTheArmThroughTheActuatorWatchdog) {
   check_loop_member_kill(Victim::joystick);
+}
+
+// The composite dies: its members must not run on, wired and moving the arm, out of reach of
+// anything named servo0. They turn themselves off once the servo stops renewing its hold.
+TEST(CompositeKill, KillingTheServoTurnsItsMembersOffWithinItsLease) {
+  PaperSystem system;
+  const rtm::NamingClient client(test_orb().orb(), rtm::NamingAddress::parse(system.naming));
+  RTM::RtComponent_var servo_ref = client.resolve_component("servo0");
+  RTM::RtComponent_var joystick_ref = client.resolve_component("joystick0");
+  RTM::OutPortList_var joystick_outs = joystick_ref->out_ports();
+  RTM::InPortList_var servo_ins = servo_ref->in_ports();
+  ASSERT_TRUE(joystick_outs[0]->subscribe(RTM::repeated, servo_ins[0]));
+  servo_ref->on();
+  joystick_ref->on();
+  ASSERT_TRUE(wait_until_moving(*system.recorder, 60s)) << "the arm never moved\n" << system.actuator->output();
+  std::vector<RTM::RtComponentEx_var> members;
+  for (const char* name : {"sensor0", "controller0", "actuator0"}) {
+    RTM::RtComponent_var plain = client.resolve_component(name);
+    RTM::RtComponentEx_var m = RTM::RtComponentEx::_narrow(plain);
+    ASSERT_EQ(m->state(), RTM::COMPONENT_ON) << name;
+    members.push_back(m);
+  }
+  system.servo->kill_now();
+  const auto killed = std::chrono::steady_clock::now();
+  for (auto& m : members) {
+    while (m->state() == RTM::COMPONENT_ON && std::chrono::steady_clock::now() - killed < 10s)
+      std::this_thread::sleep_for(10ms);
+    EXPECT_EQ(m->state(), RTM::COMPONENT_OFF) << m->name() << " still runs after its composite died";
+  }
+  std::fprintf(stderr, "composite kill: every member off %lld ms after the kill (the servo's lease: 500 ms)\n",
+               static_cast<long long>(std::chrono::duration_cast<std::chrono::milliseconds>(
+                                          std::chrono::steady_clock::now() - killed)
+                                          .count()));
+  EXPECT_NE(system.actuator->output().find("servo0 stopped renewing its hold"), std::string::npos);
+  joystick_ref->off();
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include "RTMExt.hh"
 #include "rt/activity.h"
 #include "rt/histogram.h"
+#include "rtm/lease.h"
 #include "rtm/describe.h"
 #include "rtm/inport.h"
 #include "rtm/outport.h"
@@ -187,6 +188,10 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   // Refuses (RTM::ParameterRefused, nothing changed) an unknown name, a fixed parameter, a
   // when-off parameter while ON, and a value the parameter's set() rejects. Logs each change.
   void set_parameter(const char* name, const char* value) override;
+  // A composite's hold (RTMExt.idl): renewed within lease_ms, else the component turns itself
+  // off. BAD_PARAM for a lease outside 50..60000 ms.
+  void hold(const char* holder, CORBA::ULong lease_ms) override;
+  void release(const char* holder) override;
 
  private:
   bool run_cycle(const CycleContext& ctx);
@@ -205,6 +210,7 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   mutable std::mutex refs_mu_;  // guards ref_, in_overrides_
   RTM::RtComponentEx_var ref_;
   std::vector<RTM::InPort_var> in_overrides_;  // non-nil: handed out instead of our own port
+  std::unique_ptr<Leases> leases_;  // reset first in the destructor: no off() from it after
 };
 
 }  // namespace rtm

@@ -28,9 +28,12 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 
 namespace rtm::comp {
 
@@ -52,6 +55,7 @@ class RemoteServo final : public rtm::Component {
   // datum reaches a member that is not running), and each stage waits up to a period.
   RemoteServo(std::string name, RTM::RtComponent_ptr sensor, RTM::RtComponent_ptr controller,
               RTM::RtComponent_ptr actuator, std::chrono::nanoseconds phase_offset = std::chrono::nanoseconds(0));
+  ~RemoteServo() override { stop_holding(); }
 
   // The controller's InPort 1, to expose as the servo's InPort 0. Throws std::runtime_error
   // when the controller has fewer than two InPorts.
@@ -72,9 +76,21 @@ class RemoteServo final : public rtm::Component {
   Link link(RTM::RtComponent_ptr from, const char* from_role, RTM::RtComponent_ptr to, const char* to_role,
             CORBA::ULong in_index) const;
   void undo(bool turned_on[3], bool subscribed[2]);
+  // While on, the servo holds its members (RtComponentEx::hold, renewed every lease/5): when
+  // its process dies they turn themselves off within the lease instead of running on, wired
+  // and out of anyone's reach.
+  void start_holding();
+  void stop_holding();
 
   RTM::RtComponent_var sensor_, controller_, actuator_;
   std::chrono::nanoseconds phase_offset_;
+  std::thread holder_;
+  std::mutex holder_mutex_;
+  std::condition_variable holder_wake_;
+  bool holder_stop_ = false;
+
+ public:
+  static constexpr std::uint32_t kLeaseMs = 500;
 };
 
 // ============================ SharedTickServo =========================

@@ -1,0 +1,72 @@
+#include "rtm/lease.h"
+
+#include <stdexcept>
+#include <vector>
+
+namespace rtm {
+
+Leases::Leases(std::function<void(const std::string&, std::uint32_t)> expired) : expired_(std::move(expired)) {}
+
+Leases::~Leases() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+    holds_.clear();
+  }
+  changed_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void Leases::hold(const std::string& holder, std::uint32_t lease_ms) {
+  if (lease_ms < kMinLeaseMs || lease_ms > kMaxLeaseMs)
+    throw std::invalid_argument("lease of " + std::to_string(lease_ms) + " ms: want 50..60000 ms");
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return;
+    holds_[holder] = Hold{std::chrono::steady_clock::now() + std::chrono::milliseconds(lease_ms), lease_ms};
+    if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
+  }
+  changed_.notify_all();
+}
+
+void Leases::release(const std::string& holder) {
+  {
+    std::lock_guard lock(mutex_);
+    holds_.erase(holder);
+  }
+  changed_.notify_all();
+}
+
+std::size_t Leases::count() const {
+  std::lock_guard lock(mutex_);
+  return holds_.size();
+}
+
+void Leases::run() {
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    if (holds_.empty()) {
+      changed_.wait(lock);
+      continue;
+    }
+    auto next = holds_.begin()->second.until;
+    for (const auto& [holder, h] : holds_) next = std::min(next, h.until);
+    changed_.wait_until(lock, next);
+    const auto now = std::chrono::steady_clock::now();
+    std::vector<std::pair<std::string, std::uint32_t>> ended;
+    for (auto it = holds_.begin(); it != holds_.end();) {
+      if (it->second.until <= now) {
+        ended.emplace_back(it->first, it->second.lease_ms);
+        it = holds_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    if (ended.empty() || stopping_) continue;
+    lock.unlock();
+    for (const auto& [holder, lease_ms] : ended) expired_(holder, lease_ms);
+    lock.lock();
+  }
+}
+
+}  // namespace rtm
