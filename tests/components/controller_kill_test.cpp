@@ -270,6 +270,36 @@ struct PaperSystem {
 
 enum class Victim { controller, sensor, joystick };
 
+// `rtm ls` once the controller is gone: the controller is dead, the servo that exposes its
+// reference InPort answers and is alive, that one port unreachable; `--clean` unbinds the
+// controller only.
+void expect_ls_tells_the_dead_member_from_the_live_composite(const std::string& naming) {
+  auto rtm_cli = [&](std::vector<std::string> extra) {
+    std::vector<std::string> argv{RTM_CLI_EXE, "--naming", naming};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    rtm_test::ChildProcess::Options quiet;
+    quiet.echo_output = false;
+    rtm_test::ChildProcess rtm(argv, quiet);
+    rtm.wait_for_exit(30s);
+    return rtm.output();
+  };
+  const std::string listing = rtm_cli({"ls", "-l"});
+  std::istringstream lines(listing);
+  std::string line, servo_line, controller_line;
+  while (std::getline(lines, line)) {
+    if (line.find("servo0") != std::string::npos && servo_line.empty()) servo_line = line;
+    if (line.find("controller0") != std::string::npos && controller_line.empty()) controller_line = line;
+  }
+  EXPECT_NE(controller_line.find("dead"), std::string::npos) << listing;
+  EXPECT_EQ(servo_line.find("dead"), std::string::npos) << "the live composite called dead:\n" << listing;
+  const std::string servo = rtm_cli({"cat", "servo0"});
+  EXPECT_NE(servo.find("unreachable (TRANSIENT)"), std::string::npos) << servo;
+  rtm_cli({"ls", "--clean"});
+  const std::string after = rtm_cli({"ls"});
+  EXPECT_NE(after.find("servo0"), std::string::npos) << "--clean unbound the live composite:\n" << after;
+  EXPECT_EQ(after.find("controller0"), std::string::npos) << after;
+}
+
 // Kills one member of the running loop and checks the brake: the actuator's watchdog fires
 // (the controller's command stops, or the controller withholds it once an input went stale)
 // and every drive gets quick stop within 3 SYNCs of the firing, at rest within 3 more.
@@ -350,6 +380,7 @@ void check_loop_member_kill(Victim victim) {
   std::fprintf(stderr, "kill test: quick stop %ld SYNC(s) after the kill\n",
                syncs_between(frames, frames_before_kill > 0 ? frames_before_kill - 1 : 0, quick_stop_sync));
   EXPECT_EQ(actuator.count_lines(kWatchdog), events_before + 1) << "one event for the kill, logged once";
+  if (victim == Victim::controller) expect_ls_tells_the_dead_member_from_the_live_composite(naming);
 }
 
 TEST(ControllerKill, TheArmIsBrakedWithinThreeSyncsOfTheActuatorWatchdog) { check_loop_member_kill(Victim::controller); }

@@ -171,11 +171,24 @@ ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr obje
     }
     RTM::InPortList_var ins = comp->in_ports();
     RTM::OutPortList_var outs = comp->out_ports();
+    // A composite hands out ports its members serve: a member that is gone makes that port
+    // unreachable, not the composite dead (it answered above).
+    auto add_port = [&](Direction direction, int index, auto inspect) {
+      if (auto gone = dead_if_unreachable([&] { info.ports.push_back(inspect()); })) {
+        PortInfo p;
+        p.direction = direction;
+        p.index = index;
+        p.name = fmt::format("{}{}", direction == Direction::in ? "in" : "out", index);
+        p.type = "?";
+        p.last_error = "unreachable (" + *gone + "): the process serving this port is gone";
+        info.ports.push_back(std::move(p));
+      }
+    };
     for (CORBA::ULong i = 0; i < ins->length(); ++i) {
-      info.ports.push_back(inspect_in(ins[i], static_cast<int>(i)));
+      add_port(Direction::in, static_cast<int>(i), [&] { return inspect_in(ins[i], static_cast<int>(i)); });
     }
     for (CORBA::ULong i = 0; i < outs->length(); ++i) {
-      info.ports.push_back(inspect_out(outs[i], static_cast<int>(i)));
+      add_port(Direction::out, static_cast<int>(i), [&] { return inspect_out(outs[i], static_cast<int>(i)); });
     }
     if (!detailed) {
       for (auto& p : info.ports) p.subscriptions.clear();
