@@ -24,6 +24,7 @@
 #include <thread>
 #include <vector>
 
+#include "busy_neighbour.h"
 #include "attacker.h"
 #include "master_rig.h"
 
@@ -33,26 +34,7 @@ using namespace rtm::can;
 using rtm::can::testing::Attacker;
 using rtm::can::testing::Rig;
 
-class BusyNeighbour {
- public:
-  BusyNeighbour() {
-    pid_ = fork();
-    if (pid_ == 0) {
-      volatile std::uint64_t spin = 0;
-      for (;;) spin = spin + 1;
-    }
-  }
-  ~BusyNeighbour() {
-    if (pid_ <= 0) return;
-    kill(pid_, SIGKILL);
-    waitpid(pid_, nullptr, 0);
-  }
-  BusyNeighbour(const BusyNeighbour&) = delete;
-  BusyNeighbour& operator=(const BusyNeighbour&) = delete;
-
- private:
-  pid_t pid_ = -1;
-};
+using rtm_bench::BusyNeighbour;
 
 struct Attack {
   const char* name;

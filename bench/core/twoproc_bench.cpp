@@ -20,6 +20,7 @@
 // quiet, then busy. --cpu N pins both processes to CPU N (MACHINE-NOTES: stages that wake each
 // other are fastest on one CPU). This process is the receiver; it runs itself again as the
 // publisher (--role publisher ...), one child per row or slice.
+#include "busy_neighbour.h"
 #include "bench_stats.h"
 
 #include "rt/activity.h"
@@ -284,27 +285,7 @@ void BareInPort::put(const CORBA::Any& value) {
   receiver_.on_datum(*d);
 }
 
-// Another program on the machine: a process that keeps one CPU busy until it is stopped.
-class BusyNeighbour {
- public:
-  BusyNeighbour() {
-    pid_ = fork();
-    if (pid_ == 0) {
-      volatile std::uint64_t spin = 0;
-      for (;;) spin = spin + 1;
-    }
-  }
-  ~BusyNeighbour() {
-    if (pid_ <= 0) return;
-    kill(pid_, SIGKILL);
-    waitpid(pid_, nullptr, 0);
-  }
-  BusyNeighbour(const BusyNeighbour&) = delete;
-  BusyNeighbour& operator=(const BusyNeighbour&) = delete;
-
- private:
-  pid_t pid_ = -1;
-};
+using rtm_bench::BusyNeighbour;  // another program on the machine
 
 std::string run_child(const char* self, const std::vector<std::string>& child_args) {
   int fds[2];

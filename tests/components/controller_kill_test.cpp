@@ -270,6 +270,15 @@ struct PaperSystem {
 
 enum class Victim { controller, sensor, joystick };
 
+// The paper's procedure: joystick.out0 -> servo.in0, then on() the servo and the joystick.
+void turn_on_the_paper_way(RTM::RtComponent_ptr servo, RTM::RtComponent_ptr joystick) {
+  RTM::OutPortList_var joystick_outs = joystick->out_ports();
+  RTM::InPortList_var servo_ins = servo->in_ports();
+  ASSERT_TRUE(joystick_outs[0]->subscribe(RTM::repeated, servo_ins[0]));
+  servo->on();
+  joystick->on();
+}
+
 // `rtm ls` once the controller is gone: the controller is dead, the servo that exposes its
 // reference InPort answers and is alive, that one port unreachable; `--clean` unbinds the
 // controller only.
@@ -309,15 +318,10 @@ void check_loop_member_kill(Victim victim) {
   BusRecorder& recorder = *system.recorder;
   rtm_test::ChildProcess& actuator = *system.actuator;
 
-  // The paper's procedure: joystick.out0 -> servo.in0, then on() the servo and the joystick.
   const rtm::NamingClient client(test_orb().orb(), rtm::NamingAddress::parse(naming));
   RTM::RtComponent_var servo_ref = client.resolve_component("servo0");
   RTM::RtComponent_var joystick_ref = client.resolve_component("joystick0");
-  RTM::OutPortList_var joystick_outs = joystick_ref->out_ports();
-  RTM::InPortList_var servo_ins = servo_ref->in_ports();
-  ASSERT_TRUE(joystick_outs[0]->subscribe(RTM::repeated, servo_ins[0]));
-  servo_ref->on();
-  joystick_ref->on();
+  ASSERT_NO_FATAL_FAILURE(turn_on_the_paper_way(servo_ref, joystick_ref));
 
   ASSERT_TRUE(wait_until_moving(recorder, 60s)) << "the arm never moved\n" << actuator.output();
 
@@ -401,11 +405,7 @@ TEST(CompositeKill, KillingTheServoTurnsItsMembersOffWithinItsLease) {
   const rtm::NamingClient client(test_orb().orb(), rtm::NamingAddress::parse(system.naming));
   RTM::RtComponent_var servo_ref = client.resolve_component("servo0");
   RTM::RtComponent_var joystick_ref = client.resolve_component("joystick0");
-  RTM::OutPortList_var joystick_outs = joystick_ref->out_ports();
-  RTM::InPortList_var servo_ins = servo_ref->in_ports();
-  ASSERT_TRUE(joystick_outs[0]->subscribe(RTM::repeated, servo_ins[0]));
-  servo_ref->on();
-  joystick_ref->on();
+  ASSERT_NO_FATAL_FAILURE(turn_on_the_paper_way(servo_ref, joystick_ref));
   ASSERT_TRUE(wait_until_moving(*system.recorder, 60s)) << "the arm never moved\n" << system.actuator->output();
   std::vector<RTM::RtComponentEx_var> members;
   for (const char* name : {"sensor0", "controller0", "actuator0"}) {
