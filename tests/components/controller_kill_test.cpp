@@ -236,7 +236,6 @@ rtm::Orb& test_orb() {
 struct PaperSystem {
   using Child = rtm_test::ChildProcess;
   PaperSystem() {
-    const auto profile = unique_path("rtm-kill-profile", ".yaml");
     std::ofstream(profile) << "segments:\n"
                               "  - hold: 0.3\n"
                               "  - ramp: {duration_s: 0.2, force_N: [5, 0, 0]}\n"
@@ -255,11 +254,16 @@ struct PaperSystem {
                     "--actuator", "actuator0"});
     servo->wait_until_bound(30s);
   }
+  ~PaperSystem() {
+    std::error_code ignored;
+    std::filesystem::remove(profile, ignored);  // pa10-sim read it at start
+  }
   std::unique_ptr<Child> member(std::vector<std::string> argv) const {
     argv.insert(argv.end(), {"--naming", naming});
     return std::make_unique<Child>(std::move(argv));
   }
 
+  const std::filesystem::path profile = unique_path("rtm-kill-profile", ".yaml");
   const std::string bus = "local:" + unique_path("rtm-kill", ".bus").string();
   rtm_test::OmniNames names;
   const std::string naming = names.address();
