@@ -19,6 +19,7 @@
 #include <cstring>
 #include <optional>
 #include <stdexcept>
+#include <string>
 
 #include "rtm/log.h"
 
@@ -185,35 +186,35 @@ bool is_put_operation(std::string_view name) {
   return name == "put" || name == "push" || name == "put_in_order" || name == "push_in_order";
 }
 
+// Counts a refusal and logs the first three, then every thousandth.
+void note_refusal(std::atomic<std::uint64_t>& count, omni::omniInterceptors::serverReceiveRequest_T::info_T& info,
+                  const std::string& why) {
+  const std::uint64_t refused = count.fetch_add(1, std::memory_order_relaxed) + 1;
+  if (refused > 3 && refused % 1000 != 0) return;
+  const char* peer = info.peeraddress();
+  log().warn("refused {} from {}: {} ({} refused so far)", info.operation(), peer ? peer : "?", why, refused);
+}
+
+// Both checks throw before the arguments are read: the request body is skipped, not unmarshalled.
 CORBA::Boolean check_key(omni::omniInterceptors::serverReceiveRequest_T::info_T& info) {
   const char* operation = info.operation();
   if (!operation) return true;
   if (is_put_operation(operation)) {
     const std::optional<CORBA::ULong> kind = first_typecode_kind(info.giop_s);
     if (kind && !plain_data_kind(*kind)) {
-      const std::uint64_t refused = g_access.refused_data.fetch_add(1, std::memory_order_relaxed) + 1;
-      if (refused <= 3 || refused % 1000 == 0)
-        log().warn("refused {} from {}: the datum's type (TypeCode kind {}) is no data type ({} refused so far)",
-                   operation, info.peeraddress() ? info.peeraddress() : "?", *kind, refused);
+      note_refusal(g_access.refused_data, info,
+                   "the datum's type (TypeCode kind " + std::to_string(*kind) + ") is no data type");
       throw CORBA::BAD_PARAM(kNotPlainDataMinor, CORBA::COMPLETED_NO);
     }
   }
   if (g_access.policy.load(std::memory_order_acquire) == AccessPolicy::open) return true;
   if (!is_change_operation(operation)) return true;
   if (carries_our_key(info.giop_s)) return true;
-  const std::uint64_t refused = g_access.refused.fetch_add(1, std::memory_order_relaxed) + 1;
-  if (refused <= 3 || refused % 1000 == 0) {
-    const char* peer = info.peeraddress();
-    log().warn("refused {} from {}: it does not carry this component owner's access key ({} refused so far)", operation,
-               peer ? peer : "?", refused);
-  }
-  // Thrown before the arguments are read: the request body is skipped, not unmarshalled.
+  note_refusal(g_access.refused, info, "it does not carry this component owner's access key");
   throw CORBA::NO_PERMISSION(kAccessRefusedMinor, CORBA::COMPLETED_NO);
 }
 
 }  // namespace
-
-std::string_view to_string(AccessPolicy policy) { return policy == AccessPolicy::open ? "open" : "owner"; }
 
 std::optional<AccessPolicy> parse_access_policy(std::string_view text) {
   if (text == "owner") return AccessPolicy::owner;
@@ -273,8 +274,6 @@ void register_access_interceptors() {
   omniORB::getInterceptors()->serverReceiveRequest.add(check_key);
 }
 
-AccessPolicy access_policy() { return g_access.policy.load(std::memory_order_acquire); }
-
 bool is_change_operation(std::string_view name) {
   static constexpr std::string_view kChanges[] = {"on",        "off",         "reset",        "set_parameter",
                                                   "subscribe", "unsubscribe", "put",          "push",
@@ -284,8 +283,5 @@ bool is_change_operation(std::string_view name) {
     if (name == change) return true;
   return false;
 }
-
-std::uint64_t refused_changes() { return g_access.refused.load(std::memory_order_relaxed); }
-std::uint64_t refused_non_data() { return g_access.refused_data.load(std::memory_order_relaxed); }
 
 }  // namespace rtm

@@ -37,11 +37,6 @@ void Leases::release(const std::string& holder) {
   changed_.notify_all();
 }
 
-std::size_t Leases::count() const {
-  std::lock_guard lock(mutex_);
-  return holds_.size();
-}
-
 void Leases::run() {
   std::unique_lock lock(mutex_);
   while (!stopping_) {

@@ -48,6 +48,11 @@ std::string OutPortBase::last_refusal() const {
   return last_refusal_;
 }
 
+std::string OutPortBase::full_port_text() const {
+  return "already " + std::to_string(options_.max_subscriptions) +
+         " subscriptions, the most it takes (OutPortOptions::max_subscriptions)";
+}
+
 std::size_t OutPortBase::subscription_count() const {
   std::lock_guard lock(mu_);
   return subs_.size();
@@ -137,8 +142,7 @@ bool OutPortBase::add_subscription(std::unique_ptr<Subscription> sub, bool start
     return false;
   }
   if (subs_.size() >= options_.max_subscriptions) {
-    why = full_name() + " -> " + sub->peer + ": already " + std::to_string(options_.max_subscriptions) +
-          " subscriptions, the most it takes (OutPortOptions::max_subscriptions)";
+    why = full_name() + " -> " + sub->peer + ": " + full_port_text();
     return false;
   }
   for (const auto& existing : subs_) {

@@ -28,7 +28,6 @@ enum class AccessPolicy : std::uint8_t {
   owner,  // changes need the key of the user who started the process (the default)
   open,   // anyone who can reach the endpoints may change it (2004 clients)
 };
-std::string_view to_string(AccessPolicy policy);
 // "owner" or "open"; nullopt otherwise.
 std::optional<AccessPolicy> parse_access_policy(std::string_view text);
 
@@ -45,7 +44,6 @@ AccessKey load_or_make_access_key();
 // made: every request carries `key` (none: nothing is sent, and changes elsewhere are refused);
 // changes to this process's servants need `key` unless `policy` is open.
 void configure_access(const std::optional<AccessKey>& key, AccessPolicy policy);
-AccessPolicy access_policy();
 // What rtm::Orb does unless the process configured its own: this user's key when it can be
 // read or made (else none: this process can read components but change none), policy owner.
 void configure_default_access();
@@ -56,14 +54,11 @@ void register_access_interceptors();
 // Whether operation `name` (a GIOP operation name) changes a component or its ports.
 bool is_change_operation(std::string_view name);
 
-// Changes refused in this process since start.
-std::uint64_t refused_changes();
-
 // The same interceptor screens every put before its argument is read: a datum whose type is
 // no data type (an any holding an any, whose unmarshalling omniORB 4.2 does in time doubling
 // per level; an object reference, a value, a TypeCode) is refused with CORBA::BAD_PARAM
-// (minor kNotPlainDataMinor), whatever the access policy. Counted here.
-std::uint64_t refused_non_data();
+// (minor kNotPlainDataMinor), whatever the access policy. Refusals of either kind are logged
+// (the first three, then every thousandth).
 inline constexpr std::uint32_t kNotPlainDataMinor = 0x52544d02;  // "RTM" 2
 
 // The minor code of the NO_PERMISSION a refused change raises.

@@ -27,7 +27,6 @@ class Leases {
   // Starts or renews holder's hold for lease_ms. std::invalid_argument outside 50..60000 ms.
   void hold(const std::string& holder, std::uint32_t lease_ms);
   void release(const std::string& holder);
-  std::size_t count() const;
 
  private:
   struct Hold {
@@ -37,7 +36,7 @@ class Leases {
   void run();
 
   std::function<void(const std::string&, std::uint32_t)> expired_;
-  mutable std::mutex mutex_;
+  std::mutex mutex_;
   std::condition_variable changed_;
   std::map<std::string, Hold> holds_;
   bool stopping_ = false;

@@ -207,6 +207,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   // "<owner>.<name>" of an InPort (asks it; RTM::InPort without owner: its name only).
   // "owner.name" of a subscriber, each call bounded by call_timeout_ms.
   static std::string peer_name(RTM::InPort_ptr port, std::uint32_t call_timeout_ms);
+  std::string full_port_text() const;  // why a subscribe to a full port is refused
 
   const std::string name_;
   const std::string owner_;

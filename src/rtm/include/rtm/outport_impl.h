@@ -236,9 +236,9 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
     refuse(full_name() + ": nil InPort reference");
     return false;
   }
+  // A full port refuses before any remote call; add_subscription() checks again under its lock.
   if (subscription_count() >= options_.max_subscriptions) {
-    refuse(full_name() + ": already " + std::to_string(options_.max_subscriptions) +
-           " subscriptions, the most it takes (OutPortOptions::max_subscriptions)");
+    refuse(full_name() + ": " + full_port_text());
     return false;
   }
   auto sub = new_subscription();
