@@ -9,7 +9,7 @@ set -euo pipefail
 
 packages=(
   g++ cmake make pkg-config git
-  libomniorb4-dev omniidl omniorb-nameserver
+  libomniorb4-dev omniidl omniorb-nameserver libssl-dev
   libeigen3-dev liborocos-kdl-dev liburdfdom-dev
   libmujoco-dev libqhull-dev
   libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev nlohmann-json3-dev

@@ -2,6 +2,7 @@
 
 #include "rtm/access.h"
 #include "rtm/log.h"
+#include "rtm/tls.h"
 
 #include <omniORB4/omniPolicy.h>
 
@@ -47,6 +48,17 @@ void remove_stale_unix_sockets() {
   if (removed > 0) log().debug("removed {} giop:unix: sockets of processes that no longer exist from {}", removed, folder);
 }
 
+// omniORB's SSL transport is linked into every program; a process without certificates
+// (rtm/tls.h) would see its warning "SSL transport disabled" at every start. It is the only
+// trace-level-1 message ORB_init gives for a usable setup, so that level is lowered for the
+// call unless the user chose a level.
+bool user_chose_trace_level(const std::vector<std::string>& args) {
+  if (std::getenv("ORBtraceLevel")) return true;
+  for (const auto& a : args)
+    if (a == "-ORBtraceLevel") return true;
+  return false;
+}
+
 std::string describe(const CORBA::Exception& e) {
   const char* name = e._name();
   return name ? name : "CORBA exception";
@@ -64,8 +76,12 @@ Orb::Orb(const std::vector<std::string>& args) {
   int argc = static_cast<int>(argv.size());
   configure_default_access();
   remove_stale_unix_sockets();
+  const bool quiet_ssl = !tls_configured() && !user_chose_trace_level(args);
+  const CORBA::ULong trace_level = omniORB::traceLevel;
   try {
+    if (quiet_ssl) omniORB::traceLevel = 0;
     orb_ = CORBA::ORB_init(argc, argv.data());
+    if (quiet_ssl) omniORB::traceLevel = trace_level;
     register_access_interceptors();
     CORBA::Object_var root_obj = orb_->resolve_initial_references("RootPOA");
     PortableServer::POA_var root = PortableServer::POA::_narrow(root_obj);
@@ -77,6 +93,7 @@ Orb::Orb(const std::vector<std::string>& args) {
     policies[0]->destroy();
     manager->activate();
   } catch (const CORBA::Exception& e) {
+    if (quiet_ssl) omniORB::traceLevel = trace_level;
     std::string what = "rtm::Orb: ORB initialisation failed: " + describe(e);
     if (!CORBA::is_nil(orb_)) {
       try {
