@@ -195,6 +195,15 @@ void note_refusal(std::atomic<std::uint64_t>& count, omni::omniInterceptors::ser
   log().warn("refused {} from {}: {} ({} refused so far)", info.operation(), peer ? peer : "?", why, refused);
 }
 
+// A request over a giop:ssl: connection whose peer certificate omniORB verified against this
+// process's authority (rtm/tls.h): omniORB sets the peer identity only for a verified peer.
+bool from_verified_tls_peer(omni::omniInterceptors::serverReceiveRequest_T::info_T& info) {
+  const char* address = info.peeraddress();
+  if (!address || std::strncmp(address, "giop:ssl:", 9) != 0) return false;
+  const char* identity = info.peeridentity();
+  return identity && *identity;
+}
+
 // Both checks throw before the arguments are read: the request body is skipped, not unmarshalled.
 CORBA::Boolean check_key(omni::omniInterceptors::serverReceiveRequest_T::info_T& info) {
   const char* operation = info.operation();
@@ -209,7 +218,7 @@ CORBA::Boolean check_key(omni::omniInterceptors::serverReceiveRequest_T::info_T&
   }
   if (g_access.policy.load(std::memory_order_acquire) == AccessPolicy::open) return true;
   if (!is_change_operation(operation)) return true;
-  if (carries_our_key(info.giop_s)) return true;
+  if (carries_our_key(info.giop_s) || from_verified_tls_peer(info)) return true;
   note_refusal(g_access.refused, info, "it does not carry this component owner's access key");
   throw CORBA::NO_PERMISSION(kAccessRefusedMinor, CORBA::COMPLETED_NO);
 }

@@ -2,6 +2,7 @@
 
 #include "rtm/log.h"
 #include "rtm/orb.h"
+#include "rtm/tls.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -158,7 +159,12 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--mlock", settings.lock_memory, "lock the process's memory (mlockall)");
   app.add_option("--endpoint", settings.endpoints,
-                 "omniORB endpoint, repeatable (default: giop:tcp:127.0.0.1: and giop:unix:)");
+                 "omniORB endpoint, repeatable (default: giop:tcp:127.0.0.1: and giop:unix:; with --tls: "
+                 "giop:ssl:: on every interface and giop:unix:)");
+  app.add_option("--tls", settings.tls_folder,
+                 "TLS folder (`rtm tls init`): serve and call giop:ssl: endpoints with its certificates; a peer "
+                 "whose certificate the folder's authority issued may change the component")
+      ->envname(kTlsFolderVariable);
   app.add_flag("--on", settings.turn_on, "turn the component on once it is up");
   std::string access_text = "owner";
   app.add_option("--access", access_text,
@@ -198,7 +204,17 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
     std::fprintf(stderr, "%s: %s\n", program, e.what());
     return 2;
   }
-  if (settings.endpoints.empty()) settings.endpoints = {"giop:tcp:127.0.0.1:", "giop:unix:"};
+  if (settings.endpoints.empty()) {
+    settings.endpoints = settings.tls_folder.empty() ? std::vector<std::string>{"giop:tcp:127.0.0.1:", "giop:unix:"}
+                                                     : std::vector<std::string>{"giop:ssl::", "giop:unix:"};
+  }
+  for (const auto& endpoint : settings.endpoints) {
+    if (endpoint.starts_with("giop:ssl:") && settings.tls_folder.empty()) {
+      std::fprintf(stderr, "%s: endpoint %s needs certificates: --tls FOLDER (`rtm tls init` makes one)\n", program,
+                   endpoint.c_str());
+      return 2;
+    }
+  }
   return std::nullopt;
 }
 
@@ -246,7 +262,7 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   if (settings.cpu >= 0 && main.pin_process_to_cpu) pin_process_to_cpu(settings.cpu);
   keep_real_time_for_the_activity(settings);
 
-  // ---- bring up: access key, ORB, component, servant, names ----
+  // ---- bring up: access key, certificates, ORB, component, servant, names ----
   try {
     std::optional<AccessKey> key;
     if (settings.access == AccessPolicy::owner) key = load_or_make_access_key();
@@ -254,6 +270,14 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   } catch (const std::exception& e) {
     std::fprintf(stderr, "%s: %s (or start it with --access open)\n", program, e.what());
     return 1;
+  }
+  if (!settings.tls_folder.empty()) {
+    try {
+      configure_tls(check_tls_folder(settings.tls_folder));
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s: --tls: %s\n", program, e.what());
+      return 1;
+    }
   }
   // Only this user may connect to the giop:unix: socket (omniORB's default is 0777); others
   // reach the TCP endpoint, where the access key decides.

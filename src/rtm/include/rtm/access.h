@@ -12,8 +12,9 @@
 // A client that knows only the 2004 IDL (idl/RTM.idl) sends no key: the owner lets such
 // clients change a component by starting it with --access open (AccessPolicy::open).
 //
-// Across hosts the key file is copied to the other host; the key then crosses the network in
-// clear unless the endpoints are TLS (docs/safety.md).
+// Across hosts the credential is a certificate instead (rtm/tls.h): a request that arrives
+// over a giop:ssl: connection whose peer presented a certificate of this process's authority
+// may change it without the key.
 #pragma once
 
 #include <array>

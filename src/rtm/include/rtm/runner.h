@@ -72,6 +72,7 @@ struct RunSettings {
   std::optional<OutPortOptions::Delivery> delivery;
   std::vector<std::string> endpoints;  // omniORB endpoints, e.g. giop:tcp:127.0.0.1:
   AccessPolicy access = AccessPolicy::owner;  // --access: who may change it (rtm/access.h)
+  std::string tls_folder;  // --tls / $RTM_TLS: certificates for giop:ssl: endpoints (rtm/tls.h)
   std::vector<std::string> orb_args;   // -ORB... options, passed through
 
   // The periodic activity these settings describe (thread named after the component).
