@@ -1,6 +1,7 @@
 #include "browser.h"
 
 #include "rtm/data.h"
+#include "rtm/tls.h"
 
 #include <fmt/format.h>
 
@@ -195,8 +196,10 @@ ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr obje
     }
   });
   if (dead) {
-    info.liveness = Liveness::dead;
-    info.dead_reason = *dead;
+    // giop:ssl: only and no certificates here: maybe alive, so never called dead or cleaned.
+    const bool out_of_reach = !tls_configured() && reachable_only_over_tls(object);
+    info.liveness = out_of_reach ? Liveness::out_of_reach : Liveness::dead;
+    info.dead_reason = out_of_reach ? std::string(kOutOfReach) : *dead;
     info.ports.clear();
     info.timing.reset();
   }
@@ -242,11 +245,15 @@ std::vector<ComponentPath> Browser::clean(std::string_view filter) const {
 }
 
 RTM::RtComponent_var Browser::component(std::string_view name) const {
+  RTM::RtComponent_var comp;
   try {
-    return naming_.resolve_component(name);
+    comp = naming_.resolve_component(name);
   } catch (const NamingError& e) {
     throw BrowseError(e.what());
   }
+  if (!tls_configured() && reachable_only_over_tls(comp.in()))
+    throw BrowseError(fmt::format("{}: {}", name, kOutOfReachText));
+  return comp;
 }
 
 ComponentInfo Browser::describe(std::string_view name) const {
@@ -258,6 +265,8 @@ ComponentInfo Browser::describe(std::string_view name) const {
     }
   }
   ComponentInfo info = inspect(path, comp.in(), true);
+  if (info.liveness == Liveness::out_of_reach)
+    throw BrowseError(fmt::format("{}: {}", path.to_string(), kOutOfReachText));
   if (info.liveness == Liveness::dead) {
     throw BrowseError(fmt::format("{} is bound but its process does not answer ({}); "
                                   "`rtm ls --clean` removes dead bindings",

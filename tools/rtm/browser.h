@@ -58,7 +58,12 @@ struct PortInfo {
   std::vector<Subscription> subscriptions;  // OutPorts only
 };
 
-enum class Liveness { alive, dead };
+// out_of_reach: it answers on no endpoint this process can use (it serves giop:ssl: only and
+// this process has no --tls): maybe alive, never cleaned.
+enum class Liveness { alive, dead, out_of_reach };
+inline constexpr std::string_view kOutOfReach = "no usable endpoint";
+inline constexpr std::string_view kOutOfReachText =
+    "out of reach: it serves no endpoint this process can use (giop:ssl: needs --tls FOLDER)";
 
 struct StatisticInfo {
   std::string name;
@@ -78,7 +83,7 @@ struct ParameterInfo {
 struct ComponentInfo {
   ComponentPath path;
   Liveness liveness = Liveness::alive;
-  std::string dead_reason;       // "TRANSIENT" etc. for a dead binding
+  std::string dead_reason;       // "TRANSIENT" etc. for a dead binding, kOutOfReach
   bool extended = false;         // implements RtComponentEx (else a plain seed component)
   std::string kind;
   std::string description;       // one line: what the component does

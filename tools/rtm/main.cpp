@@ -11,13 +11,15 @@
 //   rtm put <comp>.<in> <values>...       inject one datum
 //   rtm watch <comp>.<out>                stream a port live (--rate, --csv, --count, --duration)
 //   rtm up <system.yaml> / rtm down <system.yaml|name>
+//   rtm tls init <folder> / rtm tls issue <authority> <folder>   certificates across hosts
 //
-// Every command takes --naming host:port (or $RTM_NAMING) and --json; exit code 0 ok,
-// 1 failed, 2 usage.
+// Every command takes --naming host:port (or $RTM_NAMING), --tls folder (or $RTM_TLS) and
+// --json; exit code 0 ok, 1 failed, 2 usage.
 #include "browser.h"
 #include "launcher.h"
 #include "report.h"
 #include "system_file.h"
+#include "tls_command.h"
 #include "values.h"
 #include "watch.h"
 
@@ -25,6 +27,7 @@
 #include "rtm/data.h"
 #include "rtm/log.h"
 #include "rtm/orb.h"
+#include "rtm/tls.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -62,7 +65,7 @@ std::string corba_name(const CORBA::Exception& e) {
     } catch (const std::exception&) {
     }
     return "not allowed: only the user who started it may change it (this process's access key, " + key +
-           ", is not its owner's; docs/safety.md)";
+           ", is not its owner's; from another host: --tls with a certificate of its system; docs/safety.md)";
   }
   const char* n = e._name();
   return n ? n : "CORBA exception";
@@ -71,6 +74,7 @@ std::string corba_name(const CORBA::Exception& e) {
 // Every subcommand and the variables its options are bound to.
 struct Cli {
   std::string naming;
+  std::string tls;  // TLS folder for giop:ssl: endpoints
   bool json = false;
   int timeout_ms = 5000;  // on() of a composite makes several remote calls of its own
   CLI::App *ls = nullptr, *cat = nullptr, *set = nullptr, *connect = nullptr, *disconnect = nullptr, *on = nullptr,
@@ -89,6 +93,7 @@ struct Cli {
   WatchOptions watch_options;
   std::string up_file, down_what;
   int up_timeout_ms = 10000;
+  TlsCommand tls_command;
 };
 
 void add_browse_commands(CLI::App& app, Cli& c) {
@@ -366,6 +371,18 @@ std::vector<std::string> orb_arguments(const Cli& c, const rtm::NamingAddress& n
 }
 
 int run(const Cli& c) {
+  if (c.tls_command.parsed()) {
+    c.tls_command.run(c.json);
+    return kOk;
+  }
+  if (!c.tls.empty()) {
+    try {
+      rtm::configure_tls(rtm::check_tls_folder(c.tls));
+    } catch (const std::runtime_error& e) {
+      throw Failure(std::string("--tls: ") + e.what(), kFailed);
+    }
+    ::setenv(rtm::kTlsFolderVariable, c.tls.c_str(), 1);  // what `rtm up` starts uses it too
+  }
   std::optional<SystemFile> system;
   if (c.up->parsed()) system = SystemFile::load(c.up_file);
   const rtm::NamingAddress naming = naming_address(c, system);
@@ -404,11 +421,14 @@ int main(int argc, char** argv) {
   Cli c;
   app.add_option("--naming", c.naming, "naming service host:port (default $RTM_NAMING or 127.0.0.1:2809)");
   app.add_flag("--json", c.json, "machine-readable output");
+  app.add_option("--tls", c.tls, "TLS folder (`rtm tls init`): reach giop:ssl: endpoints with its certificate")
+      ->envname(rtm::kTlsFolderVariable);
   app.add_option("--timeout", c.timeout_ms, "bound on each remote call, ms")->check(CLI::PositiveNumber);
   add_browse_commands(app, c);
   add_wiring_commands(app, c);
   add_data_commands(app, c);
   add_system_commands(app, c);
+  c.tls_command.add_to(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -109,6 +109,11 @@ json port_json(const PortInfo& p) {
 
 json component_json(const ComponentInfo& c, bool detailed) {
   json j{{"host", c.path.host}, {"name", c.path.name}, {"alive", c.liveness == Liveness::alive}};
+  if (c.liveness == Liveness::out_of_reach) {
+    j["alive"] = nullptr;  // not known from here
+    j["unreachable"] = kOutOfReachText;
+    return j;
+  }
   if (c.liveness == Liveness::dead) {
     j["dead_reason"] = c.dead_reason;
     return j;
@@ -146,6 +151,10 @@ void print_ls(const std::vector<ComponentInfo>& comps, bool detailed) {
     }
     if (c.liveness == Liveness::dead) {
       fmt::print("  {:<16} dead ({}): process gone; `rtm ls --clean` removes it\n", c.path.name, c.dead_reason);
+      continue;
+    }
+    if (c.liveness == Liveness::out_of_reach) {
+      fmt::print("  {:<16} {}\n", c.path.name, kOutOfReachText);
       continue;
     }
     std::string ins, outs;
