@@ -4,8 +4,11 @@
 // the floor, in the same run. Each transport is chosen by the publisher's client transport
 // rule: the receiving InPort offers both TCP and a unix socket.
 //
-//   rtm_bench_twoproc [--cpu N] [--paced N] [--burst N] [--transport tcp|unix|both]
+//   rtm_bench_twoproc [--cpu N] [--paced N] [--burst N] [--transport tcp|unix|ssl|both|all]
 //                     [--neighbour none|busy|both]
+//
+// both: tcp and unix; all: those and ssl (giop:ssl: with client certificates, rtm/tls.h,
+// from a throwaway authority this run makes).
 //
 // One-way latency is measured in this process, from the stamp the publisher puts in the datum
 // just before write() (or the bare put) to the receiving upcall: RTM's and the bare rows
@@ -28,6 +31,7 @@
 #include "rtm/log.h"
 #include "rtm/orb.h"
 #include "rtm/outport.h"
+#include "rtm/tls.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -41,6 +45,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <mutex>
@@ -201,6 +206,7 @@ int run_publisher(const Args& args) {
   const std::string transport = args.get("--transport", "tcp");
   const std::string mode = args.get("--mode", "paced");
   const auto count = static_cast<std::size_t>(args.number("--count", 1000));
+  if (transport == "ssl") rtm::configure_tls(rtm::check_tls_folder(args.get("--tls", "")));
   rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBclientTransportRule", "* " + transport});
   CORBA::Object_var target_object = orb.from_string(args.get("--target", ""));
   RTM::InPort_var target = RTM::InPort::_narrow(target_object);
@@ -473,7 +479,17 @@ int run_receiver(const char* self, const Args& args) {
   const std::string neighbour = args.get("--neighbour", "none");
   rtm::log().set_level(spdlog::level::warn);
 
-  rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBendPoint", "giop:unix:"});
+  const bool ssl = which == "ssl" || which == "all";
+  const std::filesystem::path tls_folder =
+      std::filesystem::temp_directory_path() / ("rtm-bench-tls-" + std::to_string(::getpid()));
+  std::vector<std::string> endpoints{"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBendPoint", "giop:unix:"};
+  if (ssl) {
+    std::filesystem::remove_all(tls_folder);
+    rtm::make_tls_authority(tls_folder, "bench", "bench", 1);
+    rtm::configure_tls(rtm::check_tls_folder(tls_folder));
+    endpoints.insert(endpoints.end(), {"-ORBendPoint", "giop:ssl:127.0.0.1:"});
+  }
+  rtm::Orb orb(endpoints);
   Receiver receiver;
   PortableServer::Servant_var<Float6In> in(new Float6In(
       "in", "receiver",
@@ -484,13 +500,15 @@ int run_receiver(const char* self, const Args& args) {
 
   std::printf("two processes, TimedFloat6, %s\n", cpu >= 0 ? ("both pinned to CPU " + std::to_string(cpu)).c_str()
                                                             : "unpinned");
-  for (const std::string transport : {"tcp", "unix"}) {
-    if (which != "both" && which != transport) continue;
+  for (const std::string transport : {"tcp", "unix", "ssl"}) {
+    const bool chosen = which == transport || which == "all" || (which == "both" && transport != "ssl");
+    if (!chosen) continue;
     for (const std::string busy : {"none", "busy"}) {
       if (neighbour != "both" && neighbour != busy) continue;
       Rows rows{self, receiver, orb.to_string(in_ref), orb.to_string(bare_ref),
                 "[" + transport + (busy == "busy" ? ", busy neighbour]" : "]"),
-                {"--role", "publisher", "--transport", transport, "--cpu", std::to_string(cpu)},
+                {"--role", "publisher", "--transport", transport, "--cpu", std::to_string(cpu), "--tls",
+                 tls_folder.string()},
                 static_cast<std::size_t>(args.number("--paced", 5000)),
                 static_cast<std::size_t>(args.number("--burst", 200000))};
       std::optional<BusyNeighbour> load;
@@ -500,6 +518,7 @@ int run_receiver(const char* self, const Args& args) {
   }
   in->deactivate();
   orb.deactivate(bare.in());
+  if (ssl) std::filesystem::remove_all(tls_folder);
   return 0;
 }
 

@@ -13,18 +13,19 @@ _rtm_ports() {
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat set connect disconnect on off reset get put watch up down"
+  local commands="ls cat set connect disconnect on off reset get put watch up down tls"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
-      --naming|--timeout) ((i++)) ;;
+      --naming|--timeout|--tls) ((i++)) ;;
       -*) ;;
       *) cmd=${words[i]}; break ;;
     esac
   done
+  [[ $prev == --tls ]] && { COMPREPLY=($(compgen -d -- "$cur")); return; }
   if [[ -z $cmd ]]; then
     if [[ $cur == -* ]]; then
-      COMPREPLY=($(compgen -W "--naming --json --timeout --help" -- "$cur"))
+      COMPREPLY=($(compgen -W "--naming --json --timeout --tls --help" -- "$cur"))
     else
       COMPREPLY=($(compgen -W "$commands" -- "$cur"))
     fi
@@ -51,6 +52,15 @@ _rtm() {
       [[ $cmd == connect && $cur == -* ]] && COMPREPLY=($(compgen -W "--once" -- "$cur"))
       ;;
     up|down) COMPREPLY=($(compgen -f -X '!*.@(yaml|yml)' -- "$cur")) ;;
+    tls)
+      if [[ $prev == tls ]]; then
+        COMPREPLY=($(compgen -W "init issue" -- "$cur"))
+      elif [[ $cur == -* ]]; then
+        COMPREPLY=($(compgen -W "--name --days --system" -- "$cur"))
+      else
+        COMPREPLY=($(compgen -d -- "$cur"))
+      fi
+      ;;
   esac
 }
 complete -F _rtm rtm
