@@ -184,9 +184,10 @@ class SocketCanBus final : public Bus {
     const std::string name(ifname);
     const unsigned index = ::if_nametoindex(name.c_str());
     if (index == 0) {
+      const int error = errno;  // before the message is built: that allocates
       fail(spec, "no CAN interface '" + name + "' (create it, e.g. 'ip link add dev " + name +
                      " type vcan && ip link set up " + name + "')",
-           errno);
+           error);
     }
     if (!filters.empty()) {
       std::vector<can_filter> kernel_filters;

@@ -67,6 +67,12 @@ TEST(RtmSystemFile, ComponentWithoutCommandIsRefused) {
   EXPECT_NE(error_of("components: [{name: a}]").find("component 'a' needs a 'command'"), std::string::npos);
 }
 
+TEST(RtmSystemFile, AMissingKeyIsNamedWithTheFileAndTheLineOfItsMapping) {
+  EXPECT_EQ(error_of("components:\n  - {name: a, command: x}\nconnections:\n  - {from: a.out0}\n"),
+            "/srv/systems/servo.yaml:4: a connection's 'to' is missing");
+  EXPECT_EQ(error_of("components:\n  - {command: x}\n"), "/srv/systems/servo.yaml:2: a component's 'name' is missing");
+}
+
 TEST(RtmSystemFile, DuplicateComponentIsRefused) {
   EXPECT_NE(error_of("components: [{name: a, command: x}, {name: a, command: y}]").find("listed twice"),
             std::string::npos);

@@ -31,6 +31,14 @@ std::string scalar(const SystemFile& f, const YAML::Node& node, const std::strin
   return node.as<std::string>();
 }
 
+// map[key] as a non-empty string; a missing key is reported at the mapping's line (a missing
+// node has no place in the file of its own).
+std::string scalar_field(const SystemFile& f, const YAML::Node& map, const char* key, const std::string& what) {
+  const YAML::Node node = map[key];
+  if (!node) fail(f, map, what + " is missing");
+  return scalar(f, node, what);
+}
+
 std::string component_of(const std::string& port_address) {
   auto dot = port_address.rfind('.');
   return dot == std::string::npos ? port_address : port_address.substr(0, dot);
@@ -39,7 +47,7 @@ std::string component_of(const std::string& port_address) {
 // One entry of 'components': its name (the one name rule) and its command.
 SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) {
   SystemFile::Component comp;
-  comp.name = scalar(f, c["name"], "a component's 'name'");
+  comp.name = scalar_field(f, c, "name", "a component's 'name'");
   try {
     rtm::check_name(comp.name);  // it names the component's log file
   } catch (const std::invalid_argument& e) {
@@ -109,8 +117,8 @@ SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem
     if (!conns.IsSequence()) fail(f, conns, "'connections' must be a list");
     for (const auto& c : conns) {
       if (!c.IsMap()) fail(f, c, "each connection must be a mapping with 'from' and 'to'");
-      Connection conn{scalar(f, c["from"], "a connection's 'from'"),
-                      scalar(f, c["to"], "a connection's 'to'"), false};
+      Connection conn{scalar_field(f, c, "from", "a connection's 'from'"),
+                      scalar_field(f, c, "to", "a connection's 'to'"), false};
       if (const YAML::Node t = c["type"]) {
         const auto type = scalar(f, t, "a connection's 'type'");
         if (type != "once" && type != "repeated") {
