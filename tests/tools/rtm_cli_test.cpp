@@ -40,11 +40,7 @@ class RtmCli : public ::testing::Test {
   ChildProcess& talker(const std::string& name, std::vector<std::string> extra = {}) {
     std::vector<std::string> argv{TALKER_PATH, "--name", name, "--naming", names_.address()};
     argv.insert(argv.end(), extra.begin(), extra.end());
-    ChildProcess::Options opts;
-    opts.echo_output = false;
-    talkers_.push_back(std::make_unique<ChildProcess>(argv, opts));
-    talkers_.back()->wait_until_bound();
-    return *talkers_.back();
+    return rtm_test::start_bound(talkers_, argv);
   }
   static json find(const json& list, const std::string& name) {
     for (const auto& c : list) {

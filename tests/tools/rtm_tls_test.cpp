@@ -61,11 +61,7 @@ class RtmTls : public ::testing::Test {
     std::vector<std::string> argv{TALKER_PATH, "--name",   name, "--naming", names_.address(), "--tls",
                                   (dir_ / "sys").string(), "--endpoint", "giop:ssl:127.0.0.1:"};
     argv.insert(argv.end(), extra.begin(), extra.end());
-    ChildProcess::Options opts;
-    opts.echo_output = false;
-    talkers_.push_back(std::make_unique<ChildProcess>(argv, opts));
-    talkers_.back()->wait_until_bound();
-    return *talkers_.back();
+    return rtm_test::start_bound(talkers_, argv);
   }
   std::string state_of(const std::string& name) {
     const json list = run_json({"ls"}, "sys");

@@ -89,4 +89,12 @@ CommandResult run_command(const std::vector<std::string>& argv,
   return result;
 }
 
+ChildProcess& start_bound(std::vector<std::unique_ptr<ChildProcess>>& started, const std::vector<std::string>& argv) {
+  ChildProcess::Options options;
+  options.echo_output = false;
+  started.push_back(std::make_unique<ChildProcess>(argv, options));
+  started.back()->wait_until_bound();
+  return *started.back();
+}
+
 }  // namespace rtm_test

@@ -3,7 +3,10 @@
 // sees exit code -1.
 #pragma once
 
+#include "rtm_test/child_process.h"
+
 #include <chrono>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,5 +20,9 @@ struct CommandResult {
 CommandResult run_command(const std::vector<std::string>& argv,
                           const std::vector<std::string>& extra_env = {},
                           std::chrono::milliseconds timeout = std::chrono::seconds(20));
+
+// Starts a component (its output kept, not echoed), appends it to `started` (which stops them
+// all when it goes) and waits until it has bound its name.
+ChildProcess& start_bound(std::vector<std::unique_ptr<ChildProcess>>& started, const std::vector<std::string>& argv);
 
 }  // namespace rtm_test
