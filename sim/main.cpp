@@ -4,6 +4,8 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
+#include <system_error>
 
 #include <CLI/CLI.hpp>
 
@@ -15,13 +17,20 @@ std::atomic<bool> g_stop{false};
 
 void on_signal(int) { g_stop.store(true); }
 
+// The scene beside this program: <prefix>/bin/pa10-sim finds <prefix>/share/rtm/models (the
+// build tree has the same layout), so an installed tree can move.
+std::string default_scene() {
+  std::error_code error;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (error) return "pa10_scene.xml";
+  return (self.parent_path().parent_path() / "share/rtm/models/pa10_scene.xml").lexically_normal().string();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   rtm::sim::RunOptions options;
-#ifdef RTM_PA10_SCENE
-  options.scene_path = RTM_PA10_SCENE;
-#endif
+  options.scene_path = default_scene();
   CLI::App app{"pa10-sim: the simulated PA10-7C arm (MuJoCo) behind a CAN bus"};
   app.add_option("--bus", options.bus_spec,
                  "CAN bus: local:<path> (hub created here if none listens) or socketcan:<if>")

@@ -1,0 +1,72 @@
+# The RTM CMake package: what `cmake --install` puts where, and RTMConfig.cmake for projects
+# built on RTM (find_package(RTM)), from an install prefix or from this build tree.
+#
+#   RTM::core   the framework (ports, components, runner, naming); brings RTM::rt, RTM::idl
+#               (the stubs of idl/*.idl) and omniORB
+#   RTM::rt     the real-time base (activities, clocks), no CORBA
+#   RTM::can    CAN transports and the CANopen master, RTM::pa10 the PA10 arm (for hardware
+#               components)
+#   rtm_add_idl(<target> FILES <idl...>)  stubs of a project's own data types
+#
+# Layout (GNU): bin/ (rtm, the components, pa10-sim), lib/ (static libraries),
+# include/rtm/ (the headers as #include "rtm/...", "rt/...", "arm/can/..."; the IDL stubs in
+# include/rtm/idl), share/rtm/idl (the IDL files), share/rtm/models, lib/cmake/RTM,
+# share/doc/rtm, share/bash-completion. Nothing in an installed file names the source or
+# build tree: the package finds its files relative to itself.
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+set(RTM_INSTALL_INCLUDEDIR ${CMAKE_INSTALL_INCLUDEDIR}/rtm)
+set(RTM_INSTALL_IDLDIR ${CMAKE_INSTALL_DATADIR}/rtm/idl)
+set(RTM_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/RTM)
+set(RTM_INSTALL_MODELDIR ${CMAKE_INSTALL_DATADIR}/rtm/models)
+
+# rtm_public_headers(<target> <include folder>): the target's users find the folder's headers,
+# from the build tree and, installed, under include/rtm.
+function(rtm_public_headers target folder)
+  target_include_directories(${target} PUBLIC $<BUILD_INTERFACE:${folder}>
+                                              $<INSTALL_INTERFACE:${RTM_INSTALL_INCLUDEDIR}>)
+  install(DIRECTORY ${folder}/ DESTINATION ${RTM_INSTALL_INCLUDEDIR} COMPONENT dev)
+endfunction()
+
+# rtm_export_library(<target> <name>): installs the library as RTM::<name>.
+function(rtm_export_library target name)
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})
+  add_library(RTM::${name} ALIAS ${target})
+  install(TARGETS ${target} EXPORT RTMTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev)
+endfunction()
+
+# rtm_install_programs(<targets...>): executables users run.
+function(rtm_install_programs)
+  install(TARGETS ${ARGN} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
+endfunction()
+
+# After every library is declared: the export set, the config files, the IDL, the docs.
+function(rtm_install_package)
+  install(EXPORT RTMTargets NAMESPACE RTM:: DESTINATION ${RTM_INSTALL_CMAKEDIR} COMPONENT dev)
+  export(EXPORT RTMTargets NAMESPACE RTM:: FILE ${PROJECT_BINARY_DIR}/RTMTargets.cmake)
+  write_basic_package_version_file(${PROJECT_BINARY_DIR}/RTMConfigVersion.cmake
+                                   COMPATIBILITY SameMinorVersion)
+  # Installed: the IDL folder relative to the package.
+  set(RTM_CONFIG_IDL_DIR ${RTM_INSTALL_IDLDIR})
+  configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/RTMConfig.cmake.in
+                                ${PROJECT_BINARY_DIR}/install/RTMConfig.cmake
+                                INSTALL_DESTINATION ${RTM_INSTALL_CMAKEDIR}
+                                PATH_VARS RTM_CONFIG_IDL_DIR)
+  # From the build tree: the source tree's IDL folder.
+  set(RTM_CONFIG_IDL_DIR ${PROJECT_SOURCE_DIR}/idl)
+  configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/RTMConfig.cmake.in
+                                ${PROJECT_BINARY_DIR}/RTMConfig.cmake
+                                INSTALL_DESTINATION ${PROJECT_BINARY_DIR}
+                                PATH_VARS RTM_CONFIG_IDL_DIR)
+  configure_file(${PROJECT_SOURCE_DIR}/cmake/RtmIdl.cmake ${PROJECT_BINARY_DIR}/RtmIdl.cmake COPYONLY)
+  install(FILES ${PROJECT_BINARY_DIR}/install/RTMConfig.cmake ${PROJECT_BINARY_DIR}/RTMConfigVersion.cmake
+                ${PROJECT_SOURCE_DIR}/cmake/RtmIdl.cmake
+          DESTINATION ${RTM_INSTALL_CMAKEDIR} COMPONENT dev)
+  install(FILES ${PROJECT_SOURCE_DIR}/idl/RTM.idl ${PROJECT_SOURCE_DIR}/idl/RTMData.idl
+                ${PROJECT_SOURCE_DIR}/idl/RTMExt.idl
+          DESTINATION ${RTM_INSTALL_IDLDIR} COMPONENT dev)
+  install(FILES ${PROJECT_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm COMPONENT runtime)
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm COMPONENT runtime
+          FILES_MATCHING PATTERN "*.md")
+endfunction()
