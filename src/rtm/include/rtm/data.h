@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <type_traits>
 
 namespace rtm {
 
@@ -60,6 +61,19 @@ RTM_DATA_TRAITS(TimedFloat3, true, 3)
 RTM_DATA_TRAITS(TimedFloatSeq, false, 0)
 RTM_DATA_TRAITS(TimedDoubleSeq, false, 0)
 #undef RTM_DATA_TRAITS
+
+// A data type of a project's own IDL (stubs made by rtm_add_idl in CMake), at global scope
+// after the stub header: RTM_DATA_TYPE(My, TimedPose, 7) makes rtm::InPort<My::TimedPose> and
+// rtm::OutPort<My::TimedPose> work, with the type checked at connect and on every put like the
+// built-in ones. Elements: the values in one datum, for the tools (0 for a sequence).
+#define RTM_DATA_TYPE(Module, Type, Elements)                                          \
+  template <>                                                                         \
+  struct rtm::DataTraits<Module::Type> {                                              \
+    static CORBA::TypeCode_ptr type_code() { return Module::_tc_##Type; }             \
+    static constexpr std::string_view name = #Module "::" #Type;                      \
+    static constexpr bool fixed_size = std::is_trivially_copyable_v<Module::Type>;    \
+    static constexpr std::size_t elements = Elements;                                 \
+  }
 
 // A readable name for any TypeCode: "RTM::TimedFloat6" for IDL:RTM/TimedFloat6:1.0, the
 // IDL keyword for basic types ("long", "double", ...), "<nil>" for a nil TypeCode.

@@ -1,0 +1,181 @@
+// RTM as others build on it: `cmake --install` into a temporary prefix, then projects outside
+// this tree built against that prefix alone (find_package(RTM)), run with a real omniNames and
+// wired by the installed `rtm`.
+#include "run_command.h"
+
+#include "rtm_test/child_process.h"
+#include "rtm_test/omni_names.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <thread>
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using rtm_test::ChildProcess;
+using rtm_test::CommandResult;
+using namespace std::chrono_literals;
+
+const fs::path kSource = RTM_SOURCE_DIR;
+const fs::path kBuild = RTM_BUILD_DIR;
+
+std::string read_file(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class Installed : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("rtm-install-" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    fs::create_directories(root_);
+    const CommandResult r =
+        rtm_test::run_command({CMAKE_COMMAND, "--install", kBuild.string(), "--prefix", prefix().string()}, {}, 300s);
+    install_log_ = r.out + r.err;
+    installed_ = r.exit_code == 0;
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+  void SetUp() override { ASSERT_TRUE(installed_) << install_log_; }
+
+  static fs::path prefix() { return root_ / "usr"; }
+  static fs::path bin(const std::string& program) { return prefix() / "bin" / program; }
+
+  // Copies a project folder out of the tree and builds it against the prefix alone.
+  static fs::path build_project(const fs::path& project, const std::string& as) {
+    const fs::path source = root_ / as, build = root_ / (as + "-build");
+    fs::copy(project, source, fs::copy_options::recursive);
+    CommandResult r = rtm_test::run_command({CMAKE_COMMAND, "-S", source.string(), "-B", build.string(),
+                                             "-DCMAKE_PREFIX_PATH=" + prefix().string(),
+                                             "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON", "-DCMAKE_BUILD_TYPE=Release"},
+                                            {"CMAKE_PREFIX_PATH=", "RTM_DIR="}, 300s);
+    EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+    r = rtm_test::run_command({CMAKE_COMMAND, "--build", build.string(), "-j2"}, {}, 600s);
+    EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+    return build;
+  }
+
+  CommandResult rtm(std::vector<std::string> args) {
+    args.insert(args.begin(), {bin("rtm").string(), "--naming", names_.address()});
+    return rtm_test::run_command(args, {"RTM_TLS="});
+  }
+  ChildProcess& start(const fs::path& program, const std::string& name, std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv{program.string(), "--name", name, "--naming", names_.address()};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return rtm_test::start_bound(started_, argv);
+  }
+  std::uint64_t accepted(const std::string& component, const std::string& port) {
+    const CommandResult r = rtm({"--json", "cat", component});
+    last_cat_ = r.out + r.err;
+    if (r.exit_code != 0) return 0;
+    const json described = json::parse(r.out);
+    for (const auto& p : described["ports"])
+      if (p["name"] == port) return p["counters"]["accepted"].get<std::uint64_t>();
+    return 0;
+  }
+  std::uint64_t wait_for_data(const std::string& component, const std::string& port) {
+    std::uint64_t n = 0;
+    for (int i = 0; i < 100 && n == 0; ++i) {
+      std::this_thread::sleep_for(20ms);
+      n = accepted(component, port);
+    }
+    return n;
+  }
+
+  static inline fs::path root_;
+  static inline bool installed_ = false;
+  static inline std::string install_log_;
+  rtm_test::OmniNames names_;
+  std::vector<std::unique_ptr<ChildProcess>> started_;
+  std::string last_cat_;  // what the last `rtm cat` said, for a failure's message
+};
+
+TEST_F(Installed, TheGnuLayoutHoldsProgramsLibrariesHeadersIdlModelsAndThePackage) {
+  for (const char* file : {"bin/rtm", "bin/rtm-controller", "bin/rtm-servo", "bin/pa10-sim", "lib/librtm_core.a",
+                           "lib/cmake/RTM/RTMConfig.cmake", "lib/cmake/RTM/RTMConfigVersion.cmake",
+                           "lib/cmake/RTM/RTMTargets.cmake", "lib/cmake/RTM/RtmIdl.cmake",
+                           "include/rtm/rtm/component.h", "include/rtm/rt/activity.h", "include/rtm/arm/can/bus.h",
+                           "include/rtm/idl/RTM.hh", "include/rtm/idl/RTMExt.hh", "share/rtm/idl/RTM.idl",
+                           "share/rtm/models/pa10_scene.xml", "share/rtm/models/pa10.urdf",
+                           "share/bash-completion/completions/rtm", "share/doc/rtm/README.md"})
+    EXPECT_TRUE(fs::exists(prefix() / file)) << file;
+}
+
+TEST_F(Installed, NoInstalledFileNamesTheSourceOrBuildTree) {
+  std::size_t files = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(prefix())) {
+    if (!entry.is_regular_file()) continue;
+    ++files;
+    const std::string text = read_file(entry.path());
+    EXPECT_EQ(text.find(kSource.string()), std::string::npos) << entry.path() << " names " << kSource;
+    EXPECT_EQ(text.find(kBuild.string()), std::string::npos) << entry.path() << " names " << kBuild;
+  }
+  EXPECT_GT(files, 50u);
+}
+
+TEST_F(Installed, TheTreeMovesPa10SimFindsItsSceneBesideItselfWherever) {
+  const fs::path moved = root_ / "moved";
+  fs::create_directories(moved);
+  const CommandResult copy = rtm_test::run_command({"/bin/cp", "-a", prefix().string(), moved.string()});
+  ASSERT_EQ(copy.exit_code, 0) << copy.err;
+  const CommandResult help = rtm_test::run_command({(moved / "usr/bin/pa10-sim").string(), "--help"});
+  EXPECT_EQ(help.exit_code, 0) << help.err;
+  EXPECT_NE(help.out.find((moved / "usr/share/rtm/models/pa10_scene.xml").string()), std::string::npos) << help.out;
+  fs::remove_all(moved);
+}
+
+TEST_F(Installed, TheSourceSinkExampleBuildsAgainstThePrefixAloneAndRunsWiredByTheInstalledRtm) {
+  const fs::path build = build_project(kSource / "examples/source_sink", "source_sink");
+  const std::string commands = read_file(build / "compile_commands.json");
+  ASSERT_FALSE(commands.empty());
+  EXPECT_EQ(commands.find(kBuild.string()), std::string::npos) << "an include path into the build tree";
+  EXPECT_EQ(commands.find((kSource / "src").string()), std::string::npos) << "an include path into the source tree";
+  start(build / "rtm-example-source", "source0");
+  start(build / "rtm-example-sink", "sink0");
+  CommandResult r = rtm({"connect", "source0.out0", "sink0.in0"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = rtm({"on", "source0", "sink0"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_GT(wait_for_data("sink0", "in0"), 0u) << last_cat_;
+}
+
+TEST_F(Installed, ACustomIdlTypeCrossesProcessesAndAMismatchIsRefusedAtConnect) {
+  const fs::path build = build_project(kSource / "tests/install/custom_type", "custom_type");
+  start(build / "pose-relay", "a", {"--on"});
+  start(build / "pose-relay", "b");
+  start(bin("rtm-controller"), "c");
+  const CommandResult cat = rtm({"cat", "a"});
+  EXPECT_NE(cat.out.find("My::TimedPose"), std::string::npos) << cat.out;
+  CommandResult r = rtm({"connect", "a.out0", "b.in0"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_GT(wait_for_data("b", "in0"), 0u) << "a's TimedPose did not reach b: " << last_cat_;
+  r = rtm({"connect", "a.out0", "c.in0"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("types differ"), std::string::npos) << r.err;
+  EXPECT_EQ(accepted("c", "in0"), 0u);
+}
+
+TEST_F(Installed, AProjectBuildsAgainstTheBuildTreeToo) {
+  const fs::path source = root_ / "from-build-tree";
+  fs::copy(kSource / "tests/install/custom_type", source, fs::copy_options::recursive);
+  CommandResult r = rtm_test::run_command(
+      {CMAKE_COMMAND, "-S", source.string(), "-B", (root_ / "from-build-tree-build").string(), "-DRTM_DIR=" + kBuild.string()},
+      {"CMAKE_PREFIX_PATH="}, 300s);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  r = rtm_test::run_command({CMAKE_COMMAND, "--build", (root_ / "from-build-tree-build").string(), "-j2"}, {}, 600s);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_TRUE(fs::exists(root_ / "from-build-tree-build" / "pose-relay"));
+}
+
+}  // namespace
