@@ -1,0 +1,294 @@
+// `rtm new component`: the project it writes, and the input it refuses before writing anything.
+#include "scaffold.h"
+#include "system_file.h"
+
+#include "rtm/data.h"
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+using rtm::cli::PortSpec;
+using rtm::cli::ScaffoldOptions;
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Each test writes into a folder of its own, removed afterwards.
+class RtmScaffold : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
+    parent_ = fs::temp_directory_path() / ("rtm-scaffold-test-" + std::to_string(::getpid())) / test->name();
+    fs::remove_all(parent_);
+    fs::create_directories(parent_);
+  }
+  void TearDown() override { fs::remove_all(parent_.parent_path()); }
+
+  ScaffoldOptions options(std::string name) const {
+    ScaffoldOptions o;
+    o.name = std::move(name);
+    o.parent = parent_;
+    return o;
+  }
+
+  // The message of the std::invalid_argument scaffold_component throws ("" when none).
+  std::string refusal(const ScaffoldOptions& o) const {
+    try {
+      rtm::cli::scaffold_component(o);
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  }
+
+  bool parent_is_empty() const { return fs::is_empty(parent_); }
+
+  fs::path parent_;
+};
+
+TEST_F(RtmScaffold, WritesTheProjectFilesIntoParentSlashName) {
+  const auto written = rtm::cli::scaffold_component(options("gripper_ctl"));
+  const fs::path folder = parent_ / "gripper_ctl";
+  const std::vector<fs::path> expected = {
+      folder / "CMakeLists.txt",         folder / "include/gripper_ctl/gripper_ctl.h",
+      folder / "src/gripper_ctl.cpp",    folder / "src/main.cpp",
+      folder / "test/gripper_ctl_test.cpp", folder / "gripper_ctl.yaml",
+      folder / "README.md",              folder / ".gitignore"};
+  EXPECT_EQ(written, expected);
+  for (const auto& file : expected) EXPECT_GT(fs::file_size(file), 0u) << file;
+}
+
+TEST_F(RtmScaffold, DeclaresEveryPortInTheClassWithItsTypeAndMovesItThroughStep) {
+  auto o = options("gripper_ctl");
+  o.in = {{"wrench", "RTM::TimedFloat6"}, {"width", "TimedFloat"}};
+  o.out = {{"twist", "TimedFloat6"}, {"closed", "TimedBoolean"}};
+  rtm::cli::scaffold_component(o);
+  const fs::path folder = parent_ / "gripper_ctl";
+  const auto header = read_text(folder / "include/gripper_ctl/gripper_ctl.h");
+  EXPECT_NE(header.find("class GripperCtl final : public rtm::Component"), std::string::npos);
+  EXPECT_NE(header.find("static Outputs step(const Inputs& in, const RTM::Time& now);"), std::string::npos);
+  EXPECT_NE(header.find("add_in_port<RTM::TimedFloat6>(\"wrench\""), std::string::npos);
+  EXPECT_NE(header.find("add_in_port<RTM::TimedFloat>(\"width\""), std::string::npos);
+  EXPECT_NE(header.find("add_out_port<RTM::TimedFloat6>(\"twist\""), std::string::npos);
+  EXPECT_NE(header.find("add_out_port<RTM::TimedBoolean>(\"closed\""), std::string::npos);
+  EXPECT_NE(header.find("RTM::TimedFloat6 wrench{};"), std::string::npos);
+  EXPECT_NE(header.find("RTM::TimedBoolean closed{};"), std::string::npos);
+
+  const auto source = read_text(folder / "src/gripper_ctl.cpp");
+  EXPECT_NE(source.find("out.twist = in.wrench;"), std::string::npos) << source;  // same type: passed on
+  EXPECT_NE(source.find("out.closed.tm = now;"), std::string::npos) << source;    // no InPort of its type
+  EXPECT_NE(source.find("wrench_in_.read(inputs_.wrench)"), std::string::npos);
+  EXPECT_NE(source.find("closed_out_.write(out.closed);"), std::string::npos);
+
+  const auto test = read_text(folder / "test/gripper_ctl_test.cpp");
+  EXPECT_NE(test.find("TEST(GripperCtlStep, OutPortsCarryTheInPortOfTheirTypeWithItsStamp)"), std::string::npos);
+  EXPECT_NE(test.find("TEST(GripperCtlStep, OutPortsWithoutAnInPortOfTheirTypeCarryZerosStampedNow)"),
+            std::string::npos);
+  EXPECT_NE(test.find("EXPECT_FALSE(out.closed.data);"), std::string::npos) << test;
+
+  const auto main = read_text(folder / "src/main.cpp");
+  EXPECT_NE(main.find("rtm::run_component(argc, argv"), std::string::npos);
+  EXPECT_NE(main.find(".kind = \"gripper_ctl\""), std::string::npos);
+  EXPECT_NE(main.find("std::make_unique<GripperCtl>(settings.name)"), std::string::npos);
+}
+
+TEST_F(RtmScaffold, CMakeListsBuildsLogicLibraryExecutableAndTestOnRtmCore) {
+  rtm::cli::scaffold_component(options("gripper_ctl"));
+  const auto cmake = read_text(parent_ / "gripper_ctl/CMakeLists.txt");
+  for (const char* expected :
+       {"cmake_minimum_required(VERSION 3.25)", "project(gripper_ctl LANGUAGES CXX)", "set(CMAKE_CXX_STANDARD 20)",
+        "find_package(RTM 0.1 REQUIRED)", "add_library(gripper_ctl_logic STATIC src/gripper_ctl.cpp)",
+        "target_link_libraries(gripper_ctl_logic PUBLIC RTM::core)", "add_executable(rtm-gripper_ctl src/main.cpp)",
+        "enable_testing()", "find_package(GTest REQUIRED)",
+        "target_link_libraries(gripper_ctl_test PRIVATE gripper_ctl_logic GTest::gtest_main)",
+        "add_test(NAME gripper_ctl_test COMMAND gripper_ctl_test)"}) {
+    EXPECT_NE(cmake.find(expected), std::string::npos) << expected;
+  }
+}
+
+TEST_F(RtmScaffold, SystemFileParsesAndStartsTheBuiltComponentWithItsPeriod) {
+  auto o = options("gripper_ctl");
+  o.period = "1ms";
+  rtm::cli::scaffold_component(o);
+  const fs::path file = parent_ / "gripper_ctl/gripper_ctl.yaml";
+  const auto system = rtm::cli::SystemFile::parse(read_text(file), file);
+  EXPECT_EQ(system.name, "gripper_ctl");
+  ASSERT_EQ(system.components.size(), 1u);
+  EXPECT_EQ(system.components[0].name, "gripper_ctl0");
+  EXPECT_EQ(system.components[0].command,
+            (std::vector<std::string>{"build/bin/rtm-gripper_ctl", "--period", "1ms"}));
+  EXPECT_TRUE(system.connections.empty());
+  EXPECT_EQ(system.activate, (std::vector<std::string>{"gripper_ctl0"}));
+}
+
+TEST_F(RtmScaffold, DefaultPortsAreIn0AndOut0OfTimedFloat6WhenNoneAreGiven) {
+  rtm::cli::scaffold_component(options("relay"));
+  const auto header = read_text(parent_ / "relay/include/relay/relay.h");
+  EXPECT_NE(header.find("add_in_port<RTM::TimedFloat6>(\"in0\""), std::string::npos);
+  EXPECT_NE(header.find("add_out_port<RTM::TimedFloat6>(\"out0\""), std::string::npos);
+  EXPECT_EQ(header.find("add_in_port<", header.find("add_in_port<RTM::TimedFloat6>(\"in0\"") + 1), std::string::npos)
+      << "one InPort only";
+  EXPECT_NE(read_text(parent_ / "relay/src/relay.cpp").find("out.out0 = in.in0;"), std::string::npos);
+}
+
+TEST_F(RtmScaffold, OnlyOutPortsMakeASourceThatComputesEveryCycle) {
+  auto o = options("ramp");
+  o.out = {{"level", "TimedDouble"}};
+  rtm::cli::scaffold_component(o);
+  const auto header = read_text(parent_ / "ramp/include/ramp/ramp.h");
+  EXPECT_EQ(header.find("add_in_port<"), std::string::npos);
+  const auto source = read_text(parent_ / "ramp/src/ramp.cpp");
+  EXPECT_NE(source.find("[[maybe_unused]] const Inputs& in"), std::string::npos) << source;
+  EXPECT_EQ(source.find("ReadResult"), std::string::npos) << source;
+}
+
+TEST_F(RtmScaffold, AnExistingEmptyFolderIsFilled) {
+  fs::create_directory(parent_ / "relay");
+  EXPECT_EQ(rtm::cli::scaffold_component(options("relay")).size(), 8u);
+}
+
+TEST_F(RtmScaffold, MissingParentFoldersAreMade) {
+  auto o = options("relay");
+  o.parent = parent_ / "a/b";
+  rtm::cli::scaffold_component(o);
+  EXPECT_TRUE(fs::exists(parent_ / "a/b/relay/CMakeLists.txt"));
+}
+
+TEST_F(RtmScaffold, AnExistingNonEmptyFolderIsRefusedNamingItAndLeftUnchanged) {
+  fs::create_directory(parent_ / "relay");
+  std::ofstream(parent_ / "relay/CMakeLists.txt") << "mine\n";
+  try {
+    rtm::cli::scaffold_component(options("relay"));
+    FAIL() << "an existing project was written into";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find((parent_ / "relay").string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not empty"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(parent_ / "relay"), fs::directory_iterator()), 1);
+  EXPECT_EQ(read_text(parent_ / "relay/CMakeLists.txt"), "mine\n");
+}
+
+TEST_F(RtmScaffold, AFileWhereTheFolderWouldGoIsRefusedAndLeftUnchanged) {
+  std::ofstream(parent_ / "relay") << "a file\n";
+  EXPECT_THROW(rtm::cli::scaffold_component(options("relay")), std::runtime_error);
+  EXPECT_EQ(read_text(parent_ / "relay"), "a file\n");
+}
+
+TEST_F(RtmScaffold, BadComponentNamesAreRefusedNamingThemAndNothingIsWritten) {
+  for (const std::string name : {"", "Gripper", "gripper-ctl", "1gripper", "gripper__ctl", "gripper_", "_gripper",
+                                 "a_b", "inputs", "outputs", "../gripper", "gripper ctl",
+                                 "a_name_that_is_much_too_long_for_a_component"}) {
+    const auto message = refusal(options(name));
+    EXPECT_NE(message.find("'" + name + "'"), std::string::npos) << name << ": " << message;
+  }
+  EXPECT_TRUE(parent_is_empty());
+}
+
+TEST_F(RtmScaffold, BadPortNamesAreRefusedNamingThemAndNothingIsWritten) {
+  for (const std::string name : {"", "Wrench", "1wrench", "wrench-in", "wrench_", "wr__ench", "class", "errno"}) {
+    auto o = options("relay");
+    o.in = {{name, "TimedFloat6"}};
+    const auto message = refusal(o);
+    EXPECT_NE(message.find("'" + name + "'"), std::string::npos) << name << ": " << message;
+  }
+  EXPECT_TRUE(parent_is_empty());
+}
+
+TEST_F(RtmScaffold, UnknownPortTypesAreRefusedNamingThemAndListingTheKnownOnes) {
+  auto o = options("relay");
+  o.out = {{"force", "TimedFloat7"}};
+  const auto message = refusal(o);
+  EXPECT_NE(message.find("'TimedFloat7'"), std::string::npos) << message;
+  EXPECT_NE(message.find("TimedFloatSeq"), std::string::npos) << message;
+  EXPECT_TRUE(parent_is_empty());
+}
+
+TEST_F(RtmScaffold, DuplicatePortNamesAreRefusedInAndOutAlike) {
+  auto o = options("relay");
+  o.in = {{"wrench", "TimedFloat6"}, {"wrench", "TimedFloat"}};
+  EXPECT_NE(refusal(o).find("'wrench' is given twice"), std::string::npos) << refusal(o);
+  o.in = {{"wrench", "TimedFloat6"}};
+  o.out = {{"wrench", "TimedFloat6"}};
+  EXPECT_NE(refusal(o).find("'wrench' is given twice"), std::string::npos) << refusal(o);
+  EXPECT_TRUE(parent_is_empty());
+}
+
+TEST_F(RtmScaffold, PortNamesThatWouldHideAnotherPortsIndexAliasAreRefused) {
+  auto o = options("relay");
+  o.in = {{"in1", "TimedFloat6"}};  // InPort 0 called in1: `rtm get relay0.in1` would find it
+  EXPECT_NE(refusal(o).find("'in1'"), std::string::npos) << refusal(o);
+  o.in = {{"wrench", "TimedFloat6"}};
+  o.out = {{"in0", "TimedFloat6"}};
+  EXPECT_NE(refusal(o).find("'in0'"), std::string::npos) << refusal(o);
+  o.out = {{"out0", "TimedFloat6"}};  // its own alias: fine
+  EXPECT_EQ(refusal(o), "");
+}
+
+TEST_F(RtmScaffold, ABadPeriodIsRefusedNamingIt) {
+  auto o = options("relay");
+  o.period = "2 fortnights";
+  EXPECT_NE(refusal(o).find("'2 fortnights'"), std::string::npos) << refusal(o);
+  o.period = "10us";  // under the runner's 50 us
+  EXPECT_NE(refusal(o).find("'10us'"), std::string::npos) << refusal(o);
+  EXPECT_TRUE(parent_is_empty());
+}
+
+TEST(RtmScaffoldPortSpec, TakesTheTypeWithOrWithoutTheRtmModule) {
+  const PortSpec bare = rtm::cli::parse_port_spec("wrench:TimedFloat6");
+  EXPECT_EQ(bare.name, "wrench");
+  EXPECT_EQ(bare.type, "RTM::TimedFloat6");
+  const PortSpec full = rtm::cli::parse_port_spec("gains:RTM::TimedDoubleSeq");
+  EXPECT_EQ(full.name, "gains");
+  EXPECT_EQ(full.type, "RTM::TimedDoubleSeq");
+}
+
+TEST(RtmScaffoldPortSpec, BadSpecsAreRefusedNamingTheText) {
+  const auto message = [](std::string_view text) {
+    try {
+      rtm::cli::parse_port_spec(text);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(message("wrench").find("'wrench' has no type"), std::string::npos) << message("wrench");
+  EXPECT_NE(message(":TimedFloat6").find("':TimedFloat6'"), std::string::npos) << message(":TimedFloat6");
+  EXPECT_NE(message("Wrench:TimedFloat6").find("'Wrench:TimedFloat6'"), std::string::npos);
+  EXPECT_NE(message("wrench:Float6").find("'Float6' is not a port type"), std::string::npos)
+      << message("wrench:Float6");
+  EXPECT_NE(message("wrench:timedfloat6").find("did you mean TimedFloat6?"), std::string::npos)
+      << message("wrench:timedfloat6");
+}
+
+TEST(RtmScaffoldPortSpec, KnownTypesAreTheTypesRtmDataGivesDataTraits) {
+  const std::vector<std::string> traits = {
+      std::string(rtm::DataTraits<RTM::TimedFloat6>::name),    std::string(rtm::DataTraits<RTM::TimedFloat>::name),
+      std::string(rtm::DataTraits<RTM::TimedDouble>::name),    std::string(rtm::DataTraits<RTM::TimedLong>::name),
+      std::string(rtm::DataTraits<RTM::TimedBoolean>::name),   std::string(rtm::DataTraits<RTM::TimedFloat3>::name),
+      std::string(rtm::DataTraits<RTM::TimedFloatSeq>::name),
+      std::string(rtm::DataTraits<RTM::TimedDoubleSeq>::name)};
+  EXPECT_EQ(rtm::cli::known_port_types(), traits);
+}
+
+TEST(RtmScaffoldNames, TheClassIsTheWordsCapitalised) {
+  EXPECT_EQ(rtm::cli::class_name_of("gripper_ctl"), "GripperCtl");
+  EXPECT_EQ(rtm::cli::class_name_of("relay"), "Relay");
+  EXPECT_EQ(rtm::cli::class_name_of("arm2_joint_ctl"), "Arm2JointCtl");
+}
+
+}  // namespace

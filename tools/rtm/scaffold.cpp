@@ -1,0 +1,876 @@
+#include "scaffold.h"
+
+#include "rtm/runner.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <system_error>
+
+namespace rtm::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// ============================ port types ==============================
+
+// How a timed type holds its values, which is all the generated step() and test need to know.
+enum class Shape { array, scalar, sequence };
+
+struct TypeInfo {
+  std::string_view name;     // in module RTM
+  Shape shape;
+  std::string_view field;    // the member holding the values
+  int elements;              // array: its length
+  std::string_view element;  // C++ type of one value
+};
+
+// The types rtm/data.h gives DataTraits to (RTM.idl's TimedFloat6, then RTMData.idl's).
+constexpr TypeInfo kTypes[] = {
+    {"TimedFloat6", Shape::array, "val", 6, "float"},
+    {"TimedFloat", Shape::scalar, "data", 1, "float"},
+    {"TimedDouble", Shape::scalar, "data", 1, "double"},
+    {"TimedLong", Shape::scalar, "data", 1, "CORBA::Long"},
+    {"TimedBoolean", Shape::scalar, "data", 1, "CORBA::Boolean"},
+    {"TimedFloat3", Shape::array, "val", 3, "float"},
+    {"TimedFloatSeq", Shape::sequence, "data", 0, "float"},
+    {"TimedDoubleSeq", Shape::sequence, "data", 0, "double"},
+};
+
+std::string full_name(const TypeInfo& t) { return fmt::format("RTM::{}", t.name); }
+
+std::string known_types_text() {
+  std::string text;
+  for (const auto& t : kTypes) text += fmt::format("{}{}", text.empty() ? "" : ", ", t.name);
+  return text;
+}
+
+bool same_ignoring_case(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const auto lower = [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; };
+    if (lower(a[i]) != lower(b[i])) return false;
+  }
+  return true;
+}
+
+// "TimedFloat6" or "RTM::TimedFloat6"; `what` names the port for the error.
+const TypeInfo& find_type(std::string_view type, std::string_view what) {
+  const std::string_view bare = type.starts_with("RTM::") ? type.substr(5) : type;
+  for (const auto& t : kTypes) {
+    if (bare == t.name) return t;
+  }
+  std::string hint;
+  for (const auto& t : kTypes) {
+    if (same_ignoring_case(bare, t.name)) hint = fmt::format(" (did you mean {}?)", t.name);
+  }
+  throw std::invalid_argument(fmt::format("{}: '{}' is not a port type{}; known types: {}", what, type, hint,
+                                          known_types_text()));
+}
+
+// ================================ names ===============================
+
+bool lower_or_digit(char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9'); }
+bool letter_or_digit(char c) { return lower_or_digit(c) || (c >= 'A' && c <= 'Z'); }
+
+// Words a port name cannot be: it becomes a struct member in the generated C++.
+const std::set<std::string_view>& reserved_port_names() {
+  static const std::set<std::string_view> words = {
+      "alignas", "alignof", "and", "and_eq", "asm", "auto", "bitand", "bitor", "bool", "break", "case", "catch",
+      "char", "char8_t", "char16_t", "char32_t", "class", "compl", "concept", "const", "consteval", "constexpr",
+      "constinit", "const_cast", "continue", "co_await", "co_return", "co_yield", "decltype", "default", "delete",
+      "do", "double", "dynamic_cast", "else", "enum", "explicit", "export", "extern", "false", "float", "for",
+      "friend", "goto", "if", "inline", "int", "long", "mutable", "namespace", "new", "noexcept", "not", "not_eq",
+      "nullptr", "operator", "or", "or_eq", "private", "protected", "public", "register", "reinterpret_cast",
+      "requires", "return", "short", "signed", "sizeof", "static", "static_assert", "static_cast", "struct",
+      "switch", "template", "this", "thread_local", "throw", "true", "try", "typedef", "typeid", "typename",
+      "union", "unsigned", "using", "virtual", "void", "volatile", "wchar_t", "while", "xor", "xor_eq",
+      // object-like macros of the C library and of GNU mode
+      "errno", "linux", "unix"};
+  return words;
+}
+
+// Lower-case words of a-z 0-9 joined by single '_': it names the folder, the CMake project and
+// targets, the executable, the kind and (capitalised) the class.
+void check_component_name(std::string_view name) {
+  const auto bad = [&](std::string_view why) {
+    throw std::invalid_argument(fmt::format(
+        "component name '{}' {}: use 1 to 32 of a-z 0-9 '_', starting with a letter, words joined by "
+        "single '_' (e.g. gripper_ctl)",
+        name, why));
+  };
+  if (name.empty()) bad("is empty");
+  if (name.size() > 32) bad("is longer than 32 characters");
+  if (!(name.front() >= 'a' && name.front() <= 'z')) bad("does not start with a lower-case letter");
+  for (char c : name) {
+    if (!lower_or_digit(c) && c != '_') bad(fmt::format("holds '{}'", c));
+  }
+  if (name.find("__") != std::string_view::npos) bad("holds '__'");
+  if (name.back() == '_') bad("ends in '_'");
+}
+
+std::string derive_class_name(std::string_view name) {
+  std::string out;
+  bool start = true;
+  for (char c : name) {
+    if (c == '_') {
+      start = true;
+      continue;
+    }
+    out += start && c >= 'a' && c <= 'z' ? static_cast<char>(c - 'a' + 'A') : c;
+    start = false;
+  }
+  return out;
+}
+
+// what: "InPort 'wrench'" or the port spec's text, for the message.
+void check_port_name(std::string_view name, std::string_view what) {
+  const auto bad = [&](std::string_view why) {
+    throw std::invalid_argument(fmt::format(
+        "{}: port name '{}' {}: use a C identifier of up to 64 of a-z A-Z 0-9 '_' starting with a lower-case "
+        "letter (e.g. wrench)",
+        what, name, why));
+  };
+  if (name.empty()) bad("is empty");
+  if (name.size() > 64) bad("is longer than 64 characters");
+  if (!(name.front() >= 'a' && name.front() <= 'z')) bad("does not start with a lower-case letter");
+  for (char c : name) {
+    if (!letter_or_digit(c) && c != '_') bad(fmt::format("holds '{}'", c));
+  }
+  // The generated members are <name>_in_ / <name>_out_: '__' there is reserved to the compiler.
+  if (name.find("__") != std::string_view::npos) bad("holds '__'");
+  if (name.back() == '_') bad("ends in '_'");
+  if (reserved_port_names().count(name)) bad("is a C++ keyword or a macro");
+}
+
+// in<N> / out<N> also name ports by position (`rtm get c.in1`), and a port's own name wins:
+// a port may be called so only when it is that position itself.
+void check_index_alias(std::string_view name, bool is_in, std::size_t index) {
+  for (std::string_view prefix : {"in", "out"}) {
+    if (!name.starts_with(prefix) || name.size() == prefix.size()) continue;
+    const auto digits = name.substr(prefix.size());
+    if (digits.find_first_not_of("0123456789") != std::string_view::npos) continue;
+    const std::string own = fmt::format("{}{}", is_in ? "in" : "out", index);
+    if (name == own) return;
+    throw std::invalid_argument(fmt::format(
+        "{} '{}' is {} {}: in<N> and out<N> name ports by position, so '{}' would hide another port; "
+        "call it {} or give it a name of its own",
+        is_in ? "InPort" : "OutPort", name, is_in ? "InPort" : "OutPort", index, name, own));
+  }
+}
+
+// =============================== the plan =============================
+
+struct Port {
+  std::string name;
+  const TypeInfo* type;
+};
+
+// Everything the files are made from, checked.
+struct Plan {
+  std::string name;
+  std::string class_name;
+  std::string period;
+  std::vector<Port> in, out;
+  // For each OutPort, the InPort the generated step() passes to it (-1: none): the InPort of
+  // the same type and the same rank among the ports of that type.
+  std::vector<int> source_of;
+};
+
+std::vector<Port> checked_ports(const std::vector<PortSpec>& specs, bool is_in, std::set<std::string>& seen) {
+  std::vector<Port> ports;
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    const auto what = fmt::format("{} '{}'", is_in ? "InPort" : "OutPort", specs[i].name);
+    check_port_name(specs[i].name, what);
+    const TypeInfo& type = find_type(specs[i].type, what);
+    if (!seen.insert(specs[i].name).second) {
+      throw std::invalid_argument(fmt::format(
+          "port name '{}' is given twice: each port needs a name of its own, InPorts and OutPorts alike "
+          "(a port is found by its name)",
+          specs[i].name));
+    }
+    check_index_alias(specs[i].name, is_in, i);
+    ports.push_back({specs[i].name, &type});
+  }
+  return ports;
+}
+
+std::vector<int> pass_through_sources(const std::vector<Port>& in, const std::vector<Port>& out) {
+  std::vector<int> sources;
+  std::map<const TypeInfo*, int> taken;  // OutPorts of a type seen so far
+  for (const auto& o : out) {
+    int rank = taken[o.type]++;
+    int source = -1;
+    for (std::size_t i = 0; i < in.size() && source < 0; ++i) {
+      if (in[i].type == o.type && rank-- == 0) source = static_cast<int>(i);
+    }
+    sources.push_back(source);
+  }
+  return sources;
+}
+
+Plan make_plan(const ScaffoldOptions& options) {
+  Plan plan;
+  plan.name = options.name;
+  plan.class_name = class_name_of(options.name);
+  rtm::parse_period_ns(options.period);  // throws naming the text
+  plan.period = options.period;
+  std::set<std::string> seen;
+  if (options.in.empty() && options.out.empty()) {
+    plan.in = {{"in0", &kTypes[0]}};
+    plan.out = {{"out0", &kTypes[0]}};
+  } else {
+    plan.in = checked_ports(options.in, true, seen);
+    plan.out = checked_ports(options.out, false, seen);
+  }
+  plan.source_of = pass_through_sources(plan.in, plan.out);
+  return plan;
+}
+
+// ============================== templates =============================
+
+// Replaces each @KEY@ of text by values[KEY]. Templates hold no other '@', and begin with a
+// newline, dropped here, so that their first line stands in the source as it comes out.
+std::string substitute(std::string_view text, const std::map<std::string, std::string>& values) {
+  if (text.starts_with('\n')) text.remove_prefix(1);
+  std::string out;
+  std::size_t at = 0;
+  while (true) {
+    const auto open = text.find('@', at);
+    if (open == std::string_view::npos) break;
+    const auto close = text.find('@', open + 1);
+    if (close == std::string_view::npos) throw std::logic_error("scaffold template: unclosed @KEY@");
+    const auto key = text.substr(open + 1, close - open - 1);
+    const auto found = values.find(std::string(key));
+    if (found == values.end()) throw std::logic_error(fmt::format("scaffold template: no value for @{}@", key));
+    out.append(text.substr(at, open - at));
+    out += found->second;
+    at = close + 1;
+  }
+  out.append(text.substr(at));
+  return out;
+}
+
+constexpr std::string_view kCMakeLists = R"(
+# @NAME@: an RTM component (made by `rtm new component`).
+cmake_minimum_required(VERSION 3.25)
+project(@NAME@ LANGUAGES CXX)
+
+set(CMAKE_CXX_STANDARD 20)
+set(CMAKE_CXX_STANDARD_REQUIRED ON)
+set(CMAKE_CXX_EXTENSIONS OFF)
+if(NOT CMAKE_BUILD_TYPE AND NOT CMAKE_CONFIGURATION_TYPES)
+  set(CMAKE_BUILD_TYPE Release)
+endif()
+if(CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
+  add_compile_options(-Wall -Wextra)
+endif()
+
+# RTM::core brings the framework, its IDL stubs (RTM.hh, RTMData.hh) and omniORB.
+find_package(RTM 0.1 REQUIRED)
+
+# The component: its class and its logic, step(), which the test calls without an ORB.
+add_library(@NAME@_logic STATIC src/@NAME@.cpp)
+target_include_directories(@NAME@_logic PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+target_link_libraries(@NAME@_logic PUBLIC RTM::core)
+
+# The executable @NAME@.yaml starts: bin/rtm-@NAME@ in the build folder.
+add_executable(rtm-@NAME@ src/main.cpp)
+target_link_libraries(rtm-@NAME@ PRIVATE @NAME@_logic RTM::core)
+set_target_properties(rtm-@NAME@ PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin)
+
+enable_testing()
+find_package(GTest REQUIRED)
+add_executable(@NAME@_test test/@NAME@_test.cpp)
+target_link_libraries(@NAME@_test PRIVATE @NAME@_logic GTest::gtest_main)
+add_test(NAME @NAME@_test COMMAND @NAME@_test)
+)";
+
+constexpr std::string_view kHeader = R"(
+// @NAME@: an RTM component (made by `rtm new component`).
+//
+@PORT_TABLE@//
+// Its logic is step(): a pure function from the newest inputs to the outputs (no CORBA calls,
+// no I/O, no clock: the cycle hands it the time), so that a test checks it without an ORB
+// (test/@NAME@_test.cpp). The class itself only moves data between its ports and step().
+#pragma once
+
+#include "rtm/component.h"
+#include "rtm/data.h"
+
+#include <string>
+
+class @CLASS@ final : public rtm::Component {
+ public:
+  // The newest datum of each InPort (zeros until the first one arrives).
+  struct Inputs {
+@INPUT_FIELDS@  };
+  // One datum for each OutPort.
+  struct Outputs {
+@OUTPUT_FIELDS@  };
+
+  // One cycle's computation at time now (wall clock, as data are stamped).
+  static Outputs step(const Inputs& in, const RTM::Time& now);
+
+  explicit @CLASS@(std::string name);
+
+  void on_cycle(const rtm::CycleContext& ctx) override;
+
+ private:
+  Inputs inputs_{};
+@PORT_MEMBERS@};
+)";
+
+constexpr std::string_view kSource = R"(
+#include "@NAME@/@NAME@.h"
+
+#include <utility>
+
+// The component's logic: replace the body with yours, and keep it free of CORBA calls, I/O and
+// clocks so that the test can call it. As made, an OutPort carries the InPort of its type (the
+// first OutPort of a type the first InPort of that type, and so on), stamp included so that a
+// receiver can measure the latency; an OutPort without one carries zeros stamped now.
+@CLASS@::Outputs @CLASS@::step(@IN_PARAMETER@, @NOW_PARAMETER@) {
+  Outputs out;
+@STEP_LINES@  return out;
+}
+
+@CLASS@::@CLASS@(std::string name) : Component(std::move(name), "@NAME@") {}
+
+void @CLASS@::on_cycle(const rtm::CycleContext&) {
+@CYCLE_LINES@}
+)";
+
+constexpr std::string_view kMain = R"(
+// The component's executable: @CLASS@ under the RTM runner, whose options (--name, --naming,
+// --period, --on, --rt-priority, ...) `--help` lists.
+#include "@NAME@/@NAME@.h"
+
+#include "rtm/runner.h"
+
+#include <memory>
+
+int main(int argc, char** argv) {
+  return rtm::run_component(argc, argv, {
+      .kind = "@NAME@",
+      .description =
+@DESCRIPTION@,
+      .create = [](const rtm::RunSettings& settings) { return std::make_unique<@CLASS@>(settings.name); },
+  });
+}
+)";
+
+constexpr std::string_view kTest = R"(
+// Tests of @CLASS@::step(), the component's logic, without an ORB.
+#include "@NAME@/@NAME@.h"
+
+#include <gtest/gtest.h>
+
+#include <type_traits>
+
+namespace {
+
+RTM::Time stamp(CORBA::ULong sec, CORBA::ULong nsec) {
+  RTM::Time t;
+  t.sec = sec;
+  t.nsec = nsec;
+  return t;
+}
+@TESTS@
+}  // namespace
+)";
+
+constexpr std::string_view kSystemFile = R"(
+# @NAME@'s system, as `rtm up` reads it (the format: tools/rtm/system_file.h in RTM).
+#   rtm up @NAME@.yaml   starts @NAME@0, waits until it is bound, turns it on
+#   rtm down @NAME@      turns it off and stops it
+# A program with a '/' is taken relative to this file's folder: the build of README.md.
+name: @NAME@
+components:
+  - name: @NAME@0
+    command: [build/bin/rtm-@NAME@, --period, "@PERIOD@"]
+@EXAMPLE@activate: [@NAME@0]
+)";
+
+constexpr std::string_view kReadme = R"(
+# @NAME@
+
+An RTM component, made by `rtm new component`.
+
+@PORT_LIST@
+## Build and test
+
+```sh
+cmake -B build -DCMAKE_PREFIX_PATH=<rtm prefix>   # the folder RTM is installed in
+cmake --build build
+ctest --test-dir build
+```
+
+It needs what RTM itself needs (omniORB 4.2) and GoogleTest; `<rtm prefix>` may also be an RTM
+build tree. The component's executable is `build/bin/rtm-@NAME@`, where `@NAME@.yaml` runs it
+from (building elsewhere, change the path there).
+
+## Run
+
+```sh
+# a naming service of your own, on loopback only
+mkdir -p ~/.rtm-names && omniNames -start 2809 -logdir ~/.rtm-names -ignoreport -ORBendPoint giop:tcp:127.0.0.1:2809 &
+export RTM_NAMING=127.0.0.1:2809            # `rtm` is in <rtm prefix>/bin
+rtm up @NAME@.yaml     # starts @NAME@0 (a cycle every @PERIOD@) and turns it on
+rtm cat @NAME@0        # its ports, counters and timing
+rtm down @NAME@
+```
+
+`@NAME@.yaml` is the system file: add the components @NAME@0 talks to, and `connections`
+between their ports, there. `build/bin/rtm-@NAME@ --help` lists the options the runner takes
+(`--period`, `--rt-priority`, `--cpu`, ...).
+
+## Where the logic goes
+
+`@CLASS@::step()` in `src/@NAME@.cpp`: a pure function from `Inputs` (the newest datum of
+each InPort) and the time to `Outputs` (one datum per OutPort). Keep CORBA calls, I/O and
+clocks out of it, and test it in `test/@NAME@_test.cpp`. `@CLASS@::on_cycle()` reads the
+InPorts, calls `step()` and writes the OutPorts; the ports are declared in
+`include/@NAME@/@NAME@.h`. As made, `step()` passes each InPort on to an OutPort of its
+type, and stamps the OutPorts left over with the time it is given.
+)";
+
+// ============================== rendering =============================
+
+std::string type_of(const Port& p) { return full_name(*p.type); }
+
+std::size_t name_width(const Plan& p) {
+  std::size_t width = 0;
+  for (const auto* ports : {&p.in, &p.out}) {
+    for (const auto& port : *ports) width = std::max(width, port.name.size());
+  }
+  return width;
+}
+
+// "//   InPort 0   wrench  RTM::TimedFloat6" lines.
+std::string port_table(const Plan& p) {
+  std::string text;
+  const auto width = name_width(p);
+  for (std::size_t i = 0; i < p.in.size(); ++i) {
+    text += fmt::format("//   InPort {}   {:<{}}  {}\n", i, p.in[i].name, width, type_of(p.in[i]));
+  }
+  for (std::size_t i = 0; i < p.out.size(); ++i) {
+    text += fmt::format("//   OutPort {}  {:<{}}  {}\n", i, p.out[i].name, width, type_of(p.out[i]));
+  }
+  if (p.in.empty()) text += "//   no InPort: a source, computing every cycle\n";
+  if (p.out.empty()) text += "//   no OutPort: a sink, acting on its inputs\n";
+  return text;
+}
+
+std::string fields(const std::vector<Port>& ports, std::string_view none) {
+  if (ports.empty()) return fmt::format("    // none: {}\n", none);
+  std::string text;
+  for (const auto& port : ports) text += fmt::format("    {} {}{{}};\n", type_of(port), port.name);
+  return text;
+}
+
+std::string port_members(const Plan& p) {
+  std::string text;
+  for (const auto& port : p.in) {
+    text += fmt::format("  rtm::InPort<{0}>& {1}_in_ =\n"
+                        "      add_in_port<{0}>(\"{1}\", {{\"TODO: what {1} carries\", {{}}}});\n",
+                        type_of(port), port.name);
+  }
+  for (const auto& port : p.out) {
+    text += fmt::format("  rtm::OutPort<{0}>& {1}_out_ =\n"
+                        "      add_out_port<{0}>(\"{1}\", {{\"TODO: what {1} carries\", {{}}}});\n",
+                        type_of(port), port.name);
+  }
+  return text;
+}
+
+std::string render_header(const Plan& p) {
+  return substitute(kHeader, {{"NAME", p.name},
+                              {"CLASS", p.class_name},
+                              {"PORT_TABLE", port_table(p)},
+                              {"INPUT_FIELDS", fields(p.in, "the component has no InPort")},
+                              {"OUTPUT_FIELDS", fields(p.out, "the component has no OutPort")},
+                              {"PORT_MEMBERS", port_members(p)}});
+}
+
+// on_cycle(): read every InPort, compute when something new came, write every OutPort.
+std::string cycle_lines(const Plan& p) {
+  std::string text;
+  std::string any_new;
+  if (p.in.empty()) {
+    text += "  // No InPort: new outputs every cycle.\n";
+  } else {
+    text += "  // Each read takes the port's newest datum. Without a new one the outputs would only repeat\n"
+            "  // the last ones: then nothing is written.\n";
+    for (const auto& port : p.in) {
+      text += fmt::format("  const bool new_{0} = {0}_in_.read(inputs_.{0}) == rtm::ReadResult::NewData;\n",
+                          port.name);
+      any_new += fmt::format("{}new_{}", any_new.empty() ? "" : " || ", port.name);
+    }
+    text += fmt::format("  if (!{}) return;\n", p.in.size() == 1 ? any_new : "(" + any_new + ")");
+  }
+  if (p.out.empty()) {
+    text += "  // No OutPort: act on what step() computes here (a device, a file).\n"
+            "  step(inputs_, rtm::now());\n";
+    return text;
+  }
+  text += "  const Outputs out = step(inputs_, rtm::now());\n";
+  for (const auto& port : p.out) text += fmt::format("  {0}_out_.write(out.{0});\n", port.name);
+  return text;
+}
+
+std::string maybe_unused(bool unused) { return unused ? "[[maybe_unused]] " : ""; }
+
+std::string render_source(const Plan& p) {
+  std::string step_lines;
+  bool uses_in = false;
+  bool uses_now = false;
+  for (std::size_t i = 0; i < p.out.size(); ++i) {
+    const int source = p.source_of[i];
+    if (source >= 0) {
+      step_lines += fmt::format("  out.{} = in.{};\n", p.out[i].name, p.in[static_cast<std::size_t>(source)].name);
+      uses_in = true;
+    } else {
+      step_lines += fmt::format("  out.{}.tm = now;\n", p.out[i].name);
+      uses_now = true;
+    }
+  }
+  return substitute(kSource, {{"NAME", p.name},
+                              {"CLASS", p.class_name},
+                              {"IN_PARAMETER", maybe_unused(!uses_in) + "const Inputs& in"},
+                              {"NOW_PARAMETER", maybe_unused(!uses_now) + "const RTM::Time& now"},
+                              {"STEP_LINES", step_lines},
+                              {"CYCLE_LINES", cycle_lines(p)}});
+}
+
+// text as adjacent string literals of about 80 characters at most, one per line.
+std::string wrapped_literal(std::string_view text, std::string_view indent) {
+  std::vector<std::string> lines{""};
+  for (std::size_t at = 0; at < text.size();) {
+    const auto space = text.find(' ', at);
+    const auto word = text.substr(at, space == std::string_view::npos ? std::string_view::npos : space + 1 - at);
+    if (!lines.back().empty() && lines.back().size() + word.size() > 80) lines.emplace_back();
+    lines.back() += word;
+    at += word.size();
+  }
+  std::string out;
+  for (const auto& line : lines) out += fmt::format("{}{}\"{}\"", out.empty() ? "" : "\n", indent, line);
+  return out;
+}
+
+// The --help line: what the component does (for its author to say) and its ports.
+std::string description(const Plan& p) {
+  const auto list = [](const std::vector<Port>& ports) {
+    std::string text;
+    for (const auto& port : ports) text += fmt::format("{}{} {}", text.empty() ? "" : ", ", port.name, type_of(port));
+    return text.empty() ? std::string("none") : text;
+  };
+  return wrapped_literal(
+      fmt::format("rtm-{}: TODO: say what it does. InPorts: {}; OutPorts: {}", p.name, list(p.in), list(p.out)),
+      "          ");
+}
+
+std::string render_main(const Plan& p) {
+  return substitute(kMain, {{"NAME", p.name}, {"CLASS", p.class_name}, {"DESCRIPTION", description(p)}});
+}
+
+// ---- the generated test: sample data per type ----
+
+// The literal a test puts in value `index` (or the only value) of the k-th InPort: distinct
+// per port, exact in a float.
+std::string sample_value(const TypeInfo& t, std::size_t k, bool indexed) {
+  if (t.element == "CORBA::Boolean") return "true";
+  if (t.element == "CORBA::Long") return fmt::format("{}", 42 + k);
+  if (indexed) return fmt::format("static_cast<{}>({} + i)", t.element, 10 * (k + 1));
+  return fmt::format("{:.1f}{}", static_cast<double>(k) + 1.5, t.element == "float" ? "f" : "");
+}
+
+std::string expect_equal(const TypeInfo& t, const std::string& actual, const std::string& expected) {
+  if (t.element == "CORBA::Boolean") {
+    return fmt::format("EXPECT_{}({})", expected == "true" ? "TRUE" : "FALSE", actual);
+  }
+  if (t.element == "float") return fmt::format("EXPECT_FLOAT_EQ({}, {})", actual, expected);
+  if (t.element == "double") return fmt::format("EXPECT_DOUBLE_EQ({}, {})", actual, expected);
+  return fmt::format("EXPECT_EQ({}, {})", actual, expected);
+}
+
+constexpr int kSampleLength = 3;  // values a sequence sample holds
+
+// Fills in.<port> with the k-th sample (stamp included).
+std::string fill_sample(const Port& port, std::size_t k) {
+  const TypeInfo& t = *port.type;
+  const std::string var = fmt::format("in.{}.{}", port.name, t.field);
+  std::string text = fmt::format("  in.{}.tm = stamp({}, 500);\n", port.name, 101 + k);
+  switch (t.shape) {
+    case Shape::scalar:
+      return text + fmt::format("  {} = {};\n", var, sample_value(t, k, false));
+    case Shape::array:
+      return text + fmt::format("  for (CORBA::ULong i = 0; i < {}; ++i) {}[i] = {};\n", t.elements, var,
+                                sample_value(t, k, true));
+    case Shape::sequence:
+      return text + fmt::format("  {0}.length({1});\n  for (CORBA::ULong i = 0; i < {1}; ++i) {0}[i] = {2};\n", var,
+                                kSampleLength, sample_value(t, k, true));
+  }
+  return text;
+}
+
+// Expects out.<port> to hold the k-th sample (stamp included).
+std::string expect_sample(const Port& port, std::size_t k) {
+  const TypeInfo& t = *port.type;
+  const std::string var = fmt::format("out.{}.{}", port.name, t.field);
+  std::string text =
+      fmt::format("  EXPECT_EQ(out.{0}.tm.sec, {1}u);\n  EXPECT_EQ(out.{0}.tm.nsec, 500u);\n", port.name, 101 + k);
+  switch (t.shape) {
+    case Shape::scalar:
+      return text + fmt::format("  {};\n", expect_equal(t, var, sample_value(t, k, false)));
+    case Shape::array:
+      return text + fmt::format("  for (CORBA::ULong i = 0; i < {}; ++i) {};\n", t.elements,
+                                expect_equal(t, var + "[i]", sample_value(t, k, true)));
+    case Shape::sequence:
+      return text + fmt::format("  ASSERT_EQ({0}.length(), {1}u);\n"
+                                "  for (CORBA::ULong i = 0; i < {1}; ++i) {2};\n",
+                                var, kSampleLength, expect_equal(t, var + "[i]", sample_value(t, k, true)));
+  }
+  return text;
+}
+
+// Expects out.<port> to hold zeros (an empty sequence) stamped 7 s 250 ns.
+std::string expect_zero(const Port& port) {
+  const TypeInfo& t = *port.type;
+  const std::string var = fmt::format("out.{}.{}", port.name, t.field);
+  const std::string zero = t.element == "float"         ? "0.0f"
+                           : t.element == "double"      ? "0.0"
+                           : t.element == "CORBA::Long" ? "0"
+                                                        : "false";
+  std::string text =
+      fmt::format("  EXPECT_EQ(out.{0}.tm.sec, 7u);\n  EXPECT_EQ(out.{0}.tm.nsec, 250u);\n", port.name);
+  switch (t.shape) {
+    case Shape::scalar:
+      return text + fmt::format("  {};\n", expect_equal(t, var, zero));
+    case Shape::array:
+      return text + fmt::format("  for (CORBA::ULong i = 0; i < {}; ++i) {};\n", t.elements,
+                                expect_equal(t, var + "[i]", zero));
+    case Shape::sequence:
+      return text + fmt::format("  EXPECT_EQ({}.length(), 0u);\n", var);
+  }
+  return text;
+}
+
+std::string pass_through_test(const Plan& p) {
+  std::string fill;
+  std::string expect;
+  for (std::size_t i = 0; i < p.out.size(); ++i) {
+    if (p.source_of[i] < 0) continue;
+    const auto k = static_cast<std::size_t>(p.source_of[i]);
+    fill += fill_sample(p.in[k], k);
+    expect += expect_sample(p.out[i], k);
+  }
+  if (fill.empty()) return "";
+  return fmt::format("\nTEST({0}Step, OutPortsCarryTheInPortOfTheirTypeWithItsStamp) {{\n"
+                     "  {0}::Inputs in;\n{1}"
+                     "  const {0}::Outputs out = {0}::step(in, stamp(7, 250));\n{2}}}\n",
+                     p.class_name, fill, expect);
+}
+
+std::string zero_test(const Plan& p) {
+  std::string expect;
+  for (std::size_t i = 0; i < p.out.size(); ++i) {
+    if (p.source_of[i] < 0) expect += expect_zero(p.out[i]);
+  }
+  if (expect.empty()) return "";
+  return fmt::format("\nTEST({0}Step, OutPortsWithoutAnInPortOfTheirTypeCarryZerosStampedNow) {{\n"
+                     "  const {0}::Outputs out = {0}::step({0}::Inputs{{}}, stamp(7, 250));\n{1}}}\n",
+                     p.class_name, expect);
+}
+
+std::string render_test(const Plan& p) {
+  std::string tests = pass_through_test(p) + zero_test(p);
+  if (p.out.empty()) {
+    tests = fmt::format("\n// No OutPort: step() returns nothing yet. Test what it computes once it does.\n"
+                        "TEST({0}Step, HasNoOutputsToCompute) {{\n"
+                        "  EXPECT_TRUE(std::is_empty_v<{0}::Outputs>);\n"
+                        "  EXPECT_NO_THROW({0}::step({0}::Inputs{{}}, stamp(7, 250)));\n}}\n",
+                        p.class_name);
+  }
+  return substitute(kTest, {{"NAME", p.name}, {"CLASS", p.class_name}, {"TESTS", tests}});
+}
+
+// ---- the system file and the README ----
+
+std::string render_system_file(const Plan& p) {
+  const std::string example =
+      p.in.empty() ? fmt::format("#   - name: other0\n#     command: [rtm-other]\n# connections:\n"
+                                 "#   - {{from: {0}0.{1}, to: other0.in0}}\n",
+                                 p.name, p.out.front().name)
+                   : fmt::format("#   - name: other0\n#     command: [rtm-other]\n# connections:\n"
+                                 "#   - {{from: other0.out0, to: {0}0.{1}}}\n",
+                                 p.name, p.in.front().name);
+  return substitute(kSystemFile,
+                    {{"NAME", p.name},
+                     {"PERIOD", p.period},
+                     {"EXAMPLE", "# More components, and connections between their ports, e.g.:\n" + example}});
+}
+
+std::string render_readme(const Plan& p) {
+  std::string ports = "| port | direction | type |\n| --- | --- | --- |\n";
+  for (const auto& port : p.in) ports += fmt::format("| `{}` | in | `{}` |\n", port.name, type_of(port));
+  for (const auto& port : p.out) ports += fmt::format("| `{}` | out | `{}` |\n", port.name, type_of(port));
+  return substitute(kReadme, {{"NAME", p.name}, {"CLASS", p.class_name}, {"PERIOD", p.period}, {"PORT_LIST", ports}});
+}
+
+struct ProjectFile {
+  fs::path relative;
+  std::string text;
+};
+
+std::vector<ProjectFile> render(const Plan& p) {
+  return {
+      {"CMakeLists.txt", substitute(kCMakeLists, {{"NAME", p.name}})},
+      {fs::path("include") / p.name / (p.name + ".h"), render_header(p)},
+      {fs::path("src") / (p.name + ".cpp"), render_source(p)},
+      {fs::path("src") / "main.cpp", render_main(p)},
+      {fs::path("test") / (p.name + "_test.cpp"), render_test(p)},
+      {p.name + ".yaml", render_system_file(p)},
+      {"README.md", render_readme(p)},
+      {".gitignore", "build/\n"},
+  };
+}
+
+// ============================== writing ===============================
+
+// What one scaffold_component() call made, so that a failure can take it back.
+class Writer {
+ public:
+  ~Writer() {
+    if (committed_) return;
+    std::error_code ignored;
+    for (auto it = files_.rbegin(); it != files_.rend(); ++it) fs::remove(*it, ignored);
+    for (auto it = folders_.rbegin(); it != folders_.rend(); ++it) fs::remove(*it, ignored);  // only when empty
+  }
+
+  // Makes folder and its missing ancestors.
+  void make_folder(const fs::path& folder) {
+    std::vector<fs::path> missing;
+    std::error_code ignored;
+    for (fs::path p = folder; !p.empty() && !fs::exists(p, ignored); p = p.parent_path()) {
+      missing.insert(missing.begin(), p);
+      if (p == p.parent_path()) break;
+    }
+    for (const auto& p : missing) {
+      std::error_code ec;
+      if (fs::create_directory(p, ec)) {
+        folders_.push_back(p);
+      } else if (ec) {
+        throw std::runtime_error(fmt::format("cannot make the folder {}: {}", p.string(), ec.message()));
+      }
+    }
+  }
+
+  // Never replaces a file: "x" fails when path exists, even when it appeared since the check.
+  void write_new(const fs::path& path, const std::string& text) {
+    std::FILE* file = std::fopen(path.c_str(), "wx");
+    if (!file) {
+      throw std::runtime_error(
+          fmt::format("cannot write {}: {}", path.string(), std::system_category().message(errno)));
+    }
+    files_.push_back(path);
+    const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
+    const int error = errno;
+    if (std::fclose(file) != 0 || !written) {
+      throw std::runtime_error(fmt::format("cannot write {}: {}", path.string(),
+                                           std::system_category().message(written ? errno : error)));
+    }
+  }
+
+  void commit() { committed_ = true; }
+
+ private:
+  std::vector<fs::path> files_;
+  std::vector<fs::path> folders_;
+  bool committed_ = false;
+};
+
+// The project goes into a new or empty folder only.
+void check_target(const fs::path& folder) {
+  std::error_code ec;
+  const auto status = fs::status(folder, ec);
+  if (status.type() == fs::file_type::not_found) return;
+  if (ec) throw std::runtime_error(fmt::format("cannot look at {}: {}", folder.string(), ec.message()));
+  if (!fs::is_directory(status)) {
+    throw std::runtime_error(
+        fmt::format("{} exists and is not a folder: choose another name or --dir", folder.string()));
+  }
+  const bool empty = fs::is_empty(folder, ec);
+  if (ec) throw std::runtime_error(fmt::format("cannot look into {}: {}", folder.string(), ec.message()));
+  if (!empty) {
+    throw std::runtime_error(fmt::format(
+        "{} already exists and is not empty: nothing in it is overwritten; choose another name or --dir",
+        folder.string()));
+  }
+}
+
+}  // namespace
+
+const std::vector<std::string>& known_port_types() {
+  static const std::vector<std::string> types = [] {
+    std::vector<std::string> names;
+    for (const auto& t : kTypes) names.push_back(full_name(t));
+    return names;
+  }();
+  return types;
+}
+
+PortSpec parse_port_spec(std::string_view text) {
+  const auto colon = text.find(':');
+  if (colon == std::string_view::npos) {
+    throw std::invalid_argument(fmt::format("port '{}' has no type: write name:Type, e.g. wrench:TimedFloat6", text));
+  }
+  const auto what = fmt::format("port '{}'", text);
+  PortSpec spec{std::string(text.substr(0, colon)), ""};
+  check_port_name(spec.name, what);
+  spec.type = full_name(find_type(text.substr(colon + 1), what));
+  return spec;
+}
+
+std::string class_name_of(std::string_view component_name) {
+  check_component_name(component_name);
+  std::string name = derive_class_name(component_name);
+  // An all-capitals class name reads as a macro, and may be one ("a_b" -> AB).
+  if (name.find_first_of("abcdefghijklmnopqrstuvwxyz") == std::string::npos) {
+    throw std::invalid_argument(fmt::format(
+        "component name '{}' makes the class name '{}', all capitals like a macro: use a word of two letters or "
+        "more",
+        component_name, name));
+  }
+  if (name == "Inputs" || name == "Outputs") {
+    throw std::invalid_argument(fmt::format(
+        "component name '{}' makes the class name '{}', which the class uses for its own struct: choose another",
+        component_name, name));
+  }
+  return name;
+}
+
+std::vector<std::filesystem::path> scaffold_component(const ScaffoldOptions& options) {
+  const Plan plan = make_plan(options);  // every check on the input, before anything is written
+  const fs::path folder = (options.parent / options.name).lexically_normal();
+  check_target(folder);
+  const auto files = render(plan);
+  Writer writer;
+  writer.make_folder(folder);
+  std::vector<fs::path> written;
+  for (const auto& file : files) {
+    const fs::path path = folder / file.relative;
+    writer.make_folder(path.parent_path());
+    writer.write_new(path, file.text);
+    written.push_back(path);
+  }
+  writer.commit();
+  return written;
+}
+
+}  // namespace rtm::cli

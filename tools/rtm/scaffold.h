@@ -1,0 +1,72 @@
+// `rtm new component`: writes the skeleton of a component project that lives outside this tree
+// and builds against an installed RTM (find_package(RTM), target RTM::core).
+//
+//   rtm new component gripper_ctl --in wrench:TimedFloat6 --out grip:TimedFloat --period 1ms
+//
+// makes ./gripper_ctl/ holding
+//   CMakeLists.txt                    library gripper_ctl_logic, executable rtm-gripper_ctl,
+//                                     test gripper_ctl_test (GoogleTest, add_test)
+//   include/gripper_ctl/gripper_ctl.h class GripperCtl: its ports, and its logic as a pure
+//   src/gripper_ctl.cpp               static function GripperCtl::step(Inputs, now) -> Outputs
+//   src/main.cpp                      rtm::run_component (kind "gripper_ctl")
+//   test/gripper_ctl_test.cpp         tests of step(), no ORB needed
+//   gripper_ctl.yaml                  system file: `rtm up gripper_ctl.yaml` starts gripper_ctl0
+//                                     (build/bin/rtm-gripper_ctl --period 1ms) and turns it on
+//   README.md, .gitignore
+//
+// Names: the component name is lower-case words of a-z 0-9 joined by single '_', 1 to 32
+// characters, starting with a letter ("gripper_ctl"). The class is the words capitalised
+// ("GripperCtl", at global scope: no namespace named after the component, which could clash
+// with a C function such as log or time), the executable "rtm-" + name (as the framework's own
+// rtm-controller, rtm-sensor, ...), the kind the name, the instance in the system file name +
+// "0". The system file names the executable by its path in the project's build folder, so an
+// installed program of the same name on $PATH is never picked instead.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rtm::cli {
+
+// One port of the new component.
+struct PortSpec {
+  std::string name;  // a C identifier starting with a lower-case letter: "wrench"
+  std::string type;  // an RTM timed type, "RTM::TimedFloat6" (the "RTM::" may be left out)
+};
+
+struct ScaffoldOptions {
+  std::string name;  // "gripper_ctl"
+  // Both empty: one InPort "in0" and one OutPort "out0", both RTM::TimedFloat6. One empty,
+  // the other not: a component with no port of that direction (a source, a sink).
+  std::vector<PortSpec> in;
+  std::vector<PortSpec> out;
+  std::string period = "2ms";  // as the runner's --period takes it; written into the system file
+  std::filesystem::path parent = ".";  // the project is written to parent / name
+};
+
+// The types a port may carry, as "RTM::<type>": the timed types of idl/RTM.idl and
+// idl/RTMData.idl that rtm/data.h gives DataTraits to.
+const std::vector<std::string>& known_port_types();
+
+// "wrench:TimedFloat6" or "wrench:RTM::TimedFloat6" -> {"wrench", "RTM::TimedFloat6"}. Throws
+// std::invalid_argument naming the text when the name is not a usable port name or the type is
+// not a known port type (then the message lists the known ones).
+PortSpec parse_port_spec(std::string_view text);
+
+// The class a component name makes: "gripper_ctl" -> "GripperCtl". Throws
+// std::invalid_argument naming the name when it is not a usable component name.
+std::string class_name_of(std::string_view component_name);
+
+// Writes the project into options.parent / options.name (made, with parent, when missing) and
+// returns the files written, in that folder, in the order listed above.
+//
+// Everything is checked before anything is written: std::invalid_argument naming the offending
+// input for a bad component name, port name, port type, period, or a port name used twice;
+// std::runtime_error naming the folder when it exists and is not empty (nothing in it is ever
+// overwritten), or when a file cannot be written (what was written by this call is removed
+// again).
+std::vector<std::filesystem::path> scaffold_component(const ScaffoldOptions& options);
+
+}  // namespace rtm::cli
