@@ -166,6 +166,41 @@ TEST_F(Installed, ACustomIdlTypeCrossesProcessesAndAMismatchIsRefusedAtConnect) 
   EXPECT_EQ(accepted("c", "in0"), 0u);
 }
 
+TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
+  const CommandResult made = rtm_test::run_command({bin("rtm").string(), "new", "component", "gripper_ctl", "--in",
+                                                    "wrench:TimedFloat6", "--out", "twist:TimedFloat6", "--dir",
+                                                    root_.string()});
+  ASSERT_EQ(made.exit_code, 0) << made.err;
+  const fs::path project = root_ / "gripper_ctl", build = project / "build";
+  CommandResult r = rtm_test::run_command({CMAKE_COMMAND, "-S", project.string(), "-B", build.string(),
+                                           "-DCMAKE_PREFIX_PATH=" + prefix().string()},
+                                          {"CMAKE_PREFIX_PATH=", "RTM_DIR="}, 300s);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  r = rtm_test::run_command({CMAKE_COMMAND, "--build", build.string(), "-j2"}, {}, 600s);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  r = rtm_test::run_command({"ctest", "--test-dir", build.string(), "--output-on-failure"}, {}, 120s);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("100% tests passed"), std::string::npos) << r.out;
+  // Its system file, from its folder, with the installed rtm and a runtime folder of the test's.
+  const fs::path runtime = root_ / "run";
+  fs::create_directories(runtime);
+  auto rtm_here = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {"/bin/sh", "-c", "cd \"$0\" && exec \"$@\"", project.string(), bin("rtm").string(),
+                               "--naming", names_.address()});
+    return rtm_test::run_command(args, {"XDG_RUNTIME_DIR=" + runtime.string(), "RTM_TLS="}, 60s);
+  };
+  r = rtm_here({"up", "gripper_ctl.yaml"});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  r = rtm({"put", "gripper_ctl0.wrench", "1", "2", "3", "4", "5", "6"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  std::this_thread::sleep_for(100ms);
+  r = rtm({"get", "gripper_ctl0.twist"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("1.000"), std::string::npos) << "the scaffold's logic passes its input on: " << r.out;
+  r = rtm_here({"down", "gripper_ctl"});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+}
+
 TEST_F(Installed, AProjectBuildsAgainstTheBuildTreeToo) {
   const fs::path source = root_ / "from-build-tree";
   fs::copy(kSource / "tests/install/custom_type", source, fs::copy_options::recursive);

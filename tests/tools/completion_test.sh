@@ -33,6 +33,8 @@ expect "rtm --naming 127.0.0.1:2809 w" "watch"
 expect "rtm watch --r" "--rate"
 expect "rtm connect --o" "--once"
 expect "rtm t" "tls"
+expect "rtm new c" "component"
+expect "rtm new component x --o" "--out"
 expect "rtm tls i" "init issue"
 expect "rtm --tls /nonexistent-folder g" "get"
 if ((fails)); then echo "$fails failed"; exit 1; fi

@@ -12,6 +12,7 @@
 //   rtm watch <comp>.<out>                stream a port live (--rate, --csv, --count, --duration)
 //   rtm up <system.yaml> / rtm down <system.yaml|name>
 //   rtm tls init <folder> / rtm tls issue <authority> <folder>   certificates across hosts
+//   rtm new component <name> [--in n:Type]... [--out n:Type]...  a project of your own
 //
 // Every command takes --naming host:port (or $RTM_NAMING), --tls folder (or $RTM_TLS) and
 // --json; exit code 0 ok, 1 failed, 2 usage.
@@ -19,6 +20,7 @@
 #include "launcher.h"
 #include "report.h"
 #include "system_file.h"
+#include "new_command.h"
 #include "tls_command.h"
 #include "values.h"
 #include "watch.h"
@@ -94,6 +96,7 @@ struct Cli {
   std::string up_file, down_what;
   int up_timeout_ms = 10000;
   TlsCommand tls_command;
+  NewCommand new_command;
 };
 
 void add_browse_commands(CLI::App& app, Cli& c) {
@@ -375,6 +378,10 @@ int run(const Cli& c) {
     c.tls_command.run(c.json);
     return kOk;
   }
+  if (c.new_command.parsed()) {
+    c.new_command.run(c.json);
+    return kOk;
+  }
   if (!c.tls.empty()) {
     try {
       rtm::configure_tls(rtm::check_tls_folder(c.tls));
@@ -429,6 +436,7 @@ int main(int argc, char** argv) {
   add_data_commands(app, c);
   add_system_commands(app, c);
   c.tls_command.add_to(app);
+  c.new_command.add_to(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -13,7 +13,7 @@ _rtm_ports() {
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat set connect disconnect on off reset get put watch up down tls"
+  local commands="ls cat set connect disconnect on off reset get put watch up down tls new"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
@@ -52,6 +52,13 @@ _rtm() {
       [[ $cmd == connect && $cur == -* ]] && COMPREPLY=($(compgen -W "--once" -- "$cur"))
       ;;
     up|down) COMPREPLY=($(compgen -f -X '!*.@(yaml|yml)' -- "$cur")) ;;
+    new)
+      if [[ $prev == new ]]; then
+        COMPREPLY=($(compgen -W "component" -- "$cur"))
+      elif [[ $cur == -* ]]; then
+        COMPREPLY=($(compgen -W "--in --out --period --dir" -- "$cur"))
+      fi
+      ;;
     tls)
       if [[ $prev == tls ]]; then
         COMPREPLY=($(compgen -W "init issue" -- "$cur"))

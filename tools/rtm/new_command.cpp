@@ -1,0 +1,45 @@
+#include "new_command.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+namespace rtm::cli {
+
+void NewCommand::add_to(CLI::App& app) {
+  CLI::App* made = app.add_subcommand("new", "start a project of your own on RTM");
+  made->require_subcommand(1);
+  component = made->add_subcommand("component", "a component project: logic, test, executable, system file");
+  component->add_option("name", name, "lower-case words joined by '_', e.g. gripper_ctl")->required();
+  std::string types;
+  for (const auto& t : known_port_types()) types += (types.empty() ? "" : ", ") + t.substr(5);
+  component->add_option("--in", in, "an InPort, name:Type (repeatable); types: " + types);
+  component->add_option("--out", out, "an OutPort, name:Type (repeatable)");
+  component->add_option("--period", period, "the cycle period its system file starts it with")
+      ->capture_default_str();
+  component->add_option("--dir", parent, "the folder to make the project in")->capture_default_str();
+}
+
+bool NewCommand::parsed() const { return component->parsed(); }
+
+void NewCommand::run(bool json) const {
+  ScaffoldOptions options;
+  options.name = name;
+  for (const auto& spec : in) options.in.push_back(parse_port_spec(spec));
+  for (const auto& spec : out) options.out.push_back(parse_port_spec(spec));
+  options.period = period;
+  options.parent = parent;
+  const auto files = scaffold_component(options);
+  const std::filesystem::path project = options.parent / options.name;
+  if (json) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& f : files) list.push_back(f.string());
+    fmt::print("{}\n", nlohmann::json{{"project", project.string()}, {"files", list}}.dump());
+    return;
+  }
+  for (const auto& f : files) fmt::print("made {}\n", f.string());
+  fmt::print("next: cd {} && cmake -B build -DCMAKE_PREFIX_PATH=<RTM's prefix> && cmake --build build && "
+             "ctest --test-dir build\n",
+             project.string());
+}
+
+}  // namespace rtm::cli
