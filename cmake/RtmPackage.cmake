@@ -66,7 +66,45 @@ function(rtm_install_package)
   install(FILES ${PROJECT_SOURCE_DIR}/idl/RTM.idl ${PROJECT_SOURCE_DIR}/idl/RTMData.idl
                 ${PROJECT_SOURCE_DIR}/idl/RTMExt.idl
           DESTINATION ${RTM_INSTALL_IDLDIR} COMPONENT dev)
-  install(FILES ${PROJECT_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm COMPONENT runtime)
+  install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/cmake/debian/copyright
+          DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm COMPONENT runtime)
+  # Debian's changelog.gz, made reproducibly (no name or time in the gzip header).
+  configure_file(${PROJECT_SOURCE_DIR}/cmake/debian/changelog.in ${PROJECT_BINARY_DIR}/debian/changelog @ONLY)
+  execute_process(COMMAND gzip -9nc ${PROJECT_BINARY_DIR}/debian/changelog
+                  OUTPUT_FILE ${PROJECT_BINARY_DIR}/debian/changelog.gz COMMAND_ERROR_IS_FATAL ANY)
+  install(FILES ${PROJECT_BINARY_DIR}/debian/changelog.gz DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm
+          COMPONENT runtime)
+  install(FILES ${PROJECT_SOURCE_DIR}/cmake/debian/lintian-overrides DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/lintian/overrides
+          RENAME rtm COMPONENT runtime)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm COMPONENT runtime
           FILES_MATCHING PATTERN "*.md")
+endfunction()
+
+# rtm_debian_package(): `cpack -G DEB` in the build folder makes rtm_<version>_amd64.deb: the
+# whole installed tree in one package (programs, libraries, headers, the CMake package), so
+# that `apt install ./rtm_*.deb` gives both the running system and a base to build on.
+# Depends: the shared libraries the programs link (dpkg-shlibdeps finds them), the naming
+# service, and what find_package(RTM) needs to build a project.
+function(rtm_debian_package)
+  set(CPACK_GENERATOR DEB)
+  set(CPACK_PACKAGE_NAME rtm)
+  set(CPACK_PACKAGE_VENDOR "RTM developers")
+  set(CPACK_PACKAGE_CONTACT "RTM developers <rtm-dev@lists.example.org>")
+  set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "RT-Middleware component framework for robot control")
+  set(CPACK_PACKAGE_DESCRIPTION "Components with ports (omniORB), the rtm browser and launcher,\n"
+      "a PA10 force servo on SocketCAN or on a MuJoCo stand-in, and the CMake package\n"
+      "for components of one's own (find_package(RTM), rtm new component).")
+  set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
+  set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
+  set(CPACK_DEBIAN_PACKAGE_SECTION devel)
+  set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
+  set(CPACK_DEBIAN_PACKAGE_HOMEPAGE "https://example.org/rtm")
+  set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+  set(CPACK_DEBIAN_PACKAGE_DEPENDS
+      "omniorb-nameserver, omniidl, libomniorb4-dev, libssl-dev, libcli11-dev, libspdlog-dev, libfmt-dev, libeigen3-dev, liborocos-kdl-dev, liburdfdom-dev, cmake (>= 3.25), g++, pkg-config")
+  set(CPACK_DEBIAN_PACKAGE_SUGGESTS "libgtest-dev, can-utils")
+  set(CPACK_STRIP_FILES ON)
+  # cpack packs what was built (tests run it after the build); it never starts a build itself.
+  set(CMAKE_SKIP_INSTALL_ALL_DEPENDENCY ON PARENT_SCOPE)
+  include(CPack)
 endfunction()
