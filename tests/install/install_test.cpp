@@ -166,6 +166,39 @@ TEST_F(Installed, ACustomIdlTypeCrossesProcessesAndAMismatchIsRefusedAtConnect) 
   EXPECT_EQ(accepted("c", "in0"), 0u);
 }
 
+TEST_F(Installed, ACustomIdlTypeRoundTripsThroughTheInstalledRtmPutGetAndWatch) {
+  const fs::path build = build_project(kSource / "tests/install/custom_type", "custom_type");
+  start(build / "pose-relay", "r", {"--on"});
+  // The tool has no stubs of My::TimedPose: it reads the type from the port.
+  CommandResult r = rtm({"put", "r.in0", "0.25", "-1.5", "2", "0.5", "0.5", "0.5", "0.5"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  json got;
+  for (int i = 0; i < 50; ++i) {
+    std::this_thread::sleep_for(20ms);
+    r = rtm({"--json", "get", "r.out0"});
+    if (r.exit_code != 0) continue;
+    got = json::parse(r.out);
+    if (got["fields"]["p"]["x"] == 0.25) break;
+  }
+  EXPECT_EQ(got["type"], "My::TimedPose") << got.dump();
+  EXPECT_EQ(got["fields"]["p"]["y"], -1.5) << got.dump();
+  EXPECT_EQ(got["values"], json::parse("[0.25, -1.5, 2.0, 0.5, 0.5, 0.5, 0.5]")) << got.dump();
+  r = rtm({"get", "r.out0"});
+  EXPECT_NE(r.out.find("p.x=0.2500  p.y=-1.5000"), std::string::npos) << r.out;
+  const fs::path csv = root_ / "pose.csv";
+  r = rtm({"watch", "r.out0", "--count", "3", "--csv", csv.string()});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(read_file(csv).find("0.25"), std::string::npos) << read_file(csv);
+  // A word that is not a number, or too few, names the member and changes nothing.
+  r = rtm({"put", "r.in0", "0.25", "abc", "2", "1", "0", "0", "0"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("p.y: 'abc' is not a number"), std::string::npos) << r.err;
+  r = rtm({"put", "r.in0", "1", "2"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("takes 7 values"), std::string::npos) << r.err;
+  EXPECT_EQ(accepted("r", "in0"), 1u);
+}
+
 TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
   const CommandResult made = rtm_test::run_command({bin("rtm").string(), "new", "component", "gripper_ctl", "--in",
                                                     "wrench:TimedFloat6", "--out", "twist:TimedFloat6", "--dir",

@@ -1,4 +1,5 @@
-// pose-relay: writes a TimedPose on out0 each cycle (a ramp on x), and counts what reaches in0.
+// pose-relay: writes a TimedPose on out0 each cycle: a ramp on x until a datum reaches in0, then
+// that datum (re-stamped), so that a put comes back on a get.
 #include <TimedPose.hh>
 
 #include "rtm/data.h"
@@ -13,18 +14,24 @@ class PoseRelay final : public rtm::Component {
   explicit PoseRelay(std::string name) : Component(std::move(name), "pose-relay") {}
 
   void on_cycle(const rtm::CycleContext&) override {
-    pose_.tm = rtm::now();
-    pose_.p.x = 0.001 * static_cast<double>(++cycle_);
-    pose_.p.y = 0.5;
-    pose_.p.z = -0.25;
-    pose_.q[0] = 1.0;
-    out_.write(pose_);
     My::TimedPose got{};
-    (void)in_.read(got);
+    if (in_.read(got) == rtm::ReadResult::NewData) {
+      pose_ = got;
+      echoing_ = true;
+    }
+    if (!echoing_) {
+      pose_.p.x = 0.001 * static_cast<double>(++cycle_);
+      pose_.p.y = 0.5;
+      pose_.p.z = -0.25;
+      pose_.q[0] = 1.0;
+    }
+    pose_.tm = rtm::now();
+    out_.write(pose_);
   }
 
  private:
   std::uint64_t cycle_ = 0;
+  bool echoing_ = false;
   My::TimedPose pose_{};
   rtm::InPort<My::TimedPose>& in_ = add_in_port<My::TimedPose>("in0");
   rtm::OutPort<My::TimedPose>& out_ = add_out_port<My::TimedPose>("out0");
