@@ -12,7 +12,7 @@ packages=(
   libomniorb4-dev omniidl omniorb-nameserver libssl-dev
   libeigen3-dev liborocos-kdl-dev liburdfdom-dev
   libmujoco-dev libqhull-dev
-  libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev nlohmann-json3-dev
+  libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev nlohmann-json3-dev libcpp-httplib-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox procps iproute2
 )

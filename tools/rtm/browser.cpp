@@ -1,4 +1,5 @@
 #include "browser.h"
+#include "report.h"
 
 #include "rtm/data.h"
 #include "rtm/tls.h"
@@ -254,6 +255,30 @@ RTM::RtComponent_var Browser::component(std::string_view name) const {
   if (!tls_configured() && reachable_only_over_tls(comp.in()))
     throw BrowseError(fmt::format("{}: {}", name, kOutOfReachText));
   return comp;
+}
+
+SwitchResult Browser::switch_component(const std::string& name, Switch what) const {
+  try {
+    auto comp = component(name);
+    if (what == Switch::on) {
+      comp->on();
+    } else if (what == Switch::off) {
+      comp->off();
+    } else {
+      RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(comp);
+      if (CORBA::is_nil(ex)) throw BrowseError(name + " is a plain RtComponent: it has no reset");
+      ex->reset();
+    }
+    return {};
+  } catch (const CORBA::Exception& e) {
+    if (const auto* bio = dynamic_cast<const CORBA::BAD_INV_ORDER*>(&e);
+        bio && bio->minor() == rtm::kMinorComponentError) {
+      return {"the component is in error; `rtm cat` shows why, `rtm reset` clears it"};
+    }
+    return {failure_text(e)};
+  } catch (const BrowseError& e) {
+    return {e.what(), true};
+  }
 }
 
 ComponentInfo Browser::describe(std::string_view name) const {

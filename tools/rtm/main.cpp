@@ -13,6 +13,7 @@
 //   rtm up <system.yaml> / rtm down <system.yaml|name>
 //   rtm tls init <folder> / rtm tls issue <authority> <folder>   certificates across hosts
 //   rtm new component <name> [--in n:Type]... [--out n:Type]...  a project of your own
+//   rtm serve [--listen 127.0.0.1:PORT]   the component editor in a browser (serve.h)
 //
 // Every command takes --naming host:port (or $RTM_NAMING), --tls folder (or $RTM_TLS) and
 // --json; exit code 0 ok, 1 failed, 2 usage.
@@ -21,6 +22,7 @@
 #include "report.h"
 #include "system_file.h"
 #include "new_command.h"
+#include "serve.h"
 #include "tls_command.h"
 #include "values.h"
 #include "watch.h"
@@ -58,20 +60,7 @@ class Failure : public std::runtime_error {
   int code;
 };
 
-std::string corba_name(const CORBA::Exception& e) {
-  if (const auto* refused = dynamic_cast<const CORBA::NO_PERMISSION*>(&e);
-      refused && refused->minor() == rtm::kAccessRefusedMinor) {
-    std::string key = "~/.rtm/key";
-    try {
-      key = rtm::access_key_path();
-    } catch (const std::exception&) {
-    }
-    return "not allowed: only the user who started it may change it (this process's access key, " + key +
-           ", is not its owner's; from another host: --tls with a certificate of its system; docs/safety.md)";
-  }
-  const char* n = e._name();
-  return n ? n : "CORBA exception";
-}
+std::string corba_name(const CORBA::Exception& e) { return failure_text(e); }
 
 // Every subcommand and the variables its options are bound to.
 struct Cli {
@@ -81,7 +70,7 @@ struct Cli {
   int timeout_ms = 5000;  // on() of a composite makes several remote calls of its own
   CLI::App *ls = nullptr, *cat = nullptr, *set = nullptr, *connect = nullptr, *disconnect = nullptr, *on = nullptr,
            *off = nullptr, *reset = nullptr, *get = nullptr, *put = nullptr, *watch = nullptr, *up = nullptr,
-           *down = nullptr;
+           *down = nullptr, *serve = nullptr;
   std::string ls_path;
   bool ls_long = false, ls_clean = false, ls_names = false;
   bool cat_names = false, cat_parameters = false;
@@ -97,6 +86,7 @@ struct Cli {
   int up_timeout_ms = 10000;
   TlsCommand tls_command;
   NewCommand new_command;
+  std::string listen = "127.0.0.1:0";
 };
 
 void add_browse_commands(CLI::App& app, Cli& c) {
@@ -151,6 +141,8 @@ void add_system_commands(CLI::App& app, Cli& c) {
   c.up->add_option("file", c.up_file, "system file (YAML)")->required();
   c.up->add_option("--bind-timeout", c.up_timeout_ms, "ms to wait for each component to bind");
   c.down = app.add_subcommand("down", "stop a system started by `rtm up`");
+  c.serve = app.add_subcommand("serve", "the component editor in a browser: prints its URL, serves until Ctrl-C");
+  c.serve->add_option("--listen", c.listen, "HOST:PORT to listen on (port 0: any free one)")->capture_default_str();
   c.down->add_option("system", c.down_what, "the system file, or the system's name")->required();
 }
 
@@ -228,43 +220,13 @@ int run_connect(const Browser& browser, const Cli& c) {
   return kOk;
 }
 
-// on, off or reset of one component; "" when done, else why not: a message that names the
-// component itself (full), or the reason a call failed (full == false).
-struct SwitchResult {
-  std::string why;
-  bool full = false;
-};
-
-SwitchResult switch_one(const Browser& browser, const Cli& c, const std::string& name) {
-  try {
-    auto comp = browser.component(name);
-    if (c.on->parsed()) {
-      comp->on();
-    } else if (c.off->parsed()) {
-      comp->off();
-    } else {
-      RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(comp);
-      if (CORBA::is_nil(ex)) throw BrowseError(name + " is a plain RtComponent: it has no reset");
-      ex->reset();
-    }
-    return {};
-  } catch (const CORBA::Exception& e) {
-    if (const auto* bio = dynamic_cast<const CORBA::BAD_INV_ORDER*>(&e);
-        bio && bio->minor() == rtm::kMinorComponentError) {
-      return {"the component is in error; `rtm cat` shows why, `rtm reset` clears it"};
-    }
-    return {corba_name(e)};
-  } catch (const BrowseError& e) {
-    return {e.what(), true};
-  }
-}
-
 int run_switch(const Browser& browser, const Cli& c) {
   const char* verb = c.on->parsed() ? "on" : c.off->parsed() ? "off" : "reset";
   int code = kOk;
   json results = json::object();
+  const Switch what = c.on->parsed() ? Switch::on : c.off->parsed() ? Switch::off : Switch::reset;
   for (const auto& name : c.components) {
-    const auto [why, full] = switch_one(browser, c, name);
+    const auto [why, full] = browser.switch_component(name, what);
     results[name] = why.empty() ? "ok" : why;
     if (!why.empty()) code = kFailed;
     if (c.json) continue;
@@ -352,6 +314,26 @@ int run_down(const Browser& browser, const Cli& c, const LaunchOptions& launch) 
   return kOk;
 }
 
+int run_serve(const Browser& browser, const Cli& c) {
+  ServeOptions options;
+  try {
+    options = parse_listen(c.listen);
+  } catch (const std::invalid_argument& e) {
+    throw Failure(e.what(), kUsage);
+  }
+  const bool loopback = options.host == "127.0.0.1" || options.host == "::1" || options.host == "localhost";
+  if (!loopback) {
+    fmt::print(stderr, "rtm serve: warning: listening on {}, not loopback: whoever reaches it and has the token can "
+                       "move the arm; the token crosses the network in clear\n", options.host);
+  }
+  WebServer server(browser, options);
+  server.run([] { return g_interrupted.load(); }, [](const std::string& url) {
+    fmt::print("{}\n", url);
+    std::fflush(stdout);
+  });
+  return kOk;
+}
+
 // --naming, else the system file's (unless $RTM_NAMING is set), else $RTM_NAMING or the default.
 rtm::NamingAddress naming_address(const Cli& c, const std::optional<SystemFile>& system) {
   try {
@@ -417,6 +399,7 @@ int run(const Cli& c) {
   if (c.watch->parsed()) return watch(browser, orb, c.port, c.watch_options, g_interrupted);
   if (c.up->parsed()) return run_up(browser, c, *system, naming, launch);
   if (c.down->parsed()) return run_down(browser, c, launch);
+  if (c.serve->parsed()) return run_serve(browser, c);
   return kUsage;
 }
 

@@ -1,5 +1,7 @@
 #include "report.h"
 
+#include "rtm/access.h"
+
 #include <fmt/format.h>
 
 #include <cmath>
@@ -82,6 +84,21 @@ void print_statistics_and_parameters(const ComponentInfo& c) {
 std::string format_statistic(double value) {
   if (std::isfinite(value) && value == std::floor(value) && std::fabs(value) < 1e15) return fmt::format("{:.0f}", value);
   return fmt::format("{:.3f}", value);
+}
+
+std::string failure_text(const CORBA::Exception& e) {
+  if (const auto* refused = dynamic_cast<const CORBA::NO_PERMISSION*>(&e);
+      refused && refused->minor() == rtm::kAccessRefusedMinor) {
+    std::string key = "~/.rtm/key";
+    try {
+      key = rtm::access_key_path();
+    } catch (const std::exception&) {
+    }
+    return "not allowed: only the user who started it may change it (this process's access key, " + key +
+           ", is not its owner's; from another host: --tls with a certificate of its system; docs/safety.md)";
+  }
+  const char* n = e._name();
+  return n ? n : "CORBA exception";
 }
 
 json port_json(const PortInfo& p) {

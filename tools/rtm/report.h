@@ -12,6 +12,10 @@
 
 namespace rtm::cli {
 
+// One line for a failed remote call: the exception's name, or what a refusal by access control
+// means and what to do about it.
+std::string failure_text(const CORBA::Exception& e);
+
 nlohmann::json port_json(const PortInfo& port);
 // detailed: timing, statistics and parameters too (`rtm cat`, `rtm ls -l`).
 nlohmann::json component_json(const ComponentInfo& component, bool detailed);

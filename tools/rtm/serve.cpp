@@ -1,0 +1,269 @@
+#include "serve.h"
+
+#include "report.h"
+#include "values.h"
+
+#include "rtm/data.h"
+
+#include <fmt/format.h>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+#include <sys/random.h>
+
+#include <chrono>
+#include <stdexcept>
+#include <thread>
+
+namespace rtm::cli {
+
+// The page, embedded at build time from tools/rtm/web/index.html (web_page.cpp.in).
+extern const char* const kWebPage;
+
+namespace {
+
+using nlohmann::json;
+
+std::string random_token() {
+  unsigned char bytes[24];
+  std::size_t got = 0;
+  while (got < sizeof bytes) {
+    const ssize_t n = ::getrandom(bytes + got, sizeof bytes - got, 0);
+    if (n < 0) throw std::runtime_error("no randomness for the access token");
+    got += static_cast<std::size_t>(n);
+  }
+  std::string hex;
+  for (unsigned char b : bytes) hex += fmt::format("{:02x}", b);
+  return hex;
+}
+
+bool same_secret(const std::string& a, const std::string& b) {
+  if (a.size() != b.size()) return false;
+  unsigned char diff = 0;  // the same time wherever they differ
+  for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
+  return diff == 0;
+}
+
+bool is_loopback(const std::string& host) { return host == "127.0.0.1" || host == "::1" || host == "localhost"; }
+
+void reply(httplib::Response& res, int status, const json& body) {
+  res.status = status;
+  res.set_content(body.dump(), "application/json");
+}
+
+void refuse(httplib::Response& res, int status, const std::string& why) { reply(res, status, json{{"error", why}}); }
+
+// Runs one API action, turning each kind of failure into the status and the sentence `rtm`
+// would print for it.
+void answer(httplib::Response& res, const std::function<json()>& action) {
+  try {
+    reply(res, 200, action());
+  } catch (const BrowseError& e) {
+    refuse(res, 409, e.what());
+  } catch (const ValueError& e) {
+    refuse(res, 400, e.what());
+  } catch (const std::invalid_argument& e) {
+    refuse(res, 400, e.what());
+  } catch (const json::exception& e) {
+    refuse(res, 400, std::string("the request's body is no JSON of the expected shape: ") + e.what());
+  } catch (const CORBA::Exception& e) {
+    refuse(res, 502, failure_text(e));
+  } catch (const std::exception& e) {
+    refuse(res, 500, e.what());
+  }
+}
+
+}  // namespace
+
+ServeOptions parse_listen(const std::string& text) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos) throw std::invalid_argument("--listen '" + text + "': expected HOST:PORT");
+  ServeOptions options;
+  std::string host = text.substr(0, colon);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  if (!host.empty()) options.host = host;
+  const std::string port = text.substr(colon + 1);
+  try {
+    std::size_t used = 0;
+    options.port = std::stoi(port, &used);
+    if (used != port.size() || options.port < 0 || options.port > 65535) throw std::out_of_range("port");
+  } catch (const std::exception&) {
+    throw std::invalid_argument("--listen '" + text + "': the port must be 0 to 65535");
+  }
+  return options;
+}
+
+struct WebServer::Impl {
+  Impl(const Browser& b, ServeOptions o, std::string t) : browser(b), options(std::move(o)), token(std::move(t)) {}
+
+  const Browser& browser;
+  ServeOptions options;
+  std::string token;
+  int port = 0;
+  httplib::Server server;
+  std::atomic<bool> stopping{false};
+
+  // The Host header values this server answers to (all, when it listens on every address).
+  bool host_allowed(const std::string& host) const {
+    if (options.host == "0.0.0.0" || options.host == "::") return true;
+    const std::string p = fmt::format(":{}", port);
+    if (is_loopback(options.host))
+      return host == fmt::format("127.0.0.1{}", p) || host == fmt::format("localhost{}", p) ||
+             host == fmt::format("[::1]{}", p);
+    return host == fmt::format("{}{}", options.host, p) || host == fmt::format("[{}]{}", options.host, p);
+  }
+
+  httplib::Server::HandlerResponse screen(const httplib::Request& req, httplib::Response& res) const {
+    const std::string host = req.get_header_value("Host");
+    if (!host_allowed(host)) {
+      refuse(res, 403, "refused: request for host '" + host + "', not this server's address");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.has_header("Origin") && req.get_header_value("Origin") != "http://" + host) {
+      refuse(res, 403, "refused: a cross-origin request (from " + req.get_header_value("Origin") + ")");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.path.rfind("/api/", 0) == 0) {
+      const std::string given =
+          req.has_header("X-RTM-Token") ? req.get_header_value("X-RTM-Token") : req.get_param_value("token");
+      if (!same_secret(given, token)) {
+        refuse(res, 401, "refused: this API needs the token rtm serve printed with its URL");
+        return httplib::Server::HandlerResponse::Handled;
+      }
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+  }
+
+  json system() const {
+    json list = json::array();
+    for (const auto& c : browser.list("", true)) list.push_back(component_json(c, true));
+    return list;
+  }
+
+  json port_value(const std::string& address) const {
+    const ResolvedPort p = browser.port(PortAddress::parse(address));
+    if (p.direction != Direction::out) throw BrowseError(p.address + " is an InPort; only OutPorts have a value to get");
+    RTM::OutPort_var out = RTM::OutPort::_narrow(p.object);
+    CORBA::Any_var value;
+    try {
+      value = out->get();
+    } catch (const CORBA::BAD_INV_ORDER& e) {
+      if (e.minor() == rtm::kMinorNoDataYet) throw BrowseError(p.address + " has no data yet");
+      throw;
+    }
+    json j = format_json(value.in());
+    j["port"] = p.address;
+    return j;
+  }
+
+  json wire(const httplib::Request& req, bool connecting) const {
+    const json body = json::parse(req.body);
+    const PortAddress from = PortAddress::parse(body.at("from").get<std::string>());
+    const PortAddress to = PortAddress::parse(body.at("to").get<std::string>());
+    const std::string kind = body.value("type", "repeated");
+    if (kind != "once" && kind != "repeated") throw std::invalid_argument("type must be once or repeated");
+    const RTM::ReqType type = kind == "once" ? RTM::once : RTM::repeated;
+    if (connecting) {
+      browser.connect(from, to, type);
+    } else {
+      browser.disconnect(from, to, type);
+    }
+    return json{{connecting ? "connected" : "disconnected",
+                 {{"from", from.to_string()}, {"to", to.to_string()}, {"type", kind}}}};
+  }
+
+  json switch_to(const std::string& name, const std::string& verb) const {
+    const Switch what = verb == "on" ? Switch::on : verb == "off" ? Switch::off : Switch::reset;
+    const SwitchResult result = browser.switch_component(name, what);
+    if (!result.why.empty())
+      throw BrowseError(result.full ? result.why : verb + " " + name + ": " + result.why);
+    return json{{verb, name}};
+  }
+
+  // One SSE stream: the system when it changed, a comment every 5 s to keep it open.
+  bool stream(httplib::DataSink& sink, std::string& last) const {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (!stopping.load()) {
+      std::string now;
+      try {
+        now = system().dump();
+      } catch (const std::exception& e) {
+        now = json{{"error", e.what()}}.dump();
+      }
+      if (now != last) {
+        last = now;
+        const std::string event = "event: system\ndata: " + now + "\n\n";
+        return sink.write(event.data(), event.size());
+      }
+      if (std::chrono::steady_clock::now() > deadline) return sink.write(": alive\n\n", 10);
+      for (int i = 0; i < 5 && !stopping.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    sink.done();
+    return true;
+  }
+
+  void routes() {
+    server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) { return screen(req, res); });
+    server.Get("/", [](const httplib::Request&, httplib::Response& res) {
+      res.set_content(kWebPage, "text/html; charset=utf-8");
+      res.set_header("Content-Security-Policy", "default-src 'self'; script-src 'unsafe-inline' 'self'; style-src 'unsafe-inline'");
+    });
+    server.Get("/api/system", [this](const httplib::Request&, httplib::Response& res) { answer(res, [&] { return system(); }); });
+    server.Get(R"(/api/components/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return component_json(browser.describe(req.matches[1].str()), true); });
+    });
+    server.Post(R"(/api/components/([^/]+)/(on|off|reset))", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return switch_to(req.matches[1].str(), req.matches[2].str()); });
+    });
+    server.Post(R"(/api/components/([^/]+)/parameters/([^/]+))", [this](const httplib::Request& req,
+                                                                        httplib::Response& res) {
+      answer(res, [&] {
+        const json body = json::parse(req.body);
+        const std::string value = browser.set_parameter(req.matches[1].str(), req.matches[2].str(),
+                                                        body.at("value").get<std::string>());
+        return json{{"component", req.matches[1].str()}, {"parameter", req.matches[2].str()}, {"value", value}};
+      });
+    });
+    server.Post("/api/connect", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return wire(req, true); });
+    });
+    server.Post("/api/disconnect", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return wire(req, false); });
+    });
+    server.Get(R"(/api/ports/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return port_value(req.matches[1].str()); });
+    });
+    server.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) {
+      auto last = std::make_shared<std::string>();
+      res.set_header("Cache-Control", "no-store");
+      res.set_chunked_content_provider("text/event-stream", [this, last](std::size_t, httplib::DataSink& sink) {
+        return stream(sink, *last);
+      });
+    });
+  }
+};
+
+WebServer::WebServer(const Browser& browser, ServeOptions options)
+    : token_(random_token()) {
+  impl_ = std::make_unique<Impl>(browser, std::move(options), token_);
+  impl_->routes();
+}
+
+WebServer::~WebServer() = default;
+
+void WebServer::run(const std::function<bool()>& interrupted, const std::function<void(const std::string&)>& print_url) {
+  Impl& s = *impl_;
+  s.port = s.options.port == 0 ? s.server.bind_to_any_port(s.options.host)
+                               : (s.server.bind_to_port(s.options.host, s.options.port) ? s.options.port : -1);
+  if (s.port < 0)
+    throw std::runtime_error(fmt::format("cannot listen on {}:{}", s.options.host, s.options.port));
+  const bool v6 = s.options.host.find(':') != std::string::npos;
+  const std::string shown = v6 ? "[" + s.options.host + "]" : s.options.host;
+  print_url(fmt::format("http://{}:{}/#token={}", shown, s.port, token_));
+  std::thread serving([&s] { s.server.listen_after_bind(); });
+  while (!interrupted()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  s.stopping.store(true);
+  s.server.stop();
+  serving.join();
+}
+
+}  // namespace rtm::cli

@@ -1,0 +1,60 @@
+// rtm serve: the component editor in a browser. An HTTP server (cpp-httplib, Debian's
+// libcpp-httplib-dev: a small, well-kept library with SSE support and no framework to adopt)
+// serving one page (tools/rtm/web/index.html, plain JavaScript and SVG) and a JSON API that
+// runs the same code as the `rtm` commands (Browser, report, values).
+//
+// API (every /api/ call needs the token: header X-RTM-Token, or ?token= for EventSource):
+//   GET  /api/system                       every component as `rtm --json ls -l` shows it
+//   GET  /api/components/<name>            one component as `rtm --json cat` shows it
+//   POST /api/components/<name>/<on|off|reset>
+//   POST /api/components/<name>/parameters/<parameter>   body {"value": "..."}
+//   POST /api/connect, /api/disconnect     body {"from": "a.out0", "to": "b.in0", "type": "once|repeated"}
+//   GET  /api/ports/<component>.<port>     the OutPort's latest datum, as `rtm --json get`
+//   GET  /api/events                       server-sent events: "system" with /api/system's
+//                                          body, when it changes (checked twice a second)
+// A refusal is {"error": "<the same sentence rtm prints>"} with 4xx.
+//
+// Security, because the page can move an arm: loopback by default; the first line on stdout
+// is the page's URL with a random token (in the URL's fragment, never sent to a server);
+// every API call needs the token; a request from another origin (an Origin header that is
+// not this server's) or for another host name (a Host header that is not the address it
+// listens on: DNS rebinding) is refused with 403; a non-loopback --listen prints a warning.
+#pragma once
+
+#include "browser.h"
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+
+namespace rtm::cli {
+
+struct ServeOptions {
+  std::string host = "127.0.0.1";
+  int port = 0;  // 0: any free port
+};
+
+// "127.0.0.1:8650", "[::1]:0", ":8650" (loopback) -> ServeOptions; std::invalid_argument otherwise.
+ServeOptions parse_listen(const std::string& text);
+
+class WebServer {
+ public:
+  WebServer(const Browser& browser, ServeOptions options);
+  ~WebServer();
+  WebServer(const WebServer&) = delete;
+  WebServer& operator=(const WebServer&) = delete;
+
+  // Binds (std::runtime_error when it cannot), then serves until interrupted() is true.
+  // print_url: called once bound, with the page's URL (token included).
+  void run(const std::function<bool()>& interrupted, const std::function<void(const std::string&)>& print_url);
+
+  const std::string& token() const { return token_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::string token_;
+};
+
+}  // namespace rtm::cli
