@@ -11,6 +11,8 @@
 
 #include <signal.h>
 
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <regex>
 #include <thread>
@@ -192,6 +194,40 @@ TEST_F(RtmServe, TheEventStreamSendsTheSystemAndAComponentThatBindsLater) {
   late.join();
   EXPECT_EQ(received.rfind("event: system\ndata: [", 0), 0u) << received.substr(0, 200);
   EXPECT_TRUE(saw_late) << "no event named the component that bound later";
+}
+
+TEST_F(RtmServe, SaveWritesASystemFileRtmUpAcceptsAndApplyingItRestoresTheWiring) {
+  ASSERT_EQ(post("/api/connect", {{"from", "src.force"}, {"to", "dst.in0"}}, with_token())->status, 200);
+  const json saved = get_json("/api/system-file?name=pair");
+  const std::string yaml = saved["yaml"];
+  EXPECT_TRUE(saved["left_out"].empty()) << saved.dump();
+  EXPECT_NE(yaml.find("{from: src.force, to: dst.in0}"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("rtm-test-talker"), std::string::npos) << yaml;
+  EXPECT_EQ(yaml.find("--naming"), std::string::npos) << "rtm up adds --naming itself: " << yaml;
+  // Unwire, then apply the saved file: the wiring comes back.
+  ASSERT_EQ(post("/api/disconnect", {{"from", "src.force"}, {"to", "dst.in0"}}, with_token())->status, 200);
+  const auto applied = client().Post("/api/system-file", with_token(), yaml, "text/yaml");
+  ASSERT_EQ(applied->status, 200) << applied->body;
+  EXPECT_TRUE(json::parse(applied->body)["failed"].empty()) << applied->body;
+  EXPECT_EQ(subscriptions_of("src", "force").size(), 1u);
+  // A malformed file is refused with the parser's sentence.
+  const auto bad = client().Post("/api/system-file", with_token(), "components: 5", "text/yaml");
+  EXPECT_EQ(bad->status, 400);
+  EXPECT_NE(bad->body.find("'components' must be a non-empty list"), std::string::npos) << bad->body;
+  // rtm up takes the saved file: it starts its own copies under the same names in a second
+  // naming service and wires them as saved.
+  rtm_test::OmniNames other;
+  const auto dir = std::filesystem::temp_directory_path() / ("rtm-serve-saved-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "pair.yaml") << yaml;
+  auto up = rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "up", (dir / "pair.yaml").string()},
+                                  {"XDG_RUNTIME_DIR=" + dir.string(), "RTM_TLS="}, 30s);
+  EXPECT_EQ(up.exit_code, 0) << up.out << up.err;
+  auto cat = rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "cat", "src"});
+  EXPECT_NE(cat.out.find("-> dst.in0 (repeated)"), std::string::npos) << cat.out;
+  rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "down", "pair"},
+                        {"XDG_RUNTIME_DIR=" + dir.string(), "RTM_TLS="}, 30s);
+  std::filesystem::remove_all(dir);
 }
 
 TEST_F(RtmServe, ThePageIsServedSelfContainedAndStopsOnCtrlC) {

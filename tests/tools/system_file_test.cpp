@@ -49,6 +49,27 @@ activate: [src, sink]
   EXPECT_EQ(f.activate, (std::vector<std::string>{"src", "sink"}));
 }
 
+TEST(RtmSystemFile, ToYamlReadsBackToTheSameSystemQuotingWhatNeedsIt) {
+  SystemFile f;
+  f.path = kFile;
+  f.name = "saved";
+  f.naming = "127.0.0.1:2999";
+  f.components = {{"src", {"/opt/rtm/bin/rtm-example-source", "--period", "2ms", "--note", "a: b, [c]"}},
+                  {"sink", {"rtm-example-sink"}}};
+  f.connections = {{"src.out0", "sink.in0", false}, {"src.out0", "sink.in1", true}};
+  f.activate = {"src"};
+  const SystemFile back = SystemFile::parse(f.to_yaml(), kFile);
+  EXPECT_EQ(back.name, "saved");
+  EXPECT_EQ(back.naming, f.naming);
+  ASSERT_EQ(back.components.size(), 2u);
+  EXPECT_EQ(back.components[0].command, f.components[0].command);
+  ASSERT_EQ(back.connections.size(), 2u);
+  EXPECT_EQ(back.connections[1].to, "sink.in1");
+  EXPECT_TRUE(back.connections[1].once);
+  EXPECT_FALSE(back.connections[0].once);
+  EXPECT_EQ(back.activate, f.activate);
+}
+
 TEST(RtmSystemFile, NameDefaultsToTheFileStem) {
   auto f = SystemFile::parse("components: [{name: a, command: x}]", kFile);
   EXPECT_EQ(f.name, "servo");

@@ -1,6 +1,7 @@
 #include "serve.h"
 
 #include "report.h"
+#include "system_file.h"
 #include "values.h"
 
 #include "rtm/data.h"
@@ -11,6 +12,9 @@
 #include <sys/random.h>
 
 #include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
@@ -22,6 +26,37 @@ extern const char* const kWebPage;
 namespace {
 
 using nlohmann::json;
+
+// The command that started process pid, as a system file's command: the program by its
+// absolute path (/proc/<pid>/exe), then its arguments without those `rtm up` adds itself
+// (--name, --naming) and without --on (the file's activate list says that). Empty when the
+// process is not readable from here.
+std::vector<std::string> command_of(long pid) {
+  std::error_code error;
+  const auto exe = std::filesystem::read_symlink(fmt::format("/proc/{}/exe", pid), error);
+  if (error) return {};
+  std::ifstream in(fmt::format("/proc/{}/cmdline", pid), std::ios::binary);
+  std::vector<std::string> args;
+  for (std::string arg; std::getline(in, arg, '\0');) args.push_back(arg);
+  if (args.empty()) return {};
+  std::vector<std::string> command{exe.string()};
+  for (std::size_t i = 1; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if ((a == "--name" || a == "--naming") && i + 1 < args.size()) {
+      ++i;
+      continue;
+    }
+    if (a == "--on" || a.rfind("--name=", 0) == 0 || a.rfind("--naming=", 0) == 0) continue;
+    command.push_back(a);
+  }
+  return command;
+}
+
+std::optional<long> pid_of(const ComponentInfo& c) {
+  for (const auto& s : c.statistics)
+    if (s.name == "pid" && s.value > 0) return static_cast<long>(s.value);
+  return std::nullopt;
+}
 
 std::string random_token() {
   unsigned char bytes[24];
@@ -60,6 +95,8 @@ void answer(httplib::Response& res, const std::function<json()>& action) {
   } catch (const BrowseError& e) {
     refuse(res, 409, e.what());
   } catch (const ValueError& e) {
+    refuse(res, 400, e.what());
+  } catch (const SystemFileError& e) {
     refuse(res, 400, e.what());
   } catch (const std::invalid_argument& e) {
     refuse(res, 400, e.what());
@@ -171,6 +208,57 @@ struct WebServer::Impl {
                  {{"from", from.to_string()}, {"to", to.to_string()}, {"type", kind}}}};
   }
 
+  // The running system as a system file `rtm up` accepts: this host's components with the
+  // commands that started them, every subscription, and those on. A component whose command
+  // cannot be read from here (another host, another user's process) is left out, with why.
+  json save(const std::string& name) const {
+    SystemFile file;
+    file.name = name.empty() ? "saved" : name;
+    check_name(file.name);
+    json left_out = json::array();
+    const std::string here = ComponentPath::on_this_host("x").host;
+    for (const auto& c : browser.list("", true)) {
+      if (c.liveness != Liveness::alive) continue;
+      const auto pid = pid_of(c);
+      std::vector<std::string> command = (pid && c.path.host == here) ? command_of(*pid) : std::vector<std::string>{};
+      if (command.empty()) {
+        left_out.push_back({{"name", c.path.name}, {"why", "its command cannot be read from this host"}});
+        continue;
+      }
+      file.components.push_back({c.path.name, std::move(command)});
+      if (c.state == "on") file.activate.push_back(c.path.name);
+      for (const auto& p : c.ports)
+        for (const auto& s : p.subscriptions)
+          file.connections.push_back({c.path.name + "." + p.name, s.peer, s.req_type == "once"});
+    }
+    return json{{"yaml", file.to_yaml()}, {"left_out", left_out}};
+  }
+
+  // A system file's connections and activations applied to the components running now.
+  json apply(const std::string& yaml) const {
+    const SystemFile file = SystemFile::parse(yaml, "posted-system-file.yaml");
+    json done = json::array(), failed = json::array();
+    for (const auto& c : file.connections) {
+      try {
+        browser.connect(PortAddress::parse(c.from), PortAddress::parse(c.to), c.once ? RTM::once : RTM::repeated);
+        done.push_back("connected " + c.from + " -> " + c.to);
+      } catch (const BrowseError& e) {
+        failed.push_back(e.what());
+      } catch (const CORBA::Exception& e) {
+        failed.push_back(c.from + " -> " + c.to + ": " + failure_text(e));
+      }
+    }
+    for (const auto& name : file.activate) {
+      const SwitchResult r = browser.switch_component(name, Switch::on);
+      if (r.why.empty()) {
+        done.push_back("on " + name);
+      } else {
+        failed.push_back(r.full ? r.why : "on " + name + ": " + r.why);
+      }
+    }
+    return json{{"done", done}, {"failed", failed}};
+  }
+
   json switch_to(const std::string& name, const std::string& verb) const {
     const Switch what = verb == "on" ? Switch::on : verb == "off" ? Switch::off : Switch::reset;
     const SwitchResult result = browser.switch_component(name, what);
@@ -228,6 +316,12 @@ struct WebServer::Impl {
     });
     server.Post("/api/disconnect", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return wire(req, false); });
+    });
+    server.Get("/api/system-file", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return save(req.get_param_value("name")); });
+    });
+    server.Post("/api/system-file", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return apply(req.body); });
     });
     server.Get(R"(/api/ports/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return port_value(req.matches[1].str()); });

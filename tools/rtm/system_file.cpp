@@ -177,4 +177,29 @@ std::filesystem::path find_program(const std::string& program, const std::filesy
                                     program, searched.empty() ? "an empty search path" : searched));
 }
 
+std::string SystemFile::to_yaml() const {
+  YAML::Emitter out;
+  out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << name;
+  if (naming) out << YAML::Key << "naming" << YAML::Value << *naming;
+  out << YAML::Key << "components" << YAML::Value << YAML::BeginSeq;
+  for (const auto& c : components) {
+    out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << c.name << YAML::Key << "command" << YAML::Value
+        << YAML::Flow << c.command << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  if (!connections.empty()) {
+    out << YAML::Key << "connections" << YAML::Value << YAML::BeginSeq;
+    for (const auto& c : connections) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "from" << YAML::Value << c.from << YAML::Key << "to"
+          << YAML::Value << c.to;
+      if (c.once) out << YAML::Key << "type" << YAML::Value << "once";
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  if (!activate.empty()) out << YAML::Key << "activate" << YAML::Value << YAML::Flow << activate;
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
 }  // namespace rtm::cli

@@ -49,6 +49,9 @@ struct SystemFile {
   // duplicate component, or a connection/activation naming a component the file does not list.
   static SystemFile load(const std::filesystem::path& file);
   static SystemFile parse(const std::string& yaml_text, const std::filesystem::path& path);
+
+  // The file as YAML that parse() reads back to the same content (rtm serve's "save").
+  std::string to_yaml() const;
 };
 
 // The program to execute for `program` as written in a system file in folder `base`.
