@@ -18,7 +18,7 @@ packages=(
 )
 case "${1:-}" in
   "") ;;
-  test) packages+=(qemu-system-x86 busybox-static kmod xz-utils util-linux can-utils dpkg-dev lintian) ;;
+  test) packages+=(qemu-system-x86 busybox-static kmod xz-utils util-linux can-utils dpkg-dev lintian chromium chromium-driver python3-selenium) ;;
   *) echo "usage: $0 [test]" >&2; exit 2 ;;
 esac
 

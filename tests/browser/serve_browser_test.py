@@ -1,0 +1,233 @@
+#!/usr/bin/env python3
+"""rtm serve's page in a real headless Chromium, against the real force-servo system on the
+simulator: the five components and their ports shown; a drag from joystick0's OutPort onto
+servo0's InPort subscribes it (rtm cat confirms); a mismatched drag shows rtm connect's message
+at the port; on, and the live plot moves; save, `rtm down`, `rtm up` of the saved file brings
+the same wiring back; a click on the edge disconnects. Each step keeps a screenshot in
+<artifacts>.
+
+usage: serve_browser_test.py <bin folder> <pa10-sim> <talker> <force-servo example folder> <artifacts>
+Exit 77 (skipped) when Chromium's driver or Selenium is not installed.
+"""
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+
+try:
+    from selenium import webdriver
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.chrome.service import Service
+    from selenium.common.exceptions import StaleElementReferenceException
+except ImportError:
+    print("python3-selenium is not installed: skipped")
+    sys.exit(77)
+
+BIN, SIM, TALKER, EXAMPLE, ARTIFACTS = sys.argv[1:6]
+RTM = os.path.join(BIN, "rtm")
+DRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
+if not os.path.exists(DRIVER):
+    print("chromedriver (Debian's chromium-driver) is not installed: skipped")
+    sys.exit(77)
+
+work = tempfile.mkdtemp(prefix="rtm-browser-")
+processes = []
+failures = []
+
+
+def check(ok, what):
+    print(("ok: " if ok else "FAIL: ") + what, flush=True)
+    if not ok:
+        failures.append(what)
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start(argv, **kw):
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **kw)
+    processes.append(p)
+    return p
+
+
+def rtm(*args, timeout=30):
+    env = dict(os.environ, RTM_BIN_PATH=BIN, XDG_RUNTIME_DIR=work, RTM_TLS="")
+    r = subprocess.run([RTM, "--naming", naming, "--timeout", "10000", *args], capture_output=True, text=True,
+                       timeout=timeout, env=env)
+    return r
+
+
+def wait_for(predicate, seconds, what):
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        try:
+            if predicate():
+                return True
+        except Exception:  # the page or a process not ready yet
+            pass
+        time.sleep(0.1)
+    check(False, what)
+    return False
+
+
+def shot(driver, name):
+    os.makedirs(ARTIFACTS, exist_ok=True)
+    driver.save_screenshot(os.path.join(ARTIFACTS, name + ".png"))
+
+
+port = free_port()
+naming = f"127.0.0.1:{port}"
+os.makedirs(os.path.join(work, "names"))
+start(["omniNames", "-start", str(port), "-datadir", os.path.join(work, "names"), "-logdir",
+       os.path.join(work, "names"), "-ignoreport", "-ORBendPoint", f"giop:tcp:127.0.0.1:{port}"])
+bus = "local:" + os.path.join(work, "pa10.bus")
+start([SIM, "--bus", bus, "--profile", os.path.join(EXAMPLE, "operator_profile.yaml"), "--quiet"])
+driver = None
+try:
+    wait_for(lambda: os.path.exists(bus[6:]), 20, "pa10-sim opened its bus")
+    # The demo's system on this bus, unwired and off, with a talker whose pos3 takes another type.
+    with open(os.path.join(EXAMPLE, "system.yaml")) as f:
+        text = f.read().replace("local:/tmp/rtm-pa10.bus", bus)
+    text = re.sub(r"(?ms)^connections:.*", "", text).replace("name: force-servo", "name: browser")
+    text = text.replace("components:\n", f"components:\n  - name: talker0\n    command: [{TALKER}]\n", 1)
+    system_file = os.path.join(work, "system.yaml")
+    with open(system_file, "w") as f:
+        f.write(text)
+    up = rtm("up", system_file, timeout=90)
+    check(up.returncode == 0, "rtm up of the unwired system: " + up.stdout + up.stderr)
+
+    serve = start([RTM, "--naming", naming, "serve"], env=dict(os.environ, RTM_TLS=""))
+    url = serve.stdout.readline().strip()
+    check(url.startswith("http://127.0.0.1:"), "rtm serve printed its URL: " + url)
+    token = url.split("#token=")[1]
+
+    options = webdriver.ChromeOptions()
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
+        options.add_argument(arg)
+    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+    driver.execute_cdp_cmd("Browser.setDownloadBehavior", {"behavior": "allow", "downloadPath": work})
+    started = time.time()
+    driver.get(url)
+    names = ["actuator0", "sensor0", "controller0", "servo0", "joystick0", "talker0"]
+
+    def shown():
+        texts = [t.text for t in driver.find_elements(By.CSS_SELECTOR, "#svg text")]
+        return all(n in texts for n in names)
+    wait_for(shown, 15, "the page shows the five members and the talker")
+    print(f"first paint with {len(names)} components: {time.time() - started:.2f} s")
+    listed = json.load(urllib.request.urlopen(urllib.request.Request(
+        url.split("/#")[0] + "/api/system", headers={"X-RTM-Token": token}), timeout=10))
+    ports = sum(len(c.get("ports", [])) for c in listed)
+    circles = driver.find_elements(By.CSS_SELECTOR, "circle.port")
+    check(len(circles) == ports and ports >= 10, f"every port is shown ({len(circles)} circles, {ports} ports)")
+    shot(driver, "1-system")
+
+    def retrying(action):
+        for attempt in range(5):  # a redraw between finding an element and using it: find it again
+            try:
+                return action()
+            except StaleElementReferenceException:
+                time.sleep(0.2)
+        check(False, "the page kept redrawing under an action")
+
+    def drag(source, target):
+        def act():
+            a = driver.find_element(By.CSS_SELECTOR, f'circle[data-port="{source}"]')
+            b = driver.find_element(By.CSS_SELECTOR, f'circle[data-port="{target}"]')
+            ActionChains(driver).move_to_element(a).click_and_hold().move_to_element(b).release().perform()
+        retrying(act)
+
+    # servo0's reference InPort is its controller's (the composite exposes it): the
+    # subscription's peer is controller0.reference.
+    wired = "-> controller0.reference"
+    JOYSTICK_EDGE = 'path.edge[data-from="joystick0.reference"]'
+    drag("joystick0.reference", "servo0.reference")
+    wait_for(lambda: wired in rtm("cat", "joystick0").stdout, 10,
+             "a drag from joystick0.reference onto servo0.reference subscribes it (rtm cat)")
+    wait_for(lambda: driver.find_elements(By.CSS_SELECTOR, JOYSTICK_EDGE), 10, "the new edge is drawn")
+    shot(driver, "2-connected")
+
+    drag("joystick0.reference", "talker0.pos3")
+    wait_for(lambda: "types differ" in driver.find_element(By.ID, "error").text, 10,
+             "a mismatched drag shows rtm connect's message: " + repr(driver.find_element(By.ID, "error").text))
+    msgs = [t.text for t in driver.find_elements(By.CSS_SELECTOR, "text.msg")]
+    check(any("types differ" in m for m in msgs), "the message is shown at the port: " + repr(msgs))
+    shot(driver, "3-mismatch")
+
+    for name in ("servo0", "joystick0"):
+        on = rtm("on", name)
+        check(on.returncode == 0, f"rtm on {name}: {on.stderr}")
+    retrying(lambda: driver.find_element(By.CSS_SELECTOR, 'circle[data-port="controller0.twist"]').click())
+
+    def plot_points():  # read in the page in one go: the plot is redrawn 20 times a second
+        return driver.execute_script(
+            "return [...document.querySelectorAll('#plot polyline')].map(p => p.getAttribute('points'))")
+    wait_for(lambda: len(plot_points()) == 6, 15,
+             "the plot draws the six values of controller0.twist: " + repr(len(plot_points() or [])))
+    before = plot_points()
+    time.sleep(1.5)
+    check(plot_points() != before, "the live plot moves")
+    info = driver.find_element(By.ID, "plot-info").text
+    rate = float(info.split(" new data/s")[0]) if "new data/s" in info else 0.0
+    check(rate >= 10, f"the plot shows new data at >= 10/s ({info})")
+    shot(driver, "4-plot")
+
+    driver.find_element(By.ID, "save").click()
+    saved = os.path.join(work, "saved.yaml")
+    wait_for(lambda: os.path.exists(saved) and os.path.getsize(saved) > 0, 10, "save downloads saved.yaml")
+    with open(saved) as f:
+        saved_text = f.read()
+    check("{from: joystick0.reference, to: controller0.reference}" in saved_text, "the saved file has the wiring")
+    down = rtm("down", "browser", timeout=60)
+    check(down.returncode == 0, "rtm down: " + down.stderr)
+    up = rtm("up", saved, timeout=90)
+    check(up.returncode == 0, "rtm up of the saved file: " + up.stdout + up.stderr)
+    check(wired in rtm("cat", "joystick0").stdout, "rtm up of the saved file reproduces the wiring")
+    wait_for(lambda: driver.find_elements(By.CSS_SELECTOR, JOYSTICK_EDGE), 15, "the page shows the restored edge")
+    shot(driver, "5-restored")
+
+    retrying(lambda: driver.execute_script("arguments[0].dispatchEvent(new MouseEvent('click', {bubbles: true}))",
+                                           driver.find_element(By.CSS_SELECTOR, JOYSTICK_EDGE)))
+    wait_for(lambda: wired not in rtm("cat", "joystick0").stdout, 10,
+             "a click on the edge disconnects it (rtm cat); the page says: " +
+             repr(driver.find_element(By.ID, "error").text))
+    wait_for(lambda: not driver.find_elements(By.CSS_SELECTOR, JOYSTICK_EDGE), 10, "the edge is gone from the page")
+    shot(driver, "6-disconnected")
+
+    # Without the token the API refuses (what a page from elsewhere would meet).
+    api = url.split("/#")[0] + "/api/system"
+    try:
+        urllib.request.urlopen(api, timeout=5)
+        check(False, "the API answered without the token")
+    except urllib.error.HTTPError as e:
+        check(e.code == 401, f"the API without the token: {e.code}")
+    request = urllib.request.Request(api, headers={"X-RTM-Token": token})
+    check(len(json.load(urllib.request.urlopen(request, timeout=5))) == 6, "the API with the token")
+finally:
+    if driver is not None:
+        driver.quit()
+    rtm("down", "saved", timeout=60)
+    rtm("down", "browser", timeout=60)
+    for p in reversed(processes):
+        if p.poll() is None:
+            p.send_signal(signal.SIGINT if p.args[0] == RTM else signal.SIGTERM)
+            try:
+                p.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+    shutil.rmtree(work, ignore_errors=True)
+
+print(f"{len(failures)} failed" if failures else "all browser checks passed; screenshots in " + ARTIFACTS)
+sys.exit(1 if failures else 0)
