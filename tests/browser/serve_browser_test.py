@@ -172,16 +172,30 @@ try:
 
     def plot_points():  # read in the page in one go: the plot is redrawn 20 times a second
         return driver.execute_script(
-            "return [...document.querySelectorAll('#plot polyline')].map(p => p.getAttribute('points'))")
+            "return [...document.querySelectorAll('#plots polyline')].map(p => p.getAttribute('points'))")
     wait_for(lambda: len(plot_points()) == 6, 15,
              "the plot draws the six values of controller0.twist: " + repr(len(plot_points() or [])))
     before = plot_points()
     time.sleep(1.5)
     check(plot_points() != before, "the live plot moves")
-    info = driver.find_element(By.ID, "plot-info").text
+    info = driver.find_element(By.CSS_SELECTOR, "#plots .info").text
     rate = float(info.split(" new data/s")[0]) if "new data/s" in info else 0.0
     check(rate >= 10, f"the plot shows new data at >= 10/s ({info})")
     shot(driver, "4-plot")
+
+    # A component's statistics and parameters: change the controller's gain from the page.
+    retrying(lambda: driver.find_element(By.CSS_SELECTOR, 'text[data-component="controller0"]').click())
+    wait_for(lambda: driver.find_elements(By.CSS_SELECTOR, '#params input[data-parameter="gain"]'), 10,
+             "controller0's parameters are shown with the gain editable")
+    gain = driver.find_element(By.CSS_SELECTOR, '#params input[data-parameter="gain"]')
+    gain.clear()
+    gain.send_keys("0.002 0.002 0.002 0 0 0\n")
+    def gain_line():
+        m = re.search(r"^\s+gain\s+(.*)$", rtm("cat", "controller0").stdout, re.M)
+        return m.group(1) if m else ""
+    wait_for(lambda: gain_line().startswith("0.002 0.002 0.002"), 10,
+             "the gain set on the page is the controller's (rtm cat): " + gain_line())
+    shot(driver, "4b-parameters")
 
     driver.find_element(By.ID, "save").click()
     saved = os.path.join(work, "saved.yaml")
