@@ -149,8 +149,7 @@ PortAddress PortAddress::parse(std::string_view text) {
 Browser::Browser(CORBA::ORB_ptr orb, NamingAddress naming, std::chrono::milliseconds call_timeout)
     : orb_(CORBA::ORB::_duplicate(orb)), naming_(orb, std::move(naming), call_timeout) {}
 
-ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr object,
-                               bool detailed) const {
+ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr object, Detail detail) const {
   ComponentInfo info;
   info.path = path;
   auto dead = dead_if_unreachable([&] {
@@ -164,7 +163,7 @@ ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr obje
       CORBA::String_var err = ex->last_error();
       info.last_error = err.in();
       info.timing = ex->timing();
-      if (detailed) read_self_description(ex, info);
+      if (detail == Detail::full) read_self_description(ex, info);
       comp = RTM::RtComponent::_duplicate(ex);
     } else {
       comp = RTM::RtComponent::_narrow(object);
@@ -192,7 +191,7 @@ ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr obje
     for (CORBA::ULong i = 0; i < outs->length(); ++i) {
       add_port(Direction::out, static_cast<int>(i), [&] { return inspect_out(outs[i], static_cast<int>(i)); });
     }
-    if (!detailed) {
+    if (detail == Detail::brief) {
       for (auto& p : info.ports) p.subscriptions.clear();
     }
   });
@@ -208,6 +207,10 @@ ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr obje
 }
 
 std::vector<ComponentInfo> Browser::list(std::string_view filter, bool detailed) const {
+  return list(filter, detailed ? Detail::full : Detail::brief);
+}
+
+std::vector<ComponentInfo> Browser::list(std::string_view filter, Detail detail) const {
   std::vector<ComponentEntry> entries = naming_.list_components();
   std::string host_filter, name_filter;
   if (!filter.empty()) {
@@ -224,8 +227,8 @@ std::vector<ComponentInfo> Browser::list(std::string_view filter, bool detailed)
   std::vector<std::future<ComponentInfo>> answers;
   answers.reserve(entries.size());
   for (const auto& e : entries) {
-    answers.push_back(std::async(std::launch::async, [this, &e, detailed] {
-      return inspect(e.path, e.object.in(), detailed);
+    answers.push_back(std::async(std::launch::async, [this, &e, detail] {
+      return inspect(e.path, e.object.in(), detail);
     }));
   }
   std::vector<ComponentInfo> out;
@@ -289,7 +292,7 @@ ComponentInfo Browser::describe(std::string_view name) const {
       if (e.path.name == path.name) path = e.path;
     }
   }
-  ComponentInfo info = inspect(path, comp.in(), true);
+  ComponentInfo info = inspect(path, comp.in(), Detail::full);
   if (info.liveness == Liveness::out_of_reach)
     throw BrowseError(fmt::format("{}: {}", path.to_string(), kOutOfReachText));
   if (info.liveness == Liveness::dead) {

@@ -125,6 +125,11 @@ class Browser {
   // Every component under filter ("", "host", or "host/name"), with ports (and stats when
   // detailed). Dead bindings are reported as dead, not as errors.
   std::vector<ComponentInfo> list(std::string_view filter, bool detailed) const;
+  // How much list() asks each component: brief (ls: state, timing, ports), wiring (and each
+  // OutPort's subscriptions: what rtm serve draws, twice a second), full (and statistics,
+  // parameters, descriptions: ls -l, cat).
+  enum class Detail { brief, wiring, full };
+  std::vector<ComponentInfo> list(std::string_view filter, Detail detail) const;
   // Removes the dead bindings among those listed; returns their paths.
   std::vector<ComponentPath> clean(std::string_view filter) const;
   // One component in full (ports, counters, subscriptions).
@@ -146,7 +151,7 @@ class Browser {
   std::string set_parameter(std::string_view component, const std::string& name, const std::string& value) const;
 
  private:
-  ComponentInfo inspect(const ComponentPath& path, CORBA::Object_ptr object, bool detailed) const;
+  ComponentInfo inspect(const ComponentPath& path, CORBA::Object_ptr object, Detail detail) const;
   std::pair<ResolvedPort, ResolvedPort> pair(const PortAddress& out, const PortAddress& in) const;
 
   CORBA::ORB_var orb_;

@@ -36,14 +36,6 @@ std::string elements_text(const std::vector<ElementInfo>& elements) {
   return any_unit ? fmt::format("{} [{}]", names, units) : names;
 }
 
-json timing_json(const RTM::TimingStats& t) {
-  return {{"cycles", t.cycles},
-          {"overruns", t.overruns},
-          {"lateness_p50_ns", t.lateness_p50_ns},
-          {"lateness_p99_ns", t.lateness_p99_ns},
-          {"lateness_max_ns", t.lateness_max_ns},
-          {"mean_period_error_ns", t.mean_period_error_ns}};
-}
 
 void print_port(const PortInfo& p) {
   std::string counters;
@@ -99,6 +91,15 @@ std::string failure_text(const CORBA::Exception& e) {
   }
   const char* n = e._name();
   return n ? n : "CORBA exception";
+}
+
+json timing_json(const RTM::TimingStats& t) {
+  return {{"cycles", t.cycles},
+          {"overruns", t.overruns},
+          {"lateness_p50_ns", t.lateness_p50_ns},
+          {"lateness_p99_ns", t.lateness_p99_ns},
+          {"lateness_max_ns", t.lateness_max_ns},
+          {"mean_period_error_ns", t.mean_period_error_ns}};
 }
 
 json port_json(const PortInfo& p) {

@@ -17,6 +17,7 @@ namespace rtm::cli {
 std::string failure_text(const CORBA::Exception& e);
 
 nlohmann::json port_json(const PortInfo& port);
+nlohmann::json timing_json(const RTM::TimingStats& timing);
 // detailed: timing, statistics and parameters too (`rtm cat`, `rtm ls -l`).
 nlohmann::json component_json(const ComponentInfo& component, bool detailed);
 

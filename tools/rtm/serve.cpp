@@ -13,6 +13,8 @@
 
 #include <chrono>
 #include <filesystem>
+#include <map>
+#include <mutex>
 #include <fstream>
 #include <optional>
 #include <stdexcept>
@@ -138,6 +140,8 @@ struct WebServer::Impl {
   int port = 0;
   httplib::Server server;
   std::atomic<bool> stopping{false};
+  mutable std::mutex ports_mu;
+  mutable std::map<std::string, std::pair<std::string, RTM::OutPort_var>> ports;
 
   // The Host header values this server answers to (all, when it listens on every address).
   bool host_allowed(const std::string& host) const {
@@ -170,25 +174,71 @@ struct WebServer::Impl {
     return httplib::Server::HandlerResponse::Unhandled;
   }
 
+  // What the page draws: states, timing, ports and subscriptions (not statistics and
+  // parameters: those come with /api/components/<name>, when the page asks).
   json system() const {
     json list = json::array();
-    for (const auto& c : browser.list("", true)) list.push_back(component_json(c, true));
+    for (const auto& c : browser.list("", Browser::Detail::wiring)) {
+      json j = component_json(c, false);
+      if (c.timing) j["timing"] = timing_json(*c.timing);
+      list.push_back(std::move(j));
+    }
     return list;
   }
 
-  json port_value(const std::string& address) const {
+  // The latest datum of several OutPorts at once (the page's plots, 20 times a second):
+  // {"<address>": datum as /api/ports gives it, or {"error": why}}.
+  json values(const std::string& ports) const {
+    json out = json::object();
+    std::size_t begin = 0;
+    while (begin <= ports.size()) {
+      const std::size_t comma = std::min(ports.find(',', begin), ports.size());
+      const std::string address = ports.substr(begin, comma - begin);
+      begin = comma + 1;
+      if (address.empty()) continue;
+      try {
+        out[address] = port_value(address);
+      } catch (const BrowseError& e) {
+        out[address] = json{{"error", e.what()}};
+      } catch (const std::invalid_argument& e) {
+        out[address] = json{{"error", e.what()}};
+      } catch (const CORBA::Exception& e) {
+        out[address] = json{{"error", failure_text(e)}};
+      }
+    }
+    return out;
+  }
+
+  // An OutPort by address, resolved once (naming service, component, port list) and then
+  // kept: the plots ask for the same ports 20 times a second.
+  std::pair<std::string, RTM::OutPort_var> out_port(const std::string& address) const {
+    {
+      std::lock_guard lock(ports_mu);
+      if (auto it = ports.find(address); it != ports.end()) return {it->second.first, it->second.second};
+    }
     const ResolvedPort p = browser.port(PortAddress::parse(address));
     if (p.direction != Direction::out) throw BrowseError(p.address + " is an InPort; only OutPorts have a value to get");
     RTM::OutPort_var out = RTM::OutPort::_narrow(p.object);
+    std::lock_guard lock(ports_mu);
+    ports[address] = {p.address, out};
+    return {p.address, out};
+  }
+
+  json port_value(const std::string& address) const {
+    auto [name, out] = out_port(address);
     CORBA::Any_var value;
     try {
       value = out->get();
     } catch (const CORBA::BAD_INV_ORDER& e) {
-      if (e.minor() == rtm::kMinorNoDataYet) throw BrowseError(p.address + " has no data yet");
+      if (e.minor() == rtm::kMinorNoDataYet) throw BrowseError(name + " has no data yet");
+      throw;
+    } catch (const CORBA::SystemException&) {
+      std::lock_guard lock(ports_mu);
+      ports.erase(address);  // resolved afresh next time: the process may have restarted
       throw;
     }
     json j = format_json(value.in());
-    j["port"] = p.address;
+    j["port"] = name;
     return j;
   }
 
@@ -283,7 +333,7 @@ struct WebServer::Impl {
         return sink.write(event.data(), event.size());
       }
       if (std::chrono::steady_clock::now() > deadline) return sink.write(": alive\n\n", 10);
-      for (int i = 0; i < 5 && !stopping.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      for (int i = 0; i < 10 && !stopping.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
     sink.done();
     return true;
@@ -322,6 +372,9 @@ struct WebServer::Impl {
     });
     server.Post("/api/system-file", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return apply(req.body); });
+    });
+    server.Get("/api/values", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return values(req.get_param_value("ports")); });
     });
     server.Get(R"(/api/ports/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return port_value(req.matches[1].str()); });

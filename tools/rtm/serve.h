@@ -10,12 +10,13 @@
 //   POST /api/components/<name>/parameters/<parameter>   body {"value": "..."}
 //   POST /api/connect, /api/disconnect     body {"from": "a.out0", "to": "b.in0", "type": "once|repeated"}
 //   GET  /api/ports/<component>.<port>     the OutPort's latest datum, as `rtm --json get`
+//   GET  /api/values?ports=a.out0,b.out1    several at once: {"a.out0": datum or {"error": ...}}
 //   GET  /api/system-file?name=N           the running system as a system file `rtm up` takes
 //                                          ({"yaml": ..., "left_out": [components it cannot start]})
 //   POST /api/system-file                  body: a system file; its connections and activations
 //                                          applied to what runs ({"done": [...], "failed": [...]})
 //   GET  /api/events                       server-sent events: "system" with /api/system's
-//                                          body, when it changes (checked twice a second)
+//                                          body, when it changes (checked once a second)
 // A refusal is {"error": "<the same sentence rtm prints>"} with 4xx.
 //
 // Security, because the page can move an arm: loopback by default; the first line on stdout

@@ -1,0 +1,151 @@
+#!/usr/bin/python3
+"""rtm serve's figures, in one run, in headless Chromium (Debian's chromium, chromium-driver,
+python3-selenium):
+
+  - first paint: from opening the page to every one of N components drawn (rtm-test-talker
+    processes, one omniNames), five times;
+  - live plots: 10 OutPorts plotted at once (each polled at 20 Hz), new data per second shown;
+  - what the page costs the 2 ms loops: the talkers' lateness p99 with no page, then with the
+    page open and plotting 10 of them, alternating, each phase on freshly started components
+    (their statistics cover that phase only).
+
+usage: bench/tools/serve_bench.py [build folder (build/default)] [components (50)] [phase seconds (20)]
+                                 [SCHED_FIFO priority of the talkers' loops (0: SCHED_OTHER)]
+"""
+import json
+import os
+import shutil
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.by import By
+
+build = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else "build/default")
+count = int(sys.argv[2]) if len(sys.argv) > 2 else 50
+phase_s = float(sys.argv[3]) if len(sys.argv) > 3 else 20
+rt_priority = int(sys.argv[4]) if len(sys.argv) > 4 else 0
+rtm_bin = os.path.join(build, "bin", "rtm")
+talker = os.path.join(build, "tests", "bin", "rtm-test-talker")
+work = tempfile.mkdtemp(prefix="rtm-serve-bench-")
+procs = []
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start(argv):
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    procs.append(p)
+    return p
+
+
+def stop(ps):
+    for p in ps:
+        p.send_signal(signal.SIGTERM)
+    for p in ps:
+        try:
+            p.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
+def rtm_json(*args):
+    out = subprocess.run([rtm_bin, "--naming", naming, "--json", *args], capture_output=True, text=True, timeout=60)
+    return json.loads(out.stdout)
+
+
+def talkers(prefix, n, on):
+    extra = (["--on"] if on else []) + (["--rt-priority", str(rt_priority)] if on and rt_priority else [])
+    ps = [start([talker, "--name", f"{prefix}{i}", "--naming", naming] + extra) for i in range(n)]
+    deadline = time.time() + 60
+    while time.time() < deadline:
+        names = {c["name"] for c in rtm_json("ls") if c.get("alive")}
+        if all(f"{prefix}{i}" in names for i in range(n)):
+            return ps
+        time.sleep(0.2)
+    raise RuntimeError("talkers did not bind")
+
+
+port = free_port()
+naming = f"127.0.0.1:{port}"
+os.makedirs(os.path.join(work, "names"))
+start(["omniNames", "-start", str(port), "-datadir", os.path.join(work, "names"), "-logdir",
+       os.path.join(work, "names"), "-ignoreport", "-ORBendPoint", f"giop:tcp:127.0.0.1:{port}"])
+time.sleep(0.5)
+options = webdriver.ChromeOptions()
+for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
+    options.add_argument(arg)
+driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+try:
+    serve = start([rtm_bin, "--naming", naming, "serve"])
+    url = serve.stdout.readline().strip()
+    policy = f"SCHED_FIFO {rt_priority}" if rt_priority else "SCHED_OTHER"
+    print(f"machine: {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.2f}; {count} components; phases of "
+          f"{phase_s:.0f} s; the 10 loops at {policy}")
+
+    # ---- first paint with `count` components
+    idle = talkers("c", count, False)
+    paints = []
+    for _ in range(5):
+        driver.get("about:blank")
+        t0 = time.time()
+        driver.get(url)
+        while len(driver.find_elements(By.CSS_SELECTOR, "text[data-component]")) < count:
+            time.sleep(0.01)
+        paints.append(time.time() - t0)
+    print(f"first paint, {count} components: median {statistics.median(paints):.2f} s, "
+          f"max {max(paints):.2f} s over 5 loads (goal <= 1 s)")
+    stop(idle)
+
+    # ---- alternating phases: no page / page with 10 plots, fresh talkers each phase
+    rows = []
+    for phase in ("no page", "page, 10 plots", "no page", "page, 10 plots"):
+        ps = talkers("p", 10, True)
+        rate = None
+        if phase.startswith("page"):
+            driver.get("about:blank")
+            driver.get(url)
+            while len(driver.find_elements(By.CSS_SELECTOR, "text[data-component]")) < 10:
+                time.sleep(0.05)
+            for i in range(10):
+                driver.execute_script(
+                    f"document.querySelector('circle[data-port=\"p{i}.force\"]').dispatchEvent(new MouseEvent('click'))")
+        else:
+            driver.get("about:blank")
+        time.sleep(phase_s)
+        if phase.startswith("page"):
+            infos = driver.execute_script(
+                "return [...document.querySelectorAll('#plots .info')].map(d => d.textContent)")
+            rates = [float(t.split(" new data/s")[0]) for t in infos]
+            rate = (len(rates), min(rates), statistics.median(rates))
+        timing = [c["timing"] for c in rtm_json("ls", "-l") if c["name"].startswith("p")]
+        p99 = statistics.median(t["lateness_p99_ns"] for t in timing) / 1000
+        worst = max(t["lateness_p99_ns"] for t in timing) / 1000
+        overruns = sum(t["overruns"] for t in timing)
+        cycles = sum(t["cycles"] for t in timing)
+        rows.append((phase, p99, worst, overruns, cycles, rate))
+        line = f"{phase:<16} lateness p99 median {p99:7.1f} us, worst {worst:7.1f} us; overruns {overruns} of {cycles}"
+        if rate:
+            line += f"; {rate[0]} plots, new data/s min {rate[1]:.1f} median {rate[2]:.1f} (goal >= 20)"
+        print(line, flush=True)
+        driver.get("about:blank")
+        stop(ps)
+    without = statistics.mean(r[1] for r in rows if r[0] == "no page")
+    with_page = statistics.mean(r[1] for r in rows if r[0] != "no page")
+    print(f"lateness p99 with the page / without: {with_page / without:.2f} (goal <= 1.1)")
+finally:
+    driver.quit()
+    stop([p for p in procs if p.poll() is None])
+    shutil.rmtree(work, ignore_errors=True)
