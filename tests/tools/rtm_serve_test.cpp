@@ -13,8 +13,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <cctype>
 #include <memory>
-#include <regex>
 #include <thread>
 
 namespace {
@@ -39,14 +39,17 @@ class RtmServe : public ::testing::Test {
     options.echo_output = false;
     options.extra_env = {"RTM_TLS="};
     auto child = std::make_unique<ChildProcess>(argv, options);
+    // http://<host>:<port>/#token=<hex>
     const std::string line = child->wait_for_line("http://");
-    std::smatch m;
-    const std::regex url(R"(http://[^:/]+:(\d+)/#token=([0-9a-f]+))");
-    EXPECT_TRUE(std::regex_search(line, m, url)) << line;
-    if (!m.empty()) {
-      port_ = std::stoi(m[1]);
-      token_ = m[2];
+    const auto slash = line.find("/#token=");
+    const auto colon = line.rfind(':', slash);
+    EXPECT_TRUE(slash != std::string::npos && colon != std::string::npos) << line;
+    if (slash != std::string::npos && colon != std::string::npos) {
+      port_ = std::stoi(line.substr(colon + 1, slash - colon - 1));
+      token_ = line.substr(slash + 8);
+      while (!token_.empty() && std::isspace(static_cast<unsigned char>(token_.back()))) token_.pop_back();
     }
+    EXPECT_EQ(token_.size(), 48u) << line;
     return child;
   }
 
