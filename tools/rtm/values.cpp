@@ -487,9 +487,11 @@ void fill_leaf(DynamicAny::DynAny_ptr d, CORBA::TypeCode_ptr tc, const std::stri
     case CORBA::tk_char: d->insert_char(word_to_char(path, word)); return;
     case CORBA::tk_wchar: d->insert_wchar(word_to_integer<std::uint16_t>(path, word, "wchar")); return;
     case CORBA::tk_boolean: d->insert_boolean(word_to_boolean(path, word)); return;
-    case CORBA::tk_enum:
-      DynamicAny::DynEnum::_narrow(d)->set_as_ulong(word_to_enum(path, word, tc));
+    case CORBA::tk_enum: {
+      DynamicAny::DynEnum_var e = DynamicAny::DynEnum::_narrow(d);  // released: the DynAny can go
+      e->set_as_ulong(word_to_enum(path, word, tc));
       return;
+    }
     case CORBA::tk_string:
       if (tc->length() != 0 && word.size() > tc->length()) {
         throw ValueError(fmt::format("{}: '{}' is longer than the {} characters it holds", path, word, tc->length()));
