@@ -54,8 +54,21 @@ int main(int argc, char** argv) {
           },
           "FINITE >= 0"));
   app.add_option("--velocity-bandwidth", options.velocity_bandwidth_rad_s,
-                 "the drives' velocity loop bandwidth [rad/s]")
+                 "the drives' velocity loop bandwidth, closed-loop -3 dB [rad/s]")
       ->capture_default_str();
+  app.add_option("--surface", options.surface,
+                 "what the tool presses on: sponge, rubber, wood, steel, or a stiffness in N/m")
+      ->capture_default_str()
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            try {
+              rtm::sim::parse_surface(text);
+              return std::string();
+            } catch (const std::invalid_argument& error) {
+              return std::string(error.what());
+            }
+          },
+          "SURFACE"));
   app.add_flag("--quiet", options.quiet, "no status lines on stdout");
   try {
     app.parse(argc, argv);

@@ -3,6 +3,7 @@
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 namespace rtm::sim {
@@ -30,7 +31,8 @@ Wrench external_wrench(const mjData* data, int force_adr, int torque_adr) {
 
 }  // namespace
 
-Pa10Plant::Pa10Plant(const std::string& scene_path, ServoGains gains) : gains_(gains) {
+Pa10Plant::Pa10Plant(const std::string& scene_path, ServoGains gains, const Surface& surface)
+    : gains_(gains), surface_(surface) {
   if (!std::filesystem::is_regular_file(scene_path))
     throw SceneError(scene_path + ": scene file not found");
   char error[1000] = "";
@@ -38,9 +40,15 @@ Pa10Plant::Pa10Plant(const std::string& scene_path, ServoGains gains) : gains_(g
   if (!model_) throw SceneError(scene_path + ": MuJoCo cannot load it: " + error);
   data_ = mj_makeData(model_);
   try {
-    if (model_->nq != kJointCount || model_->nv != kJointCount || model_->nu != kJointCount)
-      throw SceneError(scene_path + ": expected 7 hinge joints and 7 motors, found nq=" +
-                       std::to_string(model_->nq) + " nu=" + std::to_string(model_->nu));
+    surface_joint_ = mj_name2id(model_, mjOBJ_JOINT, "surface");
+    const int dofs = surface_joint_ < 0 ? kJointCount : kJointCount + 1;
+    if (model_->nq != dofs || model_->nv != dofs || model_->nu != kJointCount)
+      throw SceneError(scene_path +
+                       ": expected 7 hinge joints, 7 motors and at most a 'surface' slide joint, "
+                       "found nq=" + std::to_string(model_->nq) + " nu=" + std::to_string(model_->nu));
+    if (surface_joint_ >= 0 &&
+        (surface_joint_ != kJointCount || model_->jnt_type[surface_joint_] != mjJNT_SLIDE))
+      throw SceneError(scene_path + ": the 'surface' joint must be a slide joint after the arm's");
     for (int j = 0; j < kJointCount; ++j) {
       // The servo indexes qpos/qvel/ctrl by joint number: the scene must keep that order.
       const int joint = require_id(model_, mjOBJ_JOINT, kJointNames[j], scene_path);
@@ -53,6 +61,8 @@ Pa10Plant::Pa10Plant(const std::string& scene_path, ServoGains gains) : gains_(g
     joystick_body_ = require_id(model_, mjOBJ_BODY, "joystick_handle", scene_path);
     joystick_site_ = require_id(model_, mjOBJ_SITE, "joystick_ft", scene_path);
     tool_site_ = require_id(model_, mjOBJ_SITE, "tool_tip", scene_path);
+    tool_geom_ = mj_name2id(model_, mjOBJ_GEOM, "tool_tip");
+    table_top_geom_ = mj_name2id(model_, mjOBJ_GEOM, "table_top");
     auto sensor_adr = [&](const char* name) {
       return model_->sensor_adr[require_id(model_, mjOBJ_SENSOR, name, scene_path)];
     };
@@ -60,6 +70,7 @@ Pa10Plant::Pa10Plant(const std::string& scene_path, ServoGains gains) : gains_(g
     wrist_torque_adr_ = sensor_adr("wrist_torque");
     joystick_force_adr_ = sensor_adr("joystick_force");
     joystick_torque_adr_ = sensor_adr("joystick_torque");
+    if (surface_joint_ >= 0) set_surface(surface);
     reset_to_keyframe("ready");
   } catch (...) {
     mj_deleteData(data_);
@@ -71,6 +82,40 @@ Pa10Plant::Pa10Plant(const std::string& scene_path, ServoGains gains) : gains_(g
 Pa10Plant::~Pa10Plant() {
   mj_deleteData(data_);
   mj_deleteModel(model_);
+}
+
+void Pa10Plant::set_surface(const Surface& surface) {
+  if (surface_joint_ < 0) throw SceneError("the scene has a rigid table: no 'surface' joint");
+  if (!(surface.stiffness_N_m > 0) || !(surface.damping_ratio >= 0))
+    throw SceneError("surface '" + surface.name + "': stiffness must be > 0, damping ratio >= 0");
+  const double plate_kg = model_->body_mass[model_->jnt_bodyid[surface_joint_]];
+  const int dof = model_->jnt_dofadr[surface_joint_];
+  const double gravity_m_s2 = -model_->opt.gravity[2];
+  model_->jnt_stiffness[surface_joint_] = surface.stiffness_N_m;
+  model_->dof_damping[dof] = 2 * surface.damping_ratio * std::sqrt(surface.stiffness_N_m * plate_kg);
+  // The spring's rest length carries the plate's weight: at rest the top is where the scene
+  // puts it (joint position 0).
+  model_->qpos_spring[model_->jnt_qposadr[surface_joint_]] = plate_kg * gravity_m_s2 / surface.stiffness_N_m;
+  surface_ = surface;
+}
+
+double Pa10Plant::surface_deflection_m() const {
+  if (surface_joint_ < 0) return 0;
+  return -data_->qpos[model_->jnt_qposadr[surface_joint_]];
+}
+
+double Pa10Plant::tool_indentation_m() const {
+  double penetration_m = 0;
+  bool touching = false;
+  for (int i = 0; i < data_->ncon; ++i) {
+    const mjContact& contact = data_->contact[i];
+    const bool tool_on_top = (contact.geom1 == tool_geom_ && contact.geom2 == table_top_geom_) ||
+                             (contact.geom2 == tool_geom_ && contact.geom1 == table_top_geom_);
+    if (!tool_on_top || contact.dist > 0) continue;
+    touching = true;
+    penetration_m = std::max(penetration_m, -contact.dist);
+  }
+  return touching ? surface_deflection_m() + penetration_m : 0;
 }
 
 void Pa10Plant::reset_to_keyframe(const std::string& name) {
@@ -104,16 +149,16 @@ void Pa10Plant::set_command(int joint, const JointCommand& command) {
     // The load the joint bears (what the integral pushed with, less the joint damping, which
     // stops with the joint) is held by the brake and handed back to the loop on release, so
     // a joint pushing on something neither yields nor jolts.
-    for (int i = 0; i < kJointCount; ++i)
+    for (int i = 0; i < model_->nv; ++i)
       scratch_torque_Nm_[static_cast<std::size_t>(i)] = model_->dof_damping[i] * data_->qvel[i];
     mj_solveM(model_, data_, scratch_acceleration_.data(), scratch_torque_Nm_.data(), 1);
     held_load_1_s2_[j] =
-        gains_.velocity_integral_1_s2 * velocity_error_integral_rad_[j] - scratch_acceleration_[j];
+        gains_.velocity_integral_1_s2() * velocity_error_integral_rad_[j] - scratch_acceleration_[j];
     // An ideal brake: the joint stops where it is.
     hold_position_rad_[j] = data_->qpos[joint];
     data_->qvel[joint] = 0;
   }
-  if (releasing_brake) velocity_error_integral_rad_[j] = held_load_1_s2_[j] / gains_.velocity_integral_1_s2;
+  if (releasing_brake) velocity_error_integral_rad_[j] = held_load_1_s2_[j] / gains_.velocity_integral_1_s2();
   commands_[j] = command;
 }
 
@@ -136,20 +181,23 @@ void Pa10Plant::set_operator_wrench(const Wrench& wrench) {
 
 void Pa10Plant::compute_servo_torques() {
   const double dt_s = model_->opt.timestep;
+  const double kv = gains_.velocity_gain_1_s();
+  const double ki = gains_.velocity_integral_1_s2();
   for (int j = 0; j < kJointCount; ++j) {
     const auto k = static_cast<std::size_t>(j);
     const double qdot = data_->qvel[j];
     if (commands_[k].mode == JointCommand::Mode::velocity) {
       const double error = commands_[k].target_velocity_rad_s - qdot;
       velocity_error_integral_rad_[k] += error * dt_s;
-      desired_acceleration_[k] = gains_.velocity_bandwidth_rad_s * error +
-                                 gains_.velocity_integral_1_s2 * velocity_error_integral_rad_[k];
+      desired_acceleration_[k] = kv * error + ki * velocity_error_integral_rad_[k];
     } else {
       desired_acceleration_[k] = gains_.hold_stiffness_1_s2 * (hold_position_rad_[k] - data_->qpos[j]) -
                                  gains_.hold_damping_1_s * qdot + held_load_1_s2_[k];
     }
   }
-  // tau = M(q) a + bias(q, qdot): decoupled joints, no sag.
+  // tau = M(q) a + bias(q, qdot): decoupled joints, no sag. The table top is a tree of its
+  // own (M is block diagonal): its row asks for nothing and has no motor.
+  if (surface_joint_ >= 0) desired_acceleration_[kJointCount] = 0;
   mj_mulM(model_, data_, torque_Nm_.data(), desired_acceleration_.data());
   for (int j = 0; j < kJointCount; ++j) {
     const double tau = torque_Nm_[static_cast<std::size_t>(j)] + data_->qfrc_bias[j];

@@ -139,17 +139,21 @@ SimulatorConfig simulator_config(const RunOptions& options) {
   if (!(options.velocity_bandwidth_rad_s > 0 && options.velocity_bandwidth_rad_s <= 500))
     throw RunError("--velocity-bandwidth must be in (0, 500] rad/s");
   config.gains.velocity_bandwidth_rad_s = options.velocity_bandwidth_rad_s;
-  // Critically damped position error, as the defaults.
-  config.gains.velocity_integral_1_s2 =
-      options.velocity_bandwidth_rad_s * options.velocity_bandwidth_rad_s / 4;
+  try {
+    config.surface = parse_surface(options.surface);
+  } catch (const std::invalid_argument& error) {
+    throw RunError(std::string("--surface: ") + error.what());
+  }
   if (!options.profile_path.empty())
     config.operator_profile = OperatorProfile::from_file(options.profile_path);
   return config;
 }
 
-void print_ready(const rtm::can::Bus& bus, const rtm::can::Bus* sensor_bus, bool lock_step) {
-  std::printf("pa10-sim: ready on %s%s%s (%s)\n", bus.name().c_str(), sensor_bus ? ", sensors on " : "",
-              sensor_bus ? sensor_bus->name().c_str() : "", lock_step ? "lock-step" : "real time");
+void print_ready(const rtm::can::Bus& bus, const rtm::can::Bus* sensor_bus, bool lock_step,
+                 const Surface& surface) {
+  std::printf("pa10-sim: ready on %s%s%s (%s; surface %s, %.0f N/m)\n", bus.name().c_str(),
+              sensor_bus ? ", sensors on " : "", sensor_bus ? sensor_bus->name().c_str() : "",
+              lock_step ? "lock-step" : "real time", surface.name.c_str(), surface.stiffness_N_m);
   std::fflush(stdout);
 }
 
@@ -197,7 +201,7 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
 
   apply_thread_settings(ThreadSettings{"pa10-sim"});  // timer slack 1 ns: 50 us would blur 1 ms steps
   sim.power_on(sink);
-  if (!options.quiet) print_ready(*bus, sensor_bus.get(), options.lock_step);
+  if (!options.quiet) print_ready(*bus, sensor_bus.get(), options.lock_step, sim.plant().surface());
 
   const std::int64_t duration_ns = static_cast<std::int64_t>(options.duration_s * 1e9);
   const std::int64_t timestep_ns = std::llround(sim.plant().timestep_s() * 1e9);

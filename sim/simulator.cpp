@@ -10,7 +10,7 @@ namespace {
 // The scene, at its initial keyframe; SceneError when its timestep does not divide the SYNC
 // period (checked here so the error names the scene).
 std::unique_ptr<Pa10Plant> load_plant(const SimulatorConfig& config) {
-  auto plant = std::make_unique<Pa10Plant>(config.scene_path, config.gains);
+  auto plant = std::make_unique<Pa10Plant>(config.scene_path, config.gains, config.surface);
   plant->reset_to_keyframe(config.initial_keyframe);
   const std::int64_t timestep_ns = std::llround(plant->timestep_s() * 1e9);
   if (timestep_ns <= 0 || config.sync_period_ns % timestep_ns != 0)

@@ -95,7 +95,7 @@ TEST_F(ArmOnSimTest, TwistCommandMovesTheTool10cmInPlusXWithin1mm) {
 TEST_F(ArmOnSimTest, AdmittanceLoopPressesOnTheTableAndHolds10NWithinHalfANewton) {
   // The table pushes the tool back along -z of the sensor frame (tool pointing down): the
   // pressing force is -Fz. Admittance: vz = -gain * (target - pressing force); with the
-  // drives' velocity loop at 20 rad/s gains 0.002..0.007 m/(s·N) are stable.
+  // drives' velocity loop at 25 rad/s (kv = 20) gains 0.002..0.007 m/(s·N) are stable.
   constexpr double kTarget_N = 10.0;
   constexpr double kGain_m_per_sN = 0.003;
   constexpr double kMaxSpeed_m_s = 0.03;

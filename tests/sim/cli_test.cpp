@@ -76,6 +76,18 @@ TEST(Pa10SimCli, ABadCommandLineIsExitStatusTwoNotCli11sOwnCode) {
   }
 }
 
+TEST(Pa10SimCli, AnUnknownOrAbsurdSurfaceIsNamedAndExitStatusTwo) {
+  for (const std::string bad : {"glass", "1e9", "nan"}) {
+    rtm_test::ChildProcess::Options quiet;
+    quiet.echo_output = false;
+    rtm_test::ChildProcess sim({PA10_SIM_EXE, "--bus", "local:" + temp_path("s.bus"), "--surface", bad}, quiet);
+    const auto status = sim.wait_for_exit(30s);
+    ASSERT_TRUE(status.has_value()) << "still running";
+    EXPECT_TRUE(status->exited && status->code == 2) << status->to_string() << "\n" << sim.output();
+    EXPECT_NE(sim.output().find("surface '" + bad + "'"), std::string::npos) << sim.output();
+  }
+}
+
 TEST(Pa10SimCli, SigtermStopsItCleanlyAndRemovesTheHubSocket) {
   const std::string bus = temp_path("c.bus");
   rtm_test::ChildProcess sim({PA10_SIM_EXE, "--bus", "local:" + bus});

@@ -56,9 +56,10 @@ TEST(Pa10SceneMatchesUrdf, ReadyPosePointsTheToolDown55cmInFrontAnd5cmAboveTheTa
   const auto rotation = plant.tool_rotation();
   EXPECT_NEAR(rotation[8], -1.0, 1e-9) << "tool z points down";
   const mjModel* model = plant.model();
-  const int table = mj_name2id(model, mjOBJ_GEOM, "table");
+  // The top of the plate on the table's spring (sim/surface.h), at rest.
+  const int table = mj_name2id(model, mjOBJ_GEOM, "table_top");
   ASSERT_GE(table, 0);
-  const double table_top_m = model->geom_pos[3 * table + 2] + model->geom_size[3 * table + 2];
+  const double table_top_m = plant.data()->geom_xpos[3 * table + 2] + model->geom_size[3 * table + 2];
   EXPECT_NEAR(position[2] - table_top_m, 0.05, 1e-6);
 }
 

@@ -2,7 +2,8 @@
 //
 // Loads sim/models/pa10_scene.xml (or another scene with the same names: joints s1..w2,
 // motors s1..w2, sites wrist_ft/tool_tip/joystick_ft, body joystick_handle, sensors
-// wrist_force/wrist_torque/joystick_force/joystick_torque, keyframe "ready") and steps it.
+// wrist_force/wrist_torque/joystick_force/joystick_torque, keyframe "ready"; optionally the
+// table top's slide joint "surface" after the arm's joints, sim/surface.h) and steps it.
 //
 // Each joint's servo is the drive's inner loop: in velocity mode a PI loop on the velocity
 // error, scaled by the joint-space inertia (computed-torque form: tau = M * a + qfrc_bias, so
@@ -19,6 +20,7 @@
 #include <string>
 
 #include "sim/plant.h"
+#include "sim/surface.h"
 
 struct mjModel_;
 struct mjData_;
@@ -31,21 +33,36 @@ class SceneError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// The velocity loop's bandwidth decides how a force loop closed around the arm behaves: the
-// contact force answers a velocity step through the arm's inertia, so the stable admittance
-// gain falls as the bandwidth rises. At 20 rad/s, a 2 ms admittance loop pressing on the table
-// is stable for gains 0.002..0.007 m/(s·N) (tests/sim); at 150 rad/s it chatters even at 0.001.
+// The drive's velocity loop is a PI in acceleration form, a = kv*e + ki*integral(e), with
+// ki = kv^2/4 (a critically damped position error). Its closed-loop transfer from target to
+// actual velocity, (kv s + ki)/(s^2 + kv s + ki), falls to -3 dB at 1.2412 kv: the bandwidth is
+// given as that -3 dB frequency, as a drive's data sheet states it, and kv follows from it
+// (tests/sim/identification_test.cpp measures it with a sine sweep).
+//
+// The bandwidth decides how a force loop closed around the arm behaves: the integral is a
+// position spring of ki times the joint inertia in series with the surface, so the stable
+// admittance gain falls as the bandwidth rises. At 25 rad/s (kv = 20), a 2 ms admittance loop
+// pressing on the table is stable for gains 0.002..0.007 m/(s·N) (tests/sim).
 struct ServoGains {
-  double velocity_bandwidth_rad_s = 20;  // PI: a = kv*e + ki*integral(e), kv = bandwidth
-  double velocity_integral_1_s2 = 100;   // ki = kv^2/4: critically damped position error
+  double velocity_bandwidth_rad_s = 25;  // closed-loop -3 dB
   double hold_stiffness_1_s2 = 10000;     // brake: a = kp*(q_hold - q) - kd*qdot
   double hold_damping_1_s = 200;
+
+  // -3 dB bandwidth of (kv s + kv^2/4)/(s^2 + kv s + kv^2/4) over kv: sqrt(3 + sqrt(10)) / 2.
+  static constexpr double kBandwidthPerKv = 1.2411967672541269;
+  double velocity_gain_1_s() const { return velocity_bandwidth_rad_s / kBandwidthPerKv; }
+  double velocity_integral_1_s2() const {
+    const double kv = velocity_gain_1_s();
+    return kv * kv / 4;
+  }
 };
 
 class Pa10Plant final : public Plant {
  public:
-  // Loads the scene and sets the "ready" keyframe, every joint in hold. Throws SceneError.
-  explicit Pa10Plant(const std::string& scene_path, ServoGains gains = {});
+  // Loads the scene, sets the "ready" keyframe, every joint in hold, and the surface (when the
+  // scene has a "surface" joint). Throws SceneError.
+  explicit Pa10Plant(const std::string& scene_path, ServoGains gains = {},
+                     const Surface& surface = default_surface());
   ~Pa10Plant();
   Pa10Plant(const Pa10Plant&) = delete;
   Pa10Plant& operator=(const Pa10Plant&) = delete;
@@ -54,6 +71,16 @@ class Pa10Plant final : public Plant {
   void set_joint_positions(const std::array<double, kJointCount>& q_rad);
   // Sets the named keyframe; throws SceneError if it does not exist.
   void reset_to_keyframe(const std::string& name);
+
+  // Makes the table top this surface, at rest at its nominal height under its own weight.
+  // Throws SceneError if the scene has no "surface" joint.
+  void set_surface(const Surface& surface);
+  const Surface& surface() const { return surface_; }
+  // How far the table top is pushed down from its rest height [m].
+  double surface_deflection_m() const;
+  // How far the tool tip's contact point is below the table top's rest height: the surface's
+  // deflection plus MuJoCo's penetration of the tip into the plate [m]; 0 when not touching.
+  double tool_indentation_m() const;
 
   // What joint i's servo does from the next step on.
   void set_command(int joint, const JointCommand& command) override;
@@ -85,20 +112,27 @@ class Pa10Plant final : public Plant {
 
   mjModel_* model_ = nullptr;
   mjData_* data_ = nullptr;
+  // The arm's seven joints, then the table top's slide joint if the scene has it.
+  static constexpr int kMaxDofs = kJointCount + 1;
+
   ServoGains gains_;
+  Surface surface_;
+  int surface_joint_ = -1;  // -1: the scene has a rigid table
+  double surface_rest_m_ = 0;  // the plate's position under its own weight
   std::array<JointCommand, kJointCount> commands_{};
   std::array<double, kJointCount> hold_position_rad_{};
   std::array<double, kJointCount> velocity_error_integral_rad_{};
   // The load a braked joint bears, as the acceleration term the velocity loop's integral gave
   // it when the brake engaged, less the joint damping that stopped with the joint.
   std::array<double, kJointCount> held_load_1_s2_{};
-  std::array<double, kJointCount> scratch_torque_Nm_{};
-  std::array<double, kJointCount> scratch_acceleration_{};
-  std::array<double, kJointCount> desired_acceleration_{};  // scratch, rad/s^2
-  std::array<double, kJointCount> torque_Nm_{};             // scratch
+  std::array<double, kMaxDofs> scratch_torque_Nm_{};
+  std::array<double, kMaxDofs> scratch_acceleration_{};
+  std::array<double, kMaxDofs> desired_acceleration_{};  // scratch, rad/s^2; 0 for the surface
+  std::array<double, kMaxDofs> torque_Nm_{};             // scratch
   int joystick_body_ = -1;
   int joystick_site_ = -1;
   int tool_site_ = -1;
+  int tool_geom_ = -1, table_top_geom_ = -1;  // -1: not in the scene
   int wrist_force_adr_ = -1, wrist_torque_adr_ = -1;
   int joystick_force_adr_ = -1, joystick_torque_adr_ = -1;
 };

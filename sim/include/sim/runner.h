@@ -27,7 +27,8 @@ struct RunOptions {
   bool stdin_wrench = false;         // read "fx fy fz [tx ty tz]" lines from stdin
   std::string log_path;              // CSV of the state per SYNC (empty: none)
   double duration_s = 0;             // stop after this much sim time (0: until stopped)
-  double velocity_bandwidth_rad_s = ServoGains{}.velocity_bandwidth_rad_s;  // drive PI loop
+  double velocity_bandwidth_rad_s = ServoGains{}.velocity_bandwidth_rad_s;  // drive PI loop, -3 dB
+  std::string surface = default_surface().name;  // a preset or a stiffness in N/m
   bool quiet = false;
 };
 

@@ -18,6 +18,7 @@ struct SimulatorConfig {
   std::int64_t sync_period_ns = 2'000'000;       // lock-step: physics advanced per SYNC
   int tare_samples = 20;                         // steps held still to tare the sensors
   ServoGains gains{};
+  Surface surface = default_surface();           // the table top (scenes with a "surface" joint)
   OperatorProfile operator_profile{};            // the joystick's wrench over sim time
 };
 

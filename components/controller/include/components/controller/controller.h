@@ -33,7 +33,7 @@ namespace rtm::comp {
 
 struct ControllerParams {
   // (m/s)/N for x y z, (rad/s)/(N·m) for the rotations. With the PA10's drive loops
-  // (pa10-sim: 20 rad/s velocity bandwidth) 0.002..0.007 m/(s·N) press stably on the table.
+  // (pa10-sim: 25 rad/s velocity bandwidth, kv = 20) 0.002..0.007 m/(s·N) press stably on the table.
   std::array<float, 6> gain{0.003f, 0.003f, 0.003f, 0.0f, 0.0f, 0.0f};
   std::uint32_t stale_periods = 3;  // cycles without a new datum before an input is stale
 

@@ -1,0 +1,36 @@
+// What the tool presses on: the table top as a spring-damper between the tool tip and the
+// ground, lumping the surface's own compliance with the tool's and the wrist sensor's in series
+// (docs/pa10-model.md lists the figures and where each comes from).
+//
+// In the scene the table top is a plate on a vertical slide joint ("surface"): the joint's
+// spring is the surface's stiffness, its damping gives the stated damping ratio with the plate's
+// mass, and the spring is preloaded with the plate's weight so the top rests at its nominal
+// height. MuJoCo's own contact between the tool and the plate is made far stiffer (solref and
+// solimp in the scene), so the stiffness the tool meets is the configured one
+// (tests/sim/identification_test.cpp measures it).
+#pragma once
+
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+namespace rtm::sim {
+
+struct Surface {
+  std::string name;         // a preset's name, or "custom"
+  double stiffness_N_m = 0; // normal stiffness the tool tip meets
+  double damping_ratio = 0; // of the plate on its spring
+};
+
+// sponge, rubber, wood, steel: softest to stiffest.
+std::span<const Surface> surface_presets();
+
+// The default surface of pa10-sim and of the plant.
+const Surface& default_surface();
+
+// A preset's name or a stiffness in N/m ("30000", "3e4"; damping ratio then that of the
+// nearest preset below it). Throws std::invalid_argument naming the text and what is accepted.
+Surface parse_surface(std::string_view text);
+
+}  // namespace rtm::sim
