@@ -209,12 +209,25 @@ void BusCycle::take_requests(std::int64_t now_ns) {
     r.target_valid = false;
   }
   supervisor_.take_quick_stop(r.quick_stop, now_ns);
+  expire_stale_target(r);
   if (supervisor_.may_move() && r.target_valid) {
     command_rad_s_ = r.target_rad_s;
     command_sequence_ = r.target_sequence;
   } else {
     command_rad_s_.fill(0.0);
     command_sequence_ = 0;
+  }
+}
+
+// A target that was not renewed for target_expiry_periods cycles is dropped (zero from now on).
+void BusCycle::expire_stale_target(CycleRequests& r) {
+  const int limit = config_.target_expiry_periods;
+  if (r.target_sequence != last_target_sequence_) {
+    last_target_sequence_ = r.target_sequence;
+    target_age_cycles_ = 0;
+  } else if (r.target_valid && limit > 0 && ++target_age_cycles_ >= limit) {
+    r.target_valid = false;
+    ++counters_.target_expiries;
   }
 }
 

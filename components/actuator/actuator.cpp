@@ -64,6 +64,9 @@ void Actuator::describe_self() {
                 [this] { return arm_->bus_health().peak_velocity_error_rad_s; });
   add_statistic("following_position_peak", "rad", "largest |actual - integrated command| joint position seen",
                 [this] { return arm_->bus_health().peak_position_error_rad; });
+  add_statistic("bus_target_expiries", "",
+                "twists the bus master dropped for not being renewed within its expiry (zero sent)",
+                [this] { return static_cast<double>(arm_->bus_health().target_expiries); });
   add_percentile_statistics("handover", "sensor sample to twist handed to the arm", handover_latency_);
   add_parameter(rtm::live_numbers("limit", "m/s, rad/s", "6 limits |v|: vx vy vz, then wx wy wz", limit_live_,
                                   [](const std::vector<double>& v) {

@@ -93,7 +93,8 @@ VelocityArm::BusPosition ArmHardware::bus_position() const {
 
 VelocityArm::BusHealth ArmHardware::bus_health() const {
   const pc::MasterCounters c = master_->counters();
-  return {c.foreign_frames, c.unsolicited_frames, c.peak_velocity_error_rad_s, c.peak_position_error_rad};
+  return {c.foreign_frames, c.unsolicited_frames, c.peak_velocity_error_rad_s, c.peak_position_error_rad,
+          c.target_expiries};
 }
 
 VelocityArm::SentCommand ArmHardware::last_sent() const {

@@ -117,8 +117,48 @@ TEST(Pa10Master, StartupReportsAnSdoAbortWithNodeObjectAndCode) {
   }
 }
 
+// A thread that set a target and then hung must not leave the arm moving: the target expires
+// after target_expiry_periods cycles, zero goes out, and the next target moves the arm again.
+TEST(Pa10Master, ATargetNotRenewedForTheExpiryPeriodsBecomesZeroAndTheNextTargetMovesAgain) {
+  MasterConfig config = test_config();
+  config.target_expiry_periods = 5;
+  Rig rig({}, config);
+  rig.master->start();
+  const std::array<double, kDriveCount> target = {0.1, -0.2, 0.3, -0.4, 0.5, -0.6, 0.7};
+  rig.master->set_target_velocities(target);
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(rig.master->step()) << "step " << i;
+  EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), target[0]) << "still fresh";
+  EXPECT_EQ(rig.master->counters().target_expiries, 0u);
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(rig.master->step()) << "step " << i;
+  for (int j = 0; j < kDriveCount; ++j)
+    EXPECT_EQ(rig.nodes->latched_velocity_rad_s(drive_node(j)), 0.0) << joint_name(j) << ": expired";
+  EXPECT_EQ(rig.master->counters().target_expiries, 1u);
+  EXPECT_FALSE(rig.master->fault().active()) << "an expiry stops the arm, it is no fault";
+  rig.master->set_target_velocities(target);
+  ASSERT_TRUE(rig.master->step());
+  EXPECT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(6)), target[6]) << "moves again";
+  EXPECT_EQ(rig.master->counters().target_expiries, 1u);
+}
+
+// Renewing the target every cycle, even with the same values, never expires it.
+TEST(Pa10Master, ATargetRenewedEveryCycleNeverExpires) {
+  MasterConfig config = test_config();
+  config.target_expiry_periods = 2;
+  Rig rig({}, config);
+  rig.master->start();
+  const std::array<double, kDriveCount> target = {0.2, 0, 0, 0, 0, 0, 0};
+  for (int i = 0; i < 20; ++i) {
+    rig.master->set_target_velocities(target);
+    ASSERT_TRUE(rig.master->step()) << "step " << i;
+    ASSERT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), 0.2) << "step " << i;
+  }
+  EXPECT_EQ(rig.master->counters().target_expiries, 0u);
+}
+
 TEST(Pa10Master, LockStepSendsTargetsAndReadsPositionsOfTheSameSync) {
-  Rig rig;
+  MasterConfig config = test_config();
+  config.target_expiry_periods = 0;  // one target for all 50 cycles
+  Rig rig({}, config);
   rig.nodes->set_wrench(ForceSensor::wrist, {1.5, -2.25, 10.0, 0.125, -0.25, 0.5});
   rig.nodes->set_wrench(ForceSensor::joystick, {-3.0, 0.0, 4.0, 0.0, 0.0, -0.001});
   rig.master->start();

@@ -138,6 +138,7 @@ class BusCycle {
   bool wait_readable(std::int64_t deadline_ns);  // false once deadline_ns has passed
   bool window_complete() const;
   void take_requests(std::int64_t now_ns);
+  void expire_stale_target(CycleRequests& r);
   void send(Bus& bus, const Result<can_frame>& frame);
   void add(const Result<can_frame>& frame);
   void send_cycle(std::int64_t now_ns);
@@ -169,6 +170,8 @@ class BusCycle {
   MasterCounters counters_{};
   std::array<double, kDriveCount> command_rad_s_{};
   std::uint64_t command_sequence_ = 0;  // of the target in command_rad_s_; 0 = zero, not a target
+  std::uint64_t last_target_sequence_ = 0;  // the newest target seen by take_requests()
+  int target_age_cycles_ = 0;               // cycles since it was new
   std::array<double, kDriveCount> sent_rad_s_{};    // the command sent with the last SYNC
   std::array<double, kDriveCount> acting_rad_s_{};  // the one sent with the SYNC before: what the
                                                     // answers to the last SYNC followed

@@ -55,6 +55,13 @@ struct MasterConfig {
   // owner would leave each drive at its last latched velocity: the drives' RPDO timeout counts
   // SYNCs, and none come. 0: no watchdog.
   int taken_over_timeout_periods = 5;
+  // A target not renewed (set_target_velocities) for this many cycles in a row has expired:
+  // the master commands zero from then on, counts it (target_expiries) and moves again with
+  // the next target. Without it a thread that hangs after setting a target leaves the arm
+  // moving at that velocity for as long as the cycles run. 25 cycles = 50 ms, as
+  // missed_feedback_limit. 0: a target holds until replaced, for callers that set one target
+  // and then run several lock-step cycles on it. 0..10000.
+  int target_expiry_periods = 25;
   // run_periodic(): SCHED_FIFO priority (0 = keep SCHED_OTHER) and CPU to pin to (-1 = none).
   int realtime_priority = 0;
   int cpu = -1;
@@ -102,6 +109,7 @@ struct MasterCounters {
   double peak_position_error_rad = 0;
   std::uint64_t emcy_frames = 0;
   std::uint64_t send_dropped = 0;      // transmit queue full
+  std::uint64_t target_expiries = 0;   // targets not renewed within target_expiry_periods
 };
 
 // The last target that left for the bus: see Pa10Master::last_sent().

@@ -65,6 +65,7 @@ class VelocityArm {
     std::uint64_t unsolicited_frames = 0;
     double peak_velocity_error_rad_s = 0;
     double peak_position_error_rad = 0;
+    std::uint64_t target_expiries = 0;  // targets the master dropped as not renewed in time
   };
   virtual BusHealth bus_health() const { return {}; }
 };
