@@ -345,6 +345,19 @@ std::vector<std::string> system_down(const SystemState& state, const Browser* br
   std::vector<std::string> killed;
   stop_processes(state.processes, options.stop_timeout, &killed);
   for (const auto& p : state.processes) say(fmt::format("stopped {}", p.name));
+  // A process killed after its grace (one still starting up when the SIGTERM came, on a
+  // loaded host) could not unbind its name: the binding, now dead, goes too. Only if dead:
+  // a live component of that name is not ours.
+  if (browser && !killed.empty()) {
+    const std::string host = local_host_name();
+    for (const auto& name : killed) {
+      try {
+        for (const auto& path : browser->clean(host + "/" + name)) say(fmt::format("unbound {}/{}", path.host, path.name));
+      } catch (const std::exception&) {
+      } catch (const CORBA::Exception&) {
+      }
+    }
+  }
   std::error_code ec;
   fs::remove(SystemState::path_for(state.system), ec);
   return killed;
