@@ -199,6 +199,7 @@ void lock_step(const std::string& spec) {
   MasterConfig config;
   config.heartbeat_timeout_ns = 5'000'000'000;
   config.enable_timeout_ns = 10'000'000'000;
+  config.target_expiry_periods = 0;  // one target for all lock-step cycles
   Pa10Master master(open_bus(spec), nullptr, config);
   testing::EmulatedPa10 nodes(spec);
   master.start();

@@ -42,7 +42,9 @@ void expect_same_joints(const JointState& heard, const JointState& master) {
 }
 
 TEST(CanJointListener, HearsTheJointStateTheMasterReadsOfTheSameSyncOnceEveryDriveAnswered) {
-  Rig rig;
+  MasterConfig config = test_config();
+  config.target_expiry_periods = 0;  // one target for all 50 lock-step cycles
+  Rig rig({}, config);
   JointListener listener(rig.spec);
   listener.start();
   EXPECT_FALSE(listener.latest().complete);

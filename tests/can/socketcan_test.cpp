@@ -99,6 +99,7 @@ TEST_F(SocketCan, MasterStartsTheEmulatedPa10AndExchangesPdos) {
   config.heartbeat_timeout_ns = 5'000'000'000;  // the guest's time is not real time
   config.step_timeout_ns = 2'000'000'000;
   config.enable_timeout_ns = 10'000'000'000;
+  config.target_expiry_periods = 0;  // one target for all 100 lock-step cycles
   Pa10Master master("socketcan:vcan0", "", config);
   testing::EmulatedPa10 nodes("socketcan:vcan0");
   nodes.set_wrench(ForceSensor::wrist, {0, 0, -9.81, 0, 0, 0});
