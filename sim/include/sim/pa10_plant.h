@@ -118,7 +118,6 @@ class Pa10Plant final : public Plant {
   ServoGains gains_;
   Surface surface_;
   int surface_joint_ = -1;  // -1: the scene has a rigid table
-  double surface_rest_m_ = 0;  // the plate's position under its own weight
   std::array<JointCommand, kJointCount> commands_{};
   std::array<double, kJointCount> hold_position_rad_{};
   std::array<double, kJointCount> velocity_error_integral_rad_{};
