@@ -153,12 +153,12 @@ void Pa10Plant::set_command(int joint, const JointCommand& command) {
       scratch_torque_Nm_[static_cast<std::size_t>(i)] = model_->dof_damping[i] * data_->qvel[i];
     mj_solveM(model_, data_, scratch_acceleration_.data(), scratch_torque_Nm_.data(), 1);
     held_load_1_s2_[j] =
-        gains_.velocity_integral_1_s2() * velocity_error_integral_rad_[j] - scratch_acceleration_[j];
+        gains_.discrete_velocity_integral_1_s2(model_->opt.timestep) * velocity_error_integral_rad_[j] - scratch_acceleration_[j];
     // An ideal brake: the joint stops where it is.
     hold_position_rad_[j] = data_->qpos[joint];
     data_->qvel[joint] = 0;
   }
-  if (releasing_brake) velocity_error_integral_rad_[j] = held_load_1_s2_[j] / gains_.velocity_integral_1_s2();
+  if (releasing_brake) velocity_error_integral_rad_[j] = held_load_1_s2_[j] / gains_.discrete_velocity_integral_1_s2(model_->opt.timestep);
   commands_[j] = command;
 }
 
@@ -181,8 +181,8 @@ void Pa10Plant::set_operator_wrench(const Wrench& wrench) {
 
 void Pa10Plant::compute_servo_torques() {
   const double dt_s = model_->opt.timestep;
-  const double kv = gains_.velocity_gain_1_s();
-  const double ki = gains_.velocity_integral_1_s2();
+  const double kv = gains_.discrete_velocity_gain_1_s(dt_s);
+  const double ki = gains_.discrete_velocity_integral_1_s2(dt_s);
   for (int j = 0; j < kJointCount; ++j) {
     const auto k = static_cast<std::size_t>(j);
     const double qdot = data_->qvel[j];

@@ -94,15 +94,16 @@ TEST_F(ArmOnSimTest, TwistCommandMovesTheTool10cmInPlusXWithin1mm) {
 
 TEST_F(ArmOnSimTest, AdmittanceLoopPressesOnTheTableAndHolds10NWithinHalfANewton) {
   // The table pushes the tool back along -z of the sensor frame (tool pointing down): the
-  // pressing force is -Fz. Admittance: vz = -gain * (target - pressing force); with the
-  // drives' velocity loop at 25 rad/s (kv = 20) gains 0.002..0.007 m/(s·N) are stable.
+  // pressing force is -Fz. Admittance: vz = -gain * (target - pressing force); on the default
+  // steel table with the 400 rad/s drives gains up to about 0.001 m/(s·N) are stable in
+  // lock-step (bench/sim/stability_study); the approach is capped at 5 mm/s.
   constexpr double kTarget_N = 10.0;
-  constexpr double kGain_m_per_sN = 0.003;
-  constexpr double kMaxSpeed_m_s = 0.03;
+  constexpr double kGain_m_per_sN = 0.0005;
+  constexpr double kMaxSpeed_m_s = 0.005;
   cycles(5, {});
   double worst_error_N = 0;
   double pressing_N = 0;
-  const int total_cycles = 3500;      // 7 s: 5 cm of approach at 2-3 cm/s, then settling
+  const int total_cycles = 3500;      // 7 s: 2 cm of approach at 5 mm/s, then settling
   const int steady_from_cycle = 3000;  // the last second must hold
   for (int i = 0; i < total_cycles && !HasFatalFailure(); ++i) {
     const auto wrench = master_->wrench(pc::ForceSensor::wrist);

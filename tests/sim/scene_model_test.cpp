@@ -48,7 +48,7 @@ TEST(Pa10SceneMatchesUrdf, ToolPoseAgreesWithKdlWithin1nmOverRandomJointVectors)
   EXPECT_LE(worst_rotation, 1e-9);
 }
 
-TEST(Pa10SceneMatchesUrdf, ReadyPosePointsTheToolDown55cmInFrontAnd5cmAboveTheTable) {
+TEST(Pa10SceneMatchesUrdf, ReadyPosePointsTheToolDown55cmInFrontAnd2cmAboveTheTable) {
   Pa10Plant plant(RTM_PA10_SCENE);
   const auto position = plant.tool_position_m();
   EXPECT_NEAR(position[0], 0.55, 1e-6);
@@ -60,7 +60,7 @@ TEST(Pa10SceneMatchesUrdf, ReadyPosePointsTheToolDown55cmInFrontAnd5cmAboveTheTa
   const int table = mj_name2id(model, mjOBJ_GEOM, "table_top");
   ASSERT_GE(table, 0);
   const double table_top_m = plant.data()->geom_xpos[3 * table + 2] + model->geom_size[3 * table + 2];
-  EXPECT_NEAR(position[2] - table_top_m, 0.05, 1e-6);
+  EXPECT_NEAR(position[2] - table_top_m, 0.02, 1e-6);
 }
 
 TEST(Pa10SceneMatchesUrdf, MassesCentresOfMassAndInertiasAgree) {
