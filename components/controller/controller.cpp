@@ -14,6 +14,15 @@ namespace rtm::comp {
 
 void ControllerParams::add_options(CLI::App& app) {
   rtm::add_array_option(app, "--gain", gain, "6 gains: x y z in (m/s)/N, rx ry rz in (rad/s)/(N·m)");
+  rtm::add_array_option(app, "--free-gain", free_gain,
+                        "6 gains used in free space while --approach-speed is on, units as --gain");
+  app.add_option("--approach-speed", approach_speed_m_s,
+                 "free-space speed limit [m/s] so the tool meets a surface at most this fast; 0: the paper's "
+                 "plain P (--gain everywhere)")
+      ->capture_default_str();
+  app.add_option("--contact-force", contact_force_N,
+                 "|force| [N] from which the tool is in contact (left after 10 cycles below half of it)")
+      ->capture_default_str();
   app.add_option("--stale-periods", stale_periods, "cycles without a new input datum before the command is zero")
       ->capture_default_str();
 }
@@ -23,6 +32,15 @@ void ControllerParams::validate() const {
     if (!std::isfinite(gain[i]))
       throw std::invalid_argument(fmt::format("controller gain[{}] = {} is not a finite number", i, gain[i]));
   }
+  for (std::size_t i = 0; i < free_gain.size(); ++i) {
+    if (!std::isfinite(free_gain[i]))
+      throw std::invalid_argument(fmt::format("controller free_gain[{}] = {} is not a finite number", i, free_gain[i]));
+  }
+  if (!(std::isfinite(approach_speed_m_s) && approach_speed_m_s >= 0))
+    throw std::invalid_argument(fmt::format("controller approach_speed = {} m/s must be 0 (off) or more",
+                                            approach_speed_m_s));
+  if (!(std::isfinite(contact_force_N) && contact_force_N > 0))
+    throw std::invalid_argument(fmt::format("controller contact_force = {} N must be above 0", contact_force_N));
   if (stale_periods == 0) throw std::invalid_argument("controller stale_periods must be at least 1");
 }
 
@@ -33,6 +51,32 @@ std::array<float, 6> proportional_command(const std::array<float, 6>& gain, cons
   return out;
 }
 
+bool ContactDetector::update(const RTM::Float6& sensor, float contact_force_N) {
+  const float force_N = std::sqrt(sensor[0] * sensor[0] + sensor[1] * sensor[1] + sensor[2] * sensor[2]);
+  if (!contact_) {
+    contact_ = force_N >= contact_force_N;
+    cycles_below_ = 0;
+  } else if (force_N >= 0.5f * contact_force_N) {
+    cycles_below_ = 0;
+  } else if (++cycles_below_ >= kLiftOffCycles) {
+    contact_ = false;
+    cycles_below_ = 0;
+  }
+  return contact_;
+}
+
+std::array<float, 6> guarded_command(const ControllerParams& params, bool contact, const RTM::Float6& reference,
+                                     const RTM::Float6& sensor) {
+  if (params.approach_speed_m_s <= 0 || contact) return proportional_command(params.gain, reference, sensor);
+  std::array<float, 6> out = proportional_command(params.free_gain, reference, sensor);
+  const float speed = std::sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]);
+  if (speed > params.approach_speed_m_s) {
+    const float scale = params.approach_speed_m_s / speed;
+    for (std::size_t i = 0; i < 3; ++i) out[i] *= scale;
+  }
+  return out;
+}
+
 Controller::Controller(std::string name, ControllerParams params)
     : Component(std::move(name), "controller"), params_(params) {
   params_.validate();
@@ -40,14 +84,30 @@ Controller::Controller(std::string name, ControllerParams params)
 }
 
 void Controller::describe_self() {
-  set_description("proportional force controller: twist = gain*(reference + wrench)");
+  set_description(
+      "proportional force controller: twist = gain*(reference + wrench); in free space free_gain, at most "
+      "approach_speed (0: the paper's P everywhere)");
   add_counter("cycles", "cycles run", cycles_);
   add_counter("commands", "proportional commands written", commands_);
   add_counter("withheld_commands", "cycles without a command (stale, missing or bad input): the actuator brakes",
               withheld_commands_);
   add_counter("stale_events", "an input went stale after having been fresh", stale_events_);
   add_counter("non_finite_events", "an input started holding NaN/inf", non_finite_events_);
-  add_parameter(rtm::live_numbers("gain", "(m/s)/N, (rad/s)/(N·m)", "6 gains: x y z, then rx ry rz", gain_live_));
+  add_counter("touch_downs", "free space -> contact (|force| reached contact_force)", touch_downs_);
+  add_counter("lift_offs", "contact -> free space (|force| below half of contact_force for 10 cycles)", lift_offs_);
+  add_counter("approach_limited", "free-space commands slowed to approach_speed", approach_limited_);
+  add_parameter(rtm::live_numbers("gain", "(m/s)/N, (rad/s)/(N·m)", "6 gains: x y z, then rx ry rz (in contact)",
+                                  gain_live_));
+  add_parameter(rtm::live_numbers("free_gain", "(m/s)/N, (rad/s)/(N·m)",
+                                  "6 gains in free space while approach_speed is on", free_gain_live_));
+  add_parameter(rtm::live_numbers("approach_speed", "m/s", "free-space speed limit; 0: the paper's P everywhere",
+                                  approach_speed_live_, [](const std::vector<double>& v) {
+                                    if (v[0] < 0) throw std::invalid_argument("approach_speed must be 0 (off) or more");
+                                  }));
+  add_parameter(rtm::live_numbers("contact_force", "N", "|force| from which the tool is in contact",
+                                  contact_force_live_, [](const std::vector<double>& v) {
+                                    if (!(v[0] > 0)) throw std::invalid_argument("contact_force must be above 0");
+                                  }));
   add_parameter(rtm::cycles_when_off("stale_periods", "cycles without a new input datum before the command is zero",
                                      params_.stale_periods, 1, 1'000'000));
 }
@@ -55,6 +115,9 @@ void Controller::describe_self() {
 ControllerParams Controller::params() const {
   ControllerParams now = params_;
   now.gain = gain_live_.published();
+  now.free_gain = free_gain_live_.published();
+  now.approach_speed_m_s = approach_speed_live_.published()[0];
+  now.contact_force_N = contact_force_live_.published()[0];
   return now;
 }
 
@@ -65,6 +128,7 @@ void Controller::on_start() {
   RTM::TimedFloat6 discard;
   sensor_in_.read(discard);
   reference_in_.read(discard);
+  contact_ = ContactDetector{};
 }
 
 rtm::Freshness::Change Controller::update(rtm::InPort<RTM::TimedFloat6>& port, Input& input) {
@@ -94,7 +158,7 @@ void Controller::on_cycle(const rtm::CycleContext&) {
   const auto reference_change = update(reference_in_, reference_);
   const bool sensor_ok = usable(sensor_, sensor_change, "sensor (wrench)");
   const bool reference_ok = usable(reference_, reference_change, "reference");
-  gain_live_.take(gain_);
+  take_live_parameters();
   if (!(sensor_ok && reference_ok)) {
     // No command at all, not a zero one: the actuator's watchdog then brakes the drives (quick
     // stop), as fast as when the controller itself is lost; a zero command would let them
@@ -102,15 +166,30 @@ void Controller::on_cycle(const rtm::CycleContext&) {
     withheld_commands_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
-  const auto out = proportional_command(gain_, reference_.datum.val, sensor_.datum.val);
+  const bool was_in_contact = contact_.in_contact();
+  const bool contact = contact_.update(sensor_.datum.val, cycle_params_.contact_force_N);
+  if (contact != was_in_contact) (contact ? touch_downs_ : lift_offs_).fetch_add(1, std::memory_order_relaxed);
+  const auto out = guarded_command(cycle_params_, contact, reference_.datum.val, sensor_.datum.val);
+  if (!contact && cycle_params_.approach_speed_m_s > 0 &&
+      out != proportional_command(cycle_params_.free_gain, reference_.datum.val, sensor_.datum.val))
+    approach_limited_.fetch_add(1, std::memory_order_relaxed);
   for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = out[i];
   command_.tm = sensor_.datum.tm;
   commands_.fetch_add(1, std::memory_order_relaxed);
   command_out_.write(command_);
 }
 
+void Controller::take_live_parameters() {
+  gain_live_.take(cycle_params_.gain);
+  free_gain_live_.take(cycle_params_.free_gain);
+  std::array<float, 1> one{};
+  if (approach_speed_live_.take(one)) cycle_params_.approach_speed_m_s = one[0];
+  if (contact_force_live_.take(one)) cycle_params_.contact_force_N = one[0];
+}
+
 ControllerCounters Controller::counters() const {
-  return {cycles_.load(), commands_.load(), withheld_commands_.load(), stale_events_.load(), non_finite_events_.load()};
+  return {cycles_.load(),        commands_.load(),  withheld_commands_.load(), stale_events_.load(),
+          non_finite_events_.load(), touch_downs_.load(), lift_offs_.load(),        approach_limited_.load()};
 }
 
 }  // namespace rtm::comp

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <limits>
 #include <optional>
 
@@ -32,6 +34,7 @@ struct ControllerUnderTest {
   static rtm::comp::ControllerParams gains(std::array<float, 6> g) {
     rtm::comp::ControllerParams p;
     p.gain = g;
+    p.approach_speed_m_s = 0;  // the paper's P, contact or not
     return p;
   }
   Written step() {
@@ -71,6 +74,100 @@ TEST(Controller, FreeSpaceCommandPointsWhereTheOperatorPushes) {
   const auto v = t.step().value();
   EXPECT_FLOAT_EQ(v[0], 0.015f);
   EXPECT_FLOAT_EQ(v[2], -0.03f);
+}
+
+// The bounded touch-down: contact gain 0.001, free-space gain 0.01, approach speed 5 mm/s,
+// contact from 1 N.
+rtm::comp::ControllerParams guarded() {
+  rtm::comp::ControllerParams p;
+  p.gain = {0.001f, 0.001f, 0.001f, 0, 0, 0};
+  p.free_gain = {0.01f, 0.01f, 0.01f, 0.1f, 0, 0};
+  p.approach_speed_m_s = 0.005f;
+  p.contact_force_N = 1.0f;
+  return p;
+}
+
+TEST(Controller, InFreeSpaceTheFreeGainIsSlowedToTheApproachSpeedWithItsDirectionKept) {
+  ControllerUnderTest t(guarded());
+  t.controller.reference_in().deliver(float6({3, 0, -4, 1, 0, 0}));
+  t.controller.sensor_in().deliver(float6({0, 0, 0.5f, 0, 0, 0}));  // below 1 N: free space
+  const auto v = t.step().value();
+  // free_gain * (ref + sen) = (0.03, 0, -0.035), 46 mm/s, scaled to 5 mm/s.
+  const float speed = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  EXPECT_NEAR(speed, 0.005f, 1e-6f);
+  EXPECT_NEAR(v[0] / v[2], 0.03f / -0.035f, 1e-5f) << "direction kept";
+  EXPECT_FLOAT_EQ(v[3], 0.1f) << "rotations take the free gain, not the speed limit";
+  EXPECT_EQ(t.controller.counters().approach_limited, 1u);
+  // A push slower than the limit is left alone.
+  t.controller.reference_in().deliver(float6({0.2f, 0, 0, 0, 0, 0}));
+  t.controller.sensor_in().deliver(float6({0, 0, 0, 0, 0, 0}));
+  EXPECT_FLOAT_EQ(t.step().value()[0], 0.002f);
+  EXPECT_EQ(t.controller.counters().approach_limited, 1u);
+}
+
+TEST(Controller, FromTheContactForceOnTheContactGainActsAndTouchDownsAreCounted) {
+  ControllerUnderTest t(guarded());
+  t.controller.reference_in().deliver(float6({0, 0, -10, 0, 0, 0}));
+  t.controller.sensor_in().deliver(float6({0, 0, 1.0f, 0, 0, 0}));  // reaches 1 N
+  EXPECT_FLOAT_EQ(t.step().value()[2], 0.001f * -9.0f) << "the paper's P with the contact gain";
+  EXPECT_EQ(t.controller.counters().touch_downs, 1u);
+  EXPECT_EQ(t.controller.counters().approach_limited, 0u);
+}
+
+TEST(Controller, ContactIsLeftOnlyAfterTenCyclesBelowHalfTheContactForce) {
+  rtm::comp::ContactDetector contact;
+  EXPECT_FALSE(contact.update(float6({0, 0.9f, 0, 0, 0, 0}).val, 1.0f));
+  EXPECT_TRUE(contact.update(float6({0.6f, 0.8f, 0, 0, 0, 0}).val, 1.0f)) << "|F| = 1 N";
+  EXPECT_TRUE(contact.update(float6({0, 0, 0.6f, 0, 0, 0}).val, 1.0f)) << "above half: still touching";
+  for (std::uint32_t i = 1; i < rtm::comp::ContactDetector::kLiftOffCycles; ++i)
+    EXPECT_TRUE(contact.update(float6({0, 0, 0.4f, 0, 0, 0}).val, 1.0f)) << "a bounce, cycle " << i;
+  EXPECT_TRUE(contact.update(float6({0, 0, 0.7f, 0, 0, 0}).val, 1.0f)) << "back above half: the count restarts";
+  for (std::uint32_t i = 1; i < rtm::comp::ContactDetector::kLiftOffCycles; ++i)
+    ASSERT_TRUE(contact.update(float6({0, 0, 0.1f, 0, 0, 0}).val, 1.0f));
+  EXPECT_FALSE(contact.update(float6({0, 0, 0.1f, 0, 0, 0}).val, 1.0f)) << "lifted off after 10 cycles below";
+}
+
+TEST(Controller, ABouncingTouchDownCountsOneTouchDownAndNoLiftOff) {
+  ControllerUnderTest t(guarded());
+  const float forces[] = {0, 3, 8, 0.2f, 0.1f, 6, 10, 10};
+  for (float f : forces) {
+    t.controller.reference_in().deliver(float6({0, 0, -10, 0, 0, 0}));
+    t.controller.sensor_in().deliver(float6({0, 0, f, 0, 0, 0}));
+    ASSERT_TRUE(t.step().has_value());
+  }
+  EXPECT_EQ(t.controller.counters().touch_downs, 1u);
+  EXPECT_EQ(t.controller.counters().lift_offs, 0u);
+}
+
+TEST(Controller, ANegativeApproachSpeedOrAContactForceNotAboveZeroIsRefusedNamingIt) {
+  rtm::comp::ControllerParams p = guarded();
+  p.approach_speed_m_s = -0.001f;
+  try {
+    p.validate();
+    FAIL() << "a negative approach speed was accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("approach_speed"), std::string::npos) << error.what();
+  }
+  p = guarded();
+  p.contact_force_N = 0;
+  EXPECT_THROW(p.validate(), std::invalid_argument);
+  ControllerUnderTest t(guarded());
+  EXPECT_THROW(parameter(t.controller, "approach_speed").set("-1"), std::invalid_argument);
+  EXPECT_THROW(parameter(t.controller, "contact_force").set("0"), std::invalid_argument);
+  EXPECT_EQ(parameter(t.controller, "approach_speed").get(), "0.005");
+  parameter(t.controller, "approach_speed").set("0");
+  EXPECT_EQ(t.controller.params().approach_speed_m_s, 0.0f);
+}
+
+TEST(Controller, ApproachSpeedZeroSetWhileRunningIsThePapersPlainPFromTheNextCycle) {
+  ControllerUnderTest t(guarded());
+  t.controller.reference_in().deliver(float6({0, 0, -10, 0, 0, 0}));
+  t.controller.sensor_in().deliver(float6({0, 0, 0, 0, 0, 0}));
+  EXPECT_NEAR(t.step().value()[2], -0.005f, 1e-7f);
+  parameter(t.controller, "approach_speed").set("0");
+  t.controller.reference_in().deliver(float6({0, 0, -10, 0, 0, 0}));
+  t.controller.sensor_in().deliver(float6({0, 0, 0, 0, 0, 0}));
+  EXPECT_FLOAT_EQ(t.step().value()[2], -0.01f) << "the contact gain everywhere";
 }
 
 TEST(Controller, TheCommandCarriesTheSensorSamplesStamp) {

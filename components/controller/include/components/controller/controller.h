@@ -1,11 +1,11 @@
-// Controller: the paper's proportional force controller (Fig. 6).
+// Controller: the paper's proportional force controller (Fig. 6), with a bounded touch-down.
 //
 //   InPort 0 "wrench"     (alias in0)  sensor wrench     (TimedFloat6, base frame, N / N·m)
 //   InPort 1 "reference"  (alias in1)  reference wrench  (TimedFloat6, base frame, N / N·m)
 //   OutPort 0 "twist"     (alias out0) velocity command  (TimedFloat6, base frame, m/s / rad/s)
 //
-// Parameters: gain (live: the next cycle uses it), stale_periods (while off). Statistics:
-// the ControllerCounters, by name.
+// Parameters: gain, free_gain, approach_speed, contact_force (live: the next cycle uses them),
+// stale_periods (while off). Statistics: the ControllerCounters, by name.
 //
 // Each cycle out[i] = gain[i] * (ref[i] + sen[i]). The plus is the paper's: the hand sensor
 // reads the reaction force, opposite in sign to the reference, so the command is zero when
@@ -14,6 +14,18 @@
 // then brakes the drives, as when the controller itself is lost. A command's stamp is the
 // stamp of the sensor sample it was computed from, so a receiver can measure sample-to-drive
 // latency.
+//
+// The bounded touch-down (beyond the paper; approach_speed 0 turns it off and leaves the
+// paper's P alone). A gain that keeps a force loop stable on a stiff surface is far too small
+// for moving in free space, and a gain that moves briskly hits the surface too fast to stop
+// before the force overshoots. So the controller tells contact from free space by the measured
+// force: in contact (|force| has reached contact_force, until it stays below half of it for
+// 20 ms) it is the
+// paper's P with `gain`; in free space it commands free_gain * (ref + sen) with the
+// translational speed limited to approach_speed (the vector scaled, its direction kept), so
+// the tool meets a surface at most that fast, whatever the operator asks. Choose
+// approach_speed near gain * the pressing force: the contact loop then takes over the motion
+// without a jump.
 #pragma once
 
 #include "rtm/component.h"
@@ -32,15 +44,23 @@ class App;
 namespace rtm::comp {
 
 struct ControllerParams {
-  // (m/s)/N for x y z, (rad/s)/(N·m) for the rotations. With the PA10's drive loops
-  // (pa10-sim: 25 rad/s velocity bandwidth, kv = 20) 0.002..0.007 m/(s·N) press stably on the table.
-  std::array<float, 6> gain{0.003f, 0.003f, 0.003f, 0.0f, 0.0f, 0.0f};
+  // (m/s)/N for x y z, (rad/s)/(N·m) for the rotations: the contact gain. On pa10-sim's
+  // default steel surface (10^5 N/m, 400 rad/s drives) the largest stable gain is 0.00066 with
+  // the paper's five processes and 0.0012 on the shared tick (bench/sim/stability_study);
+  // the default keeps a margin below both.
+  std::array<float, 6> gain{0.0004f, 0.0004f, 0.0004f, 0.0f, 0.0f, 0.0f};
+  // The bounded touch-down (see above); approach_speed 0: the paper's P everywhere.
+  std::array<float, 6> free_gain{0.003f, 0.003f, 0.003f, 0.0f, 0.0f, 0.0f};
+  float approach_speed_m_s = 0.005f;
+  float contact_force_N = 1.0f;
   std::uint32_t stale_periods = 3;  // cycles without a new datum before an input is stale
 
-  // Throws std::invalid_argument naming the bad value (NaN/inf gain, stale_periods 0).
+  // Throws std::invalid_argument naming the bad value (NaN/inf gain, a negative approach
+  // speed, a contact force not above 0, stale_periods 0).
   void validate() const;
-  // Registers --gain and --stale-periods on app, bound to these fields (rtm-controller and
-  // rtm-servo share them); call validate() after parsing.
+  // Registers --gain, --free-gain, --approach-speed, --contact-force and --stale-periods on
+  // app, bound to these fields (rtm-controller and rtm-servo share them); call validate() after
+  // parsing.
   void add_options(CLI::App& app);
 };
 
@@ -48,12 +68,37 @@ struct ControllerParams {
 std::array<float, 6> proportional_command(const std::array<float, 6>& gain, const RTM::Float6& reference,
                                           const RTM::Float6& sensor);
 
+// Contact, judged from the measured force (sensor x y z): entered when its magnitude reaches
+// contact_force_N, left when it has stayed below half of that for kLiftOffCycles cycles in a
+// row. The hysteresis keeps a force near the threshold from toggling the gain every cycle, the
+// delay keeps the tool's brief bounce after an impact (a few ms) inside the contact.
+class ContactDetector {
+ public:
+  static constexpr std::uint32_t kLiftOffCycles = 10;
+  // The state after this cycle's sensor reading.
+  bool update(const RTM::Float6& sensor, float contact_force_N);
+  bool in_contact() const { return contact_; }
+
+ private:
+  bool contact_ = false;
+  std::uint32_t cycles_below_ = 0;
+};
+
+// The bounded touch-down's command: in contact the paper's P with gain; in free space
+// free_gain * (ref + sen), its translational part scaled down to approach_speed_m_s when
+// faster. approach_speed_m_s 0: the paper's P with gain, contact or not.
+std::array<float, 6> guarded_command(const ControllerParams& params, bool contact, const RTM::Float6& reference,
+                                     const RTM::Float6& sensor);
+
 struct ControllerCounters {
   std::uint64_t cycles = 0;
   std::uint64_t commands = 0;         // proportional commands written
   std::uint64_t withheld = 0;         // cycles without a command (stale, missing or bad input)
   std::uint64_t stale_events = 0;     // an input went stale after having been fresh
   std::uint64_t non_finite_events = 0;  // an input started holding NaN/inf
+  std::uint64_t touch_downs = 0;        // free space -> contact
+  std::uint64_t lift_offs = 0;          // contact -> free space
+  std::uint64_t approach_limited = 0;   // free-space commands slowed to approach_speed
 };
 
 class Controller final : public rtm::Component {
@@ -82,14 +127,20 @@ class Controller final : public rtm::Component {
   rtm::Freshness::Change update(rtm::InPort<RTM::TimedFloat6>& port, Input& input);
   bool usable(Input& input, rtm::Freshness::Change change, const char* what);
   void describe_self();
+  void take_live_parameters();
 
   ControllerParams params_;  // stale_periods changes only while off; gain through gain_live_
   rtm::LiveValue<std::array<float, 6>> gain_live_{params_.gain};
+  rtm::LiveValue<std::array<float, 6>> free_gain_live_{params_.free_gain};
+  rtm::LiveValue<std::array<float, 1>> approach_speed_live_{{params_.approach_speed_m_s}};
+  rtm::LiveValue<std::array<float, 1>> contact_force_live_{{params_.contact_force_N}};
+  ControllerParams cycle_params_ = params_;  // the cycle's copy of the live parameters
+  ContactDetector contact_;
   Input sensor_{params_.stale_periods};
   Input reference_{params_.stale_periods};
   RTM::TimedFloat6 command_{};
-  std::array<float, 6> gain_ = params_.gain;  // the cycle's copy of gain_live_
-  std::atomic<std::uint64_t> cycles_{0}, commands_{0}, withheld_commands_{0}, stale_events_{0}, non_finite_events_{0};
+  std::atomic<std::uint64_t> cycles_{0}, commands_{0}, withheld_commands_{0}, stale_events_{0}, non_finite_events_{0},
+      touch_downs_{0}, lift_offs_{0}, approach_limited_{0};
   rtm::InPort<RTM::TimedFloat6>& sensor_in_ = add_in_port<RTM::TimedFloat6>(
       "wrench", {"wrench the sensor measures, base frame", rtm::wrench_elements()});
   rtm::InPort<RTM::TimedFloat6>& reference_in_ = add_in_port<RTM::TimedFloat6>(
