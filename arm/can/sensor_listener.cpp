@@ -53,6 +53,7 @@ void SensorListener::handle(const can_frame& frame, std::int64_t received_ns) {
     case FrameType::heartbeat: {
       if (!decode_heartbeat(frame)) { ++counters_.malformed_frames; return; }
       last_heartbeat_ns_ = received_ns;
+      ++counters_.heartbeats;
       return;
     }
     case FrameType::emcy: {
@@ -113,26 +114,42 @@ std::optional<Wrench> SensorListener::wait_newer_than(std::uint64_t sequence,
   return latest_;
 }
 
-std::string SensorListener::fault() const {
-  std::lock_guard lock(mutex_);
-  if (!bus_error_.empty()) return bus_error_;
-  char text[160];
-  if (emcy_code_ != emcy::kErrorReset) {
-    std::snprintf(text, sizeof text, "%s: EMCY 0x%04x %s", node_description(node_).c_str(),
-                  emcy_code_, emcy_description(emcy_code_).data());
-    return text;
-  }
-  if (last_heartbeat_ns_) {
-    const std::int64_t silent_ns = monotonic_ns() - *last_heartbeat_ns_;
-    if (silent_ns > heartbeat_timeout_ns_) {
-      std::snprintf(text, sizeof text, "%s: no heartbeat for %lld ms (limit %lld ms)",
-                    node_description(node_).c_str(), static_cast<long long>(silent_ns / 1'000'000),
-                    static_cast<long long>(heartbeat_timeout_ns_ / 1'000'000));
-      return text;
-    }
-  }
-  return {};
+FaultKind SensorListener::fault_kind_locked(std::int64_t now_ns) const {
+  if (!bus_error_.empty()) return FaultKind::bus_error;
+  if (emcy_code_ != emcy::kErrorReset) return FaultKind::emergency;
+  if (last_heartbeat_ns_ && now_ns - *last_heartbeat_ns_ > heartbeat_timeout_ns_) return FaultKind::heartbeat_lost;
+  return FaultKind::none;
 }
+
+FaultKind SensorListener::fault_kind() const {
+  std::lock_guard lock(mutex_);
+  return fault_kind_locked(monotonic_ns());
+}
+
+SensorListener::Fault SensorListener::fault_with_kind() const {
+  std::lock_guard lock(mutex_);
+  const std::int64_t now_ns = monotonic_ns();
+  Fault f{fault_kind_locked(now_ns), {}};
+  char text[160];
+  switch (f.kind) {
+    case FaultKind::bus_error: f.reason = bus_error_; break;
+    case FaultKind::emergency:
+      std::snprintf(text, sizeof text, "%s: EMCY 0x%04x %s", node_description(node_).c_str(), emcy_code_,
+                    emcy_description(emcy_code_).data());
+      f.reason = text;
+      break;
+    case FaultKind::heartbeat_lost:
+      std::snprintf(text, sizeof text, "%s: no heartbeat for %lld ms (limit %lld ms)", node_description(node_).c_str(),
+                    static_cast<long long>((now_ns - *last_heartbeat_ns_) / 1'000'000),
+                    static_cast<long long>(heartbeat_timeout_ns_ / 1'000'000));
+      f.reason = text;
+      break;
+    default: break;
+  }
+  return f;
+}
+
+std::string SensorListener::fault() const { return fault_with_kind().reason; }
 
 SensorListenerCounters SensorListener::counters() const {
   std::lock_guard lock(mutex_);

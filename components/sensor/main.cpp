@@ -1,6 +1,7 @@
 // rtm-sensor: the wrist force/torque sensor as an RT component (paper Fig. 5). A passive
 // listener on the arm's bus: it reads the wrist sensor's TPDOs and the drives' joint
-// positions, and writes the wrench in the arm's base frame to out0 each cycle.
+// positions, and writes the wrench in the arm's base frame to out0 each cycle. A heartbeat
+// loss of the sensor node is waited out for --recovery-timeout-periods cycles, writing nothing.
 #include "components/sensor/sensor.h"
 
 #include "rtm/runner.h"
@@ -9,6 +10,7 @@ int main(int argc, char** argv) {
   std::string bus = "local:/tmp/rtm-pa10.bus";
   std::string sensor_bus;
   std::string urdf;  // "" = the arm library's built-in PA10 model
+  rtm::comp::SensorParams params;
   return rtm::run_component(argc, argv, {
       .kind = "sensor",
       .description =
@@ -19,12 +21,14 @@ int main(int argc, char** argv) {
             app.add_option("--bus", bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
             app.add_option("--sensor-bus", sensor_bus, "separate bus of the force sensors (default: --bus)");
             app.add_option("--urdf", urdf, "arm model URDF, for the sensor frame's orientation (default: the built-in PA10 model)");
+            params.add_options(app);
           },
+      .validate = [&](const rtm::RunSettings&) { params.validate(); },
       .create =
           [&](const rtm::RunSettings& settings) {
             return std::make_unique<rtm::comp::Sensor>(
                 settings.name, std::make_unique<rtm::comp::BusWristSource>(bus, sensor_bus),
-                rtm::pa10::Kinematics::pa10(urdf));
+                rtm::pa10::Kinematics::pa10(urdf), params);
           },
   });
 }

@@ -1,12 +1,31 @@
 #include "components/sensor/sensor.h"
 
 #include "rtm/data.h"
+#include "rtm/log.h"
+#include "rtm/runner.h"
 
 #include <Eigen/Geometry>
+#include <fmt/format.h>
+#include <spdlog/logger.h>
 
 #include <stdexcept>
 
 namespace rtm::comp {
+
+void SensorParams::add_options(CLI::App& app) {
+  app.add_option("--recovery-timeout-periods", recovery_timeout_periods,
+                 "cycles a heartbeat loss of the F/T node may last before the component goes to error")
+      ->check(CLI::Range(1u, kMaxRecoveryTimeoutPeriods))
+      ->capture_default_str();
+}
+
+void SensorParams::validate() const {
+  if (recovery_timeout_periods == 0)
+    throw std::invalid_argument("sensor recovery_timeout_periods must be at least 1");
+  if (recovery_timeout_periods > kMaxRecoveryTimeoutPeriods)
+    throw std::invalid_argument(fmt::format("sensor recovery_timeout_periods = {}: at most {}",
+                                            recovery_timeout_periods, kMaxRecoveryTimeoutPeriods));
+}
 
 std::array<double, 6> wrench_sensor_to_base(const Eigen::Matrix3d& rotation_base_sensor,
                                             const std::array<double, 6>& wrench_sensor) {
@@ -15,27 +34,41 @@ std::array<double, 6> wrench_sensor_to_base(const Eigen::Matrix3d& rotation_base
   return {force.x(), force.y(), force.z(), torque.x(), torque.y(), torque.z()};
 }
 
-Sensor::Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm::pa10::Kinematics kinematics)
-    : Component(std::move(name), "sensor"), source_(std::move(source)), kinematics_(std::move(kinematics)) {
+Sensor::Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm::pa10::Kinematics kinematics,
+               SensorParams params)
+    : Component(std::move(name), "sensor"), source_(std::move(source)), kinematics_(std::move(kinematics)),
+      params_(params) {
   if (!source_) throw std::invalid_argument("Sensor " + this->name() + ": no wrist sample source");
+  params_.validate();
   set_description("wrist force/torque sensor: the wrench on the tool in the arm's base frame");
-  add_statistic("samples", "", "wrenches written",
-                [this] { return static_cast<double>(written_.load(std::memory_order_relaxed)); });
+  add_counter("samples", "wrenches written", written_);
+  add_counter("heartbeat_losses", "the F/T node's heartbeat went silent (nothing written meanwhile)",
+              heartbeat_losses_);
+  add_counter("heartbeat_recoveries", "the F/T node came back with fresh wrenches in time, writing resumed",
+              heartbeat_recoveries_);
+  add_parameter(rtm::cycles_when_off("recovery_timeout_periods",
+                                     "cycles a heartbeat loss of the F/T node may last before COMPONENT_ERROR",
+                                     params_.recovery_timeout_periods, 1, SensorParams::kMaxRecoveryTimeoutPeriods));
+}
+
+SensorCounters Sensor::counters() const {
+  SensorCounters c;
+  c.samples = written_.load(std::memory_order_relaxed);
+  c.heartbeat_losses = heartbeat_losses_.load(std::memory_order_relaxed);
+  c.heartbeat_recoveries = heartbeat_recoveries_.load(std::memory_order_relaxed);
+  return c;
 }
 
 void Sensor::on_start() {
   // A wrench already seen before on() is not fresh: it would reach the controller as new.
   last_sequence_ = source_->latest().sequence;
+  recovery_budget_ = params_.recovery_timeout_periods;
+  // A loss still under way is seen again (and counted as a new one) in the first cycle.
+  lost_ = false;
+  lost_flag_.store(false, std::memory_order_relaxed);
 }
 
-void Sensor::on_cycle(const rtm::CycleContext&) {
-  const WristSample sample = source_->latest();
-  if (!sample.valid || sample.sequence == last_sequence_) {
-    // Only here (rarely, and no allocation when healthy) ask why nothing new came.
-    const std::string why = source_->fault();
-    if (!why.empty()) throw std::runtime_error(why);
-    return;
-  }
+void Sensor::write(const WristSample& sample) {
   last_sequence_ = sample.sequence;
   for (int j = 0; j < rtm::pa10::kJointCount; ++j) q_rad_[j] = sample.q_rad[static_cast<std::size_t>(j)];
   const Eigen::Isometry3d tool = kinematics_.tool_pose(q_rad_);
@@ -44,6 +77,78 @@ void Sensor::on_cycle(const rtm::CycleContext&) {
   datum_.tm = rtm::now();
   out_.write(datum_);
   written_.fetch_add(1, std::memory_order_relaxed);
+}
+
+namespace {
+
+// "2000 cycles (4000 ms)", or "2000 cycles" when the activity has no period.
+std::string cycles_text(std::uint64_t cycles, std::int64_t period_ns) {
+  if (period_ns <= 0) return fmt::format("{} cycles", cycles);
+  return fmt::format("{} cycles ({} ms)", cycles, static_cast<std::int64_t>(cycles) * period_ns / 1'000'000);
+}
+
+}  // namespace
+
+void Sensor::begin_loss(const WristFault& fault, std::int64_t period_ns) {
+  lost_ = true;
+  lost_flag_.store(true, std::memory_order_relaxed);
+  lost_cycles_ = 0;
+  // Wrenches up to this one may be from before the loss: writing resumes only after it.
+  loss_sequence_ = source_->latest().sequence;
+  loss_reason_ = fault.text;
+  const std::uint64_t event = heartbeat_losses_.fetch_add(1, std::memory_order_relaxed) + 1;
+  log().warn("{}: {}: writing nothing until it is back with a new wrench, for at most {} (heartbeat loss {})",
+             name(), loss_reason_, cycles_text(recovery_budget_, period_ns), event);
+}
+
+void Sensor::give_up(std::int64_t period_ns) const {
+  const WristFault now = source_->fault();
+  const std::string budget = cycles_text(recovery_budget_, period_ns);
+  if (now.kind == WristFaultKind::heartbeat_lost) {
+    throw std::runtime_error(
+        fmt::format("{}: not back within the recovery budget of {} after the loss", now.text, budget));
+  }
+  throw std::runtime_error(fmt::format("{}; heartbeat back, but no wrench newer than the loss within the recovery "
+                                       "budget of {}",
+                                       loss_reason_, budget));
+}
+
+void Sensor::on_cycle(const rtm::CycleContext& ctx) {
+  const WristSample sample = source_->latest();
+  const bool fresh = sample.valid && sample.sequence != last_sequence_;
+  if (!lost_) {
+    if (fresh) {
+      write(sample);
+      return;
+    }
+    // Only here (rarely, and no allocation when healthy) ask why nothing new came.
+    if (source_->fault_kind() == WristFaultKind::none) return;
+    const WristFault fault = source_->fault();
+    if (fault.kind == WristFaultKind::none) return;  // cleared in between
+    if (fault.kind != WristFaultKind::heartbeat_lost) throw std::runtime_error(fault.text);
+    begin_loss(fault, ctx.period_ns);
+    return;
+  }
+
+  // In a heartbeat loss: nothing is written until the node's heartbeat is back and a wrench
+  // newer than the loss came.
+  ++lost_cycles_;
+  const WristFaultKind kind = source_->fault_kind();
+  if (kind != WristFaultKind::none && kind != WristFaultKind::heartbeat_lost) {
+    const WristFault fault = source_->fault();
+    if (fault.kind != WristFaultKind::none && fault.kind != WristFaultKind::heartbeat_lost)
+      throw std::runtime_error(fault.text);
+  }
+  if (kind == WristFaultKind::none && sample.valid && sample.sequence > loss_sequence_) {
+    lost_ = false;
+    lost_flag_.store(false, std::memory_order_relaxed);
+    const std::uint64_t event = heartbeat_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
+    log().info("{}: heartbeat and a new wrench back after {} of loss ({}): writing again (recovery {})", name(),
+               cycles_text(lost_cycles_, ctx.period_ns), loss_reason_, event);
+    write(sample);
+    return;
+  }
+  if (lost_cycles_ >= recovery_budget_) give_up(ctx.period_ns);
 }
 
 }  // namespace rtm::comp

@@ -4,6 +4,16 @@ namespace rtm::comp {
 
 namespace pc = rtm::can;
 
+std::string_view to_string(WristFaultKind kind) {
+  switch (kind) {
+    case WristFaultKind::none: return "none";
+    case WristFaultKind::heartbeat_lost: return "heartbeat_lost";
+    case WristFaultKind::sensor_fault: return "sensor_fault";
+    case WristFaultKind::bus_lost: return "bus_lost";
+  }
+  return "?";
+}
+
 WristSample MasterWristSource::latest() const {
   WristSample sample;
   const pc::Wrench wrench = master_.wrench(pc::ForceSensor::wrist);
@@ -15,8 +25,17 @@ WristSample MasterWristSource::latest() const {
   return sample;
 }
 
-BusWristSource::BusWristSource(std::string_view drive_bus_spec, std::string_view sensor_bus_spec)
-    : wrench_(sensor_bus_spec.empty() ? drive_bus_spec : sensor_bus_spec, pc::ForceSensor::wrist),
+WristFault MasterWristSource::fault() const {
+  const pc::MasterFault f = master_.fault();
+  if (!f.active() || f.node != pc::kWristSensorNode) return {};
+  if (f.kind == pc::FaultKind::heartbeat_lost) return {WristFaultKind::heartbeat_lost, f.reason};
+  if (f.kind == pc::FaultKind::emergency) return {WristFaultKind::sensor_fault, f.reason};
+  return {};  // about the wrist node, but the bus's or the master's business (spoofing, NMT state)
+}
+
+BusWristSource::BusWristSource(std::string_view drive_bus_spec, std::string_view sensor_bus_spec,
+                               std::int64_t heartbeat_timeout_ns)
+    : wrench_(sensor_bus_spec.empty() ? drive_bus_spec : sensor_bus_spec, pc::ForceSensor::wrist, heartbeat_timeout_ns),
       joints_(drive_bus_spec) {
   wrench_.start();
   joints_.start();
@@ -36,10 +55,33 @@ WristSample BusWristSource::latest() const {
   return sample;
 }
 
-std::string BusWristSource::fault() const {
-  std::string why = wrench_.fault();
-  if (why.empty()) why = joints_.fault();
-  return why;
+namespace {
+
+WristFaultKind wrist_kind(pc::FaultKind kind) {
+  switch (kind) {
+    case pc::FaultKind::none: return WristFaultKind::none;
+    case pc::FaultKind::heartbeat_lost: return WristFaultKind::heartbeat_lost;
+    case pc::FaultKind::emergency: return WristFaultKind::sensor_fault;
+    default: return WristFaultKind::bus_lost;
+  }
+}
+
+}  // namespace
+
+WristFaultKind BusWristSource::fault_kind() const {
+  const WristFaultKind kind = wrist_kind(wrench_.fault_kind());
+  if (kind != WristFaultKind::none) return kind;
+  // The joint listener's only fault is a lost bus. Its text is "" (no allocation) without one.
+  return joints_.fault().empty() ? WristFaultKind::none : WristFaultKind::bus_lost;
+}
+
+WristFault BusWristSource::fault() const {
+  const pc::SensorListener::Fault wrench_fault = wrench_.fault_with_kind();
+  WristFault f{wrist_kind(wrench_fault.kind), wrench_fault.reason};
+  if (f.kind != WristFaultKind::none) return f;
+  f.text = joints_.fault();
+  f.kind = f.text.empty() ? WristFaultKind::none : WristFaultKind::bus_lost;
+  return f;
 }
 
 }  // namespace rtm::comp

@@ -1,5 +1,6 @@
 // The wrist Sensor component without CORBA: the frame change to the base frame, one datum per
-// new wrench, fresh stamps, and source faults.
+// new wrench, fresh stamps, and source faults (the heartbeat-loss recovery against the
+// simulator's sensor node is in sensor_recovery_test.cpp).
 #include "components/sensor/sensor.h"
 
 #include "component_test_support.h"
@@ -7,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <numbers>
 
 namespace {
@@ -20,9 +22,15 @@ constexpr std::array<double, 7> kReadyPose_rad{0, 0.360534478941, 0, 1.828143726
 class FakeWristSource final : public rtm::comp::WristSampleSource {
  public:
   rtm::comp::WristSample sample;
-  std::string why;
+  rtm::comp::WristFault why;
+  std::function<void()> when_fault_asked;  // runs after fault() has taken its answer
   rtm::comp::WristSample latest() const override { return sample; }
-  std::string fault() const override { return why; }
+  rtm::comp::WristFaultKind fault_kind() const override { return why.kind; }
+  rtm::comp::WristFault fault() const override {
+    rtm::comp::WristFault answer = why;
+    if (when_fault_asked) when_fault_asked();
+    return answer;
+  }
 };
 
 rtm::pa10::Kinematics model() { return rtm::pa10::Kinematics::pa10(); }
@@ -97,16 +105,44 @@ TEST(Sensor, WritesNothingBeforeAValidSampleOrForOneSeenBeforeOn) {
   EXPECT_EQ(t.sensor->samples_written(), 0u);
 }
 
-TEST(Sensor, SourceFaultWhileNothingNewArrivesThrowsTheReason) {
+TEST(Sensor, SensorFaultWhileNothingNewArrivesThrowsTheReason) {
   SensorUnderTest t;
   t.sensor->on_start();
-  t.source->why = "wrist sensor 0x10: heartbeat lost";
+  t.source->why = {rtm::comp::WristFaultKind::sensor_fault, "wrist sensor 0x10: EMCY 0x7300 sensor fault"};
   try {
     t.sensor->on_cycle(cycle(0));
     FAIL() << "no exception";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("heartbeat lost"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("EMCY 0x7300"), std::string::npos) << e.what();
   }
+  EXPECT_EQ(t.sensor->counters().heartbeat_losses, 0u);
+}
+
+// The race a bus leaves open: a wrench that arrives while the loss is being seen (after the
+// cycle read the source) is from before the loss; when the node comes back, only a wrench newer
+// than that is written.
+TEST(Sensor, AfterAHeartbeatLossOnlyAWrenchNewerThanTheLossIsWritten) {
+  SensorUnderTest t;
+  t.sensor->on_start();
+  t.new_wrench({0, 0, -1, 0, 0, 0});
+  t.sensor->on_cycle(cycle(0));
+  ASSERT_EQ(t.sensor->samples_written(), 1u);
+  t.source->why = {rtm::comp::WristFaultKind::heartbeat_lost, "wrist sensor 0x10: no heartbeat for 301 ms"};
+  t.source->when_fault_asked = [&] { t.new_wrench({0, 0, -2, 0, 0, 0}); };
+  t.sensor->on_cycle(cycle(1));
+  ASSERT_EQ(t.sensor->counters().heartbeat_losses, 1u);
+  t.source->when_fault_asked = nullptr;
+  t.source->why = {};  // the heartbeat is back; the newest wrench is still the one from before
+  t.sensor->on_cycle(cycle(2));
+  EXPECT_EQ(t.sensor->samples_written(), 1u) << "a wrench from before the loss was written";
+  EXPECT_EQ(t.sensor->counters().heartbeat_recoveries, 0u);
+  t.new_wrench({0, 0, -3, 0, 0, 0});
+  t.sensor->on_cycle(cycle(3));
+  EXPECT_EQ(t.sensor->samples_written(), 2u);
+  EXPECT_EQ(t.sensor->counters().heartbeat_recoveries, 1u);
+  RTM::TimedFloat6 out{};
+  ASSERT_TRUE(t.sensor->out().latest(out));
+  EXPECT_NEAR(values(out)[2], 3.0, 1e-3) << "the wrench after the loss (tool down: -Fz sensor reads +Fz base)";
 }
 
 TEST(Sensor, MissingSourceIsRefusedWithTheComponentName) {

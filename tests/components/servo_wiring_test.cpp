@@ -33,7 +33,8 @@ class FakeWristSource final : public rtm::comp::WristSampleSource {
  public:
   rtm::comp::WristSample sample;
   rtm::comp::WristSample latest() const override { return sample; }
-  std::string fault() const override { return ""; }
+  rtm::comp::WristFaultKind fault_kind() const override { return rtm::comp::WristFaultKind::none; }
+  rtm::comp::WristFault fault() const override { return {}; }
 };
 
 class RecordingArm final : public rtm::comp::VelocityArm {

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "arm/can/bus.h"
+#include "arm/can/fault.h"
 #include "arm/can/master_types.h"
 #include "arm/can/protocol.h"
 #include "arm/can/receive_thread.h"
@@ -27,6 +28,7 @@ struct SensorListenerCounters {
   std::uint64_t malformed_frames = 0;
   std::uint64_t late_frames = 0;       // a half (force or torque) whose partner never came
   std::uint64_t emcy_frames = 0;
+  std::uint64_t heartbeats = 0;        // heartbeat (and boot-up) frames of the node
 };
 
 class SensorListener {
@@ -56,12 +58,25 @@ class SensorListener {
   // silent longer than heartbeat_timeout_ns (after having been seen once). Cleared by an EMCY
   // 0x0000 (error reset) resp. the next heartbeat.
   std::string fault() const;
+  // What fault() would describe, without the text (no allocation: for a periodic caller that
+  // asks for the text only when the kind changes). The first that applies, in fault()'s order:
+  // bus_error (the background thread lost the bus), emergency (EMCY with a non-zero code),
+  // heartbeat_lost (silent longer than the timeout: the only kind that clears by itself when
+  // the node is heard again), else none.
+  FaultKind fault_kind() const;
+  // Both at one instant (the kind and its text cannot disagree).
+  struct Fault {
+    FaultKind kind = FaultKind::none;
+    std::string reason;
+  };
+  Fault fault_with_kind() const;
 
   SensorListenerCounters counters() const;
   std::uint8_t node() const { return node_; }
 
  private:
   void handle(const can_frame& frame, std::int64_t received_ns);  // CLOCK_MONOTONIC
+  FaultKind fault_kind_locked(std::int64_t now_ns) const;
 
   std::unique_ptr<Bus> bus_;
   std::uint8_t node_;

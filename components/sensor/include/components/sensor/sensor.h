@@ -1,6 +1,18 @@
 // Sensor: the wrist force/torque sensor as an RT component (paper Fig. 5). Each cycle it takes
 // the newest wrench, turns it into the arm's base frame, stamps the time and writes it to
-// OutPort 0 ("wrench", alias "out0", RTM::TimedFloat6). Statistic: samples.
+// OutPort 0 ("wrench", alias "out0", RTM::TimedFloat6). Statistics: samples,
+// heartbeat_losses, heartbeat_recoveries. Parameter: recovery_timeout_periods (while off).
+//
+// Faults of the source (WristSampleSource::fault()):
+//   - heartbeat_lost (the F/T node silent longer than its heartbeat timeout, e.g. a pulled
+//     cable): the component writes nothing (no stale or zero datum: the controller sees its
+//     input go stale, withholds its command, and the actuator's watchdog brakes; a master
+//     that watches the node itself latches its own fault, see docs/safety.md), counts the
+//     event and logs it once. When the node's heartbeat is back and a wrench newer than the
+//     loss arrives, it writes again, counting and logging the recovery once. A node not back
+//     within recovery_timeout_periods cycles of the loss puts the component in
+//     COMPONENT_ERROR with a reason naming the node and how long it was silent;
+//   - sensor_fault (an EMCY with a non-zero code) or bus_lost: COMPONENT_ERROR at once.
 //
 // Sign and frame (what the controller's gain*(ref + sen) relies on): the value is the wrench
 // the outside world exerts on the tool, in the BASE frame (N, N·m, torque about the sensor
@@ -24,7 +36,33 @@
 #include <memory>
 #include <string>
 
+namespace CLI {
+class App;
+}
+
 namespace rtm::comp {
+
+struct SensorParams {
+  // Cycles a heartbeat loss of the F/T node may last, from the moment it is seen (the node's
+  // heartbeat timeout after its last heartbeat), before the component gives up: 1000 cycles
+  // are 2 s at 2 ms.
+  std::uint32_t recovery_timeout_periods = 1000;
+  // 30000 cycles are a minute at 2 ms: a sensor silent that long is not coming back by itself.
+  static constexpr std::uint32_t kMaxRecoveryTimeoutPeriods = 30000;
+
+  // Throws std::invalid_argument naming the bad value (recovery_timeout_periods 0 or above the
+  // maximum).
+  void validate() const;
+  // Registers --recovery-timeout-periods on app, bound to this field; call validate() after
+  // parsing.
+  void add_options(CLI::App& app);
+};
+
+struct SensorCounters {
+  std::uint64_t samples = 0;               // wrenches written
+  std::uint64_t heartbeat_losses = 0;      // the F/T node's heartbeat went silent
+  std::uint64_t heartbeat_recoveries = 0;  // ... and came back with fresh wrenches in time
+};
 
 // wrench_sensor (Fx Fy Fz Tx Ty Tz, sensor frame) rotated into the base frame, given the
 // rotation base <- sensor.
@@ -34,24 +72,43 @@ std::array<double, 6> wrench_sensor_to_base(const Eigen::Matrix3d& rotation_base
 class Sensor final : public rtm::Component {
  public:
   // kinematics: the arm model (e.g. Kinematics::pa10()), chain
-  // base_link -> tool0.
-  Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm::pa10::Kinematics kinematics);
+  // base_link -> tool0. Throws std::invalid_argument for a missing source or bad params.
+  Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm::pa10::Kinematics kinematics,
+         SensorParams params = {});
 
-  // Writes a datum only for a wrench not written before; a source that reports a fault while
-  // no new wrench arrives throws (the component goes to COMPONENT_ERROR with the reason).
+  // Writes a datum only for a wrench not written before. A source fault, asked only in a
+  // cycle without a new wrench, is handled as described at the top: a heartbeat loss is
+  // waited out within the budget, anything else throws (COMPONENT_ERROR with the reason).
   void on_cycle(const rtm::CycleContext& ctx) override;
   void on_start() override;
 
   rtm::OutPort<RTM::TimedFloat6>& out() { return out_; }
   std::uint64_t samples_written() const { return written_.load(std::memory_order_relaxed); }
+  SensorCounters counters() const;
+  SensorParams params() const { return params_; }
+  // In a heartbeat loss now (nothing is written).
+  bool in_heartbeat_loss() const { return lost_flag_.load(std::memory_order_relaxed); }
 
  private:
+  void write(const WristSample& sample);
+  void begin_loss(const WristFault& fault, std::int64_t period_ns);
+  [[noreturn]] void give_up(std::int64_t period_ns) const;
+
   std::unique_ptr<WristSampleSource> source_;
   rtm::pa10::Kinematics kinematics_;
+  SensorParams params_;  // recovery_timeout_periods changes only while off
+  std::uint32_t recovery_budget_ = params_.recovery_timeout_periods;  // the cycle's copy (on_start)
   rtm::pa10::JointVector q_rad_ = rtm::pa10::JointVector::Zero();
   std::uint64_t last_sequence_ = 0;
   RTM::TimedFloat6 datum_{};
-  std::atomic<std::uint64_t> written_{0};
+  // The heartbeat loss under way: its cycles so far, the newest wrench sequence when it was
+  // seen (only a later one resumes writing) and its text for the log and the final reason.
+  bool lost_ = false;
+  std::uint32_t lost_cycles_ = 0;
+  std::uint64_t loss_sequence_ = 0;
+  std::string loss_reason_;
+  std::atomic<bool> lost_flag_{false};
+  std::atomic<std::uint64_t> written_{0}, heartbeat_losses_{0}, heartbeat_recoveries_{0};
   rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>(
       "wrench", {"wrench the world exerts on the tool, base frame",
                  rtm::wrench_elements()});

@@ -27,34 +27,70 @@ struct WristSample {
   bool valid = false;                     // a wrench and a full joint vector were seen
 };
 
+// Why a source cannot deliver, by what the Sensor component does about it.
+enum class WristFaultKind : std::uint8_t {
+  none,
+  // The sensor node's heartbeat has been silent longer than its timeout (a pulled cable, a
+  // node that reboots). Clears by itself when the node is heard again: the component waits for
+  // it, within a budget.
+  heartbeat_lost,
+  // The sensor reports a fault of its own (EMCY with a non-zero error code): its readings
+  // cannot be trusted until someone looks at it.
+  sensor_fault,
+  // A bus failed (the transport), or anything else the source cannot recover from.
+  bus_lost,
+};
+
+std::string_view to_string(WristFaultKind kind);
+
+struct WristFault {
+  WristFaultKind kind = WristFaultKind::none;
+  std::string text;  // names the node and what happened ("" for none)
+};
+
 // The hardware seam of the Sensor component.
 class WristSampleSource {
  public:
   virtual ~WristSampleSource() = default;
   // The latest sample; never blocks, allocates nothing.
   virtual WristSample latest() const = 0;
-  // Why the source cannot deliver ("" when it can). Called only when no new sample came.
-  virtual std::string fault() const = 0;
+  // The kind of fault now; never blocks for long, allocates nothing (asked each cycle in
+  // which no new sample came).
+  virtual WristFaultKind fault_kind() const = 0;
+  // The fault now with its text (may allocate: asked when the kind changes, not each cycle).
+  // Its kind may differ from an earlier fault_kind() when the fault changed in between.
+  virtual WristFault fault() const = 0;
 };
 
-// Reads the master of this process. The master must outlive the source.
+// Reads the master of this process. The master must outlive the source. Only the master's
+// faults that concern the wrist sensor node are the source's (a heartbeat loss, an EMCY of
+// the sensor); the others are the actuator's. The master latches them until its fault reset
+// (the actuator's on() after reset()), so in this mode a heartbeat loss clears only then.
+// fault_kind() allocates while the master holds a fault (the master hands out its reason as a
+// string), never while it holds none.
 class MasterWristSource final : public WristSampleSource {
  public:
   explicit MasterWristSource(const rtm::can::Pa10Master& master) : master_(master) {}
   WristSample latest() const override;
-  std::string fault() const override { return ""; }  // the actuator owns the master's faults
+  WristFaultKind fault_kind() const override { return fault().kind; }
+  WristFault fault() const override;
 
  private:
   const rtm::can::Pa10Master& master_;
 };
 
 // The sensor's own process: listens on sensor_bus_spec (the wrist sensor) and drive_bus_spec
-// (the drives). Throws rtm::can::BusError naming the spec when a bus cannot be opened.
+// (the drives). A wrist node heard once and then silent for longer than heartbeat_timeout_ns
+// is a heartbeat loss. Throws rtm::can::BusError naming the spec when a bus cannot be opened.
 class BusWristSource final : public WristSampleSource {
  public:
-  BusWristSource(std::string_view drive_bus_spec, std::string_view sensor_bus_spec);
+  static constexpr std::int64_t kDefaultHeartbeatTimeout_ns = 300'000'000;  // 3 heartbeats of 100 ms
+
+  BusWristSource(std::string_view drive_bus_spec, std::string_view sensor_bus_spec,
+                 std::int64_t heartbeat_timeout_ns = kDefaultHeartbeatTimeout_ns);
   WristSample latest() const override;
-  std::string fault() const override;
+  WristFaultKind fault_kind() const override;
+  WristFault fault() const override;
 
  private:
   rtm::can::SensorListener wrench_;
