@@ -260,6 +260,152 @@ PhaseSummary summarize(const std::vector<Sample>& samples, const Phase& phase,
   return summary;
 }
 
+// ============================ demo figures ============================
+
+namespace {
+
+double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+bool finite(const Vec3& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
+
+void check_figure_inputs(const std::vector<Sample>& samples, const std::vector<Phase>& phases,
+                         const PhaseOptions& options, const FigureLimits& limits) {
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0; };
+  const auto non_negative = [](double v) { return std::isfinite(v) && v >= 0; };
+  if (!positive(options.settle_band_N))
+    throw std::invalid_argument(fmt::format("settling band {} N: must be positive", options.settle_band_N));
+  if (!positive(options.contact_threshold_N))
+    throw std::invalid_argument(fmt::format("contact threshold {} N: must be positive", options.contact_threshold_N));
+  if (!non_negative(options.min_settled_s))
+    throw std::invalid_argument(fmt::format("minimum settled time {} s: must not be negative", options.min_settled_s));
+  if (!positive(limits.release_level_N))
+    throw std::invalid_argument(fmt::format("release level {} N: must be positive", limits.release_level_N));
+  if (samples.empty()) throw ReportError("no samples to compute the demo figures on");
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const Sample& s = samples[i];
+    if (!std::isfinite(s.time_s) || !finite(s.reference_N) || !finite(s.measured_N)) {
+      throw ReportError(fmt::format("sample {} (at {:.4f} s): a non-finite time, reference or force", i, s.time_s));
+    }
+  }
+  std::size_t previous_end = 0;
+  for (std::size_t k = 0; k < phases.size(); ++k) {
+    const Phase& p = phases[k];
+    if (p.begin >= p.end || p.end > samples.size() || p.begin < previous_end) {
+      throw std::invalid_argument(fmt::format("phase {} [{}, {}): empty, outside the {} samples or out of order",
+                                              k + 1, p.begin, p.end, samples.size()));
+    }
+    previous_end = p.end;
+  }
+}
+
+}  // namespace
+
+DemoFigures compute_figures(const std::vector<Sample>& samples, const std::vector<Phase>& phases,
+                            const PhaseOptions& options, const FigureLimits& limits) {
+  check_figure_inputs(samples, phases, options, limits);
+  const double threshold_N = options.contact_threshold_N;
+  const double band_N = options.settle_band_N;
+  const auto presses = [&](const Sample& s) { return norm(s.reference_N) > threshold_N; };
+  // The force along the sample's own reference (only where it presses).
+  const auto along = [](const Sample& s) { return dot(s.measured_N, s.reference_N) / norm(s.reference_N); };
+
+  std::vector<PhaseSummary> summaries;
+  summaries.reserve(phases.size());
+  for (const Phase& p : phases) summaries.push_back(summarize(samples, p, options));
+
+  // The end of a touch-down window's limit: the end of the phase holding sample i, or of the
+  // next phase when i is in a ramp; the recording's end when no phase follows.
+  const auto window_limit = [&](std::size_t i) {
+    for (const Phase& p : phases)
+      if (p.end > i) return p.end;
+    return samples.size();
+  };
+
+  DemoFigures figures;
+
+  // 1, 2: touch-downs, their overshoot and settling.
+  bool armed = false;  // the force has been below the threshold since the last touch-down
+  std::size_t i = 0;
+  while (i < samples.size()) {
+    const Sample& s = samples[i];
+    const bool pressing = presses(s);
+    const double force_N = pressing ? along(s) : norm(s.measured_N);
+    if (!pressing || !armed || force_N < threshold_N) {
+      if (force_N < threshold_N) armed = true;
+      ++i;
+      continue;
+    }
+    armed = false;
+    TouchDown touch;
+    touch.time_s = s.time_s;
+    touch.reference_N = s.reference_N;
+    // The window's candidates: up to the limit, while the reference presses.
+    const std::size_t limit = window_limit(i);
+    std::size_t end = i;
+    while (end < limit && presses(samples[end])) ++end;
+    const auto in_band = [&](const Sample& w) { return std::abs(norm(w.reference_N) - along(w)) <= band_N; };
+    std::size_t settled = i;  // the first sample after the last one outside the band
+    for (std::size_t k = end; k-- > i;) {
+      if (!in_band(samples[k])) {
+        settled = k + 1;
+        break;
+      }
+    }
+    const bool has_settled = settled < end && samples[end - 1].time_s - samples[settled].time_s >= options.min_settled_s;
+    if (has_settled) end = settled + 1;  // the transient ends where the force has settled
+    std::size_t peak = i;
+    for (std::size_t k = i; k < end; ++k)
+      if (along(samples[k]) > along(samples[peak])) peak = k;
+    if (has_settled) touch.settling_time_s = samples[settled].time_s - touch.time_s;
+    touch.peak_N = along(samples[peak]);
+    touch.peak_time_s = samples[peak].time_s;
+    touch.peak_reference_N = norm(samples[peak].reference_N);
+    touch.overshoot = touch.peak_N / touch.peak_reference_N - 1;
+    touch.window_end_s = samples[end - 1].time_s;
+    figures.touch_downs.push_back(touch);
+    i = end;
+  }
+
+  // 3: reference steps while in contact; 4: the release after the last press.
+  const auto press_axis = [&](const PhaseSummary& p) -> std::optional<Vec3> {
+    const double r_N = norm(p.reference_N);
+    if (r_N <= threshold_N || !p.contact) return std::nullopt;
+    const Vec3 u{p.reference_N[0] / r_N, p.reference_N[1] / r_N, p.reference_N[2] / r_N};
+    if (dot(p.mean_measured_N, u) <= threshold_N) return std::nullopt;
+    return u;
+  };
+  std::optional<std::size_t> last_press;
+  for (std::size_t k = 0; k < phases.size(); ++k) {
+    const auto u = press_axis(summaries[k]);
+    if (!u) continue;
+    last_press = k;
+    const Phase& p = phases[k];
+    if (p.begin == 0 || dot(samples[p.begin].measured_N, *u) < threshold_N) continue;
+    StepInContact step;
+    step.phase = k;
+    step.start_s = summaries[k].start_s;
+    step.from_N = dot(k > 0 ? summaries[k - 1].reference_N : samples[p.begin - 1].reference_N, *u);
+    step.to_N = norm(summaries[k].reference_N);
+    step.settling_time_s = summaries[k].settling_time_s;
+    figures.steps.push_back(step);
+  }
+  if (last_press) {
+    const Phase& p = phases[*last_press];
+    Release release;
+    release.phase = *last_press;
+    release.axis = *press_axis(summaries[*last_press]);
+    release.start_s = samples[p.end - 1].time_s;
+    release.end_s = samples.back().time_s;
+    const auto above = [&](const Sample& s) { return std::abs(dot(s.measured_N, release.axis)) >= limits.release_level_N; };
+    for (std::size_t k = p.end; k < samples.size(); ++k) {
+      if (above(samples[k]) != above(samples[k - 1])) ++release.transitions;
+    }
+    release.lifted = !above(samples.back());
+    figures.release = release;
+  }
+  return figures;
+}
+
 // ============================ loop timing =============================
 
 std::vector<ComponentTiming> parse_timing_json(const std::string& text, const std::string& source_name) {
@@ -338,9 +484,92 @@ std::string format_figures(const std::vector<ComponentTiming>& timing) {
   return out;
 }
 
+std::string percent(double fraction) { return fmt::format("{:.1f} %", fraction * 100); }
+
 }  // namespace
 
-std::string format_report(const Report& report, const PhaseOptions& options) {
+std::vector<FigureVerdict> evaluate_figures(const Report& report, const PhaseOptions& options,
+                                            const FigureLimits& limits) {
+  std::vector<FigureVerdict> verdicts;
+  const DemoFigures& f = report.figures;
+  const std::string band = fmt::format("+-{:g} N", options.settle_band_N);
+
+  const std::string overshoot_limit = fmt::format("<= {:g} %", limits.max_overshoot * 100);
+  const std::string touch_settle_limit = fmt::format("<= {:.2f} s", limits.max_touch_down_settling_s);
+  if (f.touch_downs.empty()) {
+    const std::string why = fmt::format("not measured: no touch-down (force along a pressing reference rising through {:g} N)",
+                                        options.contact_threshold_N);
+    verdicts.push_back({"touch-down overshoot", why, overshoot_limit, false});
+    verdicts.push_back({"settling after touch-down", why, touch_settle_limit, false});
+  }
+  for (const auto& t : f.touch_downs) {
+    verdicts.push_back({"touch-down overshoot",
+                        fmt::format("{} (touch-down at {:.2f} s: peak {:.2f} N at {:.2f} s on {:.1f} N)", percent(t.overshoot),
+                                    t.time_s, t.peak_N, t.peak_time_s, t.peak_reference_N),
+                        overshoot_limit, t.overshoot <= limits.max_overshoot});
+    verdicts.push_back({"settling after touch-down",
+                        t.settling_time_s ? fmt::format("{:.2f} s to {} (touch-down at {:.2f} s)", *t.settling_time_s, band, t.time_s)
+                                          : fmt::format("not settled to {} by {:.2f} s (touch-down at {:.2f} s)", band,
+                                                        t.window_end_s, t.time_s),
+                        touch_settle_limit,
+                        t.settling_time_s && *t.settling_time_s <= limits.max_touch_down_settling_s});
+  }
+
+  const std::string step_limit = fmt::format("<= {:.2f} s", limits.max_step_settling_s);
+  if (f.steps.empty()) {
+    verdicts.push_back({"settling after a step in contact", "not measured: no reference step while touching", step_limit, false});
+  }
+  for (const auto& s : f.steps) {
+    const std::string step = fmt::format("{:.1f} -> {:.1f} N, phase {} from {:.2f} s", s.from_N, s.to_N, s.phase + 1, s.start_s);
+    verdicts.push_back({"settling after a step in contact",
+                        s.settling_time_s ? fmt::format("{:.2f} s to {} ({})", *s.settling_time_s, band, step)
+                                          : fmt::format("not settled to {} ({})", band, step),
+                        step_limit, s.settling_time_s && *s.settling_time_s <= limits.max_step_settling_s});
+  }
+
+  const std::string release_limit = fmt::format("<= {}", limits.max_release_transitions);
+  if (!f.release) {
+    verdicts.push_back({"touch/lift transitions at release", "not measured: no press phase", release_limit, false});
+  } else {
+    const Release& r = *f.release;
+    verdicts.push_back({"touch/lift transitions at release",
+                        fmt::format("{} (|force| through {:g} N, {:.2f} - {:.2f} s{})", r.transitions,
+                                    limits.release_level_N, r.start_s, r.end_s,
+                                    r.lifted ? "" : "; still in contact at the end"),
+                        release_limit, r.lifted && r.transitions <= limits.max_release_transitions});
+  }
+
+  const std::string watchdog_limit = fmt::format("<= {:g}", limits.max_watchdog_events);
+  if (const auto w = find_statistic(report.timing, "watchdog_events")) {
+    verdicts.push_back({"watchdog events", fmt::format("{} ({})", statistic_text(w->statistic), w->component),
+                        watchdog_limit, w->statistic.value <= limits.max_watchdog_events});
+  } else {
+    verdicts.push_back({"watchdog events", "not measured: no component reports watchdog_events", watchdog_limit, false});
+  }
+  return verdicts;
+}
+
+std::vector<std::string> missed_figures(const Report& report, const PhaseOptions& options,
+                                        const FigureLimits& limits) {
+  std::vector<std::string> missed;
+  for (std::size_t i = 0; i < report.phases.size(); ++i) {
+    const auto& p = report.phases[i];
+    if (!p.contact) continue;
+    if (p.steady_error_N > options.settle_band_N) {
+      missed.push_back(fmt::format("phase {}: steady-state error {:.2f} N > {:g} N", i + 1, p.steady_error_N,
+                                   options.settle_band_N));
+    }
+  }
+  for (const auto& t : report.timing) {
+    if (t.overruns > 0) missed.push_back(fmt::format("{}: {} overruns", t.name, t.overruns));
+  }
+  for (const auto& v : evaluate_figures(report, options, limits)) {
+    if (!v.ok) missed.push_back(fmt::format("{}: {} (limit {})", v.figure, v.value, v.limit));
+  }
+  return missed;
+}
+
+std::string format_report(const Report& report, const PhaseOptions& options, const FigureLimits& limits) {
   std::string out = fmt::format("Force servo: {} samples over {:.1f} s\n\n", report.samples, report.duration_s);
   out += fmt::format(
       "Phases (measured = force the hand applies; error = along the reference, over the "
@@ -398,6 +627,14 @@ std::string format_report(const Report& report, const PhaseOptions& options) {
     }
   }
   out += "\n" + format_figures(report.timing);
+
+  out += fmt::format(
+      "\nDemo figures (force along the reference; touch-down: rising through {:g} N; settled: "
+      "within +-{:g} N from then to the phase end, at least {:g} s)\n",
+      options.contact_threshold_N, options.settle_band_N, options.min_settled_s);
+  for (const auto& v : evaluate_figures(report, options, limits)) {
+    out += fmt::format("  {:<34} {:<10} {:<6} {}\n", v.figure, v.limit, v.ok ? "ok" : "MISSED", v.value);
+  }
   return out;
 }
 

@@ -100,6 +100,90 @@ struct PhaseSummary {
 PhaseSummary summarize(const std::vector<Sample>& samples, const Phase& phase,
                        const PhaseOptions& options);
 
+// ============================ demo figures ============================
+//
+// The figures the demo promises for a press on the table (defaults: the project's limits).
+// The force "along the reference" at a sample is measured_N . reference_N / |reference_N|, and
+// the error there is |reference_N| minus that; the reference presses while |reference_N| >
+// PhaseOptions::contact_threshold_N. The settling band is PhaseOptions::settle_band_N.
+//
+// 1. Touch-down overshoot. A touch-down is a sample where the reference presses and the force
+//    along it rises to PhaseOptions::contact_threshold_N or above, having been below it (or,
+//    while the reference did not press, the force's norm below it) since the previous
+//    touch-down's window; a recording that starts in contact has none until it lifts. Its
+//    transient window runs from the touch-down up to a limit: the end of the constant-reference
+//    phase the touch-down falls in or, for a touch-down during a ramp, of the phase the ramp
+//    leads into (the next reference change); earlier where the reference stops pressing or
+//    the recording ends. The force has settled at the first sample after the last one in the
+//    window whose error is outside the band, provided the stretch from there to the limit
+//    lasts PhaseOptions::min_settled_s (as PhaseSummary::settling_time_s: settled means it
+//    stays settled); the window then ends there. A bounce (the force dropping below the
+//    threshold and rising again) inside the window belongs to the same touch-down; the next
+//    touch-down is looked for after the window. Overshoot = the peak force along the
+//    reference in the window / |reference| at the peak's sample - 1 (0.2 = 20 %).
+// 2. Settling after touch-down: from the touch-down to the settled sample above (none when the
+//    force does not settle before the limit). Checked for every touch-down.
+// 3. Settling after a step in contact: a phase whose reference presses, in contact
+//    (PhaseSummary::contact, pressing along the reference) and already touching at its first
+//    sample (force along the reference at or above the contact threshold), e.g. 10 -> 20 N:
+//    its PhaseSummary::settling_time_s, from the end of the reference's ramp (the phase start).
+// 4. Release: from the end of the last press phase (a contact phase whose mean force along its
+//    reference exceeds the contact threshold) to the end of the recording, the number of
+//    times |force along that phase's reference| crosses release_level_N in either direction.
+//    One (a single lift) is the clean case; the recording must also end lifted.
+// 5. Watchdog events: the statistic "watchdog_events" a component (the actuator) publishes.
+// A figure that cannot be measured (no touch-down, no step in contact, no press, no
+// watchdog statistic) is reported as such and counts as missed.
+
+struct FigureLimits {
+  double max_overshoot = 0.20;             // touch-down peak / reference - 1
+  double max_touch_down_settling_s = 0.3;  // touch-down to settled within the band
+  double max_step_settling_s = 0.3;        // end of a reference ramp in contact to settled
+  double release_level_N = 0.5;            // |force| level whose crossings count at release
+  int max_release_transitions = 2;         // crossings of that level after the last press
+  double max_watchdog_events = 0;
+};
+
+struct TouchDown {
+  double time_s = 0;                         // the force along the reference reached the threshold
+  std::array<double, 3> reference_N{};       // at the touch-down
+  double peak_N = 0;                         // peak force along the reference in the window
+  double peak_time_s = 0;
+  double peak_reference_N = 0;               // |reference| at the peak's sample
+  double overshoot = 0;                      // peak_N / peak_reference_N - 1
+  double window_end_s = 0;                   // end of the transient window
+  std::optional<double> settling_time_s;     // from time_s; none: not settled in the window
+};
+
+struct StepInContact {
+  std::size_t phase = 0;                     // index into the phases given to compute_figures
+  double start_s = 0;                        // the phase start: the end of the reference's ramp
+  double from_N = 0;                         // the previous phase's reference along this one's
+  double to_N = 0;                           // |reference| of the phase
+  std::optional<double> settling_time_s;     // the phase's, from start_s
+};
+
+struct Release {
+  std::size_t phase = 0;                     // the last press phase
+  double start_s = 0, end_s = 0;             // its end, the recording's end
+  std::array<double, 3> axis{};              // unit vector of that phase's reference
+  int transitions = 0;                       // crossings of release_level_N
+  bool lifted = false;                       // |force along axis| < release_level_N at the end
+};
+
+struct DemoFigures {
+  std::vector<TouchDown> touch_downs;
+  std::vector<StepInContact> steps;
+  std::optional<Release> release;            // none: no press phase
+};
+
+// The figures of a recording, given its phases (detect_phases, in time order). Throws
+// ReportError for no samples or a non-finite force, std::invalid_argument for phases out of
+// range or out of order and for limits or options that make no sense (non-positive band,
+// contact threshold or release level, negative durations).
+DemoFigures compute_figures(const std::vector<Sample>& samples, const std::vector<Phase>& phases,
+                            const PhaseOptions& options, const FigureLimits& limits = {});
+
 // ============================ loop timing =============================
 
 // One of the statistics a component publishes (`rtm cat`), e.g. the actuator's
@@ -140,14 +224,34 @@ std::optional<FoundStatistic> find_statistic(const std::vector<ComponentTiming>&
 
 struct Report {
   std::vector<PhaseSummary> phases;
+  DemoFigures figures;                  // compute_figures on the same phases
   std::vector<ComponentTiming> timing;  // with the components' statistics: watchdog events,
                                         // sample-to-drive latency, command-loss recoveries
   std::size_t samples = 0;
   double duration_s = 0;
 };
 
-// The summary as the demo prints it (plain text, one table per part).
-std::string format_report(const Report& report, const PhaseOptions& options);
+// One figure of the demo against its limit, as the summary prints it.
+struct FigureVerdict {
+  std::string figure;  // e.g. "touch-down overshoot"
+  std::string value;   // what was measured, or why it could not be
+  std::string limit;   // e.g. "<= 20 %"
+  bool ok = false;
+};
+
+// Figures 1-5 above against limits, in that order (one line per touch-down and per step).
+std::vector<FigureVerdict> evaluate_figures(const Report& report, const PhaseOptions& options,
+                                            const FigureLimits& limits = {});
+
+// Everything --check refuses, one line each: the figures that are not ok, a contact phase
+// whose steady-state error exceeds the settling band, a component with overruns.
+std::vector<std::string> missed_figures(const Report& report, const PhaseOptions& options,
+                                        const FigureLimits& limits = {});
+
+// The summary as the demo prints it (plain text, one table per part; the demo figures last,
+// each with its limit and "ok" or "MISSED").
+std::string format_report(const Report& report, const PhaseOptions& options,
+                          const FigureLimits& limits = {});
 
 // Merged CSV: time_s, ref_x..z [N], measured_x..z [N], error [N], v_x..z [m/s], w_x..z [rad/s].
 void write_samples_csv(const std::filesystem::path& path, const std::vector<Sample>& samples);

@@ -6,40 +6,15 @@
 //
 // Writes DIR/force_servo.csv, DIR/force_servo.gp (draws DIR/force_servo.png) and
 // DIR/summary.txt, and prints the summary. Exit 0 on success, 1 for unusable input,
-// 2 for a bad command line, 3 with --check when a figure the demo promises is missed.
+// 2 for a bad command line, 3 with --check when a figure the demo promises (demo_report.h:
+// touch-down overshoot, settling, release transitions, watchdog events; steady-state error,
+// overruns) is missed or cannot be measured.
 #include "demo_report.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
-#include <cmath>
 #include <fstream>
-
-namespace {
-
-// The demo's promises (docs/performance.md): contact phases settle within the band, no
-// watchdog event, no overrun.
-std::vector<std::string> missed_figures(const rtm::demo::Report& report,
-                                        const rtm::demo::PhaseOptions& options) {
-  std::vector<std::string> missed;
-  for (std::size_t i = 0; i < report.phases.size(); ++i) {
-    const auto& p = report.phases[i];
-    if (!p.contact) continue;
-    if (p.steady_error_N > options.settle_band_N) {
-      missed.push_back(fmt::format("phase {}: steady-state error {:.2f} N > {:g} N", i + 1,
-                                   p.steady_error_N, options.settle_band_N));
-    }
-  }
-  for (const auto& t : report.timing) {
-    if (t.overruns > 0) missed.push_back(fmt::format("{}: {} overruns", t.name, t.overruns));
-  }
-  if (const auto w = rtm::demo::find_statistic(report.timing, "watchdog_events"); w && w->statistic.value > 0) {
-    missed.push_back(fmt::format("{}: {:.0f} watchdog events", w->component, w->statistic.value));
-  }
-  return missed;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"rtm-demo-report: summary, CSV and plot of a force-servo demo recording"};
@@ -57,12 +32,34 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--min-phase", options.min_duration_s, "shortest phase of constant reference, s")
       ->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_flag("--check", check, "exit 3 when a contact phase misses the band, or on overruns or watchdog events");
+  rtm::demo::FigureLimits limits;
+  double max_overshoot_percent = limits.max_overshoot * 100;
+  app.add_option("--contact", options.contact_threshold_N, "contact (touch-down) threshold on the force, N")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--max-overshoot", max_overshoot_percent, "touch-down overshoot limit, %")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--max-touch-down-settling", limits.max_touch_down_settling_s,
+                 "limit on the settling time after a touch-down, s")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--max-step-settling", limits.max_step_settling_s,
+                 "limit on the settling time after a reference step in contact, s")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--release-level", limits.release_level_N, "force level whose crossings count at release, N")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--max-release-transitions", limits.max_release_transitions,
+                 "limit on the touch/lift transitions after the last press")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--max-watchdog-events", limits.max_watchdog_events, "limit on the actuator's watchdog events")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_flag("--check", check,
+               "exit 3 when a figure is missed or not measured (see the summary's demo figures), a contact "
+               "phase's steady-state error exceeds the band, or a component overran");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
     return app.exit(error) == 0 ? 0 : 2;  // CLI11's own codes (105, 106, ...) are all "bad command line"
   }
+  limits.max_overshoot = max_overshoot_percent / 100;
 
   try {
     const auto samples = rtm::demo::align(rtm::demo::read_watch_csv(reference_csv),
@@ -72,9 +69,9 @@ int main(int argc, char** argv) {
     rtm::demo::Report report;
     report.samples = samples.size();
     report.duration_s = samples.back().time_s;
-    for (const auto& phase : rtm::demo::detect_phases(samples, options)) {
-      report.phases.push_back(rtm::demo::summarize(samples, phase, options));
-    }
+    const auto phases = rtm::demo::detect_phases(samples, options);
+    for (const auto& phase : phases) report.phases.push_back(rtm::demo::summarize(samples, phase, options));
+    report.figures = rtm::demo::compute_figures(samples, phases, options, limits);
     if (!timing_json.empty()) {
       std::ifstream in(timing_json);
       const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -89,14 +86,14 @@ int main(int argc, char** argv) {
       gp << rtm::demo::gnuplot_script(dir / "force_servo.csv", dir / "force_servo.png", report.phases);
       if (!gp.flush()) throw rtm::demo::ReportError((dir / "force_servo.gp").string() + ": write failed");
     }
-    const std::string summary = rtm::demo::format_report(report, options);
+    const std::string summary = rtm::demo::format_report(report, options, limits);
     {
       std::ofstream txt(dir / "summary.txt");
       txt << summary;
     }
     fmt::print("{}", summary);
     if (check) {
-      const auto missed = missed_figures(report, options);
+      const auto missed = rtm::demo::missed_figures(report, options, limits);
       for (const auto& m : missed) fmt::print(stderr, "rtm-demo-report: missed: {}\n", m);
       if (!missed.empty()) return 3;
     }
