@@ -18,6 +18,10 @@ void ActuatorParams::add_options(CLI::App& app) {
   app.add_option("--watchdog-periods", watchdog_periods, "cycles without a new command before zero velocity")
       ->check(CLI::Range(1u, kMaxWatchdogPeriods))
       ->capture_default_str();
+  app.add_option("--sensor-recovery-periods", sensor_recovery_periods,
+                 "cycles a silent force sensor node is waited for (drives stopped) before the actuator fails")
+      ->check(CLI::Range(1u, kMaxSensorRecoveryPeriods))
+      ->capture_default_str();
 }
 
 void ActuatorParams::validate() const {
@@ -29,6 +33,9 @@ void ActuatorParams::validate() const {
   if (watchdog_periods > kMaxWatchdogPeriods)
     throw std::invalid_argument(fmt::format("actuator watchdog_periods = {}: at most {} (a longer watchdog is none)",
                                             watchdog_periods, kMaxWatchdogPeriods));
+  if (sensor_recovery_periods == 0 || sensor_recovery_periods > kMaxSensorRecoveryPeriods)
+    throw std::invalid_argument(fmt::format("actuator sensor_recovery_periods = {}: want 1..{}",
+                                            sensor_recovery_periods, kMaxSensorRecoveryPeriods));
 }
 
 std::array<float, 6> clamp_twist(const std::array<float, 6>& limit, const RTM::Float6& command) {
@@ -53,6 +60,12 @@ void Actuator::describe_self() {
   add_counter("non_finite_events", "commands started holding NaN/inf (quick stop)", non_finite_events_);
   add_counter("command_loss_recoveries", "drive RPDO timeouts reset and resumed from", command_loss_recoveries_);
   add_counter("not_ready_cycles", "cycles the arm was not enabled (zero velocity)", not_ready_cycles_);
+  add_counter("sensor_heartbeat_losses", "a force sensor node fell silent (drives stopped, retried)",
+              sensor_heartbeat_losses_);
+  add_counter("sensor_heartbeat_recoveries", "a silent force sensor node heard again within the budget",
+              sensor_heartbeat_recoveries_);
+  add_counter("sensor_reset_attempts", "fault resets tried while a force sensor node was silent",
+              sensor_reset_attempts_);
   add_percentile_statistics("latency", "sensor sample to drive command leaving for the bus", latency_);
   add_statistic("latency_samples", "", "commands seen leaving for the bus",
                 [this] { return static_cast<double>(latency_.count()); });
@@ -75,6 +88,30 @@ void Actuator::describe_self() {
                                   }));
   add_parameter(rtm::cycles_when_off("watchdog_periods", "cycles without a new command before the drives brake",
                                      params_.watchdog_periods, 1, ActuatorParams::kMaxWatchdogPeriods));
+  add_parameter(rtm::cycles_when_off("sensor_recovery_periods",
+                                     "cycles a silent force sensor node is waited for before the actuator fails",
+                                     params_.sensor_recovery_periods, 1, ActuatorParams::kMaxSensorRecoveryPeriods));
+}
+
+void Actuator::retry_sensor_loss(bool faulted) {
+  if (faulted) sensor_clear_cycles_ = 0;
+  if (!in_sensor_loss_) {
+    in_sensor_loss_ = true;
+    sensor_loss_cycles_ = 0;
+    const std::uint64_t event = sensor_heartbeat_losses_.fetch_add(1, std::memory_order_relaxed) + 1;
+    log().warn("{}: {}: drives stopped, retrying for up to {} cycles (event {})", name(), arm_->fault_reason(),
+               params_.sensor_recovery_periods, event);
+    command_freshness_.reset();
+    command_bad_ = false;
+    twist_ = {};
+  }
+  if (++sensor_loss_cycles_ > params_.sensor_recovery_periods)
+    throw std::runtime_error(fmt::format("arm fault: {}: not heard again within {} cycles", arm_->fault_reason(),
+                                         params_.sensor_recovery_periods));
+  if (faulted && sensor_loss_cycles_ % ActuatorParams::kSensorRetryPeriods == 0) {
+    sensor_reset_attempts_.fetch_add(1, std::memory_order_relaxed);
+    arm_->reset();
+  }
 }
 
 ActuatorParams Actuator::params() const {
@@ -94,6 +131,7 @@ void Actuator::on_start() {
   command_freshness_ = rtm::Freshness(params_.watchdog_periods);
   command_bad_ = false;
   twist_ = {};
+  in_sensor_loss_ = false;
 }
 
 void Actuator::record_sent_latency() {
@@ -142,7 +180,8 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
   }
   // Otherwise the last command (or the brake after the watchdog) is repeated.
 
-  const bool brake = command_freshness_.seen() && (!command_freshness_.fresh() || command_bad_);
+  // While a silent force sensor is retried the drives stay braked, between resets too.
+  const bool brake = in_sensor_loss_ || (command_freshness_.seen() && (!command_freshness_.fresh() || command_bad_));
   // Where the bus is when the arm is told, for the event report (read before, so the brake
   // leaves with the next SYNC after this position at the latest).
   const VelocityArm::BusPosition bus = fresh_command || watchdog_fired ? arm_->bus_position() : VelocityArm::BusPosition{};
@@ -164,8 +203,27 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
     command_freshness_.reset();
     command_bad_ = false;
     twist_ = {};
+  } else if (status == FaultKind::heartbeat_lost && rtm::can::is_sensor_node(arm_->fault_node())) {
+    retry_sensor_loss(true);
   } else if (rtm::can::latched(status)) {
     throw std::runtime_error("arm fault: " + arm_->fault_reason());
+  } else if (in_sensor_loss_ && status == FaultKind::not_enabled) {
+    retry_sensor_loss(false);  // re-enabling after a reset: the node may still be silent
+  }
+  // A reset can look good for a cycle before the master's heartbeat check latches the silence
+  // again: the node counts as heard once the arm has stayed fault-free for a while.
+  if (in_sensor_loss_ && status == FaultKind::none && ++sensor_clear_cycles_ < kSensorClearCycles)
+    retry_sensor_loss(false);
+  else if (in_sensor_loss_ && status == FaultKind::none) {
+    // A fault reset held through the re-enabling: the node is heard again. Move on the next
+    // new command only.
+    in_sensor_loss_ = false;
+    const std::uint64_t event = sensor_heartbeat_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
+    log().warn("{}: the force sensor is heard again after {} cycles: moving on the next command (recovery {})",
+               name(), sensor_loss_cycles_, event);
+    command_freshness_.reset();
+    command_bad_ = false;
+    twist_ = {};
   }
   if (status == FaultKind::not_enabled) not_ready_cycles_.fetch_add(1, std::memory_order_relaxed);
   if (fresh_command && status == FaultKind::none) {
@@ -202,6 +260,9 @@ ActuatorCounters Actuator::counters() const {
   c.non_finite_events = non_finite_events_.load();
   c.not_ready_cycles = not_ready_cycles_.load();
   c.command_loss_recoveries = command_loss_recoveries_.load();
+  c.sensor_heartbeat_losses = sensor_heartbeat_losses_.load();
+  c.sensor_heartbeat_recoveries = sensor_heartbeat_recoveries_.load();
+  c.sensor_reset_attempts = sensor_reset_attempts_.load();
   c.latency_p50_ns = latency_.percentile_ns(0.5);
   c.latency_p99_ns = latency_.percentile_ns(0.99);
   c.latency_max_ns = latency_.max_ns();

@@ -2,7 +2,8 @@
 // CAN nodes as pa10-sim emulates them (on a kinematic plant) on the user-space bus, in lock-step
 // (one actuator cycle, then one SYNC): a drive's RPDO timeout (EMCY 0x8250, a communication
 // fault) is reset and the arm moves again on the next command, counted once; a hardware fault
-// still puts the component in error.
+// still puts the component in error; a silent wrist sensor stops the drives, is retried, and
+// the arm moves again once the node is heard, within a budget.
 #include "components/actuator/actuator.h"
 
 #include "arm/can/local_bus.h"
@@ -30,15 +31,16 @@ struct LockStepActuator {
   std::unique_ptr<rtm::comp::Actuator> actuator;
   std::uint64_t n = 0;
 
-  LockStepActuator() {
+  explicit LockStepActuator(rtm::comp::ActuatorParams params = {}, std::int64_t step_timeout_ns = 2'000'000'000) {
     rtm::comp::ArmHardware::Options options;
     options.bus = "local:" + dir.file("bus");
     options.run_master_thread = false;
+    options.step_timeout_ns = step_timeout_ns;
     // The master finds the nodes by their heartbeats, so the nodes may be up first.
     nodes = std::make_unique<pc::testing::EmulatedPa10>(options.bus);
     auto arm = std::make_unique<rtm::comp::ArmHardware>(options);
     hardware = arm.get();
-    actuator = std::make_unique<rtm::comp::Actuator>("actuator0", std::move(arm), rtm::comp::ActuatorParams{});
+    actuator = std::make_unique<rtm::comp::Actuator>("actuator0", std::move(arm), params);
     actuator->on_start();
   }
   ~LockStepActuator() {
@@ -97,6 +99,73 @@ TEST(ActuatorRecovery, ADriveHardwareFaultStillPutsTheActuatorInError) {
   }
   EXPECT_TRUE(failed) << "a hardware EMCY must latch an error, not be reset automatically";
   EXPECT_EQ(t.actuator->counters().command_loss_recoveries, 0u);
+}
+
+// The wrist sensor's cable pulled (no TPDO, no heartbeat) and plugged back in. Heartbeats are
+// timed on the wall clock (300 ms limit), so the loops wait for conditions, with deadlines.
+constexpr std::int64_t kSilentSensorStepNs = 5'000'000;  // a SYNC waits this long for the silent node
+
+TEST(ActuatorRecovery, ASilentWristSensorStopsTheDrivesIsRetriedAndTheArmMovesAgainWhenItIsHeard) {
+  LockStepActuator t({}, kSilentSensorStepNs);
+  for (int i = 0; i < 5; ++i) t.step(kForward);
+  ASSERT_TRUE(t.moving());
+
+  t.nodes->set_connected(pc::kWristSensorNode, false);
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (t.actuator->counters().sensor_heartbeat_losses == 0 && std::chrono::steady_clock::now() < deadline)
+    ASSERT_NO_THROW(t.step(kForward));
+  ASSERT_EQ(t.actuator->counters().sensor_heartbeat_losses, 1u) << "the loss was never seen";
+  for (int i = 0; i < 3; ++i) ASSERT_NO_THROW(t.step(kForward));
+  EXPECT_FALSE(t.moving()) << "the drives stop while the sensor is silent";
+  // Retries fail while the node stays silent, and are counted.
+  for (std::uint32_t i = 0; i < 2 * rtm::comp::ActuatorParams::kSensorRetryPeriods; ++i)
+    ASSERT_NO_THROW(t.step(kForward));
+  EXPECT_GE(t.actuator->counters().sensor_reset_attempts, 2u);
+  EXPECT_FALSE(t.moving());
+  EXPECT_EQ(t.actuator->counters().sensor_heartbeat_recoveries, 0u);
+
+  t.nodes->set_connected(pc::kWristSensorNode, true);
+  const auto back_deadline = std::chrono::steady_clock::now() + 10s;
+  while (t.actuator->counters().sensor_heartbeat_recoveries == 0 && std::chrono::steady_clock::now() < back_deadline)
+    ASSERT_NO_THROW(t.step(kForward));
+  ASSERT_EQ(t.actuator->counters().sensor_heartbeat_recoveries, 1u) << t.hardware->master().fault().reason;
+  for (int i = 0; i < 200 && !(t.moving() && t.hardware->master().enabled()); ++i) ASSERT_NO_THROW(t.step(kForward));
+  EXPECT_TRUE(t.moving()) << "moving again with the commands that keep coming";
+  EXPECT_EQ(t.actuator->counters().sensor_heartbeat_losses, 1u) << "one event, counted once";
+}
+
+TEST(ActuatorRecovery, AWristSensorSilentBeyondTheBudgetPutsTheActuatorInErrorNamingIt) {
+  rtm::comp::ActuatorParams params;
+  params.sensor_recovery_periods = 60;
+  LockStepActuator t(params, kSilentSensorStepNs);
+  for (int i = 0; i < 5; ++i) t.step(kForward);
+  t.nodes->set_connected(pc::kWristSensorNode, false);
+  std::string error;
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (error.empty() && std::chrono::steady_clock::now() < deadline) {
+    try {
+      t.step(kForward);
+    } catch (const std::runtime_error& e) {
+      error = e.what();
+    }
+  }
+  ASSERT_FALSE(error.empty()) << "the actuator waited for ever";
+  EXPECT_NE(error.find("wrist sensor 0x10"), std::string::npos) << error;
+  EXPECT_NE(error.find("not heard again within 60 cycles"), std::string::npos) << error;
+  EXPECT_EQ(t.actuator->counters().sensor_heartbeat_losses, 1u);
+  EXPECT_EQ(t.actuator->counters().sensor_heartbeat_recoveries, 0u);
+  EXPECT_FALSE(t.moving());
+}
+
+TEST(ActuatorRecovery, ASensorRecoveryBudgetOfZeroIsRefusedNamingIt) {
+  rtm::comp::ActuatorParams params;
+  params.sensor_recovery_periods = 0;
+  try {
+    params.validate();
+    FAIL() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("sensor_recovery_periods"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -19,9 +19,14 @@
 //   - a drive's RPDO timeout (EMCY 0x8250: the bus master's commands came late, e.g. a host
 //     stall) is a communication fault: the actuator resets the drives at once and moves again
 //     on the next new command, counting and logging each such recovery once;
-//   - any other latched arm fault (drive hardware EMCY, heartbeat loss, bus error, a failed
-//     recovery) puts the component in COMPONENT_ERROR with the reason; on() after reset() asks
-//     the arm to reset too.
+//   - a heartbeat loss of a force sensor node (the wrist F/T sensor's cable, say) stops the
+//     drives (the bus master holds zero while the fault is latched) and is retried: a fault
+//     reset every 50 cycles (a heartbeat period) until the node is heard again, then the arm
+//     moves on the next new command, as after a command loss; counted and logged once per
+//     event. Silence beyond sensor_recovery_periods cycles is an error (below);
+//   - any other latched arm fault (drive hardware EMCY, a drive's heartbeat loss, bus error, a
+//     failed recovery) puts the component in COMPONENT_ERROR with the reason; on() after
+//     reset() asks the arm to reset too.
 #pragma once
 
 #include "components/actuator/velocity_arm.h"
@@ -46,10 +51,17 @@ struct ActuatorParams {
   std::uint32_t watchdog_periods = 3;
   // A watchdog longer than this is none: 1000 cycles are 2 s at 2 ms.
   static constexpr std::uint32_t kMaxWatchdogPeriods = 1000;
+  // How long a force sensor node may stay silent, after its heartbeat loss was detected, before
+  // the actuator gives up retrying (cycles: 1000 are 2 s at 2 ms).
+  std::uint32_t sensor_recovery_periods = 1000;
+  static constexpr std::uint32_t kMaxSensorRecoveryPeriods = 30000;
+  // Cycles between fault resets while a force sensor node is silent (100 ms at 2 ms).
+  static constexpr std::uint32_t kSensorRetryPeriods = 50;
 
-  // Throws std::invalid_argument for a negative or non-finite limit, or watchdog_periods 0.
+  // Throws std::invalid_argument for a negative or non-finite limit, watchdog_periods 0, or
+  // sensor_recovery_periods out of [1, kMaxSensorRecoveryPeriods].
   void validate() const;
-  // Registers --limit and --watchdog-periods on app, bound to these fields (rtm-actuator and
+  // Registers --limit, --watchdog-periods and --sensor-recovery-periods on app, bound to these fields (rtm-actuator and
   // rtm-servo share them); call validate() after parsing.
   void add_options(CLI::App& app);
 };
@@ -65,6 +77,9 @@ struct ActuatorCounters {
   std::uint64_t non_finite_events = 0;  // commands started holding NaN/inf (quick stop)
   std::uint64_t command_loss_recoveries = 0;  // drive RPDO timeouts reset and resumed from
   std::uint64_t not_ready_cycles = 0;   // the arm was not enabled (zero velocity)
+  std::uint64_t sensor_heartbeat_losses = 0;      // a force sensor node fell silent
+  std::uint64_t sensor_heartbeat_recoveries = 0;  // ... and was heard again within the budget
+  std::uint64_t sensor_reset_attempts = 0;        // fault resets tried meanwhile
   // Sample-to-drive latency, CLOCK_REALTIME, from the command stamp (the sensor sample's stamp,
   // see the controller) to the moment the bus master wrote the RPDOs carrying that command
   // (VelocityArm::last_sent); 0 when the arm cannot tell.
@@ -114,8 +129,17 @@ class Actuator final : public rtm::Component {
   std::uint64_t pending_sequence_ = 0;
   std::int64_t pending_stamp_ns_ = 0;
   void record_sent_latency();
+  // A force sensor node's heartbeat loss, one cycle of it (faulted: the fault is latched, not
+  // re-enabling after a reset): retry every kSensorRetryPeriods, give up after the budget
+  // (throws).
+  void retry_sensor_loss(bool faulted);
+  bool in_sensor_loss_ = false;
+  std::uint32_t sensor_loss_cycles_ = 0;
+  std::uint32_t sensor_clear_cycles_ = 0;  // fault-free cycles in a row since the last retry
+  static constexpr std::uint32_t kSensorClearCycles = 10;
   std::atomic<std::uint64_t> cycles_{0}, commands_{0}, clamped_{0}, watchdog_events_{0}, non_finite_events_{0},
-      not_ready_cycles_{0}, command_loss_recoveries_{0};
+      not_ready_cycles_{0}, command_loss_recoveries_{0}, sensor_heartbeat_losses_{0}, sensor_heartbeat_recoveries_{0},
+      sensor_reset_attempts_{0};
   rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>(
       "twist", {"velocity command for the tool, base frame; clamped to ±limit",
                 rtm::twist_elements()});

@@ -40,6 +40,9 @@ class VelocityArm {
   // order_velocity(). none when the brake was commanded.
   virtual FaultKind quick_stop() = 0;
   virtual std::string fault_reason() const = 0;
+  // The node the latched fault concerns (0: the bus, none, or the arm cannot tell). May
+  // allocate: asked on the fault path only.
+  virtual std::uint8_t fault_node() const { return 0; }
   virtual bool in_fault() const = 0;
   virtual void reset() = 0;
   // Where the bus is, for event reports: the SYNC cycle (counting from 1) and the CANopen SYNC
@@ -106,6 +109,7 @@ class ArmHardware final : public VelocityArm {
   void stop() override;
   FaultKind quick_stop() override { return arm_->quick_stop(); }
   std::string fault_reason() const override { return arm_->fault_reason(); }
+  std::uint8_t fault_node() const override { return master_->fault().node; }
   bool in_fault() const override;  // re-reads the master's state
   void reset() override { arm_->reset(); }
   BusPosition bus_position() const override;
