@@ -16,10 +16,12 @@
 // settling time is the last time it was outside ±0.5 N of 10 N (5 s: not settled in the run).
 //
 //   stability_study [--bandwidth RAD_S] [--model SCENE] [--csv FILE] [--runs FILE]
+//   gnuplot -e "csv='FILE'; png='study.png'" bench/sim/stability_study.gp   (the plot)
+#include <CLI/CLI.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <deque>
 #include <optional>
 #include <string>
@@ -159,40 +161,34 @@ Point largest_stable_gain(const char* mode, int delay, const Surface& surface, c
 
 int main(int argc, char** argv) {
   Settings settings;
-  double& bandwidth = settings.bandwidth_rad_s;
-  const char* csv_path = nullptr;
-  const char* runs_path = nullptr;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--bandwidth") && i + 1 < argc) bandwidth = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--model") && i + 1 < argc) settings.scene = argv[++i];
-    else if (!std::strcmp(argv[i], "--csv") && i + 1 < argc) csv_path = argv[++i];
-    else if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs_path = argv[++i];
-    else {
-      std::fprintf(stderr, "usage: %s [--bandwidth RAD_S] [--model SCENE] [--csv FILE] [--runs FILE]\n", argv[0]);
-      return 2;
-    }
-  }
-  if (!(bandwidth > 0 && bandwidth <= 500)) {
-    std::fprintf(stderr, "%s: --bandwidth must be in (0, 500] rad/s\n", argv[0]);
-    return 2;
-  }
+  std::string csv_path;
+  std::string runs_path;
+  CLI::App app{"The largest stable force gain per surface and sample-to-drive delay (lock-step)"};
+  app.add_option("--bandwidth", settings.bandwidth_rad_s, "drive velocity bandwidth [rad/s]")
+      ->check(CLI::Range(1e-3, 500.0))
+      ->capture_default_str();
+  app.add_option("--model", settings.scene, "MuJoCo scene")->capture_default_str();
+  app.add_option("--csv", csv_path, "write the table as CSV (surface, mode, gain, peak, settling)");
+  app.add_option("--runs", runs_path, "write every run as CSV (each gain tried)");
+  CLI11_PARSE(app, argc, argv);
+  const double bandwidth = settings.bandwidth_rad_s;
   try {
     Pa10Plant check(settings.scene);  // a scene that does not load fails here, with its reason
   } catch (const std::exception& error) {
     std::fprintf(stderr, "%s: %s\n", argv[0], error.what());
     return 1;
   }
-  std::FILE* runs = runs_path ? std::fopen(runs_path, "w") : nullptr;
+  std::FILE* runs = runs_path.empty() ? nullptr : std::fopen(runs_path.c_str(), "w");
   if (runs) std::fprintf(runs, "mode,delay_cycles,surface,stiffness_N_m,gain,stable,peak_N,settling_s,late_swing_N\n");
-  if (runs_path && !runs) {
-    std::fprintf(stderr, "%s: cannot write %s\n", argv[0], runs_path);
+  if (!runs_path.empty() && !runs) {
+    std::fprintf(stderr, "%s: cannot write %s\n", argv[0], runs_path.c_str());
     return 1;
   }
   struct Mode {
     const char* name;
     int delay;
   };
-  const Mode modes[] = {{"shared tick", 1}, {"paper, median", 2}, {"paper, worst", 3}};
+  const Mode modes[] = {{"shared tick", 1}, {"paper median", 2}, {"paper worst", 3}};
   std::vector<Point> points;
   for (const Surface& surface : rtm::sim::surface_presets())
     for (const Mode& mode : modes) points.push_back(largest_stable_gain(mode.name, mode.delay, surface, settings, runs));
@@ -214,10 +210,10 @@ int main(int argc, char** argv) {
                 p.surface.stiffness_N_m, p.mode, p.delay_cycles, p.gain,
                 std::max(0.0, (p.outcome.peak_N - kTarget_N) / kTarget_N * 100), p.outcome.settling_s);
   }
-  if (csv_path) {
-    std::FILE* csv = std::fopen(csv_path, "w");
+  if (!csv_path.empty()) {
+    std::FILE* csv = std::fopen(csv_path.c_str(), "w");
     if (!csv) {
-      std::fprintf(stderr, "%s: cannot write %s\n", argv[0], csv_path);
+      std::fprintf(stderr, "%s: cannot write %s\n", argv[0], csv_path.c_str());
       return 1;
     }
     std::fprintf(csv, "surface,stiffness_N_m,mode,delay_cycles,gain,peak_N,settling_s\n");
