@@ -142,6 +142,42 @@ void Actuator::record_sent_latency() {
   pending_sequence_ = 0;
 }
 
+// What the arm said of this cycle's order: recover from what is recoverable, throw otherwise.
+void Actuator::handle_arm_status(FaultKind status) {
+  if (status == FaultKind::command_loss) {
+    // The drives faulted only because commands came late: reset them and move again on the
+    // next new command, never on one from before the loss.
+    const std::uint64_t event = command_loss_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
+    log().warn("{}: {}: resetting the drives, moving again on the next command (recovery {})", name(),
+               arm_->fault_reason(), event);
+    arm_->reset();
+    command_freshness_.reset();
+    command_bad_ = false;
+    twist_ = {};
+  } else if (status == FaultKind::heartbeat_lost && rtm::can::is_sensor_node(arm_->fault_node())) {
+    retry_sensor_loss(true);
+  } else if (rtm::can::latched(status)) {
+    throw std::runtime_error("arm fault: " + arm_->fault_reason());
+  } else if (in_sensor_loss_ && status == FaultKind::not_enabled) {
+    retry_sensor_loss(false);  // re-enabling after a reset: the node may still be silent
+  }
+  // A reset can look good for a cycle before the master's heartbeat check latches the silence
+  // again: the node counts as heard once the arm has stayed fault-free for a while.
+  if (in_sensor_loss_ && status == FaultKind::none && ++sensor_clear_cycles_ < kSensorClearCycles)
+    retry_sensor_loss(false);
+  else if (in_sensor_loss_ && status == FaultKind::none) {
+    // A fault reset held through the re-enabling: the node is heard again. Move on the next
+    // new command only.
+    in_sensor_loss_ = false;
+    const std::uint64_t event = sensor_heartbeat_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
+    log().warn("{}: the force sensor is heard again after {} cycles: moving on the next command (recovery {})",
+               name(), sensor_loss_cycles_, event);
+    command_freshness_.reset();
+    command_bad_ = false;
+    twist_ = {};
+  }
+}
+
 void Actuator::on_cycle(const rtm::CycleContext&) {
   cycles_.fetch_add(1, std::memory_order_relaxed);
   // The bus master sends on its own cycle: the command of an earlier cycle has left by now.
@@ -193,38 +229,7 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
                name(), params_.watchdog_periods, last_command_bus_.cycle, last_command_bus_.sync_counter, bus.cycle,
                bus.sync_counter, watchdog_events_.load());
   }
-  if (status == FaultKind::command_loss) {
-    // The drives faulted only because commands came late: reset them and move again on the
-    // next new command, never on one from before the loss.
-    const std::uint64_t event = command_loss_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
-    log().warn("{}: {}: resetting the drives, moving again on the next command (recovery {})", name(),
-               arm_->fault_reason(), event);
-    arm_->reset();
-    command_freshness_.reset();
-    command_bad_ = false;
-    twist_ = {};
-  } else if (status == FaultKind::heartbeat_lost && rtm::can::is_sensor_node(arm_->fault_node())) {
-    retry_sensor_loss(true);
-  } else if (rtm::can::latched(status)) {
-    throw std::runtime_error("arm fault: " + arm_->fault_reason());
-  } else if (in_sensor_loss_ && status == FaultKind::not_enabled) {
-    retry_sensor_loss(false);  // re-enabling after a reset: the node may still be silent
-  }
-  // A reset can look good for a cycle before the master's heartbeat check latches the silence
-  // again: the node counts as heard once the arm has stayed fault-free for a while.
-  if (in_sensor_loss_ && status == FaultKind::none && ++sensor_clear_cycles_ < kSensorClearCycles)
-    retry_sensor_loss(false);
-  else if (in_sensor_loss_ && status == FaultKind::none) {
-    // A fault reset held through the re-enabling: the node is heard again. Move on the next
-    // new command only.
-    in_sensor_loss_ = false;
-    const std::uint64_t event = sensor_heartbeat_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
-    log().warn("{}: the force sensor is heard again after {} cycles: moving on the next command (recovery {})",
-               name(), sensor_loss_cycles_, event);
-    command_freshness_.reset();
-    command_bad_ = false;
-    twist_ = {};
-  }
+  handle_arm_status(status);
   if (status == FaultKind::not_enabled) not_ready_cycles_.fetch_add(1, std::memory_order_relaxed);
   if (fresh_command && status == FaultKind::none) {
     const std::int64_t stamp_ns = rtm::to_ns(command_.tm);

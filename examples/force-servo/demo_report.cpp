@@ -298,20 +298,14 @@ void check_figure_inputs(const std::vector<Sample>& samples, const std::vector<P
   }
 }
 
-}  // namespace
-
-DemoFigures compute_figures(const std::vector<Sample>& samples, const std::vector<Phase>& phases,
-                            const PhaseOptions& options, const FigureLimits& limits) {
-  check_figure_inputs(samples, phases, options, limits);
+// Figures 1 and 2: each touch-down, its overshoot and settling (see TouchDown).
+std::vector<TouchDown> find_touch_downs(const std::vector<Sample>& samples, const std::vector<Phase>& phases,
+                                        const PhaseOptions& options) {
   const double threshold_N = options.contact_threshold_N;
   const double band_N = options.settle_band_N;
   const auto presses = [&](const Sample& s) { return norm(s.reference_N) > threshold_N; };
   // The force along the sample's own reference (only where it presses).
   const auto along = [](const Sample& s) { return dot(s.measured_N, s.reference_N) / norm(s.reference_N); };
-
-  std::vector<PhaseSummary> summaries;
-  summaries.reserve(phases.size());
-  for (const Phase& p : phases) summaries.push_back(summarize(samples, p, options));
 
   // The end of a touch-down window's limit: the end of the phase holding sample i, or of the
   // next phase when i is in a ramp; the recording's end when no phase follows.
@@ -321,8 +315,7 @@ DemoFigures compute_figures(const std::vector<Sample>& samples, const std::vecto
     return samples.size();
   };
 
-  DemoFigures figures;
-
+  std::vector<TouchDown> touch_downs;
   // 1, 2: touch-downs, their overshoot and settling.
   bool armed = false;  // the force has been below the threshold since the last touch-down
   std::size_t i = 0;
@@ -362,9 +355,26 @@ DemoFigures compute_figures(const std::vector<Sample>& samples, const std::vecto
     touch.peak_reference_N = norm(samples[peak].reference_N);
     touch.overshoot = touch.peak_N / touch.peak_reference_N - 1;
     touch.window_end_s = samples[end - 1].time_s;
-    figures.touch_downs.push_back(touch);
+    touch_downs.push_back(touch);
     i = end;
   }
+
+  return touch_downs;
+}
+
+}  // namespace
+
+DemoFigures compute_figures(const std::vector<Sample>& samples, const std::vector<Phase>& phases,
+                            const PhaseOptions& options, const FigureLimits& limits) {
+  check_figure_inputs(samples, phases, options, limits);
+  const double threshold_N = options.contact_threshold_N;
+  std::vector<PhaseSummary> summaries;
+  summaries.reserve(phases.size());
+  for (const Phase& p : phases) summaries.push_back(summarize(samples, p, options));
+
+  DemoFigures figures;
+
+  figures.touch_downs = find_touch_downs(samples, phases, options);
 
   // 3: reference steps while in contact; 4: the release after the last press.
   const auto press_axis = [&](const PhaseSummary& p) -> std::optional<Vec3> {

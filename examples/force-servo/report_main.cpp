@@ -16,6 +16,32 @@
 
 #include <fstream>
 
+namespace {
+
+// The figures' limits and the contact threshold (demo_report.h); --max-overshoot is in %.
+void add_figure_options(CLI::App& app, rtm::demo::PhaseOptions& options, rtm::demo::FigureLimits& limits,
+                        double& max_overshoot_percent) {
+  app.add_option("--contact", options.contact_threshold_N, "contact (touch-down) threshold on the force, N")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--max-overshoot", max_overshoot_percent, "touch-down overshoot limit, %")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--max-touch-down-settling", limits.max_touch_down_settling_s,
+                 "limit on the settling time after a touch-down, s")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--max-step-settling", limits.max_step_settling_s,
+                 "limit on the settling time after a reference step in contact, s")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--release-level", limits.release_level_N, "force level whose crossings count at release, N")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--max-release-transitions", limits.max_release_transitions,
+                 "limit on the touch/lift transitions after the last press")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--max-watchdog-events", limits.max_watchdog_events, "limit on the actuator's watchdog events")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App app{"rtm-demo-report: summary, CSV and plot of a force-servo demo recording"};
   std::string reference_csv, sensor_csv, command_csv, timing_json, out_dir;
@@ -34,23 +60,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::PositiveNumber);
   rtm::demo::FigureLimits limits;
   double max_overshoot_percent = limits.max_overshoot * 100;
-  app.add_option("--contact", options.contact_threshold_N, "contact (touch-down) threshold on the force, N")
-      ->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--max-overshoot", max_overshoot_percent, "touch-down overshoot limit, %")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--max-touch-down-settling", limits.max_touch_down_settling_s,
-                 "limit on the settling time after a touch-down, s")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--max-step-settling", limits.max_step_settling_s,
-                 "limit on the settling time after a reference step in contact, s")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--release-level", limits.release_level_N, "force level whose crossings count at release, N")
-      ->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--max-release-transitions", limits.max_release_transitions,
-                 "limit on the touch/lift transitions after the last press")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--max-watchdog-events", limits.max_watchdog_events, "limit on the actuator's watchdog events")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  add_figure_options(app, options, limits, max_overshoot_percent);
   app.add_flag("--check", check,
                "exit 3 when a figure is missed or not measured (see the summary's demo figures), a contact "
                "phase's steady-state error exceeds the band, or a component overran");

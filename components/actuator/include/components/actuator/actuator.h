@@ -133,6 +133,7 @@ class Actuator final : public rtm::Component {
   // re-enabling after a reset): retry every kSensorRetryPeriods, give up after the budget
   // (throws).
   void retry_sensor_loss(bool faulted);
+  void handle_arm_status(FaultKind status);
   bool in_sensor_loss_ = false;
   std::uint32_t sensor_loss_cycles_ = 0;
   std::uint32_t sensor_clear_cycles_ = 0;  // fault-free cycles in a row since the last retry
