@@ -219,6 +219,23 @@ try:
     wait_for(lambda: not driver.find_elements(By.CSS_SELECTOR, JOYSTICK_EDGE), 10, "the edge is gone from the page")
     shot(driver, "6-disconnected")
 
+    # Loading the saved file shows it first (the connection it would make, dashed) and changes
+    # nothing; "apply" makes the connection.
+    driver.find_element(By.ID, "load").send_keys(saved)
+    PROPOSED = 'path.proposed[data-from="joystick0.reference"]'
+    wait_for(lambda: "to connect" in driver.find_element(By.ID, "preview").text, 10,
+             "the loaded file is shown with what applying would do: " +
+             repr(driver.find_element(By.ID, "preview").text))
+    wait_for(lambda: driver.find_elements(By.CSS_SELECTOR, PROPOSED), 10, "the connection to make is drawn dashed")
+    time.sleep(1)
+    check(wired not in rtm("cat", "joystick0").stdout, "showing the file connected nothing (rtm cat)")
+    shot(driver, "7-file-shown")
+    driver.find_element(By.ID, "apply").click()
+    wait_for(lambda: wired in rtm("cat", "joystick0").stdout, 10, "apply connects it (rtm cat)")
+    wait_for(lambda: driver.find_elements(By.CSS_SELECTOR, JOYSTICK_EDGE), 10, "the applied edge is drawn")
+    check(not driver.find_elements(By.CSS_SELECTOR, "path.proposed"), "the dashed proposal is gone after apply")
+    shot(driver, "8-file-applied")
+
     # Without the token the API refuses (what a page from elsewhere would meet).
     api = url.split("/#")[0] + "/api/system"
     try:

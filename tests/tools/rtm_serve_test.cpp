@@ -199,6 +199,42 @@ TEST_F(RtmServe, TheEventStreamSendsTheSystemAndAComponentThatBindsLater) {
   EXPECT_TRUE(saw_late) << "no event named the component that bound later";
 }
 
+TEST_F(RtmServe, ALoadedSystemFileIsShownWithWhatApplyingWouldDoAndChangesNothingUntilApplied) {
+  const std::string yaml = R"(name: shown
+components:
+  - {name: src, command: [rtm-test-talker]}
+  - {name: dst, command: [rtm-test-talker]}
+  - {name: third, command: [rtm-test-talker]}
+connections:
+  - {from: src.force, to: dst.in0}
+  - {from: src.out0, to: dst.pos3}
+activate: [dst]
+)";
+  const auto shown = client().Post("/api/system-file/preview", with_token(), yaml, "text/yaml");
+  ASSERT_EQ(shown->status, 200) << shown->body;
+  const json r = json::parse(shown->body);
+  EXPECT_EQ(r["name"], "shown");
+  ASSERT_EQ(r["connections"].size(), 2u) << r.dump();
+  EXPECT_EQ(r["connections"][0]["status"], "to connect") << r.dump();
+  EXPECT_EQ(r["connections"][1]["from"], "src.out0");
+  EXPECT_EQ(r["connections"][1]["status"], "error");
+  EXPECT_EQ(r["connections"][1]["error"], "src.out0 (RTM::TimedFloat6) -> dst.pos3 (RTM::TimedFloat3): types differ")
+      << "the message of rtm connect";
+  EXPECT_EQ(r["activate"][0]["name"], "dst");
+  EXPECT_EQ(r["activate"][0]["now"], "off");
+  EXPECT_EQ(r["not_running"], json::array({"third"}));
+  EXPECT_TRUE(subscriptions_of("src", "force").empty()) << "showing a file connected something";
+  EXPECT_EQ(get_json("/api/components/dst")["state"], "off") << "showing a file turned something on";
+  // Once connected, the same file shows the connection as made, by the port's own name.
+  ASSERT_EQ(post("/api/connect", {{"from", "src.force"}, {"to", "dst.in0"}}, with_token())->status, 200);
+  const json again = json::parse(client().Post("/api/system-file/preview", with_token(), yaml, "text/yaml")->body);
+  EXPECT_EQ(again["connections"][0]["status"], "connected") << again.dump();
+  // A malformed file is refused with the parser's sentence, as apply refuses it.
+  const auto bad = client().Post("/api/system-file/preview", with_token(), "components: 5", "text/yaml");
+  EXPECT_EQ(bad->status, 400);
+  EXPECT_NE(bad->body.find("'components' must be a non-empty list"), std::string::npos) << bad->body;
+}
+
 TEST_F(RtmServe, SaveWritesASystemFileRtmUpAcceptsAndApplyingItRestoresTheWiring) {
   ASSERT_EQ(post("/api/connect", {{"from", "src.force"}, {"to", "dst.in0"}}, with_token())->status, 200);
   const json saved = get_json("/api/system-file?name=pair");

@@ -144,6 +144,9 @@ class Browser {
   // "sensor0.out0 (RTM::TimedFloat6) -> ctl.in1 (RTM::TimedFloat3): types differ".
   void connect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const;
   void disconnect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const;
+  // Both ports resolved and checked as connect() checks them, without subscribing (a system
+  // file shown before it is applied).
+  std::pair<ResolvedPort, ResolvedPort> pair(const PortAddress& out, const PortAddress& in) const;
 
   // Sets one parameter; BrowseError with the component's reason when it refuses (unknown
   // name, not writable now, bad value) or is a seed component without parameters. Returns
@@ -152,7 +155,6 @@ class Browser {
 
  private:
   ComponentInfo inspect(const ComponentPath& path, CORBA::Object_ptr object, Detail detail) const;
-  std::pair<ResolvedPort, ResolvedPort> pair(const PortAddress& out, const PortAddress& in) const;
 
   CORBA::ORB_var orb_;
   NamingClient naming_;

@@ -11,11 +11,12 @@
 #include <nlohmann/json.hpp>
 #include <sys/random.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
-#include <fstream>
 #include <optional>
 #include <stdexcept>
 #include <thread>
@@ -186,7 +187,7 @@ struct WebServer::Impl {
     return list;
   }
 
-  // The latest datum of several OutPorts at once (the page's plots, 20 times a second):
+  // The latest datum of several OutPorts at once (the page's plots, 25 times a second):
   // {"<address>": datum as /api/ports gives it, or {"error": why}}.
   json values(const std::string& ports) const {
     json out = json::object();
@@ -210,7 +211,7 @@ struct WebServer::Impl {
   }
 
   // An OutPort by address, resolved once (naming service, component, port list) and then
-  // kept: the plots ask for the same ports 20 times a second.
+  // kept: the plots ask for the same ports 25 times a second.
   std::pair<std::string, RTM::OutPort_var> out_port(const std::string& address) const {
     {
       std::lock_guard lock(ports_mu);
@@ -282,6 +283,53 @@ struct WebServer::Impl {
           file.connections.push_back({c.path.name + "." + p.name, s.peer, s.req_type == "once"});
     }
     return json{{"yaml", file.to_yaml()}, {"left_out", left_out}};
+  }
+
+  // What applying a system file would do, doing nothing: each connection (made already, to
+  // make, or why it cannot be: the messages of `rtm connect`), each activation (the
+  // component's state now), and the file's components that are not running.
+  json preview(const std::string& yaml) const {
+    const SystemFile file = SystemFile::parse(yaml, "posted-system-file.yaml");
+    std::map<std::string, std::string> state;                // component -> state now
+    std::map<std::string, std::vector<std::string>> peers;  // "<component>.<OutPort>" -> InPorts
+    for (const auto& c : browser.list("", Browser::Detail::wiring)) {
+      state[c.path.name] = c.liveness == Liveness::alive ? c.state : "dead";
+      for (const auto& p : c.ports)
+        for (const auto& sub : p.subscriptions) peers[c.path.name + "." + p.name].push_back(sub.peer);
+    }
+    json connections = json::array(), activations = json::array(), not_running = json::array();
+    for (const auto& c : file.connections) {
+      json j{{"from", c.from}, {"to", c.to}, {"type", c.once ? "once" : "repeated"}};
+      try {
+        const auto [o, i] = browser.pair(PortAddress::parse(c.from), PortAddress::parse(c.to));
+        const std::string from = PortAddress::parse(o.address).component + "." + o.name;
+        const std::string to = PortAddress::parse(i.address).component + "." + i.name;
+        j["from"] = from;
+        j["to"] = to;
+        const auto& made = peers[from];
+        j["status"] = std::find(made.begin(), made.end(), to) != made.end() ? "connected" : "to connect";
+      } catch (const BrowseError& e) {
+        j["status"] = "error";
+        j["error"] = e.what();
+      } catch (const std::invalid_argument& e) {
+        j["status"] = "error";
+        j["error"] = e.what();
+      } catch (const CORBA::Exception& e) {
+        j["status"] = "error";
+        j["error"] = c.from + " -> " + c.to + ": " + failure_text(e);
+      }
+      connections.push_back(std::move(j));
+    }
+    for (const auto& name : file.activate) {
+      const auto it = state.find(name);
+      activations.push_back({{"name", name}, {"now", it == state.end() ? "not running" : it->second}});
+    }
+    for (const auto& c : file.components)
+      if (!state.contains(c.name)) not_running.push_back(c.name);
+    return json{{"name", file.name},
+                {"connections", connections},
+                {"activate", activations},
+                {"not_running", not_running}};
   }
 
   // A system file's connections and activations applied to the components running now.
@@ -372,6 +420,9 @@ struct WebServer::Impl {
     });
     server.Post("/api/system-file", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return apply(req.body); });
+    });
+    server.Post("/api/system-file/preview", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return preview(req.body); });
     });
     server.Get("/api/values", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return values(req.get_param_value("ports")); });
