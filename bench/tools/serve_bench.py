@@ -4,7 +4,7 @@ python3-selenium):
 
   - first paint: from opening the page to every one of N components drawn (rtm-test-talker
     processes, one omniNames), five times;
-  - live plots: 10 OutPorts plotted at once (one poll for all, 25 a second), new data per second shown;
+  - live plots: 10 OutPorts plotted at once (one poll for all, every 30 ms), new data per second shown;
   - what the page costs the 2 ms loops: the talkers' lateness p99 with no page, then with the
     page open and plotting 10 of them, alternating, each phase on freshly started components
     (their statistics cover that phase only).

@@ -181,6 +181,8 @@ try:
     info = driver.find_element(By.CSS_SELECTOR, "#plots .info").text
     rate = float(info.split(" new data/s")[0]) if "new data/s" in info else 0.0
     check(rate >= 10, f"the plot shows new data at >= 10/s ({info})")
+    check(re.search(r"\b[1-9][0-9]* not shown", info) is not None,
+          f"the plot counts the data published between its polls as not shown ({info})")
     shot(driver, "4-plot")
 
     # A component's statistics and parameters: change the controller's gain from the page.

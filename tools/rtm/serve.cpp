@@ -187,7 +187,7 @@ struct WebServer::Impl {
     return list;
   }
 
-  // The latest datum of several OutPorts at once (the page's plots, 25 times a second):
+  // The latest datum of several OutPorts at once (the page's plots, up to 33 times a second):
   // {"<address>": datum as /api/ports gives it, or {"error": why}}.
   json values(const std::string& ports) const {
     json out = json::object();
@@ -211,7 +211,7 @@ struct WebServer::Impl {
   }
 
   // An OutPort by address, resolved once (naming service, component, port list) and then
-  // kept: the plots ask for the same ports 25 times a second.
+  // kept: the plots ask for the same ports 20-33 times a second.
   std::pair<std::string, RTM::OutPort_var> out_port(const std::string& address) const {
     {
       std::lock_guard lock(ports_mu);
