@@ -112,6 +112,54 @@ void answer(httplib::Response& res, const std::function<json()>& action) {
   }
 }
 
+// What applying a system file would do, doing nothing: each connection (made already, to
+// make, or why it cannot be: the messages of `rtm connect`), each activation (the
+// component's state now), and the file's components that are not running.
+json preview_system_file(const Browser& browser, const std::string& yaml) {
+  const SystemFile file = SystemFile::parse(yaml, "posted-system-file.yaml");
+  std::map<std::string, std::string> state;                // component -> state now
+  std::map<std::string, std::vector<std::string>> peers;  // "<component>.<OutPort>" -> InPorts
+  for (const auto& c : browser.list("", Browser::Detail::wiring)) {
+    state[c.path.name] = c.liveness == Liveness::alive ? c.state : "dead";
+    for (const auto& p : c.ports)
+      for (const auto& sub : p.subscriptions) peers[c.path.name + "." + p.name].push_back(sub.peer);
+  }
+  json connections = json::array(), activations = json::array(), not_running = json::array();
+  for (const auto& c : file.connections) {
+    json j{{"from", c.from}, {"to", c.to}, {"type", c.once ? "once" : "repeated"}};
+    try {
+      const auto [o, i] = browser.pair(PortAddress::parse(c.from), PortAddress::parse(c.to));
+      const std::string from = PortAddress::parse(o.address).component + "." + o.name;
+      const std::string to = PortAddress::parse(i.address).component + "." + i.name;
+      j["from"] = from;
+      j["to"] = to;
+      const auto& made = peers[from];
+      j["status"] = std::find(made.begin(), made.end(), to) != made.end() ? "connected" : "to connect";
+    } catch (const BrowseError& e) {
+      j["status"] = "error";
+      j["error"] = e.what();
+    } catch (const std::invalid_argument& e) {
+      j["status"] = "error";
+      j["error"] = e.what();
+    } catch (const CORBA::Exception& e) {
+      j["status"] = "error";
+      j["error"] = c.from + " -> " + c.to + ": " + failure_text(e);
+    }
+    connections.push_back(std::move(j));
+  }
+  for (const auto& name : file.activate) {
+    const auto it = state.find(name);
+    activations.push_back({{"name", name}, {"now", it == state.end() ? "not running" : it->second}});
+  }
+  for (const auto& c : file.components)
+    if (!state.contains(c.name)) not_running.push_back(c.name);
+  return json{{"name", file.name},
+              {"connections", connections},
+              {"activate", activations},
+              {"not_running", not_running}};
+}
+
+
 }  // namespace
 
 ServeOptions parse_listen(const std::string& text) {
@@ -285,52 +333,7 @@ struct WebServer::Impl {
     return json{{"yaml", file.to_yaml()}, {"left_out", left_out}};
   }
 
-  // What applying a system file would do, doing nothing: each connection (made already, to
-  // make, or why it cannot be: the messages of `rtm connect`), each activation (the
-  // component's state now), and the file's components that are not running.
-  json preview(const std::string& yaml) const {
-    const SystemFile file = SystemFile::parse(yaml, "posted-system-file.yaml");
-    std::map<std::string, std::string> state;                // component -> state now
-    std::map<std::string, std::vector<std::string>> peers;  // "<component>.<OutPort>" -> InPorts
-    for (const auto& c : browser.list("", Browser::Detail::wiring)) {
-      state[c.path.name] = c.liveness == Liveness::alive ? c.state : "dead";
-      for (const auto& p : c.ports)
-        for (const auto& sub : p.subscriptions) peers[c.path.name + "." + p.name].push_back(sub.peer);
-    }
-    json connections = json::array(), activations = json::array(), not_running = json::array();
-    for (const auto& c : file.connections) {
-      json j{{"from", c.from}, {"to", c.to}, {"type", c.once ? "once" : "repeated"}};
-      try {
-        const auto [o, i] = browser.pair(PortAddress::parse(c.from), PortAddress::parse(c.to));
-        const std::string from = PortAddress::parse(o.address).component + "." + o.name;
-        const std::string to = PortAddress::parse(i.address).component + "." + i.name;
-        j["from"] = from;
-        j["to"] = to;
-        const auto& made = peers[from];
-        j["status"] = std::find(made.begin(), made.end(), to) != made.end() ? "connected" : "to connect";
-      } catch (const BrowseError& e) {
-        j["status"] = "error";
-        j["error"] = e.what();
-      } catch (const std::invalid_argument& e) {
-        j["status"] = "error";
-        j["error"] = e.what();
-      } catch (const CORBA::Exception& e) {
-        j["status"] = "error";
-        j["error"] = c.from + " -> " + c.to + ": " + failure_text(e);
-      }
-      connections.push_back(std::move(j));
-    }
-    for (const auto& name : file.activate) {
-      const auto it = state.find(name);
-      activations.push_back({{"name", name}, {"now", it == state.end() ? "not running" : it->second}});
-    }
-    for (const auto& c : file.components)
-      if (!state.contains(c.name)) not_running.push_back(c.name);
-    return json{{"name", file.name},
-                {"connections", connections},
-                {"activate", activations},
-                {"not_running", not_running}};
-  }
+  json preview(const std::string& yaml) const { return preview_system_file(browser, yaml); }
 
   // A system file's connections and activations applied to the components running now.
   json apply(const std::string& yaml) const {
