@@ -48,6 +48,9 @@ class Attacker {
   // The master's SYNCs on the bus from the first attack frame to (and with) the one that
   // latched the quick stop.
   int syncs_until_quick_stop() const { return quick_stop_after_; }
+  // Every SYNC on the bus, the master's and the attacker's, from the first attack frame until
+  // NMT pre-operational for drive 1: each one steps a lock-step plant by a period.
+  int all_syncs_until_pre_operational() const { return all_syncs_; }
   int attacks() const { return attacks_; }
 
  private:
@@ -82,8 +85,10 @@ class Attacker {
       if (!monitor_bus_->receive(frame, 20)) continue;
       const Classified c = classify(frame);
       if (c.type == FrameType::sync) {
+        if (attacked && !pre_operational_seen_) ++all_syncs_;
         // The master's counters follow each other; a repeat (a replayed SYNC) is the attacker's.
         if (frame.data[0] == last_master_counter || is_attack(frame)) {
+          if (!attacked) ++all_syncs_;  // the first attack frame is this SYNC
           attacked = true;
           continue;
         }
@@ -119,6 +124,7 @@ class Attacker {
   std::atomic<int> attacks_{0};
   std::atomic<int> quick_stop_after_{-1};
   std::atomic<bool> pre_operational_seen_{false};
+  std::atomic<int> all_syncs_{0};
   std::thread monitor_;
   std::thread thread_;
 };
