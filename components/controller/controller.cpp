@@ -65,14 +65,16 @@ bool ContactDetector::update(const RTM::Float6& sensor, float contact_force_N) {
   return contact_;
 }
 
-std::array<float, 6> guarded_command(const ControllerParams& params, bool contact, const RTM::Float6& reference,
-                                     const RTM::Float6& sensor) {
-  if (params.approach_speed_m_s <= 0 || contact) return proportional_command(params.gain, reference, sensor);
-  std::array<float, 6> out = proportional_command(params.free_gain, reference, sensor);
-  const float speed = std::sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]);
+GuardedCommand guarded_command(const ControllerParams& params, bool contact, const RTM::Float6& reference,
+                               const RTM::Float6& sensor) {
+  if (params.approach_speed_m_s <= 0 || contact) return {proportional_command(params.gain, reference, sensor), false};
+  GuardedCommand out{proportional_command(params.free_gain, reference, sensor), false};
+  auto& v = out.twist;
+  const float speed = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
   if (speed > params.approach_speed_m_s) {
     const float scale = params.approach_speed_m_s / speed;
-    for (std::size_t i = 0; i < 3; ++i) out[i] *= scale;
+    for (std::size_t i = 0; i < 3; ++i) v[i] *= scale;
+    out.slowed = true;
   }
   return out;
 }
@@ -169,10 +171,8 @@ void Controller::on_cycle(const rtm::CycleContext&) {
   const bool was_in_contact = contact_.in_contact();
   const bool contact = contact_.update(sensor_.datum.val, cycle_params_.contact_force_N);
   if (contact != was_in_contact) (contact ? touch_downs_ : lift_offs_).fetch_add(1, std::memory_order_relaxed);
-  const auto out = guarded_command(cycle_params_, contact, reference_.datum.val, sensor_.datum.val);
-  if (!contact && cycle_params_.approach_speed_m_s > 0 &&
-      out != proportional_command(cycle_params_.free_gain, reference_.datum.val, sensor_.datum.val))
-    approach_limited_.fetch_add(1, std::memory_order_relaxed);
+  const auto [out, slowed] = guarded_command(cycle_params_, contact, reference_.datum.val, sensor_.datum.val);
+  if (slowed) approach_limited_.fetch_add(1, std::memory_order_relaxed);
   for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = out[i];
   command_.tm = sensor_.datum.tm;
   commands_.fetch_add(1, std::memory_order_relaxed);

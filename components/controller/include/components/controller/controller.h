@@ -86,9 +86,13 @@ class ContactDetector {
 
 // The bounded touch-down's command: in contact the paper's P with gain; in free space
 // free_gain * (ref + sen), its translational part scaled down to approach_speed_m_s when
-// faster. approach_speed_m_s 0: the paper's P with gain, contact or not.
-std::array<float, 6> guarded_command(const ControllerParams& params, bool contact, const RTM::Float6& reference,
-                                     const RTM::Float6& sensor);
+// faster (slowed: whether it was). approach_speed_m_s 0: the paper's P with gain, contact or not.
+struct GuardedCommand {
+  std::array<float, 6> twist{};
+  bool slowed = false;
+};
+GuardedCommand guarded_command(const ControllerParams& params, bool contact, const RTM::Float6& reference,
+                               const RTM::Float6& sensor);
 
 struct ControllerCounters {
   std::uint64_t cycles = 0;
