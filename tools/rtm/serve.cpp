@@ -1,6 +1,7 @@
 #include "serve.h"
 
 #include "report.h"
+#include "system_feed.h"
 #include "system_file.h"
 #include "values.h"
 
@@ -29,6 +30,10 @@ extern const char* const kWebPage;
 namespace {
 
 using nlohmann::json;
+
+// How often the event streams' system is polled (for every page at once): a component's
+// state, timing and wiring reach the page within this.
+constexpr std::chrono::milliseconds kSystemPeriod{500};
 
 // The command that started process pid, as a system file's command: the program by its
 // absolute path (/proc/<pid>/exe), then its arguments without those `rtm up` adds itself
@@ -187,8 +192,8 @@ struct WebServer::Impl {
   ServeOptions options;
   std::string token;
   int port = 0;
-  httplib::Server server;
-  std::atomic<bool> stopping{false};
+  SystemFeed feed{[this] { return system_event(); }, kSystemPeriod};
+  httplib::Server server;  // after the feed: gone (with the streams' subscriptions) before it
   mutable std::mutex ports_mu;
   mutable std::map<std::string, std::pair<std::string, RTM::OutPort_var>> ports;
 
@@ -368,26 +373,29 @@ struct WebServer::Impl {
     return json{{verb, name}};
   }
 
-  // One SSE stream: the system when it changed, a comment every 5 s to keep it open.
-  bool stream(httplib::DataSink& sink, std::string& last) const {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-    while (!stopping.load()) {
-      std::string now;
-      try {
-        now = system().dump();
-      } catch (const std::exception& e) {
-        now = json{{"error", e.what()}}.dump();
-      }
-      if (now != last) {
-        last = now;
-        const std::string event = "event: system\ndata: " + now + "\n\n";
-        return sink.write(event.data(), event.size());
-      }
-      if (std::chrono::steady_clock::now() > deadline) return sink.write(": alive\n\n", 10);
-      for (int i = 0; i < 10 && !stopping.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  // One SSE stream: the system when it changed (polled by the feed, at most every
+  // kSystemPeriod for all pages together), a comment every 5 s to keep it open.
+  bool stream(httplib::DataSink& sink, SystemFeed::Subscription& subscription) const {
+    const auto update = subscription.next(std::chrono::seconds(5));
+    if (update) {
+      const std::string event = "event: system\ndata: " + update->text + "\n\n";
+      return sink.write(event.data(), event.size());
     }
-    sink.done();
-    return true;
+    if (feed.stopped()) {
+      sink.done();
+      return true;
+    }
+    return sink.write(": alive\n\n", 10);
+  }
+
+  std::string system_event() const {
+    try {
+      return system().dump();
+    } catch (const std::exception& e) {
+      return json{{"error", e.what()}}.dump();
+    } catch (const CORBA::Exception& e) {
+      return json{{"error", failure_text(e)}}.dump();
+    }
   }
 
   void routes() {
@@ -434,10 +442,11 @@ struct WebServer::Impl {
       answer(res, [&] { return port_value(req.matches[1].str()); });
     });
     server.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) {
-      auto last = std::make_shared<std::string>();
+      // Held by the response: the page counts as connected until its stream ends.
+      auto subscription = std::make_shared<SystemFeed::Subscription>(feed);
       res.set_header("Cache-Control", "no-store");
-      res.set_chunked_content_provider("text/event-stream", [this, last](std::size_t, httplib::DataSink& sink) {
-        return stream(sink, *last);
+      res.set_chunked_content_provider("text/event-stream", [this, subscription](std::size_t, httplib::DataSink& sink) {
+        return stream(sink, *subscription);
       });
     });
   }
@@ -462,7 +471,7 @@ void WebServer::run(const std::function<bool()>& interrupted, const std::functio
   print_url(fmt::format("http://{}:{}/#token={}", shown, s.port, token_));
   std::thread serving([&s] { s.server.listen_after_bind(); });
   while (!interrupted()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  s.stopping.store(true);
+  s.feed.stop();  // wakes the event streams, which end
   s.server.stop();
   serving.join();
 }
