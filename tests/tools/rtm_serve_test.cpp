@@ -11,6 +11,7 @@
 
 #include <signal.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <cctype>
@@ -197,6 +198,35 @@ TEST_F(RtmServe, TheEventStreamSendsTheSystemAndAComponentThatBindsLater) {
   late.join();
   EXPECT_EQ(received.rfind("event: system\ndata: [", 0), 0u) << received.substr(0, 200);
   EXPECT_TRUE(saw_late) << "no event named the component that bound later";
+}
+
+// Each open page's event stream holds one of the server's workers for as long as it is open
+// (httplib's default pool has 8). Twenty-four pages open at once: each gets the system, and the
+// plots' poll is still answered beside them.
+TEST_F(RtmServe, TwentyFourPagesOpenAtOnceEachGetTheSystemAndThePlotsStillAnswer) {
+  constexpr int kPages = 24;
+  std::atomic<int> fed{0};
+  std::atomic<bool> close{false};
+  std::vector<std::thread> pages;
+  for (int page = 0; page < kPages; ++page)
+    pages.emplace_back([&] {
+      std::string received;
+      bool counted = false;
+      httplib::Client c = client();
+      c.Get(("/api/events?token=" + token_).c_str(), [&](const char* data, std::size_t size) {
+        received.append(data, size);
+        if (!counted && received.rfind("event: system\ndata: [", 0) == 0) counted = true, ++fed;
+        return !close.load();  // open until the test ends; a keep-alive comes every second
+      });
+    });
+  for (int i = 0; i < 600 && fed.load() < kPages; ++i) std::this_thread::sleep_for(50ms);
+  const int fed_pages = fed.load();
+  auto r = client().Get("/api/values?ports=src.force", with_token());
+  close = true;
+  for (auto& t : pages) t.join();
+  EXPECT_EQ(fed_pages, kPages) << "pages left waiting for a worker";
+  ASSERT_TRUE(r) << "the plots' poll was not answered: " << httplib::to_string(r.error());
+  EXPECT_EQ(r->status, 200) << r->body;
 }
 
 TEST_F(RtmServe, ALoadedSystemFileIsShownWithWhatApplyingWouldDoAndChangesNothingUntilApplied) {

@@ -34,6 +34,12 @@ using nlohmann::json;
 // How often the event streams' system is polled (for every page at once): a component's
 // state, timing and wiring reach the page within this.
 constexpr std::chrono::milliseconds kSystemPeriod{500};
+// An event stream writes at least this often: a closed page is only noticed when a write to it
+// fails (the second after it closed), and until then its stream holds one of the workers.
+constexpr std::chrono::seconds kKeepAlive{1};
+// Each open page's event stream holds a worker for as long as it is open; the rest answer the
+// API (the plots' polls, up to three at once per page). httplib's default is 8.
+constexpr std::size_t kWorkers = 32;
 
 // The command that started process pid, as a system file's command: the program by its
 // absolute path (/proc/<pid>/exe), then its arguments without those `rtm up` adds itself
@@ -374,9 +380,9 @@ struct WebServer::Impl {
   }
 
   // One SSE stream: the system when it changed (polled by the feed, at most every
-  // kSystemPeriod for all pages together), a comment every 5 s to keep it open.
+  // kSystemPeriod for all pages together), else a comment every kKeepAlive.
   bool stream(httplib::DataSink& sink, SystemFeed::Subscription& subscription) const {
-    const auto update = subscription.next(std::chrono::seconds(5));
+    const auto update = subscription.next(kKeepAlive);
     if (update) {
       const std::string event = "event: system\ndata: " + update->text + "\n\n";
       return sink.write(event.data(), event.size());
@@ -399,6 +405,7 @@ struct WebServer::Impl {
   }
 
   void routes() {
+    server.new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
     server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) { return screen(req, res); });
     server.Get("/", [](const httplib::Request&, httplib::Response& res) {
       res.set_content(kWebPage, "text/html; charset=utf-8");
