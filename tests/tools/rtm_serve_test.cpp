@@ -16,6 +16,7 @@
 #include <fstream>
 #include <cctype>
 #include <memory>
+#include <set>
 #include <thread>
 
 namespace {
@@ -227,6 +228,35 @@ TEST_F(RtmServe, TwentyFourPagesOpenAtOnceEachGetTheSystemAndThePlotsStillAnswer
   EXPECT_EQ(fed_pages, kPages) << "pages left waiting for a worker";
   ASSERT_TRUE(r) << "the plots' poll was not answered: " << httplib::to_string(r.error());
   EXPECT_EQ(r->status, 200) << r->body;
+}
+
+// The plots' stream: each event holds every port asked for, a port that is none with its
+// reason (the others still plotted), and the stamps of the live port move on.
+TEST_F(RtmServe, ThePlotsStreamSendsEveryPortInEachEventAndAPortThatIsNoneWithItsReason) {
+  std::string received;
+  std::vector<json> events;
+  httplib::Client c = client();
+  c.Get(("/api/values/stream?ports=src.force,dst.nothing&token=" + token_).c_str(),
+        [&](const char* data, std::size_t size) {
+          received.append(data, size);
+          for (std::size_t end; (end = received.find("\n\n")) != std::string::npos;) {
+            const std::string event = received.substr(0, end);
+            received.erase(0, end + 2);
+            const auto at = event.find("data: ");
+            if (event.rfind("event: values\n", 0) == 0 && at != std::string::npos)
+              events.push_back(json::parse(event.substr(at + 6)));
+          }
+          return events.size() < 10;
+        });
+  ASSERT_EQ(events.size(), 10u) << received.substr(0, 300);
+  std::set<std::string> stamps;
+  for (const json& e : events) {
+    ASSERT_EQ(e.size(), 2u) << e.dump();
+    EXPECT_NE(e["dst.nothing"].value("error", "").find("nothing"), std::string::npos) << e.dump();
+    if (e["src.force"].contains("time")) stamps.insert(e["src.force"]["time"].dump());
+  }
+  EXPECT_EQ(events.back()["src.force"]["type"], "RTM::TimedFloat6") << events.back().dump();
+  EXPECT_GE(stamps.size(), 5u) << "the live port's data did not move on between events";
 }
 
 TEST_F(RtmServe, ALoadedSystemFileIsShownWithWhatApplyingWouldDoAndChangesNothingUntilApplied) {

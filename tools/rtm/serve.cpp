@@ -13,9 +13,11 @@
 #include <sys/random.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -40,6 +42,19 @@ constexpr std::chrono::seconds kKeepAlive{1};
 // Each open page's event stream holds a worker for as long as it is open; the rest answer the
 // API (the plots' polls, up to three at once per page). httplib's default is 8.
 constexpr std::size_t kWorkers = 32;
+// A plots' stream sends its ports' latest data this often (25 a second).
+constexpr std::chrono::milliseconds kPlotPeriod{40};
+
+// One page's plots: its ports, the data gathered for the next event, and when the next port
+// is due. The ports are asked one at a time, spread over the period: ten calls in a burst
+// made every loop that woke during it wait (measured: the loops' lateness p99 at SCHED_OTHER
+// 250-300 us with the burst at 30 a second, 60-100 us spread; docs/performance.md).
+struct PlotStream {
+  std::vector<std::string> ports;
+  std::size_t next_port = 0;
+  nlohmann::json gathered = nlohmann::json::object();
+  std::chrono::steady_clock::time_point next = std::chrono::steady_clock::now();
+};
 
 // The command that started process pid, as a system file's command: the program by its
 // absolute path (/proc/<pid>/exe), then its arguments without those `rtm up` adds itself
@@ -171,6 +186,29 @@ json preview_system_file(const Browser& browser, const std::string& yaml) {
 }
 
 
+// One plots' stream: every kPlotPeriod (on a fixed schedule; a tick missed is not made up)
+// the ports' latest data as /api/values gives them (value_of(address)), each port asked at its
+// own share of the period. Its writes also notice a closed page within a period.
+bool plot_stream(httplib::DataSink& sink, PlotStream& plot, const std::atomic<bool>& stopping,
+                 const std::function<json(const std::string&)>& value_of) {
+  using clock = std::chrono::steady_clock;
+  for (auto now = clock::now(); now < plot.next && !stopping.load(); now = clock::now())
+    std::this_thread::sleep_for(std::min<clock::duration>(plot.next - now, std::chrono::milliseconds(100)));
+  if (stopping.load() || plot.ports.empty()) {
+    sink.done();
+    return true;
+  }
+  const std::string& address = plot.ports[plot.next_port];
+  plot.gathered[address] = value_of(address);
+  const auto share = kPlotPeriod / static_cast<int>(plot.ports.size());
+  plot.next = std::max(plot.next + share, clock::now());
+  if (++plot.next_port < plot.ports.size()) return true;
+  plot.next_port = 0;
+  const std::string event = "event: values\ndata: " + plot.gathered.dump() + "\n\n";
+  plot.gathered = json::object();
+  return sink.write(event.data(), event.size());
+}
+
 }  // namespace
 
 ServeOptions parse_listen(const std::string& text) {
@@ -198,6 +236,7 @@ struct WebServer::Impl {
   ServeOptions options;
   std::string token;
   int port = 0;
+  std::atomic<bool> stopping{false};
   SystemFeed feed{[this] { return system_event(); }, kSystemPeriod};
   httplib::Server server;  // after the feed: gone (with the streams' subscriptions) before it
   mutable std::mutex ports_mu;
@@ -445,6 +484,19 @@ struct WebServer::Impl {
     server.Get("/api/values", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return values(req.get_param_value("ports")); });
     });
+    server.Get("/api/values/stream", [this](const httplib::Request& req, httplib::Response& res) {
+      auto plot = std::make_shared<PlotStream>();
+      const std::string ports = req.get_param_value("ports");
+      for (std::size_t begin = 0; begin < ports.size();) {
+        const std::size_t comma = std::min(ports.find(',', begin), ports.size());
+        if (comma > begin) plot->ports.push_back(ports.substr(begin, comma - begin));
+        begin = comma + 1;
+      }
+      res.set_header("Cache-Control", "no-store");
+      res.set_chunked_content_provider("text/event-stream", [this, plot](std::size_t, httplib::DataSink& sink) {
+        return plot_stream(sink, *plot, stopping, [this](const std::string& a) { return values(a)[a]; });
+      });
+    });
     server.Get(R"(/api/ports/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return port_value(req.matches[1].str()); });
     });
@@ -478,7 +530,8 @@ void WebServer::run(const std::function<bool()>& interrupted, const std::functio
   print_url(fmt::format("http://{}:{}/#token={}", shown, s.port, token_));
   std::thread serving([&s] { s.server.listen_after_bind(); });
   while (!interrupted()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  s.feed.stop();  // wakes the event streams, which end
+  s.stopping.store(true);  // the plots' streams end
+  s.feed.stop();           // wakes the system's streams, which end
   s.server.stop();
   serving.join();
 }

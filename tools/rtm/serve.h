@@ -1,6 +1,6 @@
 // rtm serve: the component editor in a browser. An HTTP server (cpp-httplib, Debian's
 // libcpp-httplib-dev: a small, well-kept library with SSE support and no framework to adopt)
-// serving one page (tools/rtm/web/index.html, plain JavaScript and SVG) and a JSON API that
+// serving one page (tools/rtm/web/index.html, plain JavaScript, SVG and canvas) and a JSON API that
 // runs the same code as the `rtm` commands (Browser, report, values).
 //
 // API (every /api/ call needs the token: header X-RTM-Token, or ?token= for EventSource):
@@ -16,7 +16,12 @@
 //   POST /api/system-file                  body: a system file; its connections and activations
 //                                          applied to what runs ({"done": [...], "failed": [...]})
 //   GET  /api/events                       server-sent events: "system" with /api/system's
-//                                          body, when it changes (checked once a second)
+//                                          body, when it changes (looked at twice a second,
+//                                          once for every page together)
+//   GET  /api/values/stream?ports=a.out0,b.out1
+//                                          server-sent events: "values" with /api/values's
+//                                          body, 25 times a second (the page's plots;
+//                                          its ports asked one at a time over the period)
 // A refusal is {"error": "<the same sentence rtm prints>"} with 4xx.
 //
 // Security, because the page can move an arm: loopback by default; the first line on stdout
