@@ -210,7 +210,7 @@ std::vector<ComponentInfo> Browser::list(std::string_view filter, bool detailed)
   return list(filter, detailed ? Detail::full : Detail::brief);
 }
 
-std::vector<ComponentInfo> Browser::list(std::string_view filter, Detail detail) const {
+std::vector<ComponentInfo> Browser::list(std::string_view filter, Detail detail, Asking asking) const {
   std::vector<ComponentEntry> entries = naming_.list_components();
   std::string host_filter, name_filter;
   if (!filter.empty()) {
@@ -222,6 +222,12 @@ std::vector<ComponentInfo> Browser::list(std::string_view filter, Detail detail)
     return (!host_filter.empty() && e.path.host != host_filter) ||
            (!name_filter.empty() && e.path.name != name_filter);
   });
+  std::vector<ComponentInfo> out;
+  out.reserve(entries.size());
+  if (asking == Asking::in_turn) {
+    for (const auto& e : entries) out.push_back(inspect(e.path, e.object.in(), detail));
+    return out;
+  }
   // Components answer independently: ask them in parallel so that a system of many
   // components (or one slow one) costs about one component's round trips.
   std::vector<std::future<ComponentInfo>> answers;
@@ -231,8 +237,6 @@ std::vector<ComponentInfo> Browser::list(std::string_view filter, Detail detail)
       return inspect(e.path, e.object.in(), detail);
     }));
   }
-  std::vector<ComponentInfo> out;
-  out.reserve(entries.size());
   for (auto& a : answers) out.push_back(a.get());
   return out;
 }

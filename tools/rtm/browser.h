@@ -129,7 +129,11 @@ class Browser {
   // OutPort's subscriptions: what rtm serve draws, twice a second), full (and statistics,
   // parameters, descriptions: ls -l, cat).
   enum class Detail { brief, wiring, full };
-  std::vector<ComponentInfo> list(std::string_view filter, Detail detail) const;
+  // Asking: parallel (a thread per component: a command's answer in about one component's
+  // round trips) or one after another (what a repeated look in the background prefers: one
+  // call at a time instead of a burst that every loop waking during it waits behind).
+  enum class Asking { parallel, in_turn };
+  std::vector<ComponentInfo> list(std::string_view filter, Detail detail, Asking asking = Asking::parallel) const;
   // Removes the dead bindings among those listed; returns their paths.
   std::vector<ComponentPath> clean(std::string_view filter) const;
   // One component in full (ports, counters, subscriptions).

@@ -274,10 +274,11 @@ struct WebServer::Impl {
   }
 
   // What the page draws: states, timing, ports and subscriptions (not statistics and
-  // parameters: those come with /api/components/<name>, when the page asks).
-  json system() const {
+  // parameters: those come with /api/components/<name>, when the page asks). The streams'
+  // look, twice a second, asks the components in turn (Browser::Asking).
+  json system(Browser::Asking asking = Browser::Asking::parallel) const {
     json list = json::array();
-    for (const auto& c : browser.list("", Browser::Detail::wiring)) {
+    for (const auto& c : browser.list("", Browser::Detail::wiring, asking)) {
       json j = component_json(c, false);
       if (c.timing) j["timing"] = timing_json(*c.timing);
       list.push_back(std::move(j));
@@ -435,7 +436,7 @@ struct WebServer::Impl {
 
   std::string system_event() const {
     try {
-      return system().dump();
+      return system(Browser::Asking::in_turn).dump();
     } catch (const std::exception& e) {
       return json{{"error", e.what()}}.dump();
     } catch (const CORBA::Exception& e) {
