@@ -4,9 +4,12 @@
 #include <sched.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 
@@ -29,6 +32,43 @@ void set_thread_name(std::string_view name) {
   pthread_setname_np(pthread_self(), cut.c_str());
 }
 
+namespace {
+
+// struct sched_attr (linux/sched/types.h, size 48 since Linux 4.13), declared here: glibc has
+// no sched_setattr() wrapper, and the kernel header clashes with <sched.h> on some systems.
+struct SchedAttr {
+  std::uint32_t size;
+  std::uint32_t policy;
+  std::uint64_t flags;
+  std::int32_t nice;
+  std::uint32_t priority;
+  std::uint64_t runtime;
+  std::uint64_t deadline;
+  std::uint64_t period;
+  std::uint32_t util_min;
+  std::uint32_t util_max;
+};
+
+// Asks for a slice of slice_ns at the thread's own policy and nice value; false (errno set)
+// when the kernel refuses.
+bool request_slice(long slice_ns) {
+  SchedAttr attr{};
+  if (::syscall(SYS_sched_getattr, 0, &attr, sizeof attr, 0) != 0) return false;
+  if (attr.policy != SCHED_OTHER) return true;
+  attr.size = sizeof attr;
+  attr.flags = 0;
+  attr.runtime = static_cast<std::uint64_t>(slice_ns);
+  return ::syscall(SYS_sched_setattr, 0, &attr, 0) == 0;
+}
+
+}  // namespace
+
+long current_slice_ns() {
+  SchedAttr attr{};
+  if (::syscall(SYS_sched_getattr, 0, &attr, sizeof attr, 0) != 0) return 0;
+  return static_cast<long>(attr.runtime);
+}
+
 void apply_thread_settings(const ThreadSettings& settings) {
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
   if (!settings.name.empty()) set_thread_name(settings.name);
@@ -49,6 +89,9 @@ void apply_thread_settings(const ThreadSettings& settings) {
            std::strerror(err) + "); running SCHED_OTHER" +
            (err == EPERM ? " (needs CAP_SYS_NICE or an rtprio limit)" : ""));
   }
+  if (settings.slice_ns > 0 && !request_slice(settings.slice_ns))
+    warn(who + ": a time slice of " + std::to_string(settings.slice_ns / 1000) + " us refused (" +
+         std::strerror(errno) + "); at SCHED_OTHER a waking cycle may wait for another thread's slice");
   if (settings.lock_memory && mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
     warn(who + ": mlockall refused (" + std::strerror(errno) + "); page faults may delay cycles");
 }

@@ -5,7 +5,11 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/utsname.h>
+#include <unistd.h>
 
+#include <cstdio>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -79,6 +83,47 @@ TEST(ThreadSettings, FifoPriorityIsGrantedOrRefusedWithAWarningNeverSilently) {
     ASSERT_EQ(taken.size(), 1u) << "running without the priority asked for must be reported";
     EXPECT_NE(taken[0].find("SCHED_FIFO priority 10 refused"), std::string::npos) << taken[0];
   }
+}
+
+// Linux 6.12 and later keep a fair task's own slice; older kernels take the request and
+// ignore it (the loops then wait out other threads' slices, as before).
+bool kernel_keeps_fair_slices(std::string& release) {
+  utsname u{};
+  if (uname(&u) != 0) return false;
+  release = u.release;
+  int major = 0, minor = 0;
+  if (std::sscanf(u.release, "%d.%d", &major, &minor) != 2) return false;
+  return major > 6 || (major == 6 && minor >= 12);
+}
+
+TEST(ThreadSettings, AtSchedOtherTheThreadGetsTheShortSliceItAsksForAndKeepsItsNiceValue) {
+  std::string release;
+  if (!kernel_keeps_fair_slices(release)) GTEST_SKIP() << "Linux " << release << " ignores a fair task's slice";
+  CapturedWarnings captured;
+  long slice = -1;
+  int nice_after = 0;
+  std::thread([&] {
+    setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 3);
+    rtm::ThreadSettings settings{"sliced"};
+    settings.slice_ns = 250'000;
+    rtm::apply_thread_settings(settings);
+    slice = rtm::current_slice_ns();
+    nice_after = getpriority(PRIO_PROCESS, static_cast<id_t>(gettid()));
+  }).join();
+  EXPECT_EQ(slice, 250'000);
+  EXPECT_EQ(nice_after, 3) << "asking for a slice reset the thread's nice value";
+  EXPECT_TRUE(captured.taken().empty());
+}
+
+TEST(ThreadSettings, TheDefaultSliceOfALoopIsTheKernelsShortest) {
+  std::string release;
+  if (!kernel_keeps_fair_slices(release)) GTEST_SKIP() << "Linux " << release << " ignores a fair task's slice";
+  long slice = -1;
+  std::thread([&] {
+    rtm::apply_thread_settings(rtm::ThreadSettings{"loop"});
+    slice = rtm::current_slice_ns();
+  }).join();
+  EXPECT_EQ(slice, 100'000);
 }
 
 }  // namespace

@@ -14,11 +14,20 @@ struct ThreadSettings {
   int fifo_priority = 0;   // 1..99: SCHED_FIFO at that priority; 0: SCHED_OTHER
   int cpu = -1;            // pin the thread to this CPU; -1: no affinity
   bool lock_memory = false;  // mlockall(MCL_CURRENT | MCL_FUTURE)
+  // At SCHED_OTHER: the time slice the thread asks for (sched_attr.sched_runtime of a fair
+  // task; Linux 6.12 and later honour it, from 100 us, unprivileged; older kernels ignore it).
+  // A loop with a short slice that wakes preempts the thread running its CPU instead of
+  // waiting for that thread's slice to end. 0: the kernel's default slice.
+  long slice_ns = 100'000;
 };
 
 // Applies settings to the calling thread, and a timer slack of 1 ns (the default 50 us makes
 // SCHED_OTHER threads wake ~50 us late).
 void apply_thread_settings(const ThreadSettings& settings);
+
+// The calling thread's time slice as the kernel reports it (sched_attr.sched_runtime; Linux
+// 6.12 and later), 0 where it reports none or the call fails.
+long current_slice_ns();
 
 // Names the calling thread (cut to 15 characters).
 void set_thread_name(std::string_view name);
