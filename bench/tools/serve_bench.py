@@ -17,8 +17,6 @@ usage: bench/tools/serve_bench.py [build folder (build/default)] [components (50
 import json
 import os
 import shutil
-import signal
-import socket
 import statistics
 import subprocess
 import sys
@@ -26,9 +24,9 @@ import tempfile
 import time
 import urllib.request
 
-from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
+
+from serve_harness import Processes, headless_chromium, start_naming_service
 
 build = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else "build/default")
 count = int(sys.argv[2]) if len(sys.argv) > 2 else 50
@@ -38,30 +36,8 @@ browser_nice = int(sys.argv[5]) if len(sys.argv) > 5 else 0
 rtm_bin = os.path.join(build, "bin", "rtm")
 talker = os.path.join(build, "tests", "bin", "rtm-test-talker")
 work = tempfile.mkdtemp(prefix="rtm-serve-bench-")
-procs = []
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start(argv):
-    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    procs.append(p)
-    return p
-
-
-def stop(ps):
-    for p in ps:
-        p.send_signal(signal.SIGTERM)
-    for p in ps:
-        try:
-            p.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
+processes = Processes()
+start, stop = processes.start, processes.stop
 
 
 def rtm_json(*args):
@@ -81,22 +57,8 @@ def talkers(prefix, n, on):
     raise RuntimeError("talkers did not bind")
 
 
-port = free_port()
-naming = f"127.0.0.1:{port}"
-os.makedirs(os.path.join(work, "names"))
-start(["omniNames", "-start", str(port), "-datadir", os.path.join(work, "names"), "-logdir",
-       os.path.join(work, "names"), "-ignoreport", "-ORBendPoint", f"giop:tcp:127.0.0.1:{port}"])
-time.sleep(0.5)
-options = webdriver.ChromeOptions()
-for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
-    options.add_argument(arg)
-if browser_nice:  # the browser, and every process it starts, at this nice value
-    wrapper = os.path.join(work, "chromium")
-    with open(wrapper, "w") as f:
-        f.write(f"#!/bin/sh\nexec nice -n {browser_nice} /usr/bin/chromium \"$@\"\n")
-    os.chmod(wrapper, 0o755)
-    options.binary_location = wrapper
-driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+naming = start_naming_service(processes, work)
+driver = headless_chromium(work, browser_nice)
 try:
     serve = start([rtm_bin, "--naming", naming, "serve"])
     url = serve.stdout.readline().strip()
@@ -156,5 +118,5 @@ try:
     print(f"lateness p99 with the page / without: {with_page / without:.2f} (goal <= 1.1)")
 finally:
     driver.quit()
-    stop([p for p in procs if p.poll() is None])
+    stop()
     shutil.rmtree(work, ignore_errors=True)

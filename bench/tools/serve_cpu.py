@@ -9,23 +9,20 @@ usage: bench/tools/serve_cpu.py [build folder (build/default)] [phase seconds (1
 """
 import os
 import shutil
-import signal
-import socket
-import subprocess
 import sys
 import tempfile
 import time
 
-from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
+
+from serve_harness import Processes, headless_chromium, start_naming_service
 
 build = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else "build/default")
 phase_s = float(sys.argv[2]) if len(sys.argv) > 2 else 15
 rtm_bin = os.path.join(build, "bin", "rtm")
 talker = os.path.join(build, "tests", "bin", "rtm-test-talker")
 work = tempfile.mkdtemp(prefix="rtm-serve-cpu-")
-procs = []
+processes = Processes()
 
 GROUPS = {
     "chromium renderer": lambda c: "chrom" in c and "--type=renderer" in c,
@@ -35,18 +32,6 @@ GROUPS = {
     "10 talkers": lambda c: "rtm-test-talker" in c,
     "omniNames": lambda c: c.startswith("omniNames"),
 }
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start(argv):
-    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    procs.append(p)
-    return p
 
 
 def cpu_seconds():
@@ -67,20 +52,12 @@ def cpu_seconds():
     return used
 
 
-port = free_port()
-naming = f"127.0.0.1:{port}"
-os.makedirs(os.path.join(work, "names"))
-start(["omniNames", "-start", str(port), "-datadir", os.path.join(work, "names"), "-logdir",
-       os.path.join(work, "names"), "-ignoreport", "-ORBendPoint", f"giop:tcp:127.0.0.1:{port}"])
-time.sleep(0.5)
-options = webdriver.ChromeOptions()
-for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
-    options.add_argument(arg)
-driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+naming = start_naming_service(processes, work)
+driver = headless_chromium(work)
 try:
-    url = start([rtm_bin, "--naming", naming, "serve"]).stdout.readline().strip()
+    url = processes.start([rtm_bin, "--naming", naming, "serve"]).stdout.readline().strip()
     for i in range(10):
-        start([talker, "--name", f"p{i}", "--naming", naming, "--on"])
+        processes.start([talker, "--name", f"p{i}", "--naming", naming, "--on"])
     time.sleep(3)
     print(f"machine: {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.2f}; phases of {phase_s:.0f} s; "
           "CPU used, % of one CPU")
@@ -102,11 +79,5 @@ try:
               flush=True)
 finally:
     driver.quit()
-    for p in procs:
-        p.send_signal(signal.SIGTERM)
-    for p in procs:
-        try:
-            p.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            p.kill()
+    processes.stop()
     shutil.rmtree(work, ignore_errors=True)
