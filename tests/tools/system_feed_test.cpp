@@ -79,7 +79,7 @@ TEST(SystemFeed, StopWakesAWaitingPageWithNothing) {
   SystemFeed feed([] { return std::string("still"); }, 10ms);
   SystemFeed::Subscription page(feed);
   ASSERT_TRUE(page.next(10s).has_value());
-  std::optional<SystemFeed::Update> got{SystemFeed::Update{0, "not woken"}};
+  std::optional<SystemFeed::Update> got{SystemFeed::Update{"not woken"}};
   auto waited = std::chrono::steady_clock::duration{};
   std::thread waiting([&] {
     const auto t0 = std::chrono::steady_clock::now();

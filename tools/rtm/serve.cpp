@@ -39,16 +39,27 @@ constexpr std::chrono::milliseconds kSystemPeriod{500};
 // An event stream writes at least this often: a closed page is only noticed when a write to it
 // fails (the second after it closed), and until then its stream holds one of the workers.
 constexpr std::chrono::seconds kKeepAlive{1};
-// Each open page's event stream holds a worker for as long as it is open; the rest answer the
-// API (the plots' polls, up to three at once per page). httplib's default is 8.
+// Each open page's streams (the system's, and its plots' when it plots) hold a worker each for
+// as long as they are open; the rest answer the API. httplib's default is 8.
 constexpr std::size_t kWorkers = 32;
 // A plots' stream sends its ports' latest data this often (25 a second).
 constexpr std::chrono::milliseconds kPlotPeriod{40};
 
+// "a.out0,b.out1" -> its addresses, empty ones left out.
+std::vector<std::string> split_ports(const std::string& ports) {
+  std::vector<std::string> out;
+  for (std::size_t begin = 0; begin < ports.size();) {
+    const std::size_t comma = std::min(ports.find(',', begin), ports.size());
+    if (comma > begin) out.push_back(ports.substr(begin, comma - begin));
+    begin = comma + 1;
+  }
+  return out;
+}
+
 // One page's plots: its ports, the data gathered for the next event, and when the next port
 // is due. The ports are asked one at a time, spread over the period: ten calls in a burst
 // made every loop that woke during it wait (measured: the loops' lateness p99 at SCHED_OTHER
-// 250-300 us with the burst at 30 a second, 60-100 us spread; docs/performance.md).
+// 250-300 us with the burst at 30 a second, 60-170 us spread; docs/performance.md).
 struct PlotStream {
   std::vector<std::string> ports;
   std::size_t next_port = 0;
@@ -290,27 +301,26 @@ struct WebServer::Impl {
   // {"<address>": datum as /api/ports gives it, or {"error": why}}.
   json values(const std::string& ports) const {
     json out = json::object();
-    std::size_t begin = 0;
-    while (begin <= ports.size()) {
-      const std::size_t comma = std::min(ports.find(',', begin), ports.size());
-      const std::string address = ports.substr(begin, comma - begin);
-      begin = comma + 1;
-      if (address.empty()) continue;
-      try {
-        out[address] = port_value(address);
-      } catch (const BrowseError& e) {
-        out[address] = json{{"error", e.what()}};
-      } catch (const std::invalid_argument& e) {
-        out[address] = json{{"error", e.what()}};
-      } catch (const CORBA::Exception& e) {
-        out[address] = json{{"error", failure_text(e)}};
-      }
-    }
+    for (const std::string& address : split_ports(ports)) out[address] = value_or_error(address);
     return out;
   }
 
+  // One port's datum as /api/ports gives it, or {"error": why}: a port that fails is shown
+  // failing beside the others.
+  json value_or_error(const std::string& address) const {
+    try {
+      return port_value(address);
+    } catch (const BrowseError& e) {
+      return json{{"error", e.what()}};
+    } catch (const std::invalid_argument& e) {
+      return json{{"error", e.what()}};
+    } catch (const CORBA::Exception& e) {
+      return json{{"error", failure_text(e)}};
+    }
+  }
+
   // An OutPort by address, resolved once (naming service, component, port list) and then
-  // kept: the plots ask for the same ports 20-33 times a second.
+  // kept: the plots ask for the same ports 25 times a second.
   std::pair<std::string, RTM::OutPort_var> out_port(const std::string& address) const {
     {
       std::lock_guard lock(ports_mu);
@@ -487,15 +497,10 @@ struct WebServer::Impl {
     });
     server.Get("/api/values/stream", [this](const httplib::Request& req, httplib::Response& res) {
       auto plot = std::make_shared<PlotStream>();
-      const std::string ports = req.get_param_value("ports");
-      for (std::size_t begin = 0; begin < ports.size();) {
-        const std::size_t comma = std::min(ports.find(',', begin), ports.size());
-        if (comma > begin) plot->ports.push_back(ports.substr(begin, comma - begin));
-        begin = comma + 1;
-      }
+      plot->ports = split_ports(req.get_param_value("ports"));
       res.set_header("Cache-Control", "no-store");
       res.set_chunked_content_provider("text/event-stream", [this, plot](std::size_t, httplib::DataSink& sink) {
-        return plot_stream(sink, *plot, stopping, [this](const std::string& a) { return values(a)[a]; });
+        return plot_stream(sink, *plot, stopping, [this](const std::string& a) { return value_or_error(a); });
       });
     });
     server.Get(R"(/api/ports/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {

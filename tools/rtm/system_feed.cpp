@@ -73,7 +73,7 @@ std::optional<SystemFeed::Update> SystemFeed::Subscription::next(std::chrono::mi
     return std::nullopt;
   if (feed_.stopping_) return std::nullopt;
   seen_ = feed_.version_;
-  return Update{seen_, feed_.text_};
+  return Update{feed_.text_};
 }
 
 }  // namespace rtm::cli

@@ -28,7 +28,6 @@ class SystemFeed {
   SystemFeed& operator=(const SystemFeed&) = delete;
 
   struct Update {
-    std::uint64_t version;
     std::string text;
   };
 
