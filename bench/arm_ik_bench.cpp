@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Time per call of the PA10 kinematics on the 2 ms control path: the velocity IK in its three
 // regimes (free, near a singularity, a joint held at its limit), and FK / Jacobian alone.
 // Target: a velocity IK solve well under 20 us, so it fits a 2 ms cycle with room to spare.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Another program on the machine, for the benches that compare quiet with loaded: a process
 // that keeps one CPU busy (a spinning loop at normal priority) until the object goes.
 #pragma once

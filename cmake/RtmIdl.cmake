@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # IDL stubs, in this tree and for projects built on the installed package (RTMConfig.cmake
 # includes this file).
 #

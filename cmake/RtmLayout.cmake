@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # rtm_add_subdirectories([names...])
 #
 # Adds the subfolders of the current folder that have a CMakeLists.txt: the named ones in the

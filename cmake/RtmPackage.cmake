@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # The RTM CMake package: what `cmake --install` puts where, and RTMConfig.cmake for projects
 # built on RTM (find_package(RTM)), from an install prefix or from this build tree.
 #

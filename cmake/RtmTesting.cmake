@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # rtm_add_gtest(<name> SOURCES <files...> LIBS <libs...> LABELS <labels...> [TIMEOUT s])
 #
 # One GoogleTest executable; each TEST becomes its own CTest test carrying LABELS

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The README's first command: the paper's force servo on the simulated PA10.
 #   1. installs missing Debian packages (scripts/deps.sh) and builds the default preset;
 #   2. runs examples/force-servo/demo: a private omniNames on a free loopback port, pa10-sim

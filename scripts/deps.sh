@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs the Debian 12 packages RTM needs: only those missing. Idempotent.
 #   scripts/deps.sh        what building and running the demo needs
 #   scripts/deps.sh test   that, and what the test suite needs besides (QEMU and busybox for the

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The whole test suite: installs what is missing, builds and runs three stages,
 #   default  the Release build, every test (unit, integration, slow, socketcan);
 #   asan     ASan+UBSan: unit and integration tests, SocketCAN ones included (not slow ones);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "sim/force_sensor_device.h"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // pa10-sim: the MuJoCo PA10 behind a CAN bus, standing in for the real arm's drives and
 // force sensors. See sim/README.md.
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "arm/can/bus.h"
 
 #include <linux/can/raw.h>

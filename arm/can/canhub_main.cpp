@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-canhub <socket path>: runs the user-space CAN bus until SIGINT or SIGTERM.
 #include <signal.h>
 

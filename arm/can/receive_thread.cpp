@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "arm/can/receive_thread.h"
 
 #include "rt/clock.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "arm/pa10/arm.h"
 
 #include "arm/can/master.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How fast the PA10 master stops the arm when another node attacks its bus: for each attack
 // (a second master's RPDO + SYNC after each of our SYNCs, a spoofed wrist-force TPDO, a
 // spoofed drive TPDO), N trials against the master on its periodic 2 ms thread and pa10-sim's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Cost of the PA10 codec per frame: what the master and pa10-sim spend per CAN frame.
 #include <benchmark/benchmark.h>
 

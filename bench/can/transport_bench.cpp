@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Frames through a CAN transport, and the master's lock-step cycle against pa10-sim's CAN nodes
 // on a kinematic plant (tests/can/emulated_pa10.h).
 //

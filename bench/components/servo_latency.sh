@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # End-to-end latency of the force servo: from a sensor sample's stamp to the drive command
 # leaving for the bus, per run mode, measured during the force-servo demo on pa10-sim.
 #

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Percentiles of a run of samples, printed the same way by every core benchmark.
 #pragma once
 

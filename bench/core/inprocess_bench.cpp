@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // In-process port path: OutPort<TimedFloat6>::write -> InPort<TimedFloat6> of the same
 // process, without any nor ORB (the subscription found the InPort local).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Periodic activity lateness beside a bare clock_nanosleep loop, at 2 ms and 1 ms, both running
 // at once in the same time window (the bare loop's deadlines half a period after the
 // activity's, so neither delays the other's wake-up) with the same thread settings; then the

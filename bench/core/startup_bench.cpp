@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Start time (exec -> "bound" line) and idle RSS of a component process: rtm-example-source,
 // started again and again against a real omniNames on a free port.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Two processes over loopback: one-way latency of TimedFloat6 paced at 1 kHz and burst
 // throughput, through RTM's ports (OutPort::write in the publisher process -> put/push ->
 // InPort in this process), beside a bare omniORB put(any) on a servant with no RTM code as

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The stability-latency study (bench/sim/stability_study, lock-step) confirmed in real time: the
 # force-servo demo on pa10-sim's default steel table, in the paper's mode (five processes,
 # examples/force-servo/system.yaml) or the shared tick (system-shared.yaml), with the contact

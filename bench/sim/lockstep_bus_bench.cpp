@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Lock-step speed across processes: Pa10Master.step() against a pa10-sim --lockstep child over
 // the local bus (hub inside pa10-sim). Each cycle: 7 RPDOs + SYNC out, 2 physics steps, 7 drive
 // TPDOs + 4 sensor PDOs back. Prints cycles/s, the real-time factor (2 ms of sim time per

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // pa10-sim's cost per simulated millisecond, headless: the MuJoCo plant alone (arm held in the
 // air, and held pressing on the table so contact is solved every step), and a whole lock-step
 // SYNC cycle (7 RPDOs + SYNC in, 2 physics steps, 7 drive TPDOs + 4 sensor PDOs out) without a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the loop's latency costs a force loop: for each surface and each sample-to-drive delay,
 // the largest gain of the paper's P controller that keeps the contact loop stable, and the
 // settling time it gives. Lock-step simulation of the PA10 stand-in (sim/pa10_plant.h): no

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # The stability-latency study's plot: largest stable P gain (top) and the settling time it gives
 # (bottom) over the surface's stiffness, one line per sample-to-drive delay. The CSV's rows are
 # surface by surface, three modes each in the study's order: shared tick, paper median, worst.

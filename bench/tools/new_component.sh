@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # From `rtm new component` to a running component, as a new user goes: install the build into a
 # temporary prefix (not timed), then time each step against that prefix alone: rtm new,
 # cmake configure, build (logic library, executable, test), the project's own test, and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Figures of the `rtm` tool, measured with the real binary against real processes:
 //   1. `rtm ls` (and `rtm ls -l`) of N components: wall time per call, p50 and max;
 //   2. `rtm watch` on a 500 Hz stream: data received vs written, drops.

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """rtm serve's figures, in one run, in headless Chromium (Debian's chromium, chromium-driver,
 python3-selenium):
 

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """What `rtm serve`'s page costs in CPU, process by process, in headless Chromium (Debian's
 chromium, chromium-driver, python3-selenium): ten rtm-test-talker components on at 2 ms, one
 omniNames, rtm serve; then three phases of equal length: no page (about:blank), the page open

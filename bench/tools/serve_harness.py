@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """What rtm serve's benches share: processes they start and stop, a naming service of their own
 on a free loopback port, and headless Chromium (Debian's chromium and chromium-driver)."""
 import os

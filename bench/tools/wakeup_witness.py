@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """A witness for host stalls: sleeps to a 1 ms absolute grid at SCHED_FIFO 25 for SECONDS and
 prints every wake-up more than 4 ms late with its wall-clock time, to set beside a run's events
 (e.g. the demo's watchdog events, which name their time). Needs root or CAP_SYS_NICE.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # How long scripts/vm-vcan-run takes to start a command in its guest, and to return.
 #
 # usage: bench/vm/boot_time.sh [RUNS]   (default 10)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-actuator: the PA10 driven by Cartesian velocity commands (paper Fig. 7). Owns the CAN
 // master (NMT, SYNC every period); in0 = velocity twist (base frame), clamped to ±limit,
 // watchdog and NaN/inf give zero velocity.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "components/actuator/velocity_arm.h"
 
 #include <CLI/CLI.hpp>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "components/controller/controller.h"
 
 #include "rtm/data.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-controller: the proportional force controller (paper Fig. 6):
 // out0 = gain * (in1 reference + in0 sensor), zero when an input is stale or not finite.
 #include "components/controller/controller.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "components/joystick/joystick.h"
 
 #include "rtm/data.h"

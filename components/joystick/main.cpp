@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-joystick: the reference generator. A passive listener on the joystick force sensor's
 // bus; writes the operator's force (base-aligned frame) to out0 each cycle.
 #include "components/joystick/joystick.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-sensor: the wrist force/torque sensor as an RT component (paper Fig. 5). A passive
 // listener on the arm's bus: it reads the wrist sensor's TPDOs and the drives' joint
 // positions, and writes the wrench in the arm's base frame to out0 each cycle. A heartbeat

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "components/sensor/wrist_source.h"
 
 namespace rtm::comp {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-servo: the force-servo composite (paper Figs. 4, 8).
 //
 // Paper mode (default): --sensor/--controller/--actuator name RT components found through the

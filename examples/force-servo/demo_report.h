@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The force-servo demo's analysis: the recorded port streams in, a per-phase summary, a
 // merged CSV and a gnuplot script out. No CORBA: the demo records with `rtm watch --csv`
 // and this library reads those files (and `rtm --json ls -l` for the loop timing).

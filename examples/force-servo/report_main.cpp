@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-demo-report: the force-servo demo's recordings in, its summary, merged CSV and gnuplot
 // script out.
 //

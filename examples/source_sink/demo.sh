@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The two-component example: a source and a sink wired through a real naming service.
 #   1. installs missing Debian packages (scripts/deps.sh) and builds the default preset's
 #      example targets;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-example-sink: prints the TimedFloat6 data reaching InPort "in0".
 //
 // Printing is this example's whole purpose, so unlike a control component its cycle does

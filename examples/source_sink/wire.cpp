@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-example-wire: connects one component's OutPort to another's InPort (subscribe, as the
 // paper's component editor did) and turns both components on.
 //

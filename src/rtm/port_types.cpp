@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Instantiates the ports for every timed type of RTM.idl and RTMData.idl, so that the library
 // build alone proves each of them compiles.
 #include "rtm/inport.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pa10Arm with the real CANopen master over the user-space CAN bus, against seven fake drives
 // written here at the protocol level (boot-up, heartbeats, SDO mode of operation, NMT, the
 // CiA 402 state machine, TPDO after each SYNC). The master is stepped in lock-step.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The PA10 model and kinematics: URDF loading, FK against an independent DH product, the
 // Jacobian, and the velocity IK's damping, limit handling and input checks.
 #include "arm/pa10/kinematics.h"

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """rtm serve's page in a real headless Chromium, against the real force-servo system on the
 simulator: the five components and their ports shown; a drag from joystick0's OutPort onto
 servo0's InPort subscribes it (rtm cat confirms); a mismatched drag shows rtm connect's message

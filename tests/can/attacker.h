@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A protocol-level attacker on the PA10 master's bus, for the attack tests and the bench that
 // measures how fast the master stops the arm (bench/can/attack_bench.cpp).
 #pragma once

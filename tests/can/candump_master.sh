@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: Apache-2.0
 # Inside the guest (scripts/vm-vcan-run): records vcan0 with candump while the master test runs, then checks the
 # recording holds the protocol's traffic (SYNC, every drive's RPDO and TPDO, both sensors' TPDOs,
 # NMT, SDO and heartbeats). usage: candump_master.sh <can_socketcan_test binary>

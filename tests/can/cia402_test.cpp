@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CiA 402 state machine on both sides: the device transitions, and the master's enabler
 // reaching operation enabled against the device model, including fault and fault reset.
 #include "arm/can/cia402.h"

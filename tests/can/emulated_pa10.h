@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The PA10's CAN nodes as pa10-sim emulates them (sim/pa10_rig.h: the same DriveDevice and
 // ForceSensorDevice), on a kinematic plant (joint velocity integrates to position over 2 ms
 // per SYNC, so lock-step results are exact), served on a bus from their own thread in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // JointListener, the passive reader of the drives' joint feedback, against the PA10's CAN
 // nodes as pa10-sim emulates them (driven by a Pa10Master in lock-step) on the user-space bus,
 // and against hand-written frames: the state of each SYNC as the master sees it, complete

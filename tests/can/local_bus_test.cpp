@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The user-space bus: delivery to every other endpoint and never back to the sender, robustness
 // against dying endpoints and malformed datagrams, filters, and the bus-spec errors.
 #include <fcntl.h>

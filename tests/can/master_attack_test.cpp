@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The master under attack on its own bus, by a protocol-level peer: a second master that sends
 // its own SYNC and RPDOs after each of ours, a node that spoofs a wrist-force or drive TPDO, an
 // SDO write; and a drive that moves without being told (the following-error check). Each must

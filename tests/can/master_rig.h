@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A Pa10Master and the emulated PA10 nodes on one local hub, with timeouts that bound how long
 // a broken build waits: what the master's tests and the passive listeners' tests start from.
 #pragma once

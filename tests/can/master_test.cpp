@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pa10Master against the PA10's CAN nodes as pa10-sim emulates them (on a kinematic plant, in
 // lock-step) on the user-space bus: startup, lock-step PDO exchange, faults with reasons and
 // zero command, fault reset, heartbeat loss, counted bad frames, the periodic thread, a

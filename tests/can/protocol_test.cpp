@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The PA10 codec: every frame round-trips, scaling and saturation are exact, and every
 // malformed input gives an error value.
 #include "arm/can/protocol.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The SocketCAN transport and the master over a real kernel CAN stack (vcan0). CTest runs it in
 // a QEMU guest through scripts/vm-vcan-run (label socketcan). Without a CAN stack or vcan0 every
 // test fails, never skips: where it runs, both must be there.

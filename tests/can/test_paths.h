@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A private temporary directory per test for hub sockets; removed at the end.
 #pragma once
 

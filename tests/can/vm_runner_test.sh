@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The guest runner (scripts/vm-vcan-run) reports what the guest did: the command's exit code and
 # output, the caller's environment and directory, the vcan interfaces asked for, modules loaded
 # on demand, writes that vanish unless written through, a timeout (124), bad usage (2), and a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The one place a force sensor's two TPDOs become a wrench (the master's cycle and the passive
 // listener both use it).
 #include "arm/can/wrench_assembly.h"

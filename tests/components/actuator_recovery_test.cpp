@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The actuator's fault policy against the real arm library and CANopen master, with the PA10's
 // CAN nodes as pa10-sim emulates them (on a kinematic plant) on the user-space bus, in lock-step
 // (one actuator cycle, then one SYNC): a drive's RPDO timeout (EMCY 0x8250, a communication

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Actuator without CORBA, against a recording arm: Fig. 7's limiter, the watchdog, NaN,
 // zero velocity on off(), arm faults.
 #include "components/actuator/actuator.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The force servo closed around a real pa10-sim process in lock-step: joystick, sensor,
 // controller and actuator constructed directly in this process (no CORBA), each 2 ms step
 // running their cycles in order and then one master SYNC (the sim advances one period). The

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The component executables' command lines: the controller's and the actuator's parameters are
 // registered once, by their parameter structs, so rtm-servo offers the same options with the
 // same checks; a bad value is refused with exit status 2 naming it, before anything starts.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The paper's system in real time, one process per member over a real omniNames, on pa10-sim:
 // the joystick pushes the arm through free space, the controller process is killed with
 // SIGKILL, and a passive listener on the bus checks that the arm is brought to a halt.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Controller without CORBA: Fig. 6's arithmetic, stale and non-finite inputs give a zero
 // command (never the last one), the command carries the sensor sample's stamp.
 #include "components/controller/controller.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Joystick (reference generator) without CORBA: the operator's force passes unchanged
 // (its frame is base-aligned), one datum per new reading, faults surface.
 #include "components/joystick/joystick.h"

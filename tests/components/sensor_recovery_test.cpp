@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Sensor component's fault policy with its real bus source (BusWristSource: SensorListener
 // and JointListener) against pa10-sim's CAN nodes (tests/can/emulated_pa10.h: the simulator's
 // own ForceSensorDevice and DriveDevices, in lock-step) on the user-space bus. The test is the

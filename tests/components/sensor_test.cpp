@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The wrist Sensor component without CORBA: the frame change to the base frame, one datum per
 // new wrench, fresh stamps, and source faults (the heartbeat-loss recovery against the
 // simulator's sensor node is in sensor_recovery_test.cpp).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The servo composite through real CORBA and a real omniNames: members found by name, on()
 // subscribes and turns them on, the servo's InPort 0 is the controller's InPort 1 (a put on it
 // lands in the controller), data flows sensor -> controller -> actuator, off() undoes it all.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "rtm_test/allocation_counter.h"
 
 #include "rtm/inport.h"

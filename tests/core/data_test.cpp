@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "rtm/data.h"
 
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Self-description: element lists, parameter values as text, and a port that would claim
 // more elements than its datum holds.
 #include "rtm/component.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm::Freshness: the age of an input's newest datum, and the one cycle it goes stale.
 #include "rtm/freshness.h"
 

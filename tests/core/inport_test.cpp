@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "core_test_support.h"
 
 #include "rtm/inport.h"

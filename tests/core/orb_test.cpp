@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "rtm/component.h"
 #include "rtm/orb.h"
 

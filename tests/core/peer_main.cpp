@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A second process for the rtm_core tests: serves one InPort<TimedFloat6> ("peer0.in0") and
 // prints its IOR on stdout; exits when its stdin closes. Its POA and object id look like the
 // test's own, so only a correct locality check tells them apart.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // SenderOrder: the per-sender order check behind RTM::InPortOrdered.
 #include "rtm/sender_order.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Concurrency: subscriptions and component control changed while data flows (run under TSan).
 #include "core_test_support.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-demo-report's arithmetic on synthetic recordings whose answers are known in closed form.
 #include "demo_report.h"
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Smoke test of the force-servo demo on the built tree: a short operator profile (hands off,
 # press at 10 N, 20 N, release) through examples/force-servo/demo, then: exit code 0, the
 # summary and the CSV written, both press phases found in contact, no sanitizer report in the

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The Debian package: `cpack -G DEB` in the build folder makes rtm_<version>_amd64.deb that
 # holds the programs, libraries, headers, IDL, models and the CMake package, depends on what
 # they need by Debian package name, runs from where it is unpacked, and passes lintian (when

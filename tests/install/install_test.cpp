@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // RTM as others build on it: `cmake --install` into a temporary prefix, then projects outside
 // this tree built against that prefix alone (find_package(RTM)), run with a real omniNames and
 // wired by the installed `rtm`.

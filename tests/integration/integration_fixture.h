@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What every integration test starts from: one ORB in the test process, a fresh omniNames on
 // a free port, and helpers to run rtm-test-component processes and reach them.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A component process driven from outside: on/off repeated, state and timing through the
 // extension interface.
 #include "integration_fixture.h"

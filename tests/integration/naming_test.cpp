@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The naming service as a component sees it: bound where OpenRTM looks, unbound on SIGTERM,
 // re-bound after the service restarts, one error line while it is away.
 #include "integration_fixture.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Ports between real processes: push once and repeated, get, type checks on subscribe and
 // put, a subscriber that dies mid-stream, and in-process detection across processes.
 #include "integration_fixture.h"

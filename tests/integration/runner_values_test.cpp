@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The runner's and the naming API's value parsing: periods, -ORB pass-through, naming
 // addresses and component paths. No ORB, no processes.
 #include "rtm/naming.h"

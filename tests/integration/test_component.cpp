@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-test-component: the component the integration tests run as a real process.
 //
 // Ports:

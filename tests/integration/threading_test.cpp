@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Subscriptions changed from other threads while a component publishes: the publisher and a
 // steady subscriber must not notice.
 #include "integration_fixture.h"

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Each library exports only include folders of its own: folders inside the folder that builds
 # it (its include/), or generated ones in the build tree; never the project root, which would
 # let its users include any header of the tree.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # check_exports.sh passes libraries that export their own folders and generated ones, and
 # names each library that exports the project root or another library's folder.
 # usage: check_exports_test.sh <check_exports.sh>

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The project's layering, checked on its #include lines (see docs/architecture.md):
 #   src/         the framework core: no robot code (arm/, sim/, components/) and no tools/
 #   src/rt/      the real-time base under everything: no CORBA (nor the core), no robot code

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # check_includes.sh finds each kind of violation in a small tree made here, names the file,
 # line and rule, and passes a tree that keeps the rules.
 # usage: check_includes_test.sh <check_includes.sh>

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # What the layering checks' own tests share (sourced): a scratch folder removed on exit,
 # run_check COMMAND... (its output in $output, shown indented, its exit status in $status),
 # expect WHAT COMMAND... (counts a failure when COMMAND fails) and finish (exit 1 if any).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Handing a periodic grid from one activity to another: stop one after deadline d, start the
 // other at d. What the CAN master and the servo's shared tick do with the SYNC cycles.
 #include <gtest/gtest.h>

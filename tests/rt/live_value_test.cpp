@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // LiveValue: a parameter published by one thread reaches the cycle whole and newest.
 #include "rt/live_value.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Thread settings: what a refused privilege does, and that the settings reach the thread.
 #include "rt/thread.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A client of 2004: it knows only the paper's RTM.idl and the CORBA naming service. It finds
 // an RTM component, lists its ports, subscribes an InPort servant of its own and receives
 // TimedFloat6 data, as the paper's component browser did. It carries no access key

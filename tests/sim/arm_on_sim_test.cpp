@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The arm library (Pa10Arm on Pa10Master) drives a real pa10-sim process over the local bus in
 // lock-step: a 10 cm Cartesian move, a 10 N press on the table with an admittance loop on the
 // wrist sensor, and the drives' command-loss brake, all timed in sim time (SYNCs).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // pa10-sim as a process: bad input is one clear line and exit code 1; SIGTERM stops it cleanly.
 #include <gtest/gtest.h>
 #include <signal.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The emulated drive, frame by frame: NMT, heartbeat, SDO, the CiA 402 state machine driven by
 // RPDOs latched at SYNC, and the PA10 command-loss safety.
 #include "sim/drive_device.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The emulated force/torque sensor: taring, scaling to the PDO units, saturation, NMT gating.
 #include "sim/force_sensor_device.h"
 

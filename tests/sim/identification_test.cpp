@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Identification of the PA10 stand-in in lock-step simulation: what the tool meets and how the
 // drives follow are measured from the plant's response, and each must be within 20 % of the
 // value it was configured with (docs/pa10-model.md).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A master in frames for the simulator's lock-step tests: feeds any node that takes
 // on_frame(frame, sink) (the rig on a kinematic plant, the MuJoCo simulator) the frames a
 // CANopen master sends, and reads back what the drives answered.

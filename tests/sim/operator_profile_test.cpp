@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The operator's wrench profile: YAML segments (hold, step, ramp), repeat, errors with context,
 // and the stdin line format.
 #include "sim/operator_profile.h"

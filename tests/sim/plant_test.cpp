@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The MuJoCo plant's joint servos and sensors: no sag on the brakes, velocity following,
 // an ideal brake, and the sign and frame of both force sensors.
 #include "sim/pa10_plant.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A FrameSink that keeps what the devices sent, with helpers to find frames by COB-ID.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pa10Rig on the kinematic plant, frame by frame in lock-step (no MuJoCo, no transport): the
 // nine nodes boot, a SYNC advances the plant by exactly its period, a commanded velocity
 // integrates exactly, and the sensors report the plant's wrenches.

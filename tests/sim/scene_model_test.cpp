@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The MJCF scene mirrors the URDF: tool0 pose from MuJoCo vs KDL forward kinematics over many
 // random joint vectors, and the same masses, centres of mass, inertias and joint limits.
 #include <gtest/gtest.h>

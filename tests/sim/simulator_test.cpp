@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The simulator in lock-step, driven frame by frame in-process (no transport): startup, a
 // velocity command moving the joint, and the command-loss brake timed in SYNCs of sim time.
 #include "sim/simulator.h"

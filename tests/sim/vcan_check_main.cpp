@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runs in a QEMU guest (scripts/vm-vcan-run) where vcan0 exists: pa10-sim and the
 // arm library talk over real SocketCAN in lock-step while candump watches the bus.
 // usage: sim_vcan_check <pa10-sim> <pa10.urdf>; prints "vcan check passed" and exits 0, or

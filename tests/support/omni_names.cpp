@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "rtm_test/omni_names.h"
 
 #include "rtm_test/free_port.h"

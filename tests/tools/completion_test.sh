@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The bash completion script: parses, and completes commands and options.
 # usage: completion_test.sh <rtm-completion.bash>
 set -u

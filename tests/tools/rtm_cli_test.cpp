@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The `rtm` command-line tool, driven as a user drives it: the real binary against real
 // component processes and a real omniNames on a free port.
 #include "run_command.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Runs a command to completion and collects its stdout, stderr and exit code, for tests that
 // drive the real `rtm` binary. A command still running at the timeout is killed and the test
 // sees exit code -1.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `rtm new component`: the project it writes, and the input it refuses before writing anything.
 #include "scaffold.h"
 #include "system_file.h"

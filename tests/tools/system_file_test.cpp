@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // System files as `rtm up` reads them, and port addresses as every command parses them.
 #include "browser.h"
 #include "system_file.h"

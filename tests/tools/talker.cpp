@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm-test-talker: a component with ports of two types, for the `rtm` tool's tests.
 //   in:  in0 (TimedFloat6, undescribed), pos3 (TimedFloat3, x y z in m)
 //   out: force (TimedFloat6, a ramp: value i of cycle n is n + i + offset; fx..tz in N, N·m),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm's value conversions: what `rtm put` builds from words and `rtm get` prints.
 #include "values.h"
 

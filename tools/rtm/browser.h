@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The component browser: what `rtm` asks of the naming service and of components, as plain
 // results the command line prints as text or JSON. No printing here.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `rtm up` / `rtm down`: launching the processes of a system file and tearing them down.
 //
 // `up` starts each component detached (own session, output to a log file), records it in a

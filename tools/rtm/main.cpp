@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm: the command-line component browser and system launcher.
 //
 //   rtm ls [path] [-l] [--clean]          the naming tree: components, state, period, ports

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm new component NAME: the skeleton of a component project outside this tree (scaffold.h).
 #pragma once
 

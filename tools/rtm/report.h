@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What `rtm ls` and `rtm cat` print: the browser's results as text for people and as JSON
 // for scripts. Everything a component says of itself (ports with their elements and units,
 // statistics, parameters) is shown as it says it; the tool knows no component kind.

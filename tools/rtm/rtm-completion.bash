@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # bash completion for rtm. Install: source this file, or copy it to
 # /usr/share/bash-completion/completions/rtm.
 _rtm_components() {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `rtm new component`: writes the skeleton of a component project that lives outside this tree
 // and builds against an installed RTM (find_package(RTM), target RTM::core).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm serve: the component editor in a browser. An HTTP server (cpp-httplib, Debian's
 // libcpp-httplib-dev: a small, well-kept library with SSE support and no framework to adopt)
 // serving one page (tools/rtm/web/index.html, plain JavaScript, SVG and canvas) and a JSON API that

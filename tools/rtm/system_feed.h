@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What rtm serve's event streams send: the system, polled on one thread every period while at
 // least one page is connected, whatever the number of pages; each stream waits for a version
 // it has not sent.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A system file: the components to launch, the connections to make and the components to turn
 // on, as `rtm up` reads it (YAML):
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rtm tls init|issue: a system's certificate authority and the TLS folders of its hosts (rtm/tls.h).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Values on the command line: an RTM datum (a CORBA::Any holding a struct a port carries) as
 // text, as JSON, and back from the words a user types after `rtm put`.
 //

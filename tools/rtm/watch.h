@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `rtm watch`: subscribes a temporary InPort (WatchPort) to an OutPort and shows its data
 // live: a refreshing line on a terminal, one line per datum otherwise, JSON lines with
 // --json, and every datum in a CSV file with --csv (columns named after the port's elements).

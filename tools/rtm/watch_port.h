@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The temporary InPort `rtm watch` subscribes: takes every datum of the watched port's type
 // into a bounded queue the display drains. Implements RTM::InPortEx so the publisher can name
 // it ("rtm-watch-<pid>.in") and report how many data it dropped for it, and InPortOrdered so

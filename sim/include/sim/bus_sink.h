@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A FrameSink that writes to a CAN bus (SocketCAN or the local hub), counting what the bus
 // refused (transmit queue full).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CAN side of one emulated PA10 joint drive: a CiA 402 device speaking the PA10 protocol
 // (docs/can-protocol.md), with the PA10 firmware's command-loss safety.
 //

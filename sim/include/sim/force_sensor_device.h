@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CAN side of one emulated 6-axis force/torque sensor (wrist 0x10, joystick 0x11).
 //
 // Pure logic like DriveDevice: fed frames and time, answers through a FrameSink, given the

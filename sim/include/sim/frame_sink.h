@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where emulated CAN nodes put the frames they send.
 //
 // The device classes (DriveDevice, ForceSensorDevice) never touch a transport: they are fed

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A plant with no dynamics, for tests of what talks to the CAN nodes (the master): a joint in
 // velocity mode moves at exactly its target velocity (position integrates it over each step),
 // a joint in hold stands still; the wrist sensor reads whatever set_wrist_wrench() last set,

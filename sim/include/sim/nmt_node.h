@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What every emulated CANopen node of pa10-sim shares (CiA 301): the NMT slave state machine
 // and the heartbeat producer. DriveDevice and ForceSensorDevice each own one and add what their
 // node does on top (a stopped drive drops out of operation enabled, a stopped sensor stops

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The operator's hand on the joystick: a time series of wrenches (steps, ramps, holds).
 //
 // YAML format (documented with an example in sim/README.md and sim/profiles/):

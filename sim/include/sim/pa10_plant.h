@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The PA10 scene in MuJoCo with the drives' joint servos: what the CAN devices stand in front.
 //
 // Loads sim/models/pa10_scene.xml (or another scene with the same names: joints s1..w2,

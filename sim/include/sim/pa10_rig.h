@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pa10Rig: the PA10's nine CAN nodes (7 drives, wrist and joystick force sensors) in front of
 // a Plant, behind one frame interface; no transport, no clock of its own. pa10-sim runs it on
 // the MuJoCo scene (Pa10Simulator), the CAN master's tests on a KinematicPlant (RigServer):

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the emulated CAN nodes stand in front of: the PA10's seven joint servos and the two
 // force sensors' mechanical side.
 //

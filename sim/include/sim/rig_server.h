@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // RigServer: a Pa10Rig answering on a CAN bus from a thread of its own, in lock-step (each
 // SYNC advances the plant one SYNC period, then is answered), as `pa10-sim --lockstep` does.
 // Heartbeats also go out every 100 ms of wall time, so a master that watches heartbeats in

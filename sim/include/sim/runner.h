@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // pa10-sim's main loop: a Pa10Simulator behind a CAN bus (SocketCAN or the local hub).
 //
 // Real time: one thread steps the physics on the project's PeriodicSchedule (rt/schedule.h: an

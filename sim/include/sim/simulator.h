@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pa10Simulator: the PA10 scene in MuJoCo behind its nine CAN nodes: a Pa10Rig on a
 // Pa10Plant, loaded from the scene and set to its initial keyframe. Everything on the CAN
 // side (modes, frames, time, taring, the operator) is the rig's (sim/pa10_rig.h).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the tool presses on: the table top as a spring-damper between the tool tip and the
 // ground, lumping the surface's own compliance with the tool's and the wrist sensor's in series
 // (docs/pa10-model.md lists the figures and where each comes from).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A force/torque pair, the value the simulator's two force sensors measure.
 #pragma once
 

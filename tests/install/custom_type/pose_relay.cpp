@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // pose-relay: writes a TimedPose on out0 each cycle: a ramp on x until a datum reaches in0, then
 // that datum (re-stamped), so that a put comes back on a get.
 #include <TimedPose.hh>

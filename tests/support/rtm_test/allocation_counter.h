@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Counts heap allocations, so a test can prove that a periodic path allocates nothing.
 //
 // Global operator new is replaced in allocation_counter.cpp (its own translation unit, so the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A child process that a test starts and that is always stopped and reaped, also when the
 // test fails: the destructor sends SIGTERM, then SIGKILL after a grace period, and waits for
 // it. The child also gets SIGKILL if the test process dies (PR_SET_PDEATHSIG), so no

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Free TCP ports on the loopback interface, so tests never use a fixed port.
 #pragma once
 

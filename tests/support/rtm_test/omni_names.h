@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A real omniNames naming service for one test: on a free loopback port, with its data in a
 // temporary directory, stopped (SIGTERM, then SIGKILL) and cleaned up by the destructor.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Activities: WHEN a cycle runs, kept apart from WHAT it computes. CORBA-free: the core's
 // components, the CAN master and the simulator run on them.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The clocks of the project, in nanoseconds as std::int64_t (the one time type of public APIs):
 //   monotonic_ns()  CLOCK_MONOTONIC: schedules, deadlines, timeouts
 //   realtime_ns()   CLOCK_REALTIME: stamps compared across processes and machines (data

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Lock-free, allocation-free histograms of durations [ns]: record() from one real-time thread
 // (no lock, no allocation), percentiles and max from any thread meanwhile. The bucket layout is
 // a parameter, so each figure gets the resolution it is read at:

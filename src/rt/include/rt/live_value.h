@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A value one thread publishes and a periodic cycle picks up, without a lock or an allocation
 // on the cycle's side: a triple buffer.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The periodic schedule every loop of the project runs on: deadlines on a fixed grid of
 // CLOCK_MONOTONIC, what a late cycle does to the grid, and the loop's timing statistics.
 // PeriodicActivity sleeps on it (clock_nanosleep); pa10-sim's loop, which also waits for CAN

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Thread settings of a real-time loop, applied one way everywhere (activities of the core,
 // the CAN master, the simulator). Each privileged setting that the system refuses is reported
 // once through the warning sink and skipped: a developer machine without CAP_SYS_NICE still

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Access control: by default only the user who started a system may change it.
 //
 // Each user has a random access key in a file only they can read (access_key_path():

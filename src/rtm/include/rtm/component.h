@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Components: Component holds the logic (ports + per-cycle function), testable without an
 // ORB; ComponentServant makes it an RT component (RTM::RtComponentEx) and owns its activity.
 #pragma once

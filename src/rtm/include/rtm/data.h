@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Data helpers: timestamps, the timed data types a port can carry, and their TypeCodes.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Self-description: what a port carries (a line of text and its elements with units), a
 // component's named statistics and its parameters. Components declare them in their
 // constructor; ComponentServant publishes them through RTMExt.idl (PortDescription,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // How fresh a periodic input is: the age, in cycles, of its newest datum.
 //
 // A component that reads an input each cycle calls tick() once per cycle, saying whether a new

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // InPort: the servant that receives data (put(any) from the ORB, deliver(T) in-process) and
 // keeps it according to a ready policy, the "implementations" the paper asks for.
 #pragma once

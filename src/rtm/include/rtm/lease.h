@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Holds on a component by composites (RtComponentEx::hold/release): each holder renews its
 // hold within its lease; a hold not renewed in time ends, and `expired` is called (the
 // component turns itself off). A thread of its own runs only while there are holds.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Naming: where RT components are found.
 //
 // A component's RtComponent reference is bound in the CORBA naming service (omniNames) at

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // ORB and POA setup: one omniORB ORB per process, one POA with the local-call shortcut.
 #pragma once
 

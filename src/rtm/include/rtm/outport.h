@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // OutPort: the servant that publishes a component's data: pull (get) and push (subscribe).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Template definitions of rtm/outport.h; include that header, not this one.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The component runner: the main() every component executable shares.
 //
 //   int main(int argc, char** argv) {

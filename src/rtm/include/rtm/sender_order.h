@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The order check behind RTM::InPortOrdered: remembers, per sender, the number of the last
 // datum taken, for the few senders a port has at once (fixed storage, no allocation). Not
 // thread-safe: the port calls it under the lock that also guards what it stores, so that the

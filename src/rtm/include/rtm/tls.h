@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // TLS with client certificates: changing a system from another host.
 //
 // A system's certificate authority (a CA of its own, made by `rtm tls init`) is what the

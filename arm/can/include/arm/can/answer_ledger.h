@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Which of our recent SYNCs one node still owes an answer to, so that an answer nobody asked for
 // is seen: after each SYNC a drive sends one TPDO1 and a force sensor one TPDO1 and one TPDO2,
 // in order. A frame on the node's COB-ID with no SYNC left to answer is one more than the node

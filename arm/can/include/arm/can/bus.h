@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // CAN frame transports: Linux SocketCAN and the user-space local bus, behind one interface.
 //
 // Everything above the transport (codec, CANopen master, sensor listener, the simulator's

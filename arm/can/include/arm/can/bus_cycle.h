@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // BusCycle: the PA10 master's SYNC cycle as an object with no thread, like the simulator's
 // devices. Whoever owns time runs it: the master's own activity (Pa10Master::run_periodic),
 // the servo's shared tick (fast mode), a test or the simulator stepping in lock-step.

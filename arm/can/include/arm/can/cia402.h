@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The CiA 402 drive state machine as pure value types, one per side of the bus.
 //
 // Device side (pa10-sim, test fakes): `Cia402Drive` takes controlwords and faults and gives the

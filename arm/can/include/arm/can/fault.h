@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The arm's one fault vocabulary, from the CAN master up to the actuator.
 //
 // The master (Pa10Master, its Supervisor) latches the bus-side kinds; Pa10Arm reports the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The following-error check (CiA 402's velocity and following-error windows, for cyclic
 // synchronous velocity): a drive that moves other than it is told is stopped, whatever the cause
 // (a spoofed command, a drive fault that reports nothing, a released brake, an obstruction).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The drives' answers to one SYNC, put together joint by joint: after each SYNC every drive
 // sends its TPDO1 (statusword, position, velocity), in any order. The one place that does it,
 // for the master's cycle (bus_cycle.h) and the passive listener (joint_listener.h).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A passive listener for the drives' joint feedback: no SYNC, no NMT, only reading.
 //
 // Every drive broadcasts its TPDO1 (statusword, position, velocity) after each SYNC the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The user-space CAN bus: a hub that forwards every frame to every other endpoint.
 //
 // For hosts without SocketCAN (this project's CI kernels) and for tests. The hub listens on a

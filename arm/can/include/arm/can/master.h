@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pa10Master: the CANopen master of the PA10 - NMT master, SYNC producer, PDO exchange with
 // the 7 drives and reception of the two force sensors.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The PA10 master's vocabulary: its configuration and what it reports (joint state, wrench,
 // fault (kinds in fault.h), counters, the last target sent). Shared by the master (master.h), its thread-free bus
 // cycle (bus_cycle.h), its supervisor (supervisor.h) and the passive listeners (sensor_listener.h,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The PA10 CAN protocol (CANopen subset, CiA 301 + CiA 402 cyclic synchronous velocity):
 // constants and pure encode/decode functions for every frame. See docs/can-protocol.md.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The receive loop of the passive listeners (SensorListener, JointListener): one thread that
 // reads one bus and hands every frame, with the CLOCK_MONOTONIC time it was read, to the
 // listener. A BusError ends the loop and goes to the listener's error handler, never out of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A passive listener for one force sensor node: no SYNC, no NMT, only reading.
 //
 // The sensor component in another process sits on the same bus as the master and reads the

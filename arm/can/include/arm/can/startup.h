@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The PA10 master's start-up sequence, run once on a BusCycle before any periodic cycle:
 //   1. every drive and configured sensor alive (boot-up or heartbeat) within boot_timeout_ns;
 //   2. NMT enter pre-operational; per drive SDO 0x6060:00 = 9 (cyclic synchronous velocity)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The master's supervisor: what the bus cycle may command, and when the arm must stop.
 //   faults      the first cause latches, with a reason in a fixed buffer (no allocation);
 //               from then on every drive gets zero until a fault reset

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One force sensor's wrench for one SYNC, put together from its two halves: TPDO1 (force) and
 // TPDO2 (torque) answer the same SYNC and may arrive in either order. The one place that does
 // it, for the master's cycle (bus_cycle.h) and the passive listener (sensor_listener.h).

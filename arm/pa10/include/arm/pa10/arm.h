@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Pa10Arm: the arm as the force servo's actuator sees it (the paper's `palib`).
 // order_velocity() takes a Cartesian twist in the base frame, runs the velocity IK and hands
 // the joint rates to the CANopen master; joint state and the tool pose come back from the

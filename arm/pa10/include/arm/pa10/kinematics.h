@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // PA10-7C kinematics: the URDF turned into a KDL chain, forward kinematics, the Jacobian and
 // a damped-least-squares velocity IK that respects joint position and velocity limits.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Actuator: the manipulator driven by Cartesian velocity commands (paper Fig. 7).
 //
 //   InPort 0 "twist" (alias in0)  velocity command (TimedFloat6, BASE frame: vx vy vz m/s, wx wy wz rad/s)

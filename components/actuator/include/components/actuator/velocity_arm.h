@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The Actuator's hardware seam: an arm that takes a Cartesian velocity twist each cycle.
 // ArmHardware is the real one (Pa10Master + Pa10Arm, on pa10-sim or the PA10 alike); unit
 // tests put a recording fake behind the same interface.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Controller: the paper's proportional force controller (Fig. 6), with a bounded touch-down.
 //
 //   InPort 0 "wrench"     (alias in0)  sensor wrench     (TimedFloat6, base frame, N / N·m)

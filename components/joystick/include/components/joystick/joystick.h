@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Joystick: the reference generator (paper Fig. 5's twin). A second 6-axis force sensor that
 // the operator pushes; the force applied is the reference, written each cycle to OutPort 0
 // ("reference", alias "out0", RTM::TimedFloat6). Statistic: samples.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Sensor: the wrist force/torque sensor as an RT component (paper Fig. 5). Each cycle it takes
 // the newest wrench, turns it into the arm's base frame, stamps the time and writes it to
 // OutPort 0 ("wrench", alias "out0", RTM::TimedFloat6). Statistics: samples,

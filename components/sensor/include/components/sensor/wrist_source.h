@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Where the Sensor component gets its samples: the wrist F/T sensor's wrench (sensor frame)
 // together with the joint positions that say how the sensor frame is oriented.
 //

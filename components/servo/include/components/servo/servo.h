@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Servo: the composite of the paper (Figs. 4, 8). It owns a sensor, a controller and an
 // actuator in their fixed pattern and hides them:
 //   on():  sensor.out0 -> controller.in0 and controller.out0 -> actuator.in0 (repeated), then
