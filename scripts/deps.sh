@@ -15,7 +15,7 @@ packages=(
   libmujoco-dev libqhull-dev
   libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev nlohmann-json3-dev libcpp-httplib-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  gnuplot-nox procps iproute2
+  gnuplot-nox procps iproute2 ccache
 )
 case "${1:-}" in
   "") ;;
