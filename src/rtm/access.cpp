@@ -1,150 +1,156 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/access.h"
 
-#include <fcntl.h>
 #include <pwd.h>
-#include <sys/random.h>
-#include <sys/stat.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <omniORB4/CORBA.h>
 #include <omniORB4/omniInterceptors.h>
-// GIOP_S (the request as received) and its service contexts; omniORB ships these headers.
+#include <omniORB4/sslContext.h>
+#include <omniORB4/sslConnection.h>
+#include <openssl/ssl.h>
+#include <openssl/x509.h>
+// The strand and its connection, GIOP_S/GIOP_C (a request as received or sent, streams on a
+// strand), the socket under a connection: omniORB ships these headers, which must come in
+// this order.
+// clang-format off
 #include <omniORB4/internal/giopStrand.h>
 #include <omniORB4/internal/giopStream.h>
+#include <omniORB4/internal/GIOP_C.h>
 #include <omniORB4/internal/GIOP_S.h>
+#include <omniORB4/internal/SocketCollection.h>
+// clang-format on
+
+#include <fmt/format.h>
 
 #include <atomic>
-#include <cerrno>
-#include <cstdlib>
+#include <mutex>
+#include <unordered_map>
 #include <cstring>
 #include <optional>
-#include <stdexcept>
 #include <string>
 
 #include "rtm/log.h"
+#include "rtm/socket_peer.h"
 
 namespace rtm {
 
 namespace {
 
-// A service context id of our own ("RTM" 0); ORBs ignore contexts they do not know.
-constexpr CORBA::ULong kKeyContextId = 0x52544d00;
-
-// What the interceptors read: written before the ORB serves (install), then only read.
 struct AccessState {
-  std::atomic<bool> configured{false};
   std::atomic<bool> registered{false};
-  std::atomic<bool> have_key{false};
   std::atomic<AccessPolicy> policy{AccessPolicy::owner};
-  AccessKey key{};
   std::atomic<std::uint64_t> refused{0};
   std::atomic<std::uint64_t> refused_data{0};
 };
 AccessState g_access;
 
-std::string errno_text(int error) { return std::strerror(error); }
+// omniORB keeps a connection's socket in SocketHolder::pd_socket (protected): a pointer to
+// that member, formed through a class derived from it, reads it from any SocketHolder.
+struct SocketOf : omni::SocketHolder {
+  static omni::SocketHandle_t of(omni::SocketHolder& holder) { return holder.*(&SocketOf::pd_socket); }
+};
 
-std::string home_folder() {
-  if (const char* home = std::getenv("HOME"); home && *home) return home;
-  if (const passwd* pw = getpwuid(getuid()); pw && pw->pw_dir) return pw->pw_dir;
-  throw std::runtime_error("no home folder (HOME unset) for the access key; set RTM_KEY_FILE");
+bool starts_with(const char* text, const char* prefix) {
+  return text && std::strncmp(text, prefix, std::strlen(prefix)) == 0;
 }
 
-std::string parent_of(const std::string& path) {
-  const auto slash = path.find_last_of('/');
-  if (slash == std::string::npos) return ".";
-  return slash == 0 ? "/" : path.substr(0, slash);
+int socket_of(omni::giopConnection& connection) {
+  auto* holder = dynamic_cast<omni::SocketHolder*>(&connection);
+  return holder ? SocketOf::of(*holder) : -1;
 }
 
-bool equal_keys(const unsigned char* a, const unsigned char* b) {
-  unsigned char diff = 0;  // the same time whatever differs
-  for (std::size_t i = 0; i < AccessKey{}.size(); ++i) diff = static_cast<unsigned char>(diff | (a[i] ^ b[i]));
-  return diff == 0;
+// The certificate the peer of a giop:ssl: connection presented and this process verified against
+// its authority in the handshake (both sides of omniORB's handshake require one), or nullptr.
+X509* verified_certificate(omni::giopConnection& connection) {
+  auto* tls = dynamic_cast<omni::sslConnection*>(&connection);
+  SSL* ssl = tls ? tls->ssl_handle() : nullptr;
+  if (!ssl) return nullptr;
+  X509* certificate = SSL_get0_peer_certificate(ssl);
+  return certificate && SSL_get_verify_result(ssl) == X509_V_OK ? certificate : nullptr;
 }
 
-void check_private(const std::string& path, const struct stat& st) {
-  if (st.st_uid != geteuid()) throw std::runtime_error("access key " + path + " belongs to another user");
-  if ((st.st_mode & 077) != 0)
-    throw std::runtime_error("access key " + path + " may be read by others (chmod 600 it, or remove it to make a new one)");
+// That certificate's common name ("op@hostb"), "" when there is none.
+std::string verified_identity(omni::giopConnection& connection) {
+  X509* certificate = verified_certificate(connection);
+  if (!certificate) return "";
+  X509_NAME* subject = X509_get_subject_name(certificate);
+  const int at = X509_NAME_get_index_by_NID(subject, NID_commonName, -1);
+  if (at < 0) return "";
+  unsigned char* text = nullptr;
+  const int length = ASN1_STRING_to_UTF8(&text, X509_NAME_ENTRY_get_data(X509_NAME_get_entry(subject, at)));
+  if (length < 0) return "";
+  std::string identity(reinterpret_cast<const char*>(text), static_cast<std::size_t>(length));
+  OPENSSL_free(text);
+  return identity;
 }
 
-AccessKey read_key(const std::string& path, int fd) {
-  struct stat st {};
-  if (fstat(fd, &st) != 0) throw std::runtime_error("cannot stat access key " + path + ": " + errno_text(errno));
-  check_private(path, st);
-  char hex[2 * AccessKey{}.size() + 2];
-  ssize_t got = 0;
-  while (got < static_cast<ssize_t>(sizeof hex)) {
-    const ssize_t n = ::read(fd, hex + got, sizeof hex - static_cast<std::size_t>(got));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    got += n;
+Peer peer_of_connection(omni::giopConnection* connection) {
+  Peer peer;
+  if (!connection) return peer;
+  const char* address = connection->peeraddress();
+  peer.address = address ? address : "";
+  if (starts_with(address, "giop:ssl:")) {
+    peer.transport = Transport::tls;
+    peer.identity = verified_identity(*connection);
+    return peer;
   }
-  AccessKey key{};
-  if (got < static_cast<ssize_t>(2 * key.size()))
-    throw std::runtime_error("access key " + path + " is not 64 hexadecimal digits (remove it to make a new one)");
-  for (std::size_t i = 0; i < key.size(); ++i) {
-    unsigned value = 0;
-    for (int k = 0; k < 2; ++k) {
-      const char c = hex[2 * i + static_cast<std::size_t>(k)];
-      const int digit = (c >= '0' && c <= '9') ? c - '0' : (c >= 'a' && c <= 'f') ? c - 'a' + 10 : -1;
-      if (digit < 0)
-        throw std::runtime_error("access key " + path + " is not 64 hexadecimal digits (remove it to make a new one)");
-      value = value * 16 + static_cast<unsigned>(digit);
+  if (starts_with(address, "giop:unix:")) {
+    peer.transport = Transport::unix_socket;
+  } else if (starts_with(address, "giop:tcp:")) {
+    peer.transport = Transport::tcp;
+  } else {
+    return peer;
+  }
+  if (const auto found = socket_peer(socket_of(*connection))) {
+    peer.uid = found->uid;
+    peer.pid = found->pid;
+    peer.socket_inode = found->inode;
+  }
+  return peer;
+}
+
+// The user behind each connection of this process's servers, as the kernel said when the
+// connection was accepted (a TCP peer is looked up in /proc/net/tcp once, not per request). A
+// connection's entry is written when it is accepted, before any request on it, so an entry
+// left by a closed connection whose memory a new one reuses is overwritten first; one not
+// found (the table was emptied at its bound) is asked of the kernel again.
+class Callers {
+ public:
+  struct Caller {
+    bool known = false;  // the kernel named the user (unix socket, TCP from this host)
+    uid_t uid = 0;
+  };
+  static Caller from(const Peer& peer) { return peer.uid ? Caller{true, *peer.uid} : Caller{}; }
+
+  void accepted(const omni::giopConnection* connection, Caller caller) {
+    std::lock_guard lock(mutex_);
+    if (by_connection_.size() >= kBound) by_connection_.clear();
+    by_connection_[connection] = caller;
+  }
+  Caller of(omni::giopConnection* connection) {
+    {
+      std::lock_guard lock(mutex_);
+      if (const auto it = by_connection_.find(connection); it != by_connection_.end()) return it->second;
     }
-    key[i] = static_cast<unsigned char>(value);
+    const Caller caller = from(peer_of_connection(connection));
+    accepted(connection, caller);
+    return caller;
   }
-  return key;
-}
 
-// Writes a new key to a private temporary file and links it to `path`: a reader never sees a
-// part-written key, and of two processes starting together one key wins (EEXIST for the other,
-// which then reads the winner's).
-void make_key(const std::string& path) {
-  const std::string temporary = path + ".new." + std::to_string(getpid());
-  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0600);
-  if (fd < 0) throw std::runtime_error("cannot make access key " + path + ": " + errno_text(errno));
-  AccessKey key{};
-  bool written = getrandom(key.data(), key.size(), 0) == static_cast<ssize_t>(key.size());
-  const int random_error = errno;
-  char hex[2 * AccessKey{}.size() + 1];
-  for (std::size_t i = 0; i < key.size(); ++i) std::snprintf(hex + 2 * i, 3, "%02x", key[i]);
-  hex[sizeof hex - 1] = '\n';
-  written = written && ::write(fd, hex, sizeof hex) == static_cast<ssize_t>(sizeof hex) && ::fsync(fd) == 0;
-  const int write_error = errno;
-  ::close(fd);
-  if (!written) {
-    ::unlink(temporary.c_str());
-    throw std::runtime_error("cannot write access key " + path + ": " + errno_text(random_error ? random_error : write_error));
-  }
-  const bool linked = ::link(temporary.c_str(), path.c_str()) == 0;
-  const int link_error = errno;
-  ::unlink(temporary.c_str());
-  if (!linked && link_error != EEXIST)
-    throw std::runtime_error("cannot make access key " + path + ": " + errno_text(link_error));
-}
+ private:
+  static constexpr std::size_t kBound = 4096;
+  std::mutex mutex_;
+  std::unordered_map<const omni::giopConnection*, Caller> by_connection_;
+};
+Callers g_callers;
 
-CORBA::Boolean add_key(omni::omniInterceptors::clientSendRequest_T::info_T& info) {
-  if (!g_access.have_key.load(std::memory_order_acquire)) return true;
-  const CORBA::ULong n = info.service_contexts.length();
-  info.service_contexts.length(n + 1);
-  IOP::ServiceContext& context = info.service_contexts[n];
-  context.context_id = kKeyContextId;
-  // Refers to the key in place: no copy, no allocation per request.
-  context.context_data.replace(g_access.key.size(), g_access.key.size(), g_access.key.data(), false);
+CORBA::Boolean note_caller(omni::omniInterceptors::serverAcceptConnection_T::info_T& info) {
+  omni::giopConnection* connection = info.strand.connection;
+  if (connection && !starts_with(connection->peeraddress(), "giop:ssl:"))
+    g_callers.accepted(connection, Callers::from(peer_of_connection(connection)));
   return true;
-}
-
-bool carries_our_key(omni::GIOP_S& request) {
-  if (!g_access.have_key.load(std::memory_order_acquire)) return false;
-  const IOP::ServiceContextList& contexts = request.service_contexts();
-  for (CORBA::ULong i = 0; i < contexts.length(); ++i) {
-    const IOP::ServiceContext& context = contexts[i];
-    if (context.context_id != kKeyContextId || context.context_data.length() != g_access.key.size()) continue;
-    if (equal_keys(context.context_data.get_buffer(), g_access.key.data())) return true;
-  }
-  return false;
 }
 
 // The kind of the first argument's TypeCode (put's any) read in place from the request buffer,
@@ -188,40 +194,58 @@ bool is_put_operation(std::string_view name) {
 }
 
 // Counts a refusal and logs the first three, then every thousandth.
-void note_refusal(std::atomic<std::uint64_t>& count, omni::omniInterceptors::serverReceiveRequest_T::info_T& info,
+void note_refusal(std::atomic<std::uint64_t>& count, omni::GIOP_S& request, const char* operation,
                   const std::string& why) {
   const std::uint64_t refused = count.fetch_add(1, std::memory_order_relaxed) + 1;
   if (refused > 3 && refused % 1000 != 0) return;
-  const char* peer = info.peeraddress();
-  log().warn("refused {} from {}: {} ({} refused so far)", info.operation(), peer ? peer : "?", why, refused);
-}
-
-// A request over a giop:ssl: connection whose peer certificate omniORB verified against this
-// process's authority (rtm/tls.h): omniORB sets the peer identity only for a verified peer.
-bool from_verified_tls_peer(omni::omniInterceptors::serverReceiveRequest_T::info_T& info) {
-  const char* address = info.peeraddress();
-  if (!address || std::strncmp(address, "giop:ssl:", 9) != 0) return false;
-  const char* identity = info.peeridentity();
-  return identity && *identity;
+  const Peer peer = peer_of_connection(request.strand().connection);
+  const std::string who = peer.uid ? fmt::format(" (uid {})", *peer.uid) : "";
+  log().warn("refused {} from {}{}: {} ({} refused so far)", operation, peer.address.empty() ? "?" : peer.address, who,
+             why, refused);
 }
 
 // Both checks throw before the arguments are read: the request body is skipped, not unmarshalled.
-CORBA::Boolean check_key(omni::omniInterceptors::serverReceiveRequest_T::info_T& info) {
+CORBA::Boolean screen_request(omni::omniInterceptors::serverReceiveRequest_T::info_T& info) {
   const char* operation = info.operation();
   if (!operation) return true;
   if (is_put_operation(operation)) {
     const std::optional<CORBA::ULong> kind = first_typecode_kind(info.giop_s);
     if (kind && !plain_data_kind(*kind)) {
-      note_refusal(g_access.refused_data, info,
+      note_refusal(g_access.refused_data, info.giop_s, operation,
                    "the datum's type (TypeCode kind " + std::to_string(*kind) + ") is no data type");
       throw CORBA::BAD_PARAM(kNotPlainDataMinor, CORBA::COMPLETED_NO);
     }
   }
-  if (g_access.policy.load(std::memory_order_acquire) == AccessPolicy::open) return true;
+  if (g_access.policy.load(std::memory_order_relaxed) == AccessPolicy::open) return true;
   if (!is_change_operation(operation)) return true;
-  if (carries_our_key(info.giop_s) || from_verified_tls_peer(info)) return true;
-  note_refusal(g_access.refused, info, "it does not carry this component owner's access key");
-  throw CORBA::NO_PERMISSION(kAccessRefusedMinor, CORBA::COMPLETED_NO);
+  omni::giopConnection* connection = info.giop_s.strand().connection;
+  if (!connection) throw CORBA::NO_PERMISSION(kCallerUnknownMinor, CORBA::COMPLETED_NO);
+  // A certificate this process's authority issued, which omniORB verified in the handshake.
+  if (starts_with(connection->peeraddress(), "giop:ssl:")) {
+    if (verified_certificate(*connection)) return true;
+    note_refusal(g_access.refused, info.giop_s, operation, "its TLS connection carries no verified certificate");
+    throw CORBA::NO_PERMISSION(kCallerUnknownMinor, CORBA::COMPLETED_NO);
+  }
+  const Callers::Caller caller = g_callers.of(connection);
+  if (caller.known && is_owner_uid(caller.uid)) return true;
+  if (caller.known) {
+    note_refusal(g_access.refused, info.giop_s, operation, "the caller is not this component's user");
+    throw CORBA::NO_PERMISSION(kAccessRefusedMinor, CORBA::COMPLETED_NO);
+  }
+  note_refusal(g_access.refused, info.giop_s, operation, "who calls from another host over plain TCP is unknown");
+  throw CORBA::NO_PERMISSION(kCallerUnknownMinor, CORBA::COMPLETED_NO);
+}
+
+// peer_of(): the thread's call whose connection is wanted, and what was found.
+struct Capture {
+  bool wanted = false;
+  std::optional<Peer> peer;
+};
+thread_local Capture t_capture;
+
+CORBA::Boolean capture_peer(omni::omniInterceptors::clientReceiveReply_T::info_T& info) {
+  if (t_capture.wanted) t_capture.peer = peer_of_connection(info.giop_c.strand().connection);
+  return true;
 }
 
 }  // namespace
@@ -232,66 +256,45 @@ std::optional<AccessPolicy> parse_access_policy(std::string_view text) {
   return std::nullopt;
 }
 
-std::string access_key_path() {
-  if (const char* file = std::getenv("RTM_KEY_FILE"); file && *file) return file;
-  return home_folder() + "/.rtm/key";
-}
-
-AccessKey load_or_make_access_key() {
-  const std::string path = access_key_path();
-  const std::string folder = parent_of(path);
-  if (::mkdir(folder.c_str(), 0700) != 0 && errno != EEXIST)
-    throw std::runtime_error("cannot make the access key's folder " + folder + ": " + errno_text(errno));
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
-    if (fd >= 0) {
-      try {
-        AccessKey key = read_key(path, fd);
-        ::close(fd);
-        return key;
-      } catch (...) {
-        ::close(fd);
-        throw;
-      }
-    }
-    if (errno != ENOENT) throw std::runtime_error("cannot read access key " + path + ": " + errno_text(errno));
-    make_key(path);  // or another process just did: read it on the next round either way
-  }
-  throw std::runtime_error("access key " + path + " appeared and vanished while being read");
-}
-
-void configure_default_access() {
-  if (g_access.configured.load()) return;
-  std::optional<AccessKey> key;
-  try {
-    key = load_or_make_access_key();
-  } catch (const std::exception& e) {
-    log().debug("no access key: {}; this process can read components but change none", e.what());
-  }
-  configure_access(key, AccessPolicy::owner);
-}
-
-void configure_access(const std::optional<AccessKey>& key, AccessPolicy policy) {
-  if (key) g_access.key = *key;
-  g_access.have_key.store(key.has_value(), std::memory_order_release);
-  g_access.policy.store(policy, std::memory_order_release);
-  g_access.configured.store(true);
-}
+void configure_access(AccessPolicy policy) { g_access.policy.store(policy, std::memory_order_relaxed); }
 
 void register_access_interceptors() {
   if (g_access.registered.exchange(true)) return;
-  omniORB::getInterceptors()->clientSendRequest.add(add_key);
-  omniORB::getInterceptors()->serverReceiveRequest.add(check_key);
+  omniORB::getInterceptors()->serverAcceptConnection.add(note_caller);
+  omniORB::getInterceptors()->serverReceiveRequest.add(screen_request);
+  omniORB::getInterceptors()->clientReceiveReply.add(capture_peer);
 }
 
 bool is_change_operation(std::string_view name) {
-  static constexpr std::string_view kChanges[] = {"on",        "off",         "reset",        "set_parameter",
-                                                  "subscribe", "unsubscribe", "put",          "push",
-                                                  "put_in_order", "push_in_order", "hold",
-                                                  "release"};
+  static constexpr std::string_view kChanges[] = {"on",           "off",           "reset", "set_parameter",
+                                                  "subscribe",    "unsubscribe",   "put",   "push",
+                                                  "put_in_order", "push_in_order", "hold",  "release",
+                                                  "admit_writer"};
   for (std::string_view change : kChanges)
     if (name == change) return true;
   return false;
+}
+
+std::string access_refusal_text(std::uint32_t minor) {
+  if (minor == kCallerUnknownMinor)
+    return "not allowed: only the user who started it may change it, and over plain TCP from another host it "
+           "cannot tell who calls (from another host: --tls with a certificate of its system; docs/safety.md)";
+  const passwd* pw = ::getpwuid(::geteuid());
+  const std::string user = pw && pw->pw_name ? pw->pw_name : "uid " + std::to_string(::geteuid());
+  return "not allowed: only the user who started it may change it (this process runs as " + user +
+         "; docs/safety.md)";
+}
+
+bool is_owner_uid(uid_t uid) { return uid == ::geteuid() || uid == 0; }
+
+std::optional<Peer> peer_of(CORBA::Object_ptr object) {
+  struct Reset {
+    ~Reset() { t_capture = Capture{}; }
+  } reset;
+  t_capture = Capture{};
+  t_capture.wanted = true;
+  (void)object->_non_existent();
+  return t_capture.peer;
 }
 
 }  // namespace rtm

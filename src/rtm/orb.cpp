@@ -16,6 +16,7 @@
 #include <cerrno>
 #include <cstdlib>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <stdexcept>
@@ -69,13 +70,18 @@ std::string describe(const CORBA::Exception& e) {
 Orb::Orb(const std::vector<std::string>& args) {
   // ORB_init wants a mutable argv; the storage must live through the call only.
   std::vector<std::string> storage;
-  storage.reserve(args.size() + 1);
+  storage.reserve(args.size() + 7);
   storage.emplace_back("rtm");
   for (const auto& a : args) storage.push_back(a);
+  const auto given = [&](const char* option) { return std::find(args.begin(), args.end(), option) != args.end(); };
+  // Callers on this host come over giop:unix:, where the kernel tells a servant who calls
+  // (rtm/access.h); TCP on loopback only, unless the caller names its endpoints.
+  if (!given("-ORBendPoint")) storage.insert(storage.end(), {"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBendPoint", "giop:unix:"});
+  // Only this user (and root) may connect to the giop:unix: socket; omniORB's default is 0777.
+  if (!given("-ORBunixTransportPermission")) storage.insert(storage.end(), {"-ORBunixTransportPermission", "0600"});
   std::vector<char*> argv;
   for (auto& s : storage) argv.push_back(s.data());
   int argc = static_cast<int>(argv.size());
-  configure_default_access();
   remove_stale_unix_sockets();
   const bool quiet_ssl = !tls_configured() && !user_chose_trace_level(args);
   const CORBA::ULong trace_level = omniORB::traceLevel;

@@ -169,9 +169,10 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   app.add_flag("--on", settings.turn_on, "turn the component on once it is up");
   std::string access_text = "owner";
   app.add_option("--access", access_text,
-                 "who may change it (on/off/reset, parameters, connections, puts): owner (processes "
-                 "carrying this user's access key) or open (anyone who reaches its endpoints, e.g. a "
-                 "client of the 2004 IDL)")
+                 "who may change it (on/off/reset, parameters, connections, puts): owner (this user's "
+                 "processes on this host, over giop:unix:, and peers with a certificate of its --tls "
+                 "authority) or open (anyone who reaches its endpoints, e.g. a client of the 2004 IDL "
+                 "over TCP)")
       ->check(CLI::IsMember({"owner", "open"}))
       ->capture_default_str();
   std::string delivery_text;
@@ -263,15 +264,8 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   if (settings.cpu >= 0 && main.pin_process_to_cpu) pin_process_to_cpu(settings.cpu);
   keep_real_time_for_the_activity(settings);
 
-  // ---- bring up: access key, certificates, ORB, component, servant, names ----
-  try {
-    std::optional<AccessKey> key;
-    if (settings.access == AccessPolicy::owner) key = load_or_make_access_key();
-    configure_access(key, settings.access);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s: %s (or start it with --access open)\n", program, e.what());
-    return 1;
-  }
+  // ---- bring up: access policy, certificates, ORB, component, servant, names ----
+  configure_access(settings.access);
   if (!settings.tls_folder.empty()) {
     try {
       configure_tls(check_tls_folder(settings.tls_folder));
@@ -280,9 +274,7 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
       return 1;
     }
   }
-  // Only this user may connect to the giop:unix: socket (omniORB's default is 0777); others
-  // reach the TCP endpoint, where the access key decides.
-  std::vector<std::string> orb_args{"-ORBunixTransportPermission", "0600"};
+  std::vector<std::string> orb_args;
   for (const auto& endpoint : settings.endpoints) orb_args.insert(orb_args.end(), {"-ORBendPoint", endpoint});
   orb_args.insert(orb_args.end(), settings.orb_args.begin(), settings.orb_args.end());
 

@@ -641,6 +641,7 @@ class OrderRecorder : public virtual POA_RTM::InPortOrdered {
   RTM::PortCounters counters() override { return {}; }
   char* last_error() override { return CORBA::string_dup(""); }
   RTM::PortDescription* describe() override { return new RTM::PortDescription; }
+  void admit_writer() override {}
 
   std::vector<Call> calls() {
     std::lock_guard lock(mu_);

@@ -7,7 +7,11 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <fcntl.h>
+
 #include <chrono>
+#include <mutex>
+#include <thread>
 #include <cstring>
 #include <stdexcept>
 
@@ -134,7 +138,8 @@ IiopProfile iiop_profile(const std::string& ior) {
 }
 
 std::optional<GiopReply> giop_request(const IiopProfile& target, const std::string& operation,
-                                      const std::vector<std::uint8_t>& body, int timeout_ms) {
+                                      const std::vector<std::uint8_t>& body, int timeout_ms,
+                                      const std::vector<ServiceContext>& contexts) {
   CdrWriter header;  // the request header, counted from the start of the message body
   header.ulong(1);   // request id
   header.octet(3);   // response expected
@@ -145,7 +150,11 @@ std::optional<GiopReply> giop_request(const IiopProfile& target, const std::stri
   header.octet(0);
   header.octets(target.object_key);
   header.string(operation);
-  header.ulong(0);  // no service contexts
+  header.ulong(static_cast<std::uint32_t>(contexts.size()));
+  for (const ServiceContext& context : contexts) {
+    header.ulong(context.id);
+    header.octets(context.data);
+  }
   // The request body is 8-aligned in the message; the GIOP header before it is 12 bytes.
   std::vector<std::uint8_t> message_body = header.bytes();
   while ((12 + message_body.size()) % 8 != 0) message_body.push_back(0);
@@ -197,6 +206,169 @@ std::optional<GiopReply> giop_request(const IiopProfile& target, const std::stri
   }
   ::close(fd);
   return reply;
+}
+
+// ---------------------------------------------------------------------------------------------
+// GiopRecorder
+// ---------------------------------------------------------------------------------------------
+
+struct GiopRecorder::State {
+  int listener = -1;
+  int wake[2] = {-1, -1};
+  std::thread thread;
+  mutable std::mutex mutex;
+  std::vector<Request> requests;
+};
+
+namespace {
+
+void send_all(int fd, const std::vector<std::uint8_t>& bytes) {
+  (void)::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+}
+
+std::vector<std::uint8_t> giop_message(std::uint8_t type, const std::vector<std::uint8_t>& body) {
+  std::vector<std::uint8_t> message{'G', 'I', 'O', 'P', 1, 2, 1 /* little endian */, type};
+  const auto size = static_cast<std::uint32_t>(body.size());
+  for (int i = 0; i < 4; ++i) message.push_back(static_cast<std::uint8_t>(size >> (8 * i)));
+  message.insert(message.end(), body.begin(), body.end());
+  return message;
+}
+
+// One GIOP 1.2 message from a client: records a Request and answers it or a LocateRequest.
+void answer(int fd, std::uint8_t type, const std::vector<std::uint8_t>& body, bool little,
+            std::vector<GiopRecorder::Request>& requests) {
+  CdrReader r(body.data(), body.size(), little, 12);
+  const std::uint32_t request_id = r.ulong();
+  if (type == 3) {  // LocateRequest
+    CdrWriter reply;
+    reply.ulong(request_id);
+    reply.ulong(0);  // UNKNOWN_OBJECT
+    send_all(fd, giop_message(4, reply.bytes()));
+    return;
+  }
+  if (type != 0) return;
+  const std::uint8_t flags = r.octet();
+  r.octet();
+  r.octet();
+  r.octet();
+  const std::uint16_t disposition = r.ushort();
+  if (disposition != 0) return;  // only KeyAddr, as omniORB sends
+  r.octets();                    // object key
+  GiopRecorder::Request request;
+  request.operation = r.string();
+  const std::uint32_t contexts = r.ulong();
+  for (std::uint32_t i = 0; i < contexts; ++i) {
+    ServiceContext context;
+    context.id = r.ulong();
+    context.data = r.octets();
+    request.contexts.push_back(std::move(context));
+  }
+  requests.push_back(std::move(request));
+  if ((flags & 1) == 0) return;  // oneway
+  CdrWriter reply;
+  reply.ulong(request_id);
+  reply.ulong(2);  // SYSTEM_EXCEPTION
+  reply.ulong(0);  // no service contexts
+  std::vector<std::uint8_t> bytes = reply.bytes();
+  while ((12 + bytes.size()) % 8 != 0) bytes.push_back(0);
+  CdrWriter exception;
+  exception.string("IDL:omg.org/CORBA/OBJECT_NOT_EXIST:1.0");
+  exception.ulong(0);  // minor
+  exception.ulong(1);  // COMPLETED_NO
+  bytes.insert(bytes.end(), exception.bytes().begin(), exception.bytes().end());
+  send_all(fd, giop_message(1, bytes));
+}
+
+// Reads whatever whole messages a client's connection holds; false when it closed.
+bool serve_connection(int fd, std::vector<std::uint8_t>& pending, std::vector<GiopRecorder::Request>& requests) {
+  std::uint8_t buffer[4096];
+  const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
+  if (n <= 0) return false;
+  pending.insert(pending.end(), buffer, buffer + n);
+  while (pending.size() >= 12) {
+    if (std::memcmp(pending.data(), "GIOP", 4) != 0) return false;
+    const bool little = (pending[6] & 1) != 0;
+    CdrReader size_reader(pending.data() + 8, 4, little, 8);
+    const std::size_t size = size_reader.ulong();
+    if (pending.size() < 12 + size) break;
+    const std::vector<std::uint8_t> body(pending.begin() + 12, pending.begin() + 12 + static_cast<std::ptrdiff_t>(size));
+    try {
+      answer(fd, pending[7], body, little, requests);
+    } catch (const std::runtime_error&) {
+      // A message this peer cannot read: not answered.
+    }
+    pending.erase(pending.begin(), pending.begin() + 12 + static_cast<std::ptrdiff_t>(size));
+  }
+  return true;
+}
+
+}  // namespace
+
+GiopRecorder::GiopRecorder() : state_(new State) {
+  state_->listener = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t size = sizeof address;
+  if (state_->listener < 0 || ::bind(state_->listener, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
+      ::listen(state_->listener, 16) != 0 ||
+      ::getsockname(state_->listener, reinterpret_cast<sockaddr*>(&address), &size) != 0 ||
+      ::pipe2(state_->wake, O_CLOEXEC) != 0) {
+    if (state_->listener >= 0) ::close(state_->listener);
+    delete state_;
+    throw std::runtime_error("GiopRecorder: cannot listen on 127.0.0.1");
+  }
+  port_ = ntohs(address.sin_port);
+  State* state = state_;
+  state_->thread = std::thread([state] {
+    std::vector<pollfd> fds{{state->listener, POLLIN, 0}, {state->wake[0], POLLIN, 0}};
+    std::vector<std::vector<std::uint8_t>> pending(2);
+    for (;;) {
+      if (::poll(fds.data(), fds.size(), -1) < 0) continue;
+      if (fds[1].revents) break;
+      if (fds[0].revents & POLLIN) {
+        const int client = ::accept4(state->listener, nullptr, nullptr, SOCK_CLOEXEC);
+        if (client >= 0) {
+          fds.push_back({client, POLLIN, 0});
+          pending.emplace_back();
+        }
+      }
+      for (std::size_t i = 2; i < fds.size();) {
+        bool open = true;
+        if (fds[i].revents) {
+          std::vector<Request> got;
+          open = serve_connection(fds[i].fd, pending[i], got);
+          std::lock_guard lock(state->mutex);
+          for (auto& r : got) state->requests.push_back(std::move(r));
+        }
+        if (open) {
+          fds[i].revents = 0;
+          ++i;
+          continue;
+        }
+        ::close(fds[i].fd);
+        fds.erase(fds.begin() + static_cast<std::ptrdiff_t>(i));
+        pending.erase(pending.begin() + static_cast<std::ptrdiff_t>(i));
+      }
+    }
+    for (std::size_t i = 2; i < fds.size(); ++i) ::close(fds[i].fd);
+  });
+}
+
+GiopRecorder::~GiopRecorder() {
+  (void)::write(state_->wake[1], "x", 1);
+  state_->thread.join();
+  ::close(state_->listener);
+  ::close(state_->wake[0]);
+  ::close(state_->wake[1]);
+  delete state_;
+}
+
+std::string GiopRecorder::corbaloc() const { return "corbaloc::1.2@127.0.0.1:" + std::to_string(port_) + "/bait"; }
+
+std::vector<GiopRecorder::Request> GiopRecorder::requests() const {
+  std::lock_guard lock(state_->mutex);
+  return state_->requests;
 }
 
 }  // namespace rtm_test

@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "launcher.h"
 
+#include "rtm/access.h"
+#include "rtm/socket_peer.h"
+
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
@@ -209,21 +212,22 @@ SystemState SystemState::load(const std::string& system) {
 }
 
 // The name must be bound to the process we started, not to another system's component of the
-// same name (the runner reports its pid as a statistic).
+// same name nor to an object someone else bound there. Which process serves it is what the
+// kernel says of its giop:unix: socket (SO_PEERCRED, rtm/access.h), never what the object
+// says of itself.
 void check_bound_to(const Browser& browser, const std::string& host, const LaunchedProcess& p) {
-  RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(browser.component(host + "/" + p.name));
-  if (CORBA::is_nil(ex)) throw BrowseError(fmt::format("{} is bound to a component that is no RTM component", p.name));
-  RTM::StatisticList_var stats = ex->statistics();
-  for (CORBA::ULong i = 0; i < stats->length(); ++i) {
-    if (std::string_view(stats[i].name.in()) != "pid") continue;
-    const auto bound_pid = static_cast<pid_t>(stats[i].value);
-    if (bound_pid == p.pid) return;
+  RTM::RtComponent_var component = browser.component(host + "/" + p.name);
+  const std::optional<rtm::Peer> peer = rtm::peer_of(component.in());
+  if (peer && peer->pid && *peer->pid == p.pid) return;  // over giop:unix:
+  if (peer && peer->socket_inode && rtm::process_holds_socket(p.pid, *peer->socket_inode)) return;  // TCP
+  if (peer && peer->pid)
     throw BrowseError(fmt::format("{} is bound to another process (pid {}), not to the one rtm up started (pid {}): "
                                   "another system uses that name",
-                                  p.name, bound_pid, p.pid));
-  }
-  throw BrowseError(fmt::format("{} is bound to a component that does not say its process: not the one rtm up started",
-                                p.name));
+                                  p.name, *peer->pid, p.pid));
+  throw BrowseError(fmt::format("{} is bound to another process, not to the one rtm up started (pid {}): the "
+                                "kernel shows that process no socket of the connection to it ({}); another system "
+                                "uses that name",
+                                p.name, p.pid, peer ? peer->address : std::string("an object in rtm itself")));
 }
 
 // Until `p`'s name is bound to `p` itself (check_bound_to); throws when p exits first, when

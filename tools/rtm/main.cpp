@@ -347,9 +347,13 @@ rtm::NamingAddress naming_address(const Cli& c, const std::optional<SystemFile>&
 }
 
 std::vector<std::string> orb_arguments(const Cli& c, const rtm::NamingAddress& naming) {
+  // rtm's own servants (rtm watch's InPort) take data over giop:unix: from this host's
+  // components (rtm/access.h); with a naming service elsewhere also from other hosts: over TCP
+  // (a component opened with --access open), or over giop:ssl: with --tls.
   std::vector<std::string> args;
-  if (naming.host == "127.0.0.1" || naming.host == "localhost" || naming.host == "::1") {
-    args = {"-ORBendPoint", "giop:tcp:127.0.0.1:"};
+  if (naming.host != "127.0.0.1" && naming.host != "localhost" && naming.host != "::1") {
+    args = {"-ORBendPoint", "giop:tcp::", "-ORBendPoint", "giop:unix:"};
+    if (!c.tls.empty()) args.insert(args.end(), {"-ORBendPoint", "giop:ssl::"});
   }
   args.insert(args.end(), {"-ORBclientCallTimeOutPeriod", std::to_string(c.timeout_ms),
                            "-ORBclientConnectTimeOutPeriod", std::to_string(c.timeout_ms)});

@@ -81,15 +81,8 @@ std::string format_statistic(double value) {
 
 std::string failure_text(const CORBA::Exception& e) {
   if (const auto* refused = dynamic_cast<const CORBA::NO_PERMISSION*>(&e);
-      refused && refused->minor() == rtm::kAccessRefusedMinor) {
-    std::string key = "~/.rtm/key";
-    try {
-      key = rtm::access_key_path();
-    } catch (const std::exception&) {
-    }
-    return "not allowed: only the user who started it may change it (this process's access key, " + key +
-           ", is not its owner's; from another host: --tls with a certificate of its system; docs/safety.md)";
-  }
+      refused && (refused->minor() == rtm::kAccessRefusedMinor || refused->minor() == rtm::kCallerUnknownMinor))
+    return rtm::access_refusal_text(refused->minor());
   const char* n = e._name();
   return n ? n : "CORBA exception";
 }

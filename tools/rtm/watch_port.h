@@ -34,6 +34,7 @@ class WatchPort final : public virtual POA_RTM::InPortOrdered {
   RTM::PortCounters counters() override;
   char* last_error() override;
   RTM::PortDescription* describe() override;  // "rtm watch display", no elements
+  void admit_writer() override {}              // the access screen (rtm/access.h) answers
 
   // Waits up to timeout for data; moves what arrived into out. Returns false on timeout.
   bool drain(std::vector<CORBA::Any>& out, std::chrono::milliseconds timeout);

@@ -41,10 +41,42 @@ struct GiopReply {
   std::uint32_t completed = 0;
 };
 
+struct ServiceContext {
+  std::uint32_t id = 0;
+  std::vector<std::uint8_t> data;
+  auto operator<=>(const ServiceContext&) const = default;
+};
+
 // Sends one GIOP 1.2 Request for `operation` with `body` (CDR little endian, written as if
-// starting at an 8-aligned offset) and waits up to timeout_ms for the reply. nullopt when the
-// peer closed the connection or did not answer in time.
+// starting at an 8-aligned offset) and `contexts`, and waits up to timeout_ms for the reply.
+// nullopt when the peer closed the connection or did not answer in time.
 std::optional<GiopReply> giop_request(const IiopProfile& target, const std::string& operation,
-                                      const std::vector<std::uint8_t>& body, int timeout_ms);
+                                      const std::vector<std::uint8_t>& body, int timeout_ms,
+                                      const std::vector<ServiceContext>& contexts = {});
+
+// A bait an attacker binds a name to: an IIOP endpoint on 127.0.0.1 (a free port) that records
+// the operation and the service contexts of every GIOP 1.2 Request it is sent, and answers each
+// with OBJECT_NOT_EXIST (a LocateRequest with UNKNOWN_OBJECT). Its reference:
+// "corbaloc::1.2@127.0.0.1:<port>/bait". Serves on a thread of its own until destroyed.
+class GiopRecorder {
+ public:
+  struct Request {
+    std::string operation;
+    std::vector<ServiceContext> contexts;
+  };
+  GiopRecorder();
+  ~GiopRecorder();
+  GiopRecorder(const GiopRecorder&) = delete;
+  GiopRecorder& operator=(const GiopRecorder&) = delete;
+
+  std::uint16_t port() const { return port_; }
+  std::string corbaloc() const;
+  std::vector<Request> requests() const;
+
+ private:
+  struct State;
+  State* state_;
+  std::uint16_t port_ = 0;
+};
 
 }  // namespace rtm_test

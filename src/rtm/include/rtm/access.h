@@ -1,24 +1,27 @@
 // SPDX-License-Identifier: Apache-2.0
-// Access control: by default only the user who started a system may change it.
+// Access control: by default only the user who started a component may change it.
 //
-// Each user has a random access key in a file only they can read (access_key_path():
-// $RTM_KEY_FILE, else ~/.rtm/key, made on first use, mode 0600 in a 0700 folder). Every GIOP
-// request an RTM process sends carries its user's key in a service context; a component
-// refuses a change (on, off, reset, set_parameter, subscribe, unsubscribe, put and its
-// variants) that does not carry its own user's key with CORBA::NO_PERMISSION, before the
-// request's arguments are read. Reading (get, state, statistics, ports, describe, ...) stays
-// open to every local user. Calls inside one process take omniORB's local shortcut and are not
-// checked.
+// No secret crosses the wire. A component asks the kernel who is calling, once per connection
+// when it accepts it (rtm/socket_peer.h): over its giop:unix: socket the peer credentials
+// (SO_PEERCRED) name the caller's user; over TCP from this host the caller's socket in
+// /proc/net/tcp does. A change (on, off, reset, set_parameter, subscribe, unsubscribe, put and
+// its variants, hold, release, admit_writer) is let through when that user is the component's
+// own (or root, who may do anything to the process anyway), or when it arrives over a giop:ssl:
+// connection whose peer presented a certificate of this process's authority (rtm/tls.h: the
+// credential across hosts). Otherwise it is refused with CORBA::NO_PERMISSION before its
+// arguments are read: minor kAccessRefusedMinor when the caller is another user,
+// kCallerUnknownMinor when it came over plain TCP from another host, where nobody can tell who
+// is calling. Reading (get, state, statistics, ports, describe, ...) needs no credential at
+// all. Calls inside one process take omniORB's local shortcut and are not checked.
 //
-// A client that knows only the 2004 IDL (idl/RTM.idl) sends no key: the owner lets such
-// clients change a component by starting it with --access open (AccessPolicy::open).
-//
-// Across hosts the credential is a certificate instead (rtm/tls.h): a request that arrives
-// over a giop:ssl: connection whose peer presented a certificate of this process's authority
-// may change it without the key.
+// A client that knows only the 2004 IDL (idl/RTM.idl) and reaches the component over TCP is
+// let change it when the owner starts the component with --access open (AccessPolicy::open).
 #pragma once
 
-#include <array>
+#include <omniORB4/CORBA.h>
+
+#include <sys/types.h>
+
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -27,43 +30,54 @@
 namespace rtm {
 
 enum class AccessPolicy : std::uint8_t {
-  owner,  // changes need the key of the user who started the process (the default)
+  owner,  // changes only from this user's processes on this host, or a certificate (the default)
   open,   // anyone who can reach the endpoints may change it (2004 clients)
 };
 // "owner" or "open"; nullopt otherwise.
 std::optional<AccessPolicy> parse_access_policy(std::string_view text);
 
-using AccessKey = std::array<unsigned char, 32>;
-
-// Where this user's key lives: $RTM_KEY_FILE, else $HOME/.rtm/key.
-std::string access_key_path();
-// Reads the key, making it (random, 0600, folder 0700) when the file does not exist. Throws
-// std::runtime_error naming the file and the reason when it cannot be read or made, or when
-// it is not this user's or others may read it.
-AccessKey load_or_make_access_key();
-
-// Sets what this process's requests carry and what its servants require, before rtm::Orb is
-// made: every request carries `key` (none: nothing is sent, and changes elsewhere are refused);
-// changes to this process's servants need `key` unless `policy` is open.
-void configure_access(const std::optional<AccessKey>& key, AccessPolicy policy);
-// What rtm::Orb does unless the process configured its own: this user's key when it can be
-// read or made (else none: this process can read components but change none), policy owner.
-void configure_default_access();
-// rtm::Orb, right after ORB_init (omniORB has no interceptors before it): adds the two
+// Sets what this process's servants require; before rtm::Orb is made (the default is owner).
+void configure_access(AccessPolicy policy);
+// rtm::Orb, right after ORB_init (omniORB has no interceptors before it): adds the
 // interceptors, once per process.
 void register_access_interceptors();
 
 // Whether operation `name` (a GIOP operation name) changes a component or its ports.
 bool is_change_operation(std::string_view name);
+// Whether a caller running as uid may change this process's servants: this process's own
+// user, or root.
+bool is_owner_uid(uid_t uid);
 
-// The same interceptor screens every put before its argument is read: a datum whose type is
-// no data type (an any holding an any, whose unmarshalling omniORB 4.2 does in time doubling
-// per level; an object reference, a value, a TypeCode) is refused with CORBA::BAD_PARAM
-// (minor kNotPlainDataMinor), whatever the access policy. Refusals of either kind are logged
-// (the first three, then every thousandth).
+// How a call went, as the kernel and the TLS handshake tell: over which transport, and who
+// is at the other end.
+enum class Transport : std::uint8_t { unix_socket, tcp, tls, other };
+struct Peer {
+  Transport transport = Transport::other;
+  std::string address;            // omniORB's connection address, e.g. "giop:ssl:10.0.0.2:4711"
+  std::optional<uid_t> uid;       // unix socket, TCP on this host: the user of the process at the other end
+  std::optional<pid_t> pid;       // unix socket: that process
+  std::optional<ino_t> socket_inode;  // TCP on this host: its socket (rtm/socket_peer.h)
+  std::string identity;           // tls: the verified certificate's common name, e.g. "op@hostb"
+};
+
+// The process that serves `object`, learnt from one call to it (_non_existent) and the
+// connection it went over. nullopt when the object is in this process (no connection).
+// Throws the call's CORBA::SystemException (TRANSIENT for a dead or unreachable object).
+std::optional<Peer> peer_of(CORBA::Object_ptr object);
+
+// What a refused change means, for the minor code of its NO_PERMISSION: the sentence `rtm`
+// prints and an OutPort's refused subscribe keeps, naming this process's user.
+std::string access_refusal_text(std::uint32_t minor);
+
+// The same screen refuses every put before its argument is read when the datum's type is no
+// data type (an any holding an any, whose unmarshalling omniORB 4.2 does in time doubling per
+// level; an object reference, a value, a TypeCode): CORBA::BAD_PARAM (minor
+// kNotPlainDataMinor), whatever the access policy. Refusals of either kind are counted and
+// logged (the first three, then every thousandth).
 inline constexpr std::uint32_t kNotPlainDataMinor = 0x52544d02;  // "RTM" 2
 
-// The minor code of the NO_PERMISSION a refused change raises.
-inline constexpr std::uint32_t kAccessRefusedMinor = 0x52544d01;  // "RTM" 1
+// The minor codes of the NO_PERMISSION a refused change raises.
+inline constexpr std::uint32_t kAccessRefusedMinor = 0x52544d01;  // "RTM" 1: another user
+inline constexpr std::uint32_t kCallerUnknownMinor = 0x52544d03;  // "RTM" 3: TCP from elsewhere, unknown
 
 }  // namespace rtm

@@ -151,6 +151,7 @@ class InPortBase : public virtual POA_RTM::InPortOrdered {
   void push(const CORBA::Any& value) override;  // put() that swallows the BAD_PARAM
   void push_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override;
   RTM::PortDescription* describe() override;
+  void admit_writer() override {}  // the access screen (rtm/access.h) is the whole answer
 
   // The local InPort servant behind ref (with a reference count added), or nullptr when ref
   // is nil or points into another process.

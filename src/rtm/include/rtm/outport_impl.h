@@ -3,6 +3,7 @@
 #pragma once
 
 #include "rt/clock.h"
+#include "rtm/access.h"
 #include "rtm/log.h"
 
 #include <algorithm>
@@ -279,6 +280,17 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
       sub->sender = random_sender();
     }
     if (delivery() == OutPortOptions::Delivery::writer_when_idle) make_writer_references(*sub);
+    // A wiring whose every datum the InPort's access control would refuse is refused now.
+    if (!CORBA::is_nil(sub->port_ex)) {
+      try {
+        sub->port_ex->admit_writer();
+      } catch (const CORBA::NO_PERMISSION& e) {
+        refuse(full_name() + " -> " + sub->peer + ": " + access_refusal_text(e.minor()));
+        return false;
+      } catch (const CORBA::Exception&) {
+        // Not answering now is found out by the first write(), as for any subscriber.
+      }
+    }
   }
   const bool threaded = !sub->direct;
   std::string why;
