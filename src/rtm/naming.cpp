@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 #include "rtm/log.h"
+#include "rtm/tls.h"
 #include <unistd.h>
 
 #include <algorithm>
@@ -295,7 +296,7 @@ std::vector<ComponentEntry> NamingClient::list_components() const {
   });
 }
 
-RTM::RtComponent_var NamingClient::resolve_component(std::string_view host_slash_name) const {
+RTM::RtComponent_var NamingClient::resolve_component(std::string_view host_slash_name, ComponentPath* found) const {
   ComponentPath path;
   try {
     path = ComponentPath::parse(host_slash_name);
@@ -338,7 +339,24 @@ RTM::RtComponent_var NamingClient::resolve_component(std::string_view host_slash
     throw NamingError(fmt::format("{} in naming service at {} is not an RTM::RtComponent",
                                   path.to_string(), address_.to_string()));
   }
+  if (tls_configured()) check_member(path, component.in());
+  if (found) *found = path;
   return component;
+}
+
+void NamingClient::check_member(const ComponentPath& path, CORBA::Object_ptr object) const {
+  std::string problem;
+  try {
+    problem = system_membership_problem(object, path.host);
+  } catch (const CORBA::TRANSIENT&) {
+    problem = tls_handshake_problem(object);
+    if (!problem.empty()) problem = "no TLS connection: " + problem;
+  } catch (const CORBA::SystemException&) {
+    // Gone or hung: the caller's own call finds that out and says so.
+  }
+  if (!problem.empty())
+    throw NotAMember(fmt::format("{} in naming service at {} is not this system's: {}", path.to_string(),
+                                 address_.to_string(), problem));
 }
 
 // ---------------------------------------------------------------------------------------------

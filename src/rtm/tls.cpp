@@ -1,6 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/tls.h"
 
+#include "rtm/access.h"
+#include "rtm/naming.h"
+
+#include <netdb.h>
+#include <poll.h>
+#include <sys/socket.h>
+
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -9,6 +16,7 @@
 #include <openssl/err.h>
 #include <openssl/evp.h>
 #include <openssl/pem.h>
+#include <openssl/ssl.h>
 #include <openssl/x509.h>
 #include <openssl/x509v3.h>
 
@@ -18,11 +26,14 @@
 #include <omniORB4/omniObjRef.h>
 #include <omniORB4/sslContext.h>
 
+#include <fmt/format.h>
+
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -289,6 +300,152 @@ bool reachable_only_over_tls(CORBA::Object_ptr object) {
     }
   }
   return ssl;
+}
+
+bool identity_names_host(std::string_view identity, std::string_view host) {
+  if (host.empty()) return false;
+  if (identity == host) return true;
+  const auto at = identity.rfind('@');
+  return at != std::string_view::npos && identity.substr(at + 1) == host;
+}
+
+std::string system_membership_problem(CORBA::Object_ptr object, std::string_view host) {
+  const std::optional<Peer> peer = peer_of(object);
+  if (!peer) return "";  // a servant of this process
+  switch (peer->transport) {
+    case Transport::tls:
+      if (peer->identity.empty()) return "its TLS connection presented no certificate this process verified";
+      if (identity_names_host(peer->identity, host)) return "";
+      return fmt::format("its certificate names {}, not a member of this system on host {}", peer->identity, host);
+    case Transport::unix_socket:
+    case Transport::tcp: {
+      if (!peer->uid) break;  // TCP from another host
+      const std::string here = local_host_name();
+      if (host != here) return fmt::format("it is a process on this host ({}), not on {}", here, host);
+      if (!is_owner_uid(*peer->uid)) return fmt::format("it is another user's process (uid {})", *peer->uid);
+      return "";
+    }
+    case Transport::other: break;
+  }
+  return "it answers over plain TCP from another host (" + peer->address + "), where it shows no certificate of this system";
+}
+
+namespace {
+
+struct SslAddress {
+  std::string host;
+  std::uint16_t port = 0;
+};
+
+// The giop:ssl: addresses an object's reference offers: each IIOP profile's host with the
+// port of its TAG_SSL_SEC_TRANS component (a CDR encapsulation of three unsigned shorts:
+// target_supports, target_requires, port).
+std::vector<SslAddress> ssl_addresses(CORBA::Object_ptr object) {
+  std::vector<SslAddress> out;
+  if (CORBA::is_nil(object) || !object->_PR_getobj()) return out;
+  omniIOR_var ior = object->_PR_getobj()->_getIOR();
+  const IOP::TaggedProfileList& profiles = ior->iopProfiles();
+  for (CORBA::ULong i = 0; i < profiles.length(); ++i) {
+    if (profiles[i].tag != IOP::TAG_INTERNET_IOP) continue;
+    IIOP::ProfileBody body;
+    try {
+      IIOP::unmarshalProfile(profiles[i], body);
+    } catch (const CORBA::SystemException&) {
+      continue;
+    }
+    for (CORBA::ULong c = 0; c < body.components.length(); ++c) {
+      const IOP::TaggedComponent& component = body.components[c];
+      if (component.tag != IOP::TAG_SSL_SEC_TRANS || component.component_data.length() < 8) continue;
+      const CORBA::Octet* data = component.component_data.get_buffer();
+      const bool little = data[0] != 0;
+      const auto port = static_cast<std::uint16_t>(little ? data[6] | (data[7] << 8) : (data[6] << 8) | data[7]);
+      out.push_back({body.address.host.in(), port});
+    }
+  }
+  return out;
+}
+
+using SslContextPtr = std::unique_ptr<SSL_CTX, Deleter<SSL_CTX_free>>;
+using SslPtr = std::unique_ptr<SSL, Deleter<SSL_free>>;
+
+struct Descriptor {
+  int fd = -1;
+  ~Descriptor() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+// A TCP connection to host:port within timeout_ms, or -1.
+int connect_within(const SslAddress& address, int timeout_ms) {
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* found = nullptr;
+  if (::getaddrinfo(address.host.c_str(), std::to_string(address.port).c_str(), &hints, &found) != 0) return -1;
+  int connected = -1;
+  for (addrinfo* a = found; a && connected < 0; a = a->ai_next) {
+    const int fd = ::socket(a->ai_family, a->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC, a->ai_protocol);
+    if (fd < 0) continue;
+    int error = 0;
+    socklen_t size = sizeof error;
+    pollfd wait{fd, POLLOUT, 0};
+    const bool ok = (::connect(fd, a->ai_addr, a->ai_addrlen) == 0 ||
+                     (errno == EINPROGRESS && ::poll(&wait, 1, timeout_ms) == 1 &&
+                      ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &error, &size) == 0 && error == 0));
+    if (ok) {
+      ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+      const timeval bound{0, timeout_ms * 1000};
+      ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &bound, sizeof bound);
+      ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &bound, sizeof bound);
+      connected = fd;
+    } else {
+      ::close(fd);
+    }
+  }
+  ::freeaddrinfo(found);
+  return connected;
+}
+
+// One handshake with this process's certificates, as omniORB's would be: "" when it succeeds
+// or the address does not answer.
+std::string handshake_problem(const SslAddress& address) {
+  Descriptor socket{connect_within(address, 500)};
+  if (socket.fd < 0) return "";
+  ERR_clear_error();
+  SslContextPtr context(SSL_CTX_new(TLS_client_method()));
+  if (!context || SSL_CTX_load_verify_locations(context.get(), g_tls.authority.c_str(), nullptr) != 1 ||
+      SSL_CTX_use_certificate_chain_file(context.get(), g_tls.identity.c_str()) != 1 ||
+      SSL_CTX_use_PrivateKey_file(context.get(), g_tls.identity.c_str(), SSL_FILETYPE_PEM) != 1)
+    return "this process's certificates could not be loaded (" + openssl_error() + ")";
+  SSL_CTX_set_verify(context.get(), SSL_VERIFY_PEER, nullptr);
+  SslPtr ssl(SSL_new(context.get()));
+  SSL_set_fd(ssl.get(), socket.fd);
+  if (SSL_connect(ssl.get()) != 1) {
+    const long verified = SSL_get_verify_result(ssl.get());
+    if (verified != X509_V_OK)
+      return std::string("its certificate was not issued by this system's authority (") +
+             X509_verify_cert_error_string(verified) + ")";
+    return "it refused this process's certificate (" + openssl_error() + ")";
+  }
+  // TLS 1.3: the server judges the client's certificate after the client's side of the
+  // handshake is done, and its alert comes with the first read. A server that accepted it
+  // waits for a request: the read times out.
+  char byte = 0;
+  const int n = SSL_read(ssl.get(), &byte, 1);
+  if (n <= 0 && SSL_get_error(ssl.get(), n) == SSL_ERROR_SSL)
+    return "it refused this process's certificate (" + openssl_error() + ")";
+  ERR_clear_error();
+  return "";
+}
+
+}  // namespace
+
+std::string tls_handshake_problem(CORBA::Object_ptr object) {
+  if (!tls_configured()) return "";
+  for (const SslAddress& address : ssl_addresses(object)) {
+    if (std::string problem = handshake_problem(address); !problem.empty()) return problem;
+  }
+  return "";
 }
 
 void make_tls_authority(const fs::path& folder, const std::string& system, const std::string& identity_name,

@@ -265,4 +265,24 @@ TEST_F(RtmAccess, UpFindsOutAnImpostorThatClaimsThePidOfTheProcessItStarted) {
   rtm({"down", "claimed"});
 }
 
+// omniNames lets anyone bind any name: one bound by hand with terminal controls in it is shown
+// escaped and marked, never acted on by the owner's terminal.
+TEST_F(RtmAccess, ANameBoundByHandIsListedEscapedAndMarkedNeverAsTerminalControls) {
+  talker("alpha");
+  CORBA::Object_var alpha = naming().resolve_object(rtm::ComponentPath::on_this_host("alpha"));
+  naming().bind({rtm::local_host_name(), "\x1b]0;owned\x07\x1b[2J<img src=x>"}, alpha.in());
+  for (const std::vector<std::string>& command : {std::vector<std::string>{"ls"}, {"ls", "-l"}, {"ls", "--names"}}) {
+    const CommandResult r = rtm(command);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << command.back() << ": a raw escape reached the terminal";
+    EXPECT_NE(r.out.find("\\x1b]0;owned\\x07\\x1b[2J<img src=x>"), std::string::npos) << r.out;
+  }
+  EXPECT_NE(rtm({"ls"}).out.find("(not a valid name)"), std::string::npos);
+  const json listed = rtm_json({"ls"});
+  bool marked = false;
+  for (const auto& c : listed)
+    if (c["name"] != "alpha") marked = c["name_ok"] == false;
+  EXPECT_TRUE(marked) << listed.dump();
+}
+
 }  // namespace

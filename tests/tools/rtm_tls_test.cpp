@@ -43,13 +43,13 @@ class RtmTls : public ::testing::Test {
     fs::remove_all(dir_);
   }
 
-  // rtm as a user who is not the components' owner (another access key): only a certificate
-  // can let its changes through. folder: --tls, or none.
+  // rtm reaching the TLS-only components over giop:ssl:, where only a certificate can let its
+  // changes through. folder: --tls, or none.
   CommandResult run(std::vector<std::string> args, const std::string& folder = "") {
     std::vector<std::string> argv{RTM_CLI_PATH, "--naming", names_.address()};
     if (!folder.empty()) argv.insert(argv.end(), {"--tls", (dir_ / folder).string()});
     argv.insert(argv.end(), args.begin(), args.end());
-    return rtm_test::run_command(argv, {"RTM_TLS=", "RTM_KEY_FILE=" + (dir_ / "other-key").string()});
+    return rtm_test::run_command(argv, {"RTM_TLS="});
   }
   json run_json(std::vector<std::string> args, const std::string& folder) {
     args.insert(args.begin(), "--json");
@@ -76,7 +76,7 @@ class RtmTls : public ::testing::Test {
   std::vector<std::unique_ptr<ChildProcess>> talkers_;
 };
 
-TEST_F(RtmTls, ACertificateOfTheSystemsAuthorityMayChangeAComponentWithoutItsOwnersKey) {
+TEST_F(RtmTls, ACertificateOfTheSystemsAuthorityMayChangeATlsOnlyComponent) {
   tls_talker("alpha", {"--on"});
   ASSERT_EQ(state_of("alpha"), "on");
   const CommandResult off = run({"off", "alpha"}, "hostb");
@@ -92,11 +92,32 @@ TEST_F(RtmTls, ACertificateOfAnotherAuthorityGetsNoConnectionAndChangesNothing) 
   const CommandResult off = run({"off", "alpha"}, "foreign");
   EXPECT_EQ(off.exit_code, 1) << off.out;
   EXPECT_NE(off.err.find("alpha"), std::string::npos) << off.err;
+  EXPECT_NE(off.err.find("no TLS connection: its certificate was not issued by this system's authority"),
+            std::string::npos)
+      << "a bare TRANSIENT where a sentence is owed: " << off.err;
   const CommandResult put = run({"put", "alpha.in0", "1", "2", "3", "4", "5", "6"}, "foreign");
   EXPECT_EQ(put.exit_code, 1) << put.out;
   EXPECT_EQ(state_of("alpha"), "on");
   const json alpha = run_json({"cat", "alpha"}, "sys");
   EXPECT_EQ(alpha["ports"][0]["counters"]["accepted"], 0) << "a put through a foreign certificate arrived";
+}
+
+// omniNames lets anyone bind a name: a component whose certificate names another host, bound
+// under this host's name, is no member of the system here, and nothing is asked of it.
+TEST_F(RtmTls, ANameThatLeadsToACertificateOfAnotherHostIsRefusedBeforeAnyChange) {
+  tls_talker("alpha", {"--on"});
+  std::vector<std::string> argv{TALKER_PATH, "--name", "impostor", "--naming", names_.address(), "--tls",
+                                (dir_ / "hostb").string(), "--endpoint", "giop:ssl:127.0.0.1:", "--on"};
+  rtm_test::start_bound(talkers_, argv);
+  const CommandResult off = run({"off", "impostor"}, "sys");
+  EXPECT_EQ(off.exit_code, 1) << off.out;
+  EXPECT_NE(off.err.find("is not this system's: its certificate names op@b"), std::string::npos) << off.err;
+  const CommandResult ls = run({"ls"}, "sys");
+  EXPECT_EQ(ls.exit_code, 0) << ls.err;
+  EXPECT_NE(ls.out.find("its certificate names op@b"), std::string::npos) << ls.out;
+  EXPECT_EQ(state_of("alpha"), "on") << "the member beside it is listed as before";
+  const CommandResult clean = run({"ls", "--clean"}, "sys");
+  EXPECT_NE(clean.out.find("no dead bindings"), std::string::npos) << "a non-member was cleaned: " << clean.out;
 }
 
 TEST_F(RtmTls, WithoutCertificatesATlsOnlyComponentIsOutOfReachNeitherDeadNorCleaned) {

@@ -153,6 +153,15 @@ Browser::Browser(CORBA::ORB_ptr orb, NamingAddress naming, std::chrono::millisec
 ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr object, Detail detail) const {
   ComponentInfo info;
   info.path = path;
+  if (tls_configured()) {
+    try {
+      naming_.check_member(path, object);
+    } catch (const NotAMember& e) {
+      info.liveness = Liveness::not_member;
+      info.dead_reason = e.what();
+      return info;
+    }
+  }
   auto dead = dead_if_unreachable([&] {
     RTM::RtComponentEx_var ex = RTM::RtComponentEx::_narrow(object);
     RTM::RtComponent_var comp;

@@ -60,8 +60,10 @@ struct PortInfo {
 };
 
 // out_of_reach: it answers on no endpoint this process can use (it serves giop:ssl: only and
-// this process has no --tls): maybe alive, never cleaned.
-enum class Liveness { alive, dead, out_of_reach };
+// this process has no --tls): maybe alive, never cleaned. not_member: with --tls, the name
+// leads to something that is not a member of this system on the name's host (rtm/tls.h;
+// dead_reason says why): never called, never cleaned.
+enum class Liveness { alive, dead, out_of_reach, not_member };
 inline constexpr std::string_view kOutOfReach = "no usable endpoint";
 inline constexpr std::string_view kOutOfReachText =
     "out of reach: it serves no endpoint this process can use (giop:ssl: needs --tls FOLDER)";
@@ -84,7 +86,7 @@ struct ParameterInfo {
 struct ComponentInfo {
   ComponentPath path;
   Liveness liveness = Liveness::alive;
-  std::string dead_reason;       // "TRANSIENT" etc. for a dead binding, kOutOfReach
+  std::string dead_reason;       // "TRANSIENT" etc. for a dead binding, kOutOfReach, why not a member
   bool extended = false;         // implements RtComponentEx (else a plain seed component)
   std::string kind;
   std::string description;       // one line: what the component does

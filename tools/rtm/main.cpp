@@ -157,14 +157,14 @@ int run_ls(const Browser& browser, const Cli& c) {
       for (const auto& p : removed) j.push_back(p.to_string());
       fmt::print("{}\n", json{{"removed", j}}.dump());
     } else {
-      for (const auto& p : removed) fmt::print("removed dead binding {}\n", p.to_string());
+      for (const auto& p : removed) fmt::print("removed dead binding {}\n", terminal_text(p.to_string()));
       if (removed.empty()) fmt::print("no dead bindings\n");
     }
     return kOk;
   }
   const auto comps = browser.list(c.ls_path, c.ls_long);
   if (c.ls_names) {
-    for (const auto& comp : comps) fmt::print("{}\n", comp.path.name);
+    for (const auto& comp : comps) fmt::print("{}\n", terminal_text(comp.path.name));
   } else if (c.json) {
     json j = json::array();
     for (const auto& comp : comps) j.push_back(component_json(comp, c.ls_long));
@@ -179,9 +179,9 @@ int run_cat(const Browser& browser, const Cli& c) {
   const auto info = browser.describe(c.component);
   if (c.cat_names || c.cat_parameters) {
     if (c.cat_names)
-      for (const auto& p : info.ports) fmt::print("{}\n", p.name);
+      for (const auto& p : info.ports) fmt::print("{}\n", terminal_text(p.name));
     if (c.cat_parameters)
-      for (const auto& p : info.parameters) fmt::print("{}\n", p.name);
+      for (const auto& p : info.parameters) fmt::print("{}\n", terminal_text(p.name));
   } else if (c.json) {
     fmt::print("{}\n", component_json(info, true).dump(2));
   } else {
@@ -197,7 +197,7 @@ int run_set(const Browser& browser, const Cli& c) {
   if (c.json) {
     fmt::print("{}\n", json{{"component", c.component}, {"parameter", c.parameter}, {"value", now}}.dump());
   } else {
-    fmt::print("{}.{} = {}\n", c.component, c.parameter, now);
+    fmt::print("{}.{} = {}\n", c.component, c.parameter, terminal_text(now));
   }
   return kOk;
 }
@@ -234,9 +234,9 @@ int run_switch(const Browser& browser, const Cli& c) {
     if (why.empty()) {
       fmt::print("{} {}\n", verb, name);
     } else if (full) {
-      fmt::print(stderr, "rtm: {}\n", why);
+      fmt::print(stderr, "rtm: {}\n", terminal_text(why));
     } else {
-      fmt::print(stderr, "rtm: {} {}: {}\n", verb, name, why);
+      fmt::print(stderr, "rtm: {} {}: {}\n", verb, name, terminal_text(why));
     }
   }
   if (c.json) fmt::print("{}\n", results.dump());
@@ -259,7 +259,7 @@ int run_get(const Browser& browser, const Cli& c) {
     j["port"] = p.address;
     fmt::print("{}\n", j.dump());
   } else {
-    fmt::print("{}\n", format_text(value.in(), p.units()));
+    fmt::print("{}\n", terminal_text(format_text(value.in(), p.units())));
   }
   return kOk;
 }
@@ -280,7 +280,7 @@ int run_put(const Browser& browser, const Cli& c) {
     j["port"] = p.address;
     fmt::print("{}\n", j.dump());
   } else {
-    fmt::print("put {}  {}\n", p.address, format_text(value, p.units()));
+    fmt::print("put {}  {}\n", p.address, terminal_text(format_text(value, p.units())));
   }
   return kOk;
 }
@@ -435,16 +435,16 @@ int main(int argc, char** argv) {
   try {
     return run(c);
   } catch (const Failure& e) {
-    fmt::print(stderr, "rtm: {}\n", e.what());
+    fmt::print(stderr, "rtm: {}\n", terminal_text(e.what()));
     return e.code;
   } catch (const LaunchInterrupted& e) {
-    fmt::print(stderr, "rtm: {}\n", e.what());
+    fmt::print(stderr, "rtm: {}\n", terminal_text(e.what()));
     return kInterrupted;
   } catch (const std::invalid_argument& e) {
-    fmt::print(stderr, "rtm: {}\n", e.what());
+    fmt::print(stderr, "rtm: {}\n", terminal_text(e.what()));
     return kUsage;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "rtm: {}\n", e.what());
+    fmt::print(stderr, "rtm: {}\n", terminal_text(e.what()));
     return kFailed;
   } catch (const CORBA::Exception& e) {
     fmt::print(stderr, "rtm: {}\n", corba_name(e));

@@ -47,13 +47,14 @@ void print_port(const PortInfo& p) {
     counters = fmt::format("written {}  pushed {}  dropped {}  failed {}", p.counters.accepted, p.counters.pushed,
                            p.counters.dropped, p.counters.failed);
   }
-  fmt::print("  {:<6} {:<14} {:<20} {}\n", fmt::format("{}{}", to_string(p.direction), p.index), p.name, p.type,
-             counters);
-  if (!p.description.empty()) fmt::print("        {}\n", p.description);
-  if (const auto elements = elements_text(p.elements); !elements.empty()) fmt::print("        {}\n", elements);
-  if (!p.last_error.empty()) fmt::print("        last error: {}\n", p.last_error);
+  fmt::print("  {:<6} {:<14} {:<20} {}\n", fmt::format("{}{}", to_string(p.direction), p.index),
+             terminal_text(p.name), terminal_text(p.type), counters);
+  if (!p.description.empty()) fmt::print("        {}\n", terminal_text(p.description));
+  if (const auto elements = elements_text(p.elements); !elements.empty())
+    fmt::print("        {}\n", terminal_text(elements));
+  if (!p.last_error.empty()) fmt::print("        last error: {}\n", terminal_text(p.last_error));
   for (const auto& s : p.subscriptions) {
-    fmt::print("        -> {} ({}{})  pushed {}  dropped {}{}\n", s.peer, s.req_type,
+    fmt::print("        -> {} ({}{})  pushed {}  dropped {}{}\n", terminal_text(s.peer), s.req_type,
                s.in_process ? ", in-process" : "", s.pushed, s.dropped,
                s.failures ? fmt::format("  failing x{}", s.failures) : "");
   }
@@ -63,16 +64,70 @@ void print_statistics_and_parameters(const ComponentInfo& c) {
   if (!c.statistics.empty()) fmt::print("  statistics\n");
   for (const auto& s : c.statistics) {
     const std::string value = s.unit.empty() ? format_statistic(s.value) : format_statistic(s.value) + " " + s.unit;
-    fmt::print("    {:<24} {:>14}  {}\n", s.name, value, s.description);
+    fmt::print("    {:<24} {:>14}  {}\n", terminal_text(s.name), terminal_text(value), terminal_text(s.description));
   }
   if (!c.parameters.empty()) fmt::print("  parameters\n");
   for (const auto& p : c.parameters) {
-    fmt::print("    {:<24} {}{}  ({}; {})\n", p.name, p.value, p.unit.empty() ? "" : " [" + p.unit + "]",
-               p.access, p.description);
+    fmt::print("    {:<24} {}{}  ({}; {})\n", terminal_text(p.name), terminal_text(p.value),
+               p.unit.empty() ? "" : " [" + terminal_text(p.unit) + "]", terminal_text(p.access),
+               terminal_text(p.description));
   }
 }
 
 }  // namespace
+
+std::string terminal_text(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  const auto escape = [&](unsigned char byte) { out += fmt::format("\\x{:02x}", byte); };
+  for (std::size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c < 0x80) {
+      if (c == '\\') out += "\\\\";
+      else if (c == '\n') out += "\\n";
+      else if (c == '\t') out += "\\t";
+      else if (c < 0x20 || c == 0x7f) escape(c);
+      else out += static_cast<char>(c);
+      ++i;
+      continue;
+    }
+    // A UTF-8 sequence: its length from the lead byte, each continuation 10xxxxxx, no overlong
+    // form, no surrogate, nothing above U+10FFFF, and no C1 control (U+0080..U+009F: a
+    // terminal takes U+009B as CSI) nor line or paragraph separator.
+    const std::size_t length = c >= 0xf0 && c <= 0xf4 ? 4 : c >= 0xe0 ? 3 : c >= 0xc2 && c < 0xe0 ? 2 : 0;
+    char32_t code = length == 4 ? c & 0x07u : length == 3 ? c & 0x0fu : c & 0x1fu;
+    bool valid = length > 0 && i + length <= text.size() && !(length == 3 && c > 0xef);
+    for (std::size_t k = 1; valid && k < length; ++k) {
+      const auto next = static_cast<unsigned char>(text[i + k]);
+      valid = (next & 0xc0) == 0x80;
+      code = (code << 6) | (next & 0x3fu);
+    }
+    const char32_t smallest = length == 4 ? 0x10000 : length == 3 ? 0x800 : 0x80;
+    valid = valid && code >= smallest && code <= 0x10ffff && !(code >= 0xd800 && code <= 0xdfff) &&
+            !(code >= 0x80 && code <= 0x9f) && code != 0x2028 && code != 0x2029;
+    if (!valid) {
+      escape(c);
+      ++i;
+      continue;
+    }
+    out.append(text.substr(i, length));
+    i += length;
+  }
+  return out;
+}
+
+bool name_follows_rule(std::string_view name) {
+  try {
+    rtm::check_name(name);
+    return true;
+  } catch (const std::invalid_argument&) {
+    return false;
+  }
+}
+
+std::string shown_name(std::string_view name) {
+  return name_follows_rule(name) ? std::string(name) : terminal_text(name) + " (not a valid name)";
+}
 
 std::string format_statistic(double value) {
   if (std::isfinite(value) && value == std::floor(value) && std::fabs(value) < 1e15) return fmt::format("{:.0f}", value);
@@ -120,10 +175,14 @@ json port_json(const PortInfo& p) {
 }
 
 json component_json(const ComponentInfo& c, bool detailed) {
-  json j{{"host", c.path.host}, {"name", c.path.name}, {"alive", c.liveness == Liveness::alive}};
-  if (c.liveness == Liveness::out_of_reach) {
+  json j{{"host", c.path.host},
+         {"name", c.path.name},
+         {"name_ok", name_follows_rule(c.path.name) && name_follows_rule(c.path.host)},
+         {"alive", c.liveness == Liveness::alive}};
+  if (c.liveness == Liveness::out_of_reach || c.liveness == Liveness::not_member) {
     j["alive"] = nullptr;  // not known from here
-    j["unreachable"] = kOutOfReachText;
+    j["unreachable"] = c.liveness == Liveness::out_of_reach ? std::string(kOutOfReachText) : c.dead_reason;
+    if (c.liveness == Liveness::not_member) j["not_member"] = true;
     return j;
   }
   if (c.liveness == Liveness::dead) {
@@ -159,23 +218,25 @@ void print_ls(const std::vector<ComponentInfo>& comps, bool detailed) {
   for (const auto& c : comps) {
     if (c.path.host != host) {
       host = c.path.host;
-      fmt::print("{}\n", host);
+      fmt::print("{}\n", shown_name(host));
     }
+    const std::string name = shown_name(c.path.name);
     if (c.liveness == Liveness::dead) {
-      fmt::print("  {:<16} dead ({}): process gone; `rtm ls --clean` removes it\n", c.path.name, c.dead_reason);
+      fmt::print("  {:<16} dead ({}): process gone; `rtm ls --clean` removes it\n", name, terminal_text(c.dead_reason));
       continue;
     }
-    if (c.liveness == Liveness::out_of_reach) {
-      fmt::print("  {:<16} {}\n", c.path.name, kOutOfReachText);
+    if (c.liveness == Liveness::out_of_reach || c.liveness == Liveness::not_member) {
+      fmt::print("  {:<16} {}\n", name,
+                 c.liveness == Liveness::out_of_reach ? std::string(kOutOfReachText) : terminal_text(c.dead_reason));
       continue;
     }
     std::string ins, outs;
     for (const auto& p : c.ports) {
       auto& s = p.direction == Direction::in ? ins : outs;
-      s += fmt::format("{}{}:{}", s.empty() ? "" : " ", p.name, short_type(p.type));
+      s += fmt::format("{}{}:{}", s.empty() ? "" : " ", terminal_text(p.name), terminal_text(short_type(p.type)));
     }
-    fmt::print("  {:<16} {:<5} {:<11} {:<8} in[{}] out[{}]\n", c.path.name, c.state, c.kind.empty() ? "-" : c.kind,
-               period_text(c), ins, outs);
+    fmt::print("  {:<16} {:<5} {:<11} {:<8} in[{}] out[{}]\n", name, c.state,
+               c.kind.empty() ? "-" : terminal_text(c.kind), period_text(c), ins, outs);
     if (detailed && c.timing) {
       const auto& t = *c.timing;
       fmt::print("  {:<16} lateness p50 {} us  p99 {} us  max {} us  overruns {} of {} cycles\n", "",
@@ -186,10 +247,10 @@ void print_ls(const std::vector<ComponentInfo>& comps, bool detailed) {
 }
 
 void print_cat(const ComponentInfo& c) {
-  fmt::print("{}  kind {}  state {}  period {}\n", c.path.to_string(), c.kind.empty() ? "-" : c.kind, c.state,
-             period_text(c));
-  if (!c.description.empty()) fmt::print("  {}\n", c.description);
-  if (!c.last_error.empty()) fmt::print("  error: {}\n", c.last_error);
+  fmt::print("{}.host_cxt/{}.rtc  kind {}  state {}  period {}\n", shown_name(c.path.host), shown_name(c.path.name),
+             c.kind.empty() ? "-" : terminal_text(c.kind), c.state, period_text(c));
+  if (!c.description.empty()) fmt::print("  {}\n", terminal_text(c.description));
+  if (!c.last_error.empty()) fmt::print("  error: {}\n", terminal_text(c.last_error));
   if (c.timing) {
     const auto& t = *c.timing;
     fmt::print("  lateness p50 {} us  p99 {} us  max {} us  overruns {} of {} cycles\n", us(t.lateness_p50_ns),

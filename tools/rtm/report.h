@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace rtm::cli {
@@ -24,6 +25,17 @@ nlohmann::json component_json(const ComponentInfo& component, bool detailed);
 
 void print_ls(const std::vector<ComponentInfo>& components, bool detailed);
 void print_cat(const ComponentInfo& component);
+
+// Text a component or the naming service gave (a name, a unit, an error) as a terminal shows
+// it safely on one line: control characters (C0, DEL, C1: U+009B is a terminal's CSI), line
+// separators, bytes that are no UTF-8 and the backslash itself are written as escapes (\n,
+// \x1b, \xc2\x9b, \\). Valid UTF-8 text without them is unchanged.
+std::string terminal_text(std::string_view text);
+// Whether a name follows the naming rule (rtm::check_name).
+bool name_follows_rule(std::string_view name);
+// A component's or host's name for the terminal: as it is when it follows the naming rule, else
+// escaped and marked " (not a valid name)": someone bound it by hand, not an RTM component.
+std::string shown_name(std::string_view name);
 
 // A statistic's value as text: a count without decimals, else 3 significant decimals.
 std::string format_statistic(double value);

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "watch.h"
 
+#include "report.h"
 #include "values.h"
 #include "watch_port.h"
 
@@ -39,9 +40,9 @@ class WatchDisplay {
     if (options_.json) {
       fmt::print("{}\n", format_json(any).dump());
     } else if (!live_) {
-      fmt::print("{}\n", format_text(any, units_));
+      fmt::print("{}\n", terminal_text(format_text(any, units_)));
     } else {
-      latest_ = format_text(any, units_);
+      latest_ = terminal_text(format_text(any, units_));
     }
   }
 

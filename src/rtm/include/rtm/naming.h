@@ -47,6 +47,14 @@ class NameTaken : public NamingError {
   using NamingError::NamingError;
 };
 
+// resolve_component with certificates configured (rtm/tls.h): the name leads to an object that
+// is not a member of this system on the name's host (another authority's or another host's
+// certificate, another user's process, plain TCP), or no TLS connection to it can be made.
+class NotAMember : public NamingError {
+ public:
+  using NamingError::NamingError;
+};
+
 // host:port of a naming service (omniNames' default port is 2809).
 struct NamingAddress {
   std::string host = "127.0.0.1";
@@ -122,10 +130,15 @@ class NamingClient {
   // True when path is bound (to anything); throws only when the service cannot be reached.
   bool is_bound(const ComponentPath& path) const;
 
-  // Resolves "host/name", or "name" searched in every host context, to an RtComponent.
-  // Throws NamingError when nothing matches, or when "name" matches on more than one host
-  // (the message lists them).
-  RTM::RtComponent_var resolve_component(std::string_view host_slash_name) const;
+  // Resolves "host/name", or "name" searched in every host context, to an RtComponent, and
+  // stores where it was found in *found when given. Throws NamingError when nothing matches,
+  // or when "name" matches on more than one host (the message lists them). With certificates
+  // configured (rtm/tls.h) it first checks that the component is a member of this system on
+  // that host, and throws NotAMember with the reason when it is not: a name re-bound by
+  // someone else leads nowhere.
+  RTM::RtComponent_var resolve_component(std::string_view host_slash_name, ComponentPath* found = nullptr) const;
+  // The same check for an object bound at path (a listing): throws NotAMember.
+  void check_member(const ComponentPath& path, CORBA::Object_ptr object) const;
   // Every <host>.host_cxt/<name>.rtc binding, sorted by host then name.
   std::vector<ComponentEntry> list_components() const;
 

@@ -22,6 +22,7 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 namespace rtm {
 
@@ -48,6 +49,27 @@ bool tls_configured();
 // Whether object's reference offers only giop:ssl: addresses (no TCP, no giop:unix:): a
 // process without certificates cannot reach it, whether or not it is alive.
 bool reachable_only_over_tls(CORBA::Object_ptr object);
+
+// Names across hosts. omniNames has no access control: whoever reaches it can bind a name to
+// an object of their own. A process with certificates therefore checks, before it trusts a
+// name, that the component behind it is a member of its system on the name's host:
+// system_membership_problem(object, host) makes one call to the object and looks at the
+// connection it went over: over giop:ssl: the certificate omniORB verified against ca.pem must
+// name that host ("<who>@<host>", as `rtm tls` names identities, or "<host>"); over giop:unix:
+// the name's host must be this one and the process this user's (or root's); plain TCP shows
+// nothing and is refused. Returns "" when the object is a member (or lives in this process),
+// else the sentence why not. Throws the call's CORBA exception (TRANSIENT: gone, or no TLS
+// connection: tls_handshake_problem says which).
+std::string system_membership_problem(CORBA::Object_ptr object, std::string_view host);
+// Whether identity (a certificate's common name) is one of host's: "<who>@<host>" or "<host>".
+bool identity_names_host(std::string_view identity, std::string_view host);
+
+// Why no TLS connection to object can be made, found by a handshake of this process's own
+// with its certificates against each of the object's giop:ssl: addresses: "its certificate was
+// not issued by this system's authority (...)" or "it refused this process's certificate
+// (...)". "" when a handshake succeeds or no address answers (the process is gone). For a call
+// that failed with TRANSIENT while certificates are configured; costs up to about a second.
+std::string tls_handshake_problem(CORBA::Object_ptr object);
 
 // rtm tls init: makes folder (0700; must not exist or be empty) with a new authority for a
 // system (its certificate's common name "<system> CA"), its key, and a first identity named
