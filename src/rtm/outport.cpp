@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/outport.h"
 
+#include "rtm/access.h"
+
 #include "rtm/log.h"
 #include "rtm/orb.h"
 
@@ -201,8 +203,11 @@ void OutPortBase::retire_locked(std::size_t index) {
   subs_.erase(subs_.begin() + static_cast<std::ptrdiff_t>(index));
 }
 
-bool OutPortBase::count_failure(Subscription& sub, const char* exception_name, bool dead_kind) {
+bool OutPortBase::count_failure(Subscription& sub, const char* exception_name, bool dead_kind,
+                                std::uint32_t refused_minor) {
   failed_.fetch_add(1, std::memory_order_relaxed);
+  sub.failure_name.store(exception_name, std::memory_order_relaxed);
+  sub.refused_minor.store(refused_minor, std::memory_order_relaxed);
   const std::uint32_t failures = sub.failures.fetch_add(1, std::memory_order_relaxed) + 1;
   if (dead_kind && failures >= options_.max_failures) {
     log().warn("{} -> {}: dropped after {} consecutive failed deliveries ({})", full_name(), sub.peer, failures,
@@ -253,6 +258,7 @@ void OutPortBase::delivery_loop(Subscription* sub) {
 
 void OutPortBase::count_pushed(Subscription& sub) {
   sub.failures.store(0, std::memory_order_relaxed);
+  sub.failure_name.store(nullptr, std::memory_order_relaxed);
   sub.pushed.fetch_add(1, std::memory_order_relaxed);
   pushed_.fetch_add(1, std::memory_order_relaxed);
 }
@@ -377,6 +383,10 @@ RTM::SubscriptionInfoList* OutPortBase::subscriptions() {
     info.pushed = s.pushed.load(std::memory_order_relaxed);
     info.dropped = s.dropped.load(std::memory_order_relaxed);
     info.failures = s.failures.load(std::memory_order_relaxed);
+    const char* failure = s.failure_name.load(std::memory_order_relaxed);
+    const std::uint32_t refused = s.refused_minor.load(std::memory_order_relaxed);
+    const std::string why = !failure ? "" : refused ? std::string(failure) + ": " + access_refusal_text(refused) : failure;
+    info.last_failure = CORBA::string_dup(why.c_str());
   }
   return list;
 }

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core_test_support.h"
 
+#include "rtm/access.h"
 #include "rtm/outport.h"
 
 #include <gtest/gtest.h>
@@ -625,6 +626,7 @@ class OrderRecorder : public virtual POA_RTM::InPortOrdered {
     float first;
   };
   void put_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override {
+    if (refuse_.load()) throw CORBA::NO_PERMISSION(rtm::kAccessRefusedMinor, CORBA::COMPLETED_NO);
     const RTM::TimedFloat6* d = nullptr;
     if (!(value >>= d)) throw CORBA::BAD_PARAM(0, CORBA::COMPLETED_NO);
     std::lock_guard lock(mu_);
@@ -648,6 +650,7 @@ class OrderRecorder : public virtual POA_RTM::InPortOrdered {
     return calls_;
   }
   std::atomic<int> unordered_{0};
+  std::atomic<bool> refuse_{false};  // answer every datum as access control refuses one
 
  private:
   std::mutex mu_;
@@ -686,6 +689,30 @@ TEST_F(OutPortTest, AnOrderedSubscriberGetsEachDatumWithItsSenderAndRisingNumber
   }
   by_writer->close();
   by_thread->close();
+  orb().deactivate(recorder.in());
+}
+
+// A subscription whose data are refused says so, and why, on its edge (`rtm ls -l`, the page),
+// until a datum goes through again.
+TEST_F(OutPortTest, ASubscriptionWhoseDataAreRefusedSaysWhyUntilOneGoesThrough) {
+  PortableServer::Servant_var<OrderRecorder> recorder(new OrderRecorder);
+  CORBA::Object_var obj = orb().activate(recorder.in());
+  RTM::InPort_var ref = RTM::InPort::_narrow(obj);
+  auto out = make_out(via_orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  const auto last_failure = [&] {
+    RTM::SubscriptionInfoList_var subs = out->subscriptions();
+    return subs->length() == 1 ? std::string(subs[0].last_failure.in()) : std::string("(no subscription)");
+  };
+  recorder->refuse_ = true;
+  out->write(float6(1.0f));
+  ASSERT_TRUE(eventually([&] { return out->counters_snapshot().failed > 0; }));
+  EXPECT_EQ(last_failure(), "NO_PERMISSION: " + rtm::access_refusal_text(rtm::kAccessRefusedMinor));
+  recorder->refuse_ = false;
+  out->write(float6(2.0f));
+  ASSERT_TRUE(eventually([&] { return out->counters_snapshot().pushed > 0; }));
+  EXPECT_EQ(last_failure(), "");
+  out->close();
   orb().deactivate(recorder.in());
 }
 

@@ -55,6 +55,7 @@ struct PortInfo {
     bool in_process = false;
     unsigned long long pushed = 0, dropped = 0;
     unsigned long failures = 0;
+    std::string last_failure;  // why the last delivery failed, "" after one that did not
   };
   std::vector<Subscription> subscriptions;  // OutPorts only
 };

@@ -56,7 +56,9 @@ void print_port(const PortInfo& p) {
   for (const auto& s : p.subscriptions) {
     fmt::print("        -> {} ({}{})  pushed {}  dropped {}{}\n", terminal_text(s.peer), s.req_type,
                s.in_process ? ", in-process" : "", s.pushed, s.dropped,
-               s.failures ? fmt::format("  failing x{}", s.failures) : "");
+               s.failures ? fmt::format("  failing x{}{}", s.failures,
+                                        s.last_failure.empty() ? "" : ": " + terminal_text(s.last_failure))
+                          : "");
   }
 }
 
@@ -168,7 +170,8 @@ json port_json(const PortInfo& p) {
     j["subscriptions"] = json::array();
     for (const auto& s : p.subscriptions) {
       j["subscriptions"].push_back({{"peer", s.peer}, {"type", s.req_type}, {"in_process", s.in_process},
-                                    {"pushed", s.pushed}, {"dropped", s.dropped}, {"failures", s.failures}});
+                                    {"pushed", s.pushed}, {"dropped", s.dropped}, {"failures", s.failures},
+                                    {"last_failure", s.last_failure}});
     }
   }
   return j;

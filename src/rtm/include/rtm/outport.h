@@ -168,6 +168,10 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
     std::atomic<std::uint64_t> pushed{0};
     std::atomic<std::uint64_t> dropped{0};
     std::atomic<std::uint32_t> failures{0};  // consecutive
+    // The last failure's exception (a static name: nothing is allocated on the path), and its
+    // minor code when access control refused the datum; cleared by the next delivery.
+    std::atomic<const char*> failure_name{nullptr};
+    std::atomic<std::uint32_t> refused_minor{0};
     bool failure_logged = false;
   };
 
@@ -182,7 +186,9 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   // How many data the subscription's ring holds (options().queue_depth, at least 1).
   virtual std::uint64_t ring_size(const Subscription& sub) const = 0;
   // Counts a failed delivery; true when sub must be dropped as dead. Logs the drop once.
-  bool count_failure(Subscription& sub, const char* exception_name, bool dead_kind);
+  // exception_name: static storage (a CORBA exception's _name()); refused_minor: the minor
+  // code of a NO_PERMISSION, else 0.
+  bool count_failure(Subscription& sub, const char* exception_name, bool dead_kind, std::uint32_t refused_minor = 0);
   // Counts a datum delivered to sub.
   void count_pushed(Subscription& sub);
   // Runs call() (a delivery) and counts what came of it: true when it returned; *dead when

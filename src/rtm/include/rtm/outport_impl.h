@@ -39,10 +39,12 @@ bool OutPortBase::guarded_call(Subscription& sub, Call call, bool* dead) {
   } catch (const CORBA::TIMEOUT& e) {
     timed_out_.fetch_add(1, std::memory_order_relaxed);
     *dead = count_failure(sub, e._name(), false);
+  } catch (const CORBA::NO_PERMISSION& e) {
+    *dead = count_failure(sub, e._name(), false, e.minor());
   } catch (const CORBA::Exception& e) {
     *dead = count_failure(sub, e._name(), false);
   } catch (const std::exception& e) {
-    *dead = count_failure(sub, e.what(), false);
+    *dead = count_failure(sub, "a C++ exception", false);
   }
   return false;
 }
