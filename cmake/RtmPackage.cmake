@@ -67,7 +67,9 @@ function(rtm_install_package)
   install(FILES ${PROJECT_SOURCE_DIR}/idl/RTM.idl ${PROJECT_SOURCE_DIR}/idl/RTMData.idl
                 ${PROJECT_SOURCE_DIR}/idl/RTMExt.idl
           DESTINATION ${RTM_INSTALL_IDLDIR} COMPONENT dev)
-  install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/cmake/debian/copyright
+  # The licence's NOTICE goes with the package (Apache-2.0 section 4(d)); the licence text itself
+  # is Debian's /usr/share/common-licenses/Apache-2.0, which copyright points to.
+  install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/NOTICE ${PROJECT_SOURCE_DIR}/cmake/debian/copyright
           DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm COMPONENT runtime)
   # Debian's changelog.gz, made reproducibly (no name or time in the gzip header).
   configure_file(${PROJECT_SOURCE_DIR}/cmake/debian/changelog.in ${PROJECT_BINARY_DIR}/debian/changelog @ONLY)
@@ -84,8 +86,10 @@ endfunction()
 # rtm_debian_package(): `cpack -G DEB` in the build folder makes rtm_<version>_amd64.deb: the
 # whole installed tree in one package (programs, libraries, headers, the CMake package), so
 # that `apt install ./rtm_*.deb` gives both the running system and a base to build on.
-# Depends: the shared libraries the programs link (dpkg-shlibdeps finds them), the naming
-# service, and what find_package(RTM) needs to build a project.
+# Depends: the shared libraries the programs link (dpkg-shlibdeps finds them; omniORB's are
+# libomniorb4-2 and libomnithread4 unless RTM_STATIC_OMNIORB is ON), the naming service, and
+# what find_package(RTM) needs to build a project. copyright (DEP-5) names the licence of every
+# work whose code is compiled into the package's files.
 function(rtm_debian_package)
   set(CPACK_GENERATOR DEB)
   set(CPACK_PACKAGE_NAME rtm)
