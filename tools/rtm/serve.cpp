@@ -2,6 +2,8 @@
 #include "serve.h"
 
 #include "report.h"
+#include "serve_gate.h"
+#include "stream_slots.h"
 #include "system_feed.h"
 #include "system_file.h"
 #include "values.h"
@@ -22,13 +24,17 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <regex>
 #include <stdexcept>
 #include <thread>
 
 namespace rtm::cli {
 
-// The page, embedded at build time from tools/rtm/web/index.html (web_page.cpp.in).
+// The page, its script and its style, embedded at build time from tools/rtm/web/
+// (web_page.cpp.in).
 extern const char* const kWebPage;
+extern const char* const kWebScript;
+extern const char* const kWebStyle;
 
 namespace {
 
@@ -38,11 +44,22 @@ using nlohmann::json;
 // state, timing and wiring reach the page within this.
 constexpr std::chrono::milliseconds kSystemPeriod{500};
 // An event stream writes at least this often: a closed page is only noticed when a write to it
-// fails (the second after it closed), and until then its stream holds one of the workers.
+// fails (the second after it closed), and until then its stream holds its slot.
 constexpr std::chrono::seconds kKeepAlive{1};
-// Each open page's streams (the system's, and its plots' when it plots) hold a worker each for
-// as long as they are open; the rest answer the API. httplib's default is 8.
-constexpr std::size_t kWorkers = 32;
+// How often a waiting event stream looks whether a newer stream of its page replaced it.
+constexpr std::chrono::milliseconds kReplacedLook{100};
+// Streams open at once, all pages together (each page holds at most one of each kind: the
+// system's, and its plots' when it plots). Each runs on a thread of its own, never on the
+// workers that answer the API; beyond this a stream is refused with 503.
+constexpr std::size_t kStreamsInAll = 32;
+
+// What the page may load and do (every answer carries it): its own script and style only, no
+// script or style written into the page, no plugin, frame, form or base, and no framing.
+// default-src stays 'self' with every other kind of load closed one by one.
+constexpr const char* kContentSecurityPolicy =
+    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+    "font-src 'none'; media-src 'none'; object-src 'none'; frame-src 'none'; worker-src 'none'; "
+    "manifest-src 'none'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'";
 // A plots' stream sends its ports' latest data this often (25 a second).
 constexpr std::chrono::milliseconds kPlotPeriod{40};
 
@@ -128,11 +145,13 @@ void reply(httplib::Response& res, int status, const json& body) {
 
 void refuse(httplib::Response& res, int status, const std::string& why) { reply(res, status, json{{"error", why}}); }
 
-// Runs one API action, turning each kind of failure into the status and the sentence `rtm`
-// would print for it.
-void answer(httplib::Response& res, const std::function<json()>& action) {
+// Runs one API action that answers itself (a stream), turning each kind of failure into the
+// status and the sentence `rtm` would print for it.
+void decide(httplib::Response& res, const std::function<void()>& action) {
   try {
-    reply(res, 200, action());
+    action();
+  } catch (const StreamsFull& e) {
+    refuse(res, 503, e.what());
   } catch (const BrowseError& e) {
     refuse(res, 409, e.what());
   } catch (const ValueError& e) {
@@ -148,6 +167,36 @@ void answer(httplib::Response& res, const std::function<json()>& action) {
   } catch (const std::exception& e) {
     refuse(res, 500, e.what());
   }
+}
+
+// Runs one API action: its JSON with 200, or a failure as decide() maps it.
+void answer(httplib::Response& res, const std::function<json()>& action) {
+  decide(res, [&] { reply(res, 200, action()); });
+}
+
+bool follows_rule(const std::string& name) {
+  try {
+    check_name(name);
+    return true;
+  } catch (const std::invalid_argument&) {
+    return false;
+  }
+}
+
+// A component the API is asked about or to act on, by name: refused (std::invalid_argument,
+// answered 400 with the naming rule's sentence) when the name breaks the rule. Such an entry
+// was bound by hand, not by an RTM component; nothing is done to it through this server.
+const std::string& addressed(const std::string& name) {
+  check_name(name);
+  return name;
+}
+
+// A port address the API is given ("component.port"), its component named by the rule as
+// addressed() has it: the page names components by name alone, never "host/name".
+PortAddress addressed_port(const std::string& text) {
+  PortAddress a = PortAddress::parse(text);
+  addressed(a.component);
+  return a;
 }
 
 // What applying a system file would do, doing nothing: each connection (made already, to
@@ -166,7 +215,7 @@ json preview_system_file(const Browser& browser, const std::string& yaml) {
   for (const auto& c : file.connections) {
     json j{{"from", c.from}, {"to", c.to}, {"type", c.once ? "once" : "repeated"}};
     try {
-      const auto [o, i] = browser.pair(PortAddress::parse(c.from), PortAddress::parse(c.to));
+      const auto [o, i] = browser.pair(addressed_port(c.from), addressed_port(c.to));
       const std::string from = PortAddress::parse(o.address).component + "." + o.name;
       const std::string to = PortAddress::parse(i.address).component + "." + i.name;
       j["from"] = from;
@@ -197,16 +246,97 @@ json preview_system_file(const Browser& browser, const std::string& yaml) {
               {"not_running", not_running}};
 }
 
+// The running system as a system file `rtm up` accepts: this host's components with the
+// commands that started them, every subscription, and those on. A component whose command
+// cannot be read from here (another host, another user's process) is left out, with why.
+json save_system_file(const Browser& browser, const std::string& name) {
+  SystemFile file;
+  file.name = name.empty() ? "saved" : name;
+  check_name(file.name);
+  json left_out = json::array();
+  const std::string here = ComponentPath::on_this_host("x").host;
+  for (const auto& c : browser.list("", true)) {
+    if (c.liveness != Liveness::alive) continue;
+    if (!follows_rule(c.path.name)) {
+      left_out.push_back({{"name", c.path.name}, {"why", "not a valid name: bound by hand, not an RTM component"}});
+      continue;
+    }
+    const auto pid = pid_of(c);
+    std::vector<std::string> command = (pid && c.path.host == here) ? command_of(*pid) : std::vector<std::string>{};
+    if (command.empty()) {
+      left_out.push_back({{"name", c.path.name}, {"why", "its command cannot be read from this host"}});
+      continue;
+    }
+    file.components.push_back({c.path.name, std::move(command)});
+    if (c.state == "on") file.activate.push_back(c.path.name);
+    for (const auto& p : c.ports)
+      for (const auto& s : p.subscriptions)
+        file.connections.push_back({c.path.name + "." + p.name, s.peer, s.req_type == "once"});
+  }
+  return json{{"yaml", file.to_yaml()}, {"left_out", left_out}};
+}
+
+// A system file's connections and activations applied to the components running now.
+json apply_system_file(const Browser& browser, const std::string& yaml) {
+  const SystemFile file = SystemFile::parse(yaml, "posted-system-file.yaml");
+  json done = json::array(), failed = json::array();
+  for (const auto& c : file.connections) {
+    try {
+      browser.connect(addressed_port(c.from), addressed_port(c.to), c.once ? RTM::once : RTM::repeated);
+      done.push_back("connected " + c.from + " -> " + c.to);
+    } catch (const BrowseError& e) {
+      failed.push_back(e.what());
+    } catch (const std::invalid_argument& e) {
+      failed.push_back(c.from + " -> " + c.to + ": " + e.what());
+    } catch (const CORBA::Exception& e) {
+      failed.push_back(c.from + " -> " + c.to + ": " + failure_text(e));
+    }
+  }
+  for (const auto& name : file.activate) {
+    const SwitchResult r = browser.switch_component(name, Switch::on);
+    if (r.why.empty()) {
+      done.push_back("on " + name);
+    } else {
+      failed.push_back(r.full ? r.why : "on " + name + ": " + r.why);
+    }
+  }
+  return json{{"done", done}, {"failed", failed}};
+}
+
+// Where a request runs: the streams each on a thread of their own, the switches on workers of
+// their own (an `off` never waits behind the rest), the rest on the general workers.
+GatedServer::Lane lane_of(const httplib::Request& req) {
+  static const std::regex switches(R"(/api/components/.+/(on|off|reset))");
+  if (req.method == "GET" && (req.path == "/api/events" || req.path == "/api/values/stream"))
+    return GatedServer::Lane::stream;
+  if (req.method == "POST" && std::regex_match(req.path, switches)) return GatedServer::Lane::control;
+  return GatedServer::Lane::general;
+}
+
+httplib::Headers security_headers() {
+  return {{"Content-Security-Policy", kContentSecurityPolicy},
+          {"X-Content-Type-Options", "nosniff"},
+          {"Referrer-Policy", "no-referrer"}};
+}
+
+// On loopback the server answers its own user and root only.
+GatedServer::Limits gate_limits(const ServeOptions& options) {
+  GatedServer::Limits limits;
+  limits.stream_threads = 2 * kStreamsInAll;  // room for streams ending while their pages' new ones start
+  limits.refuse_other_users = is_loopback(options.host);
+  return limits;
+}
 
 // One plots' stream: every kPlotPeriod (on a fixed schedule; a tick missed is not made up)
 // the ports' latest data as /api/values gives them (value_of(address)), each port asked at its
-// own share of the period. Its writes also notice a closed page within a period.
-bool plot_stream(httplib::DataSink& sink, PlotStream& plot, const std::atomic<bool>& stopping,
+// own share of the period, until ended() (the server stops, or the page replaced the stream).
+// Its writes also notice a closed page within a period.
+bool plot_stream(httplib::DataSink& sink, PlotStream& plot, const std::function<bool()>& ended,
                  const std::function<json(const std::string&)>& value_of) {
   using clock = std::chrono::steady_clock;
-  for (auto now = clock::now(); now < plot.next && !stopping.load(); now = clock::now())
+  for (auto now = clock::now(); now < plot.next && !ended(); now = clock::now())
     std::this_thread::sleep_for(std::min<clock::duration>(plot.next - now, std::chrono::milliseconds(100)));
-  if (stopping.load() || plot.ports.empty()) {
+  if (ended() || plot.ports.empty()) {
     sink.done();
     return true;
   }
@@ -250,7 +380,11 @@ struct WebServer::Impl {
   int port = 0;
   std::atomic<bool> stopping{false};
   SystemFeed feed{[this] { return system_event(); }, kSystemPeriod};
-  httplib::Server server;  // after the feed: gone (with the streams' subscriptions) before it
+  StreamSlots streams{kStreamsInAll};
+  // After the feed: gone (with the streams' subscriptions) before it. The screen is the one
+  // below, asked where a request has arrived and again where httplib routes it.
+  GatedServer server{[this](const httplib::Request& req, httplib::Response& res) { return screen(req, res); },
+                     lane_of, security_headers(), gate_limits(options)};
   mutable std::mutex ports_mu;
   mutable std::map<std::string, std::pair<std::string, RTM::OutPort_var>> ports;
 
@@ -292,6 +426,8 @@ struct WebServer::Impl {
     json list = json::array();
     for (const auto& c : browser.list("", Browser::Detail::wiring, asking)) {
       json j = component_json(c, false);
+      // false: the page shows the name as text with a mark, and offers nothing to do to it.
+      j["name_ok"] = follows_rule(c.path.name) && follows_rule(c.path.host);
       if (c.timing) j["timing"] = timing_json(*c.timing);
       list.push_back(std::move(j));
     }
@@ -327,7 +463,7 @@ struct WebServer::Impl {
       std::lock_guard lock(ports_mu);
       if (auto it = ports.find(address); it != ports.end()) return {it->second.first, it->second.second};
     }
-    const ResolvedPort p = browser.port(PortAddress::parse(address));
+    const ResolvedPort p = browser.port(addressed_port(address));
     if (p.direction != Direction::out) throw BrowseError(p.address + " is an InPort; only OutPorts have a value to get");
     RTM::OutPort_var out = RTM::OutPort::_narrow(p.object);
     std::lock_guard lock(ports_mu);
@@ -355,8 +491,8 @@ struct WebServer::Impl {
 
   json wire(const httplib::Request& req, bool connecting) const {
     const json body = json::parse(req.body);
-    const PortAddress from = PortAddress::parse(body.at("from").get<std::string>());
-    const PortAddress to = PortAddress::parse(body.at("to").get<std::string>());
+    const PortAddress from = addressed_port(body.at("from").get<std::string>());
+    const PortAddress to = addressed_port(body.at("to").get<std::string>());
     const std::string kind = body.value("type", "repeated");
     if (kind != "once" && kind != "repeated") throw std::invalid_argument("type must be once or repeated");
     const RTM::ReqType type = kind == "once" ? RTM::once : RTM::repeated;
@@ -369,80 +505,37 @@ struct WebServer::Impl {
                  {{"from", from.to_string()}, {"to", to.to_string()}, {"type", kind}}}};
   }
 
-  // The running system as a system file `rtm up` accepts: this host's components with the
-  // commands that started them, every subscription, and those on. A component whose command
-  // cannot be read from here (another host, another user's process) is left out, with why.
-  json save(const std::string& name) const {
-    SystemFile file;
-    file.name = name.empty() ? "saved" : name;
-    check_name(file.name);
-    json left_out = json::array();
-    const std::string here = ComponentPath::on_this_host("x").host;
-    for (const auto& c : browser.list("", true)) {
-      if (c.liveness != Liveness::alive) continue;
-      const auto pid = pid_of(c);
-      std::vector<std::string> command = (pid && c.path.host == here) ? command_of(*pid) : std::vector<std::string>{};
-      if (command.empty()) {
-        left_out.push_back({{"name", c.path.name}, {"why", "its command cannot be read from this host"}});
-        continue;
-      }
-      file.components.push_back({c.path.name, std::move(command)});
-      if (c.state == "on") file.activate.push_back(c.path.name);
-      for (const auto& p : c.ports)
-        for (const auto& s : p.subscriptions)
-          file.connections.push_back({c.path.name + "." + p.name, s.peer, s.req_type == "once"});
-    }
-    return json{{"yaml", file.to_yaml()}, {"left_out", left_out}};
-  }
-
   json preview(const std::string& yaml) const { return preview_system_file(browser, yaml); }
-
-  // A system file's connections and activations applied to the components running now.
-  json apply(const std::string& yaml) const {
-    const SystemFile file = SystemFile::parse(yaml, "posted-system-file.yaml");
-    json done = json::array(), failed = json::array();
-    for (const auto& c : file.connections) {
-      try {
-        browser.connect(PortAddress::parse(c.from), PortAddress::parse(c.to), c.once ? RTM::once : RTM::repeated);
-        done.push_back("connected " + c.from + " -> " + c.to);
-      } catch (const BrowseError& e) {
-        failed.push_back(e.what());
-      } catch (const CORBA::Exception& e) {
-        failed.push_back(c.from + " -> " + c.to + ": " + failure_text(e));
-      }
-    }
-    for (const auto& name : file.activate) {
-      const SwitchResult r = browser.switch_component(name, Switch::on);
-      if (r.why.empty()) {
-        done.push_back("on " + name);
-      } else {
-        failed.push_back(r.full ? r.why : "on " + name + ": " + r.why);
-      }
-    }
-    return json{{"done", done}, {"failed", failed}};
-  }
 
   json switch_to(const std::string& name, const std::string& verb) const {
     const Switch what = verb == "on" ? Switch::on : verb == "off" ? Switch::off : Switch::reset;
-    const SwitchResult result = browser.switch_component(name, what);
+    const SwitchResult result = browser.switch_component(addressed(name), what);
     if (!result.why.empty())
       throw BrowseError(result.full ? result.why : verb + " " + name + ": " + result.why);
     return json{{verb, name}};
   }
 
   // One SSE stream: the system when it changed (polled by the feed, at most every
-  // kSystemPeriod for all pages together), else a comment every kKeepAlive.
-  bool stream(httplib::DataSink& sink, SystemFeed::Subscription& subscription) const {
-    const auto update = subscription.next(kKeepAlive);
-    if (update) {
-      const std::string event = "event: system\ndata: " + update->text + "\n\n";
-      return sink.write(event.data(), event.size());
+  // kSystemPeriod for all pages together), else a comment every kKeepAlive; it ends when the
+  // server stops or the page opened another (looked at every kReplacedLook).
+  bool stream(httplib::DataSink& sink, SystemFeed::Subscription& subscription, const StreamSlots::Slot& slot,
+              std::chrono::steady_clock::time_point& written) const {
+    for (;;) {
+      if (slot.replaced() || stopping.load() || feed.stopped()) {
+        sink.done();
+        return true;
+      }
+      const auto now = std::chrono::steady_clock::now();
+      if (const auto update = subscription.next(kReplacedLook)) {
+        written = now;
+        const std::string event = "event: system\ndata: " + update->text + "\n\n";
+        return sink.write(event.data(), event.size());
+      }
+      if (now - written >= kKeepAlive) {
+        written = now;
+        return sink.write(": alive\n\n", 10);
+      }
     }
-    if (feed.stopped()) {
-      sink.done();
-      return true;
-    }
-    return sink.write(": alive\n\n", 10);
   }
 
   std::string system_event() const {
@@ -456,63 +549,81 @@ struct WebServer::Impl {
   }
 
   void routes() {
-    server.new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
-    server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) { return screen(req, res); });
-    server.Get("/", [](const httplib::Request&, httplib::Response& res) {
-      res.set_content(kWebPage, "text/html; charset=utf-8");
-      res.set_header("Content-Security-Policy", "default-src 'self'; script-src 'unsafe-inline' 'self'; style-src 'unsafe-inline'");
-    });
+    const auto file = [](const char* text, const char* type) {
+      return [text, type](const httplib::Request&, httplib::Response& res) { res.set_content(text, type); };
+    };
+    server.Get("/", file(kWebPage, "text/html; charset=utf-8"));
+    server.Get("/app.js", file(kWebScript, "text/javascript; charset=utf-8"));
+    server.Get("/style.css", file(kWebStyle, "text/css; charset=utf-8"));
+    component_routes();
+    port_routes();
     server.Get("/api/system", [this](const httplib::Request&, httplib::Response& res) { answer(res, [&] { return system(); }); });
-    server.Get(R"(/api/components/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
-      answer(res, [&] { return component_json(browser.describe(req.matches[1].str()), true); });
+    server.Get("/api/system-file", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return save_system_file(browser, req.get_param_value("name")); });
     });
-    server.Post(R"(/api/components/([^/]+)/(on|off|reset))", [this](const httplib::Request& req, httplib::Response& res) {
-      answer(res, [&] { return switch_to(req.matches[1].str(), req.matches[2].str()); });
+    server.Post("/api/system-file", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return apply_system_file(browser, req.body); });
     });
-    server.Post(R"(/api/components/([^/]+)/parameters/([^/]+))", [this](const httplib::Request& req,
-                                                                        httplib::Response& res) {
+    server.Post("/api/system-file/preview", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return preview(req.body); });
+    });
+    server.Get("/api/events", [this](const httplib::Request& req, httplib::Response& res) {
+      decide(res, [&] {
+        auto slot = streams.open(req.get_param_value("page"), StreamSlots::Kind::system);
+        // Held by the response: the page counts as connected until its stream ends.
+        auto subscription = std::make_shared<SystemFeed::Subscription>(feed);
+        res.set_header("Cache-Control", "no-store");
+        res.set_chunked_content_provider("text/event-stream", [this, slot, subscription, written = std::chrono::steady_clock::now()](
+                                                                  std::size_t, httplib::DataSink& sink) mutable {
+          return stream(sink, *subscription, *slot, written);
+        });
+      });
+    });
+  }
+
+  // A component's description, its switches and its parameters. Each name in a path is taken
+  // as decoded (a '/' in it, sent as %2F, stays in it, and is refused with the naming rule's
+  // sentence); the parameters' route first, so that a parameter named "on" is one.
+  void component_routes() {
+    server.Get(R"(/api/components/(.+))", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return component_json(browser.describe(addressed(req.matches[1].str())), true); });
+    });
+    server.Post(R"(/api/components/(.+?)/parameters/(.+))", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] {
         const json body = json::parse(req.body);
-        const std::string value = browser.set_parameter(req.matches[1].str(), req.matches[2].str(),
+        const std::string value = browser.set_parameter(addressed(req.matches[1].str()), req.matches[2].str(),
                                                         body.at("value").get<std::string>());
         return json{{"component", req.matches[1].str()}, {"parameter", req.matches[2].str()}, {"value", value}};
       });
     });
+    server.Post(R"(/api/components/(.+)/(on|off|reset))", [this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return switch_to(req.matches[1].str(), req.matches[2].str()); });
+    });
+  }
+
+  void port_routes() {
     server.Post("/api/connect", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return wire(req, true); });
     });
     server.Post("/api/disconnect", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return wire(req, false); });
     });
-    server.Get("/api/system-file", [this](const httplib::Request& req, httplib::Response& res) {
-      answer(res, [&] { return save(req.get_param_value("name")); });
-    });
-    server.Post("/api/system-file", [this](const httplib::Request& req, httplib::Response& res) {
-      answer(res, [&] { return apply(req.body); });
-    });
-    server.Post("/api/system-file/preview", [this](const httplib::Request& req, httplib::Response& res) {
-      answer(res, [&] { return preview(req.body); });
-    });
     server.Get("/api/values", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return values(req.get_param_value("ports")); });
     });
-    server.Get("/api/values/stream", [this](const httplib::Request& req, httplib::Response& res) {
-      auto plot = std::make_shared<PlotStream>();
-      plot->ports = split_ports(req.get_param_value("ports"));
-      res.set_header("Cache-Control", "no-store");
-      res.set_chunked_content_provider("text/event-stream", [this, plot](std::size_t, httplib::DataSink& sink) {
-        return plot_stream(sink, *plot, stopping, [this](const std::string& a) { return value_or_error(a); });
-      });
-    });
-    server.Get(R"(/api/ports/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
+    server.Get(R"(/api/ports/(.+))", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return port_value(req.matches[1].str()); });
     });
-    server.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) {
-      // Held by the response: the page counts as connected until its stream ends.
-      auto subscription = std::make_shared<SystemFeed::Subscription>(feed);
-      res.set_header("Cache-Control", "no-store");
-      res.set_chunked_content_provider("text/event-stream", [this, subscription](std::size_t, httplib::DataSink& sink) {
-        return stream(sink, *subscription);
+    server.Get("/api/values/stream", [this](const httplib::Request& req, httplib::Response& res) {
+      decide(res, [&] {
+        auto slot = streams.open(req.get_param_value("page"), StreamSlots::Kind::values);
+        auto plot = std::make_shared<PlotStream>();
+        plot->ports = split_ports(req.get_param_value("ports"));
+        res.set_header("Cache-Control", "no-store");
+        res.set_chunked_content_provider("text/event-stream", [this, plot, slot](std::size_t, httplib::DataSink& sink) {
+          return plot_stream(sink, *plot, [&] { return stopping.load() || slot->replaced(); },
+                             [this](const std::string& a) { return value_or_error(a); });
+        });
       });
     });
   }
@@ -535,12 +646,12 @@ void WebServer::run(const std::function<bool()>& interrupted, const std::functio
   const bool v6 = s.options.host.find(':') != std::string::npos;
   const std::string shown = v6 ? "[" + s.options.host + "]" : s.options.host;
   print_url(fmt::format("http://{}:{}/#token={}", shown, s.port, token_));
-  std::thread serving([&s] { s.server.listen_after_bind(); });
+  std::thread serving([&s] { s.server.serve(); });
   while (!interrupted()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   s.stopping.store(true);  // the plots' streams end
   s.feed.stop();           // wakes the system's streams, which end
-  s.server.stop();
-  serving.join();
+  s.server.stop_serving();
+  serving.join();          // every request in hand answered, every stream ended
 }
 
 }  // namespace rtm::cli

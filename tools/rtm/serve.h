@@ -4,8 +4,14 @@
 // serving one page (tools/rtm/web/index.html, plain JavaScript, SVG and canvas) and a JSON API that
 // runs the same code as the `rtm` commands (Browser, report, values).
 //
+// The page is three files embedded at build time: GET / (web/index.html), /app.js and
+// /style.css; it builds every node from text, never from markup.
+//
 // API (every /api/ call needs the token: header X-RTM-Token, or ?token= for EventSource):
-//   GET  /api/system                       every component as `rtm --json ls -l` shows it
+//   GET  /api/system                       every component as `rtm --json ls -l` shows it, with
+//                                          "name_ok": false for a name that breaks the naming
+//                                          rule (rtm::check_name): bound by hand, not an RTM
+//                                          component; the page shows it marked, with no action
 //   GET  /api/components/<name>            one component as `rtm --json cat` shows it
 //   POST /api/components/<name>/<on|off|reset>
 //   POST /api/components/<name>/parameters/<parameter>   body {"value": "..."}
@@ -16,20 +22,33 @@
 //                                          ({"yaml": ..., "left_out": [components it cannot start]})
 //   POST /api/system-file                  body: a system file; its connections and activations
 //                                          applied to what runs ({"done": [...], "failed": [...]})
-//   GET  /api/events                       server-sent events: "system" with /api/system's
+//   GET  /api/events?page=P                server-sent events: "system" with /api/system's
 //                                          body, when it changes (looked at twice a second,
 //                                          once for every page together)
-//   GET  /api/values/stream?ports=a.out0,b.out1
+//   GET  /api/values/stream?ports=a.out0,b.out1&page=P
 //                                          server-sent events: "values" with /api/values's
 //                                          body, 25 times a second (the page's plots;
 //                                          its ports asked one at a time over the period)
-// A refusal is {"error": "<the same sentence rtm prints>"} with 4xx.
+// Each name in a path is one encoded part (encodeURIComponent). Every call addressed to a
+// component by name, in a path or a port address, takes only a name that follows the naming
+// rule; any other is refused with 400 and the rule's sentence, and nothing is asked of it.
+// Streams: at most 32 open at once, all pages together, each on a thread of its own; a page
+// sends an id it made (page=P) and its new stream of a kind replaces its old one; beyond the
+// cap a stream is refused with 503 and a sentence.
+// A refusal is {"error": "<the same sentence rtm prints>"} with 4xx (503 when full).
 //
 // Security, because the page can move an arm: loopback by default; the first line on stdout
 // is the page's URL with a random token (in the URL's fragment, never sent to a server);
 // every API call needs the token; a request from another origin (an Origin header that is
 // not this server's) or for another host name (a Host header that is not the address it
 // listens on: DNS rebinding) is refused with 403; a non-loopback --listen prints a warning.
+// Every answer carries a Content-Security-Policy that lets the page run its own script and
+// style files only (no inline script or style, no plugin, frame, form or base, no framing),
+// X-Content-Type-Options: nosniff and Referrer-Policy: no-referrer.
+// Against another local user (serve_gate.h): on loopback a connection whose socket another
+// user owns (not root) is refused at accept; a request is screened (token, Origin, Host) as
+// soon as it has arrived, before any worker takes it; a request must arrive within 2 s; the
+// switches (on, off, reset) have workers of their own, and streams never take a worker.
 #pragma once
 
 #include "browser.h"
