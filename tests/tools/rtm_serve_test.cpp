@@ -10,13 +10,22 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include <arpa/inet.h>
+#include <grp.h>
+#include <netinet/in.h>
+#include <poll.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <atomic>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <cctype>
 #include <memory>
+#include <mutex>
 #include <set>
 #include <thread>
 
@@ -25,6 +34,25 @@ namespace {
 using nlohmann::json;
 using rtm_test::ChildProcess;
 using namespace std::chrono_literals;
+
+// A TCP connection to 127.0.0.1:port, or -1.
+int connect_to(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (fd >= 0 && ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0) return fd;
+  if (fd >= 0) ::close(fd);
+  return -1;
+}
+
+// Whether the server has answered or closed the connection (else it is still open, unanswered).
+bool answered_or_closed(int fd) {
+  char c;
+  const ssize_t n = ::recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT);
+  return n >= 0 || (errno != EAGAIN && errno != EWOULDBLOCK);
+}
 
 class RtmServe : public ::testing::Test {
  protected:
@@ -349,6 +377,258 @@ TEST_F(RtmServe, ANonLoopbackListenWarnsAndABadOneIsAUsageError) {
   const auto bad = rtm_test::run_command({RTM_CLI_PATH, "--naming", names_.address(), "serve", "--listen", "nowhere"});
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("expected HOST:PORT"), std::string::npos) << bad.err;
+}
+
+// "%XX" for every byte but the unreserved ones, as the page's encodeURIComponent does.
+std::string encoded(const std::string& text) {
+  std::string out;
+  for (unsigned char c : text) {
+    if (std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '~') {
+      out += static_cast<char>(c);
+    } else {
+      char hex[4];
+      std::snprintf(hex, sizeof hex, "%%%02X", c);
+      out += hex;
+    }
+  }
+  return out;
+}
+
+// Names bound by hand in the naming service (what anyone may do): a backslash, a '/', 65
+// characters, markup. Each is listed with name_ok false; whatever the API is asked to do to such
+// a name, by path or by body, is refused with 400 and the naming rule's sentence, and the
+// component the name leads to is never reached (the names lead to plain0, which stays off).
+TEST_F(RtmServe, ANameThatBreaksTheNamingRuleIsListedMarkedAndNothingAddressedToItIsDone) {
+  rtm_test::start_bound(started_, {HOSTILE_PATH, "--name", "plain0", "--plain", "--bind-names", "--naming", names_.address()});
+  const json system = get_json("/api/system");
+  std::vector<std::string> bad;
+  for (const auto& c : system) {
+    const std::string name = c["name"];
+    EXPECT_EQ(c["name_ok"], name == "src" || name == "dst" || name == "plain0") << name;
+    if (c["name_ok"] == false) bad.push_back(name);
+  }
+  ASSERT_GE(bad.size(), 10u) << system.dump();
+  for (const std::string& name : bad) {
+    const std::string path = "/api/components/" + encoded(name);
+    for (const auto& r : {post(path + "/on", json::object(), with_token()), client().Get(path.c_str(), with_token()),
+                          post(path + "/parameters/offset", {{"value", "1"}}, with_token()),
+                          post("/api/connect", {{"from", name + ".force"}, {"to", "dst.in0"}}, with_token()),
+                          client().Get(("/api/ports/" + encoded(name + ".force")).c_str(), with_token())}) {
+      ASSERT_TRUE(r) << name;
+      EXPECT_EQ(r->status, 400) << name << ": " << r->body;
+      EXPECT_NE(r->body.find("1 to 64 of A-Z a-z 0-9 _ - ."), std::string::npos) << name << ": " << r->body;
+    }
+  }
+  EXPECT_EQ(get_json("/api/components/plain0")["state"], "off") << "an action addressed to a bad name reached plain0";
+  const json saved = get_json("/api/system-file?name=s");
+  EXPECT_EQ(saved["yaml"].get<std::string>().find("slash"), std::string::npos) << saved.dump();
+  EXPECT_NE(saved["left_out"].dump().find("not a valid name"), std::string::npos) << saved.dump();
+  // The same encoding of a good name works.
+  const auto on = post("/api/components/" + encoded("plain0") + "/on", json::object(), with_token());
+  EXPECT_EQ(on->status, 200) << on->body;
+}
+
+TEST_F(RtmServe, ThePageRunsOnlyItsOwnScriptAndStyleFilesUnderAStrictPolicy) {
+  const auto page = client().Get("/");
+  ASSERT_TRUE(page);
+  const std::string policy = page->get_header_value("Content-Security-Policy");
+  for (const char* directive : {"script-src 'self'", "style-src 'self'", "connect-src 'self'", "object-src 'none'",
+                                "base-uri 'none'", "form-action 'none'", "frame-ancestors 'none'"})
+    EXPECT_NE(policy.find(directive), std::string::npos) << directive << " missing from " << policy;
+  EXPECT_EQ(policy.find("unsafe"), std::string::npos) << policy;
+  EXPECT_EQ(page->get_header_value("X-Content-Type-Options"), "nosniff");
+  EXPECT_EQ(page->get_header_value("Referrer-Policy"), "no-referrer");
+  EXPECT_EQ(page->body.find("<script>"), std::string::npos) << "a script written into the page";
+  EXPECT_EQ(page->body.find("<style"), std::string::npos) << "a style written into the page";
+  EXPECT_EQ(page->body.find("style="), std::string::npos) << "a style attribute in the page";
+  const auto script = client().Get("/app.js");
+  ASSERT_TRUE(script);
+  EXPECT_EQ(script->status, 200);
+  EXPECT_EQ(script->get_header_value("Content-Type").rfind("text/javascript", 0), 0u);
+  for (const char* markup : {"innerHTML", "outerHTML", "insertAdjacentHTML", "document.write", "eval("})
+    EXPECT_EQ(script->body.find(markup), std::string::npos) << "the script builds markup with " << markup;
+  const auto style = client().Get("/style.css");
+  ASSERT_TRUE(style);
+  EXPECT_EQ(style->get_header_value("Content-Type").rfind("text/css", 0), 0u);
+  EXPECT_EQ(client().Get("/api/system", with_token())->get_header_value("X-Content-Type-Options"), "nosniff");
+}
+
+// What a page or a user bent on starving the server does: it keeps `streams` event streams
+// (with the token) and `half_sent` requests sent by halves (without it) open, opening a new one
+// for each the server refuses, answers or closes, until it is destroyed.
+class Starver {
+ public:
+  Starver(int port, const std::string& token, int streams, int half_sent)
+      : port_(port), streams_(static_cast<std::size_t>(streams)), half_sent_(static_cast<std::size_t>(half_sent)) {
+    const std::string host = "Host: 127.0.0.1:" + std::to_string(port) + "\r\n";
+    stream_request_ = "GET /api/events?token=" + token + " HTTP/1.1\r\n" + host + "\r\n";
+    // Half a head, and a whole head with half its body; neither with the token.
+    half_requests_ = {"GET /api/system HTTP/1.1\r\n" + host,
+                      "POST /api/components/src/on HTTP/1.1\r\n" + host + "Content-Length: 40\r\n\r\n{\"val"};
+    thread_ = std::thread([this] { run(); });
+  }
+  ~Starver() {
+    stop_ = true;
+    thread_.join();
+    for (auto& s : streams_) if (s.fd >= 0) ::close(s.fd);
+    for (int fd : half_sent_) if (fd >= 0) ::close(fd);
+  }
+
+  struct Counts {
+    int rounds = 0;             // looks at every connection, each topped up
+    int streams_admitted = 0;   // now
+    int streams_undecided = 0;  // now: no answer yet
+    int streams_refused = 0;    // in all, with a sentence
+    int half_sent_open = 0;     // now
+    int half_sent_answered = 0; // in all, with anything but the deadline's 408
+  };
+  Counts counts() const {
+    std::lock_guard lock(mu_);
+    return counts_;
+  }
+  // Until as many streams have been admitted or refused as it keeps open (bounded).
+  void settle() const {
+    for (int i = 0; i < 200; ++i) {
+      const Counts c = counts();
+      if (static_cast<std::size_t>(c.streams_admitted + c.streams_refused) >= streams_.size()) return;
+      std::this_thread::sleep_for(50ms);
+    }
+  }
+
+ private:
+  struct Stream {
+    int fd = -1;
+    std::string head;
+    bool admitted = false;
+  };
+
+  void run() {
+    while (!stop_) {
+      Counts now;
+      {
+        std::lock_guard lock(mu_);
+        now = counts_;
+      }
+      now.streams_admitted = now.streams_undecided = now.half_sent_open = 0;
+      for (auto& s : streams_) look_at(s, now);
+      for (std::size_t i = 0; i < half_sent_.size(); ++i) look_at(half_sent_[i], half_requests_[i % 2], now);
+      ++now.rounds;
+      {
+        std::lock_guard lock(mu_);
+        counts_ = now;
+      }
+      std::this_thread::sleep_for(100ms);
+    }
+  }
+
+  void look_at(Stream& s, Counts& counts) {
+    if (s.fd >= 0) {
+      char buffer[4096];
+      ssize_t n;
+      while ((n = ::recv(s.fd, buffer, sizeof buffer, MSG_DONTWAIT)) > 0)
+        if (s.head.size() < 4096) s.head.append(buffer, static_cast<std::size_t>(n));
+      const bool closed = n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK);
+      if (!s.admitted && s.head.find("\r\n\r\n") != std::string::npos) {
+        s.admitted = s.head.rfind("HTTP/1.1 200", 0) == 0;
+        if (!s.admitted && s.head.rfind("HTTP/1.1 503", 0) == 0 && s.head.find("streams are open") != std::string::npos)
+          ++counts.streams_refused;
+        if (!s.admitted) closed_now(s);
+      }
+      if (s.fd >= 0 && closed) closed_now(s);
+    }
+    if (s.fd < 0) {
+      s.fd = connect_to(port_);
+      if (s.fd >= 0) [[maybe_unused]] auto sent = ::send(s.fd, stream_request_.data(), stream_request_.size(), MSG_NOSIGNAL);
+    }
+    if (s.fd >= 0) ++(s.admitted ? counts.streams_admitted : counts.streams_undecided);
+  }
+  static void closed_now(Stream& s) {
+    ::close(s.fd);
+    s = Stream{};
+  }
+
+  void look_at(int& fd, const std::string& request, Counts& counts) {
+    if (fd >= 0 && answered_or_closed(fd)) {
+      char buffer[64] = "";
+      const ssize_t n = ::recv(fd, buffer, sizeof buffer - 1, MSG_DONTWAIT);
+      if (n > 0 && std::string(buffer).rfind("HTTP/1.1 408", 0) != 0) ++counts.half_sent_answered;
+      ::close(fd);
+      fd = -1;
+    }
+    if (fd < 0) {
+      fd = connect_to(port_);
+      if (fd >= 0) [[maybe_unused]] auto sent = ::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+    }
+    if (fd >= 0) ++counts.half_sent_open;
+  }
+
+  int port_;
+  std::string stream_request_;
+  std::vector<std::string> half_requests_;
+  std::vector<Stream> streams_;
+  std::vector<int> half_sent_;
+  std::atomic<bool> stop_{false};
+  mutable std::mutex mu_;
+  Counts counts_;
+  std::thread thread_;
+};
+
+// Forty open event streams made every API call wait 19.9 s, and forty requests sent by halves
+// 7.1 s per round (httplib's 32 workers, each held by a connection from its first byte). With a
+// hundred of each kept open, re-opened as the server refuses or closes them, an `off` is answered
+// and takes effect. (30 s is a bound for a hang, not a figure: bench/tools/serve_starve.py
+// measures it.)
+TEST_F(RtmServe, AHundredOpenStreamsAndAHundredHalfSentRequestsLeaveAnOffAnsweredAndTakingEffect) {
+  Starver starver(port_, token_, 100, 100);
+  starver.settle();
+  httplib::Client c = client();
+  c.set_connection_timeout(30, 0);
+  c.set_read_timeout(30, 0);
+  const auto off = c.Post("/api/components/src/off", with_token(), "{}", "application/json");
+  const Starver::Counts during = starver.counts();
+  ASSERT_TRUE(off) << "off was not answered: " << httplib::to_string(off.error());
+  EXPECT_EQ(off->status, 200) << off->body;
+  EXPECT_EQ(find(get_json("/api/system"), "src")["state"], "off");
+  EXPECT_GT(during.streams_admitted, 0) << "no stream was let in at all";
+  EXPECT_GT(during.streams_refused, 0) << "a hundred streams, and none refused";
+  EXPECT_EQ(during.half_sent_open, 100);
+  EXPECT_EQ(during.half_sent_answered, 0) << "a request that never arrived was answered";
+}
+
+// On loopback the server answers its own user (and root) only: a connection from another local
+// user is refused at accept, token or not. Needs root, to connect as nobody.
+TEST_F(RtmServe, AConnectionFromAnotherLocalUserIsRefusedAtAcceptEvenWithTheToken) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root, to connect as another user (nobody)";
+  const std::string request = "GET /api/system HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port_) +
+                              "\r\nX-RTM-Token: " + token_ + "\r\n\r\n";
+  int out[2];
+  ASSERT_EQ(::pipe(out), 0);
+  const int port = port_;
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {  // only async-signal-safe calls from here
+    ::close(out[0]);
+    ::alarm(20);
+    if (::setgroups(0, nullptr) != 0 || ::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(2);
+    const int fd = connect_to(port);
+    if (fd < 0) ::_exit(3);
+    [[maybe_unused]] auto sent = ::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+    char buffer[4096];
+    for (ssize_t n; (n = ::read(fd, buffer, sizeof buffer)) > 0;) [[maybe_unused]] auto w = ::write(out[1], buffer, n);
+    ::_exit(0);
+  }
+  ::close(out[1]);
+  std::string answer;
+  char buffer[4096];
+  for (ssize_t n; (n = ::read(out[0], buffer, sizeof buffer)) > 0;) answer.append(buffer, static_cast<std::size_t>(n));
+  ::close(out[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the other user's client failed: " << status;
+  EXPECT_EQ(answer.rfind("HTTP/1.1 403", 0), 0u) << answer;
+  EXPECT_NE(answer.find("another user's"), std::string::npos) << answer;
+  EXPECT_EQ(answer.find("\"name\""), std::string::npos) << "the system was shown to another user: " << answer;
+  EXPECT_EQ(client().Get("/api/system", with_token())->status, 200) << "the owner is still answered";
 }
 
 }  // namespace
