@@ -6,7 +6,10 @@
 // rule: the receiving InPort offers both TCP and a unix socket.
 //
 //   rtm_bench_twoproc [--cpu N] [--paced N] [--burst N] [--transport tcp|unix|ssl|both|all]
-//                     [--neighbour none|busy|both]
+//                     [--neighbour none|busy|both] [--access-cost 1]
+//
+// --access-cost 1: instead, what access control's check costs a put (rtm/access.h): the bare
+// put with the receiver owner-only and open to all, alternating.
 //
 // both: tcp and unix; all: those and ssl (giop:ssl: with client certificates, rtm/tls.h,
 // from a throwaway authority this run makes).
@@ -337,6 +340,7 @@ struct Rows {
   std::string in_ior, bare_ior, tag;
   std::vector<std::string> common;
   std::size_t paced = 0, burst = 0;
+  bool access_cost = false;  // --access-cost: only access_rows()
 
   std::string child(std::vector<std::string> extra) const {
     auto all = common;
@@ -466,7 +470,52 @@ struct Rows {
                 tag.c_str(), per_s[0] / bare, per_s[1] / bare, per_s[3] / bare);
   }
 
+  // What access control's check costs a change request (rtm/access.h): the same bare put with
+  // the receiver owner-only (the caller's user, found when the connection was accepted, looked
+  // up for each put) and open to all (no lookup), in alternating slices of one run; each slice
+  // is a new publisher process, so each includes a new connection and its accept.
+  void access_rows() {
+    struct Policy {
+      const char* label;
+      rtm::AccessPolicy policy;
+      std::vector<std::int64_t> latency_ns;
+      std::uint64_t count = 0;
+      std::int64_t span_ns = 0;
+    };
+    std::array<Policy, 2> rows{{{"bare put, receiver open (no check)", rtm::AccessPolicy::open, {}, 0, 0},
+                                {"bare put, receiver owner-only (check)", rtm::AccessPolicy::owner, {}, 0, 0}}};
+    for (std::size_t slice = 0; slice < kSlices; ++slice) {
+      for (Policy& row : rows) {
+        rtm::configure_access(row.policy);
+        paced_slice(bare_ior, "bare-paced", "", paced / kSlices, row.latency_ns);
+      }
+    }
+    for (std::size_t slice = 0; slice < kBurstSlices; ++slice) {
+      for (Policy& row : rows) {
+        rtm::configure_access(row.policy);
+        const Received r = receive(bare_ior, "bare-burst", burst / kBurstSlices, 0);
+        row.count += r.count;
+        row.span_ns += r.span_ns;
+      }
+    }
+    rtm::configure_access(rtm::AccessPolicy::open);
+    std::array<rtm_bench::Summary, 2> summary;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      summary[i] = rtm_bench::summarize(rows[i].latency_ns);
+      rtm_bench::print_row((tag + " " + rows[i].label).c_str(), summary[i]);
+      std::printf("%s %-38s %9.0f msg/s twoway back to back\n", tag.c_str(), rows[i].label,
+                  rate(rows[i].count, rows[i].span_ns));
+    }
+    std::printf("%s   owner-only / open: one-way p50 %.2f, p99 %.2f; twoway rate %.2f\n", tag.c_str(),
+                summary[1].p50_us / summary[0].p50_us, summary[1].p99_us / summary[0].p99_us,
+                rate(rows[1].count, rows[1].span_ns) / rate(rows[0].count, rows[0].span_ns));
+  }
+
   void run() {
+    if (access_cost) {
+      access_rows();
+      return;
+    }
     paced_rows();
     burst_rows();
     rate_row("RTM stream, push (oneway), pipelined", "stream-oneway", burst);
@@ -516,7 +565,8 @@ int run_receiver(const char* self, const Args& args) {
                 {"--role", "publisher", "--transport", transport, "--cpu", std::to_string(cpu), "--tls",
                  tls_folder.string()},
                 static_cast<std::size_t>(args.number("--paced", 5000)),
-                static_cast<std::size_t>(args.number("--burst", 200000))};
+                static_cast<std::size_t>(args.number("--burst", 200000)),
+                args.get("--access-cost", "0") != "0"};
       std::optional<BusyNeighbour> load;
       if (busy == "busy") load.emplace();
       rows.run();

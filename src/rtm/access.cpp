@@ -129,6 +129,10 @@ class Callers {
     if (by_connection_.size() >= kBound) by_connection_.clear();
     by_connection_[connection] = caller;
   }
+  void forget(const omni::giopConnection* connection) {
+    std::lock_guard lock(mutex_);
+    by_connection_.erase(connection);
+  }
   Caller of(omni::giopConnection* connection) {
     {
       std::lock_guard lock(mutex_);
@@ -148,8 +152,12 @@ Callers g_callers;
 
 CORBA::Boolean note_caller(omni::omniInterceptors::serverAcceptConnection_T::info_T& info) {
   omni::giopConnection* connection = info.strand.connection;
-  if (connection && !starts_with(connection->peeraddress(), "giop:ssl:"))
+  if (!connection || starts_with(connection->peeraddress(), "giop:ssl:")) return true;
+  if (g_access.policy.load(std::memory_order_relaxed) == AccessPolicy::open) {
+    g_callers.forget(connection);  // nothing to check now; asked of the kernel if that changes
+  } else {
     g_callers.accepted(connection, Callers::from(peer_of_connection(connection)));
+  }
   return true;
 }
 
