@@ -595,9 +595,9 @@ TEST_F(RtmServe, AHundredOpenStreamsAndAHundredHalfSentRequestsLeaveAnOffAnswere
   EXPECT_EQ(during.half_sent_answered, 0) << "a request that never arrived was answered";
 }
 
-// On loopback the server answers its own user (and root) only: a connection from another local
-// user is refused at accept, token or not. Needs root, to connect as nobody.
-TEST_F(RtmServe, AConnectionFromAnotherLocalUserIsRefusedAtAcceptEvenWithTheToken) {
+// On loopback the server answers its own user (and root) only: a request from another local
+// user is refused before anything is answered, token or not. Needs root, to connect as nobody.
+TEST_F(RtmServe, AConnectionFromAnotherLocalUserIsRefusedEvenWithTheToken) {
   if (::geteuid() != 0) GTEST_SKIP() << "needs root, to connect as another user (nobody)";
   const std::string request = "GET /api/system HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port_) +
                               "\r\nX-RTM-Token: " + token_ + "\r\n\r\n";

@@ -322,7 +322,10 @@ httplib::Headers security_headers() {
 // On loopback the server answers its own user and root only.
 GatedServer::Limits gate_limits(const ServeOptions& options) {
   GatedServer::Limits limits;
-  limits.stream_threads = 2 * kStreamsInAll;  // room for streams ending while their pages' new ones start
+  // Room for streams ending while their pages' new ones start; beyond, the gate refuses a
+  // stream itself, without starting a thread for it (a client re-opening refused streams in a
+  // loop costs a refusal each, not a thread each).
+  limits.stream_threads = kStreamsInAll + 8;
   limits.refuse_other_users = is_loopback(options.host);
   return limits;
 }

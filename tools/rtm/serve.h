@@ -45,10 +45,11 @@
 // Every answer carries a Content-Security-Policy that lets the page run its own script and
 // style files only (no inline script or style, no plugin, frame, form or base, no framing),
 // X-Content-Type-Options: nosniff and Referrer-Policy: no-referrer.
-// Against another local user (serve_gate.h): on loopback a connection whose socket another
-// user owns (not root) is refused at accept; a request is screened (token, Origin, Host) as
-// soon as it has arrived, before any worker takes it; a request must arrive within 2 s; the
-// switches (on, off, reset) have workers of their own, and streams never take a worker.
+// Against another local user (serve_gate.h): on loopback a request from a socket another user
+// owns (not root) is refused before anything is answered; a request is screened (token,
+// Origin, Host) as soon as it has arrived, before any worker takes it; a request must arrive
+// within 2 s; the switches (on, off, reset) have workers of their own, and streams never take
+// a worker.
 #pragma once
 
 #include "browser.h"

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "serve_gate.h"
 
+#include "rtm/socket_peer.h"
+
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -14,8 +16,6 @@
 #include <array>
 #include <cerrno>
 #include <cstring>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -130,28 +130,6 @@ const char* reason(int status) {
   }
 }
 
-// An address as /proc/net/tcp and tcp6 print it: each 32-bit word of the address as it lies in
-// memory, in hexadecimal, then the port: "0100007F:1F90" is 127.0.0.1:8080.
-std::string proc_net_text(const sockaddr_storage& a) {
-  if (a.ss_family == AF_INET) {
-    const auto& v4 = reinterpret_cast<const sockaddr_in&>(a);
-    return fmt::format("{:08X}:{:04X}", v4.sin_addr.s_addr, ntohs(v4.sin_port));
-  }
-  if (a.ss_family == AF_INET6) {
-    const auto& v6 = reinterpret_cast<const sockaddr_in6&>(a);
-    std::array<std::uint32_t, 4> words{};
-    std::memcpy(words.data(), &v6.sin6_addr, sizeof words);
-    return fmt::format("{:08X}{:08X}{:08X}{:08X}:{:04X}", words[0], words[1], words[2], words[3], ntohs(v6.sin6_port));
-  }
-  return {};
-}
-
-bool same_text_ignoring_case(std::string_view a, std::string_view b) {
-  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
-           return std::toupper(static_cast<unsigned char>(x)) == std::toupper(static_cast<unsigned char>(y));
-         });
-}
-
 ArrivedRequest refused(ArrivedRequest::State state, int status, std::string why) {
   ArrivedRequest r;
   r.state = state;
@@ -234,26 +212,6 @@ ArrivedRequest read_arrived(std::string_view bytes, std::size_t head_max, std::s
   return r;
 }
 
-std::optional<uid_t> socket_owner(std::string_view proc_net_tcp, const sockaddr_storage& local,
-                                  const sockaddr_storage& remote) {
-  const std::string want_local = proc_net_text(local), want_remote = proc_net_text(remote);
-  if (want_local.empty() || want_remote.empty()) return std::nullopt;
-  std::istringstream lines{std::string(proc_net_tcp)};
-  for (std::string line; std::getline(lines, line);) {
-    // sl local_address rem_address st tx_queue:rx_queue tr:tm->when retrnsmt uid ...
-    std::istringstream fields(line);
-    std::string slot, here, there, state, queues, timer, retransmits, uid;
-    if (!(fields >> slot >> here >> there >> state >> queues >> timer >> retransmits >> uid)) continue;
-    if (!same_text_ignoring_case(here, want_local) || !same_text_ignoring_case(there, want_remote)) continue;
-    try {
-      return static_cast<uid_t>(std::stoul(uid));
-    } catch (const std::exception&) {
-      return std::nullopt;
-    }
-  }
-  return std::nullopt;
-}
-
 struct GatedServer::Arriving {
   int fd;
   std::string bytes;
@@ -324,7 +282,6 @@ void GatedServer::serve() {
 }
 
 void GatedServer::accept_all(std::vector<Arriving>& arriving) {
-  std::optional<std::string> tcp, tcp6;  // read once for all accepted in this look
   for (std::size_t i = 0; i < kAcceptsPerLook; ++i) {
     const int fd = ::accept4(svr_sock_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) {
@@ -333,10 +290,6 @@ void GatedServer::accept_all(std::vector<Arriving>& arriving) {
         arriving.erase(arriving.begin());
       }
       return;
-    }
-    if (limits_.refuse_other_users && !peer_allowed(fd, tcp, tcp6)) {
-      refuse(fd, 403, "refused: this connection is another user's; rtm serve answers only its own user");
-      continue;
     }
     const int one = 1;
     ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
@@ -391,6 +344,8 @@ void GatedServer::dispatch(int fd, std::string bytes, const httplib::Request& re
 
 void GatedServer::answer_on(Lane lane, int fd, std::string bytes) {
   const auto answer = [this](int connection, std::string request) {
+    if (limits_.refuse_other_users && !peer_allowed(connection))
+      return refuse(connection, 403, "refused: this connection is another user's; rtm serve answers only its own user");
     ConnectionStream stream(connection, std::move(request), limits_.write_timeout);
     bool closed = true;
     process_request(stream, true, closed, {});
@@ -403,7 +358,7 @@ void GatedServer::answer_on(Lane lane, int fd, std::string bytes) {
       if (streams_ < limits_.stream_threads) ++streams_, taken = true;
     }
     if (!taken)
-      return refuse(fd, 503, fmt::format("refused: {} streams are open, the most rtm serve runs", limits_.stream_threads));
+      return refuse(fd, 503, "refused: as many streams are open as rtm serve runs; close a page or one of its plots");
     std::thread([this, answer, fd, bytes = std::move(bytes)]() mutable {
       answer(fd, std::move(bytes));
       std::lock_guard lock(streams_mu_);
@@ -442,23 +397,10 @@ void GatedServer::send_answer(int fd, const httplib::Response& res) const {
   close_now(fd);
 }
 
-bool GatedServer::peer_allowed(int fd, std::optional<std::string>& tcp, std::optional<std::string>& tcp6) const {
-  sockaddr_storage mine{}, peer{};
-  socklen_t mine_length = sizeof mine, peer_length = sizeof peer;
-  if (::getsockname(fd, reinterpret_cast<sockaddr*>(&mine), &mine_length) != 0 ||
-      ::getpeername(fd, reinterpret_cast<sockaddr*>(&peer), &peer_length) != 0)
-    return false;
-  // The table as read for an earlier connection of this look, else (or when it does not list
-  // this one yet, connected since) read afresh.
-  auto& table = peer.ss_family == AF_INET6 ? tcp6 : tcp;
-  std::optional<uid_t> owner;
-  if (table) owner = socket_owner(*table, peer, mine);
-  if (!owner) {
-    std::ifstream in(peer.ss_family == AF_INET6 ? "/proc/net/tcp6" : "/proc/net/tcp");
-    table = std::string(std::istreambuf_iterator<char>(in), {});
-    owner = socket_owner(*table, peer, mine);
-  }
-  return owner && (*owner == 0 || *owner == ::geteuid());
+// The kernel's word on who holds the other end (rtm/socket_peer.h): this process's user or root.
+bool GatedServer::peer_allowed(int fd) const {
+  const auto peer = rtm::socket_peer(fd);
+  return peer && (peer->uid == 0 || peer->uid == ::geteuid());
 }
 
 }  // namespace rtm::cli

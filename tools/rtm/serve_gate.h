@@ -12,14 +12,13 @@
 //   - what passes runs on one of three lanes: the switches (on, off, reset) on workers of their
 //     own, the rest on the general workers, the event streams each on a thread of its own (at
 //     most Limits::stream_threads); a lane that is full refuses with 503 and a sentence;
-//   - on loopback, a connection whose socket another local user owns is refused at accept.
+//   - on loopback, a connection whose socket another local user owns is refused before anything
+//     is answered (the kernel's word, rtm/socket_peer.h; asked on the lane, after the screen, so
+//     that what another user sends without the token costs no look-up).
 // Each connection carries one request (the answer says Connection: close).
 #pragma once
 
 #include <httplib.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/types.h>
 
 #include <atomic>
 #include <chrono>
@@ -28,9 +27,9 @@
 #include <functional>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace rtm::cli {
 
@@ -53,12 +52,6 @@ struct ArrivedRequest {
 // parsed. A body must come with Content-Length (no chunked request bodies).
 ArrivedRequest read_arrived(std::string_view bytes, std::size_t head_max, std::size_t body_max);
 
-// The user owning the TCP socket whose local end is `local` and whose remote end is `remote`,
-// found in the text of /proc/net/tcp (IPv4) or /proc/net/tcp6 (IPv6); nullopt when the text
-// lists no such socket.
-std::optional<uid_t> socket_owner(std::string_view proc_net_tcp, const sockaddr_storage& local,
-                                  const sockaddr_storage& remote);
-
 class GatedServer : public httplib::Server {
  public:
   enum class Lane { control, general, stream };
@@ -73,7 +66,7 @@ class GatedServer : public httplib::Server {
     std::size_t waiting_max = 64;     // requests queued per lane beyond its workers
     std::size_t stream_threads = 64;  // streams running (the server caps its own slots lower)
     std::chrono::milliseconds write_timeout{2000};  // a reader that stops reading is dropped
-    bool refuse_other_users = false;  // on loopback: only this process's user and root
+    bool refuse_other_users = false;  // on loopback: answer only this process's user and root
   };
 
   // screen: the server's security screen (Handled: refused, with the answer in res); lane:
@@ -99,7 +92,7 @@ class GatedServer : public httplib::Server {
   void answer_on(Lane lane, int fd, std::string bytes);
   void refuse(int fd, int status, const std::string& why) const;
   void send_answer(int fd, const httplib::Response& res) const;
-  bool peer_allowed(int fd, std::optional<std::string>& tcp, std::optional<std::string>& tcp6) const;
+  bool peer_allowed(int fd) const;
 
   HandlerWithResponse screen_;
   std::function<Lane(const httplib::Request&)> lane_;
