@@ -1,15 +1,21 @@
 // SPDX-License-Identifier: Apache-2.0
-// rtm serve's gate, the part that needs no socket: a request read as far as it has arrived, as
-// httplib reads it.
+// rtm serve's gate: a request read as far as it has arrived, as httplib reads it; the user at the
+// other end of a loopback connection, as the kernel says.
 #include "serve_gate.h"
 
 #include <gtest/gtest.h>
+#include <grp.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <string>
 
 namespace {
 
 using rtm::cli::ArrivedRequest;
+using rtm::cli::peer_user;
 using rtm::cli::read_arrived;
 using State = ArrivedRequest::State;
 
@@ -55,6 +61,60 @@ TEST(ReadArrived, AMalformedOrOversizedRequestIsRefusedWithItsStatusAndASentence
   EXPECT_NE(big.why.find("more than 1000"), std::string::npos) << big.why;
   EXPECT_EQ(refused("GET / HTTP/1.1\r\nX: " + std::string(200, 'a'), 100).status, 431) << "no end of head in sight";
   EXPECT_EQ(refused("GET / HTTP/1.1\r\nX: " + std::string(200, 'a') + "\r\n\r\n", 100).status, 431);
+}
+
+
+// A listening socket on 127.0.0.1 (any port) and its address.
+int listen_on_loopback(sockaddr_in& address) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  address = {};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t size = sizeof address;
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 || ::listen(fd, 4) != 0 ||
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size) != 0)
+    ADD_FAILURE() << "no loopback listener";
+  return fd;
+}
+
+TEST(PeerUser, BothEndsOfALoopbackConnectionOfThisProcessAreThisUsers) {
+  sockaddr_in address{};
+  const int listener = listen_on_loopback(address);
+  const int client = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  ASSERT_EQ(::connect(client, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  const int server = ::accept(listener, nullptr, nullptr);
+  ASSERT_GE(server, 0);
+  EXPECT_EQ(peer_user(server), ::geteuid());
+  EXPECT_EQ(peer_user(client), ::geteuid());
+  const int unconnected = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  EXPECT_EQ(peer_user(unconnected), std::nullopt);
+  for (int fd : {listener, client, server, unconnected}) ::close(fd);
+}
+
+// What the server refuses: a peer another user connected. Needs root, to connect as nobody.
+TEST(PeerUser, AConnectionAnotherUserMadeIsThatUsers) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root, to connect as another user (nobody)";
+  sockaddr_in address{};
+  const int listener = listen_on_loopback(address);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {  // only async-signal-safe calls from here
+    ::alarm(10);
+    if (::setgroups(0, nullptr) != 0 || ::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(2);
+    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) ::_exit(3);
+    char byte;
+    [[maybe_unused]] const auto n = ::read(fd, &byte, 1);  // until the test closes its end
+    ::_exit(0);
+  }
+  const int server = ::accept(listener, nullptr, nullptr);
+  ASSERT_GE(server, 0);
+  EXPECT_EQ(peer_user(server), 65534u);
+  ::close(server);
+  ::close(listener);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
 }
 
 }  // namespace
