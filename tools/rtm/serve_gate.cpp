@@ -5,9 +5,6 @@
 
 #include <arpa/inet.h>
 #include <fcntl.h>
-#include <linux/inet_diag.h>
-#include <linux/netlink.h>
-#include <linux/sock_diag.h>
 #include <fmt/format.h>
 #include <netinet/tcp.h>
 #include <nlohmann/json.hpp>
@@ -134,45 +131,6 @@ const char* reason(int status) {
   }
 }
 
-// The user of the TCP socket whose own end is `local` and whose other end is `remote`, asked of
-// the kernel for that one socket (NETLINK_SOCK_DIAG, an exact look-up: what `ss` uses); nullopt
-// when there is no such socket or the kernel does not answer.
-std::optional<uid_t> socket_user(int family, const void* local, const void* remote, std::uint16_t local_port,
-                                 std::uint16_t remote_port) {
-  struct {
-    nlmsghdr header;
-    inet_diag_req_v2 request;
-  } ask{};
-  ask.header.nlmsg_len = sizeof ask;
-  ask.header.nlmsg_type = SOCK_DIAG_BY_FAMILY;
-  ask.header.nlmsg_flags = NLM_F_REQUEST;  // no NLM_F_DUMP: the one socket, not the table
-  ask.request.sdiag_family = static_cast<std::uint8_t>(family);
-  ask.request.sdiag_protocol = IPPROTO_TCP;
-  ask.request.idiag_states = ~0U;
-  ask.request.id.idiag_sport = local_port;  // network order, as in the socket addresses
-  ask.request.id.idiag_dport = remote_port;
-  const std::size_t size = family == AF_INET ? 4 : 16;
-  std::memcpy(ask.request.id.idiag_src, local, size);
-  std::memcpy(ask.request.id.idiag_dst, remote, size);
-  ask.request.id.idiag_cookie[0] = ask.request.id.idiag_cookie[1] = INET_DIAG_NOCOOKIE;
-  const int fd = ::socket(AF_NETLINK, SOCK_DGRAM | SOCK_CLOEXEC, NETLINK_SOCK_DIAG);
-  if (fd < 0) return std::nullopt;
-  const timeval wait{0, 200'000};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &wait, sizeof wait);
-  sockaddr_nl kernel{};
-  kernel.nl_family = AF_NETLINK;
-  alignas(nlmsghdr) char answer[8192];
-  ssize_t n = -1;
-  if (::sendto(fd, &ask, sizeof ask, 0, reinterpret_cast<sockaddr*>(&kernel), sizeof kernel) == sizeof ask)
-    n = ::recv(fd, answer, sizeof answer, 0);
-  ::close(fd);
-  const auto* reply = reinterpret_cast<const nlmsghdr*>(answer);
-  if (n < static_cast<ssize_t>(NLMSG_LENGTH(sizeof(inet_diag_msg))) || !NLMSG_OK(reply, static_cast<unsigned>(n)) ||
-      reply->nlmsg_type != SOCK_DIAG_BY_FAMILY)
-    return std::nullopt;  // NLMSG_ERROR: no such socket
-  return static_cast<const inet_diag_msg*>(NLMSG_DATA(reply))->idiag_uid;
-}
-
 ArrivedRequest refused(ArrivedRequest::State state, int status, std::string why) {
   ArrivedRequest r;
   r.state = state;
@@ -256,27 +214,9 @@ ArrivedRequest read_arrived(std::string_view bytes, std::size_t head_max, std::s
 }
 
 std::optional<uid_t> peer_user(int fd) {
-  sockaddr_storage ours{}, theirs{};
-  socklen_t our_size = sizeof ours, their_size = sizeof theirs;
-  if (::getsockname(fd, reinterpret_cast<sockaddr*>(&ours), &our_size) != 0 ||
-      ::getpeername(fd, reinterpret_cast<sockaddr*>(&theirs), &their_size) != 0 || ours.ss_family != theirs.ss_family)
-    return std::nullopt;
-  std::optional<uid_t> user;
-  if (ours.ss_family == AF_INET) {
-    const auto& o = reinterpret_cast<const sockaddr_in&>(ours);
-    const auto& t = reinterpret_cast<const sockaddr_in&>(theirs);
-    user = socket_user(AF_INET, &t.sin_addr, &o.sin_addr, t.sin_port, o.sin_port);
-  } else if (ours.ss_family == AF_INET6) {
-    const auto& o = reinterpret_cast<const sockaddr_in6&>(ours);
-    const auto& t = reinterpret_cast<const sockaddr_in6&>(theirs);
-    user = socket_user(AF_INET6, &t.sin6_addr, &o.sin6_addr, t.sin6_port, o.sin6_port);
-    if (!user && IN6_IS_ADDR_V4MAPPED(&t.sin6_addr) && IN6_IS_ADDR_V4MAPPED(&o.sin6_addr))  // an IPv4 peer
-      user = socket_user(AF_INET, &t.sin6_addr.s6_addr[12], &o.sin6_addr.s6_addr[12], t.sin6_port, o.sin6_port);
-  }
-  if (user) return user;
-  // No answer from the kernel's socket diagnostics: the core's look-up in /proc/net/tcp.
   const auto peer = rtm::socket_peer(fd);
-  return peer ? std::optional<uid_t>(peer->uid) : std::nullopt;
+  if (!peer) return std::nullopt;
+  return peer->uid;
 }
 
 struct GatedServer::Arriving {

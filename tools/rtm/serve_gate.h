@@ -55,10 +55,9 @@ struct ArrivedRequest {
 ArrivedRequest read_arrived(std::string_view bytes, std::size_t head_max, std::size_t body_max);
 
 // The user of the process at the other end of a TCP connection of this host (of this network
-// namespace), as the kernel says: the one socket asked of its socket diagnostics (netlink), or,
-// when they do not answer, rtm::socket_peer's look-up in /proc/net/tcp. nullopt for a peer on
-// another host or an unconnected socket. (Reading the table took 2 ms with a thousand sockets in
-// it and grows with them: every refused connection leaves one in TIME_WAIT.)
+// namespace), as the kernel says (rtm::socket_peer: the one socket asked of its socket
+// diagnostics, whatever the number of sockets on the host). nullopt for a peer on another host
+// or an unconnected socket.
 std::optional<uid_t> peer_user(int fd);
 
 class GatedServer : public httplib::Server {

@@ -17,8 +17,10 @@ struct SocketPeer {
 };
 
 // A unix socket: its peer credentials (SO_PEERCRED, recorded by the kernel at connect). A TCP
-// socket whose peer is a socket of this host (of this network namespace): that socket's entry
-// in /proc/net/tcp or /proc/net/tcp6, which names its owner and inode. nullopt for a peer on
+// socket whose peer is a socket of this host (of this network namespace): that socket's owner
+// and inode, asked of the kernel for that one socket (NETLINK_SOCK_DIAG, the look-up `ss`
+// makes: its cost does not grow with the host's sockets, which any user can multiply), or
+// read from /proc/net/tcp or tcp6 where the kernel does not answer. nullopt for a peer on
 // another host, a socket of no such kind, or an unconnected one.
 std::optional<SocketPeer> socket_peer(int fd);
 
