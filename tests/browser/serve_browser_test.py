@@ -13,9 +13,6 @@ Exit 77 (skipped) when Chromium's driver or Selenium is not installed.
 import json
 import os
 import re
-import shutil
-import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -32,34 +29,14 @@ except ImportError:
     print("python3-selenium is not installed: skipped")
     sys.exit(77)
 
+from browser_harness import check, chrome, finish, start, start_names, stop_all, wait_for
+import browser_harness
+
 BIN, SIM, TALKER, EXAMPLE, ARTIFACTS = sys.argv[1:6]
 RTM = os.path.join(BIN, "rtm")
-DRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
-if not os.path.exists(DRIVER):
-    print("chromedriver (Debian's chromium-driver) is not installed: skipped")
-    sys.exit(77)
+DRIVER = browser_harness.skip_without_chromedriver()
 
 work = tempfile.mkdtemp(prefix="rtm-browser-")
-processes = []
-failures = []
-
-
-def check(ok, what):
-    print(("ok: " if ok else "FAIL: ") + what, flush=True)
-    if not ok:
-        failures.append(what)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start(argv, **kw):
-    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **kw)
-    processes.append(p)
-    return p
 
 
 def rtm(*args, timeout=30):
@@ -69,29 +46,11 @@ def rtm(*args, timeout=30):
     return r
 
 
-def wait_for(predicate, seconds, what):
-    deadline = time.time() + seconds
-    while time.time() < deadline:
-        try:
-            if predicate():
-                return True
-        except Exception:  # the page or a process not ready yet
-            pass
-        time.sleep(0.1)
-    check(False, what)
-    return False
-
-
 def shot(driver, name):
-    os.makedirs(ARTIFACTS, exist_ok=True)
-    driver.save_screenshot(os.path.join(ARTIFACTS, name + ".png"))
+    browser_harness.shot(driver, ARTIFACTS, name)
 
 
-port = free_port()
-naming = f"127.0.0.1:{port}"
-os.makedirs(os.path.join(work, "names"))
-start(["omniNames", "-start", str(port), "-datadir", os.path.join(work, "names"), "-logdir",
-       os.path.join(work, "names"), "-ignoreport", "-ORBendPoint", f"giop:tcp:127.0.0.1:{port}"])
+naming = start_names(work)
 bus = "local:" + os.path.join(work, "pa10.bus")
 start([SIM, "--bus", bus, "--profile", os.path.join(EXAMPLE, "operator_profile.yaml"), "--quiet"])
 driver = None
@@ -113,10 +72,7 @@ try:
     check(url.startswith("http://127.0.0.1:"), "rtm serve printed its URL: " + url)
     token = url.split("#token=")[1]
 
-    options = webdriver.ChromeOptions()
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
-        options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+    driver = chrome(webdriver, Service(DRIVER))
     driver.execute_cdp_cmd("Browser.setDownloadBehavior", {"behavior": "allow", "downloadPath": work})
     started = time.time()
     driver.get(url)
@@ -272,15 +228,6 @@ finally:
         driver.quit()
     rtm("down", "saved", timeout=60)
     rtm("down", "browser", timeout=60)
-    for p in reversed(processes):
-        if p.poll() is None:
-            p.send_signal(signal.SIGINT if p.args[0] == RTM else signal.SIGTERM)
-            try:
-                p.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
-    shutil.rmtree(work, ignore_errors=True)
+    stop_all(interrupt_first=(RTM,))
 
-print(f"{len(failures)} failed" if failures else "all browser checks passed; screenshots in " + ARTIFACTS)
-sys.exit(1 if failures else 0)
+finish(work, "all browser checks passed; screenshots in " + ARTIFACTS)

@@ -19,9 +19,6 @@ Exit 77 (skipped) when Chromium's driver or Selenium is not installed.
 import http.server
 import json
 import os
-import shutil
-import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -38,52 +35,18 @@ except ImportError:
     print("python3-selenium is not installed: skipped")
     sys.exit(77)
 
+from browser_harness import check, chrome, finish, free_port, start, start_names, stop_all, wait_for
+import browser_harness
+
 RTM, HOSTILE, TALKER, ARTIFACTS = sys.argv[1:5]
-DRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
-if not os.path.exists(DRIVER):
-    print("chromedriver (Debian's chromium-driver) is not installed: skipped")
-    sys.exit(77)
+DRIVER = browser_harness.skip_without_chromedriver()
 
 work = tempfile.mkdtemp(prefix="rtm-hostile-browser-")
-processes = []
-failures = []
 hits = []  # every request that reached the listener
 
 
-def check(ok, what):
-    print(("ok: " if ok else "FAIL: ") + what, flush=True)
-    if not ok:
-        failures.append(what)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start(argv, **kw):
-    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **kw)
-    processes.append(p)
-    return p
-
-
-def wait_for(predicate, seconds, what):
-    deadline = time.time() + seconds
-    while time.time() < deadline:
-        try:
-            if predicate():
-                return True
-        except Exception:  # the page or a process not ready yet
-            pass
-        time.sleep(0.1)
-    check(False, what)
-    return False
-
-
 def shot(driver, name):
-    os.makedirs(ARTIFACTS, exist_ok=True)
-    driver.save_screenshot(os.path.join(ARTIFACTS, name + ".png"))
+    browser_harness.shot(driver, ARTIFACTS, name)
 
 
 class Listener(http.server.BaseHTTPRequestHandler):
@@ -103,11 +66,7 @@ class Listener(http.server.BaseHTTPRequestHandler):
 listener = http.server.ThreadingHTTPServer(("127.0.0.1", free_port()), Listener)
 threading.Thread(target=listener.serve_forever, daemon=True).start()
 beacon = f"http://127.0.0.1:{listener.server_address[1]}"
-naming_port = free_port()
-naming = f"127.0.0.1:{naming_port}"
-os.makedirs(os.path.join(work, "names"))
-start(["omniNames", "-start", str(naming_port), "-datadir", os.path.join(work, "names"), "-logdir",
-       os.path.join(work, "names"), "-ignoreport", "-ORBendPoint", f"giop:tcp:127.0.0.1:{naming_port}"])
+naming = start_names(work)
 driver = None
 
 
@@ -163,11 +122,7 @@ try:
     hostile_system = next(c for c in listed if c["name"] == "hostile0")
     hostile_details = api("/api/components/hostile0")
 
-    options = webdriver.ChromeOptions()
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
-        options.add_argument(arg)
-    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+    driver = chrome(webdriver, Service(DRIVER), console=True)
     driver.get(url)
 
     def drawn_names():
@@ -294,16 +249,7 @@ finally:
     check(hits == [], "no request reached the listener: " + repr(hits[:5]))
     if driver is not None:
         driver.quit()
-    for p in reversed(processes):
-        if p.poll() is None:
-            p.send_signal(signal.SIGINT if p.args[0] == RTM else signal.SIGTERM)
-            try:
-                p.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+    stop_all(interrupt_first=(RTM,))
     listener.shutdown()
-    shutil.rmtree(work, ignore_errors=True)
 
-print(f"{len(failures)} failed" if failures else "all hostile-page checks passed; screenshots in " + ARTIFACTS)
-sys.exit(1 if failures else 0)
+finish(work, "all hostile-page checks passed; screenshots in " + ARTIFACTS)
