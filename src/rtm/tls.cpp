@@ -248,6 +248,24 @@ struct TlsSettings {
 };
 TlsSettings g_tls;
 
+// The IIOP profiles of an object's reference (each an address and its tagged components);
+// nullopt when one cannot be read or the object is nil.
+std::optional<std::vector<IIOP::ProfileBody>> iiop_profiles(CORBA::Object_ptr object) {
+  if (CORBA::is_nil(object) || !object->_PR_getobj()) return std::nullopt;
+  omniIOR_var ior = object->_PR_getobj()->_getIOR();
+  const IOP::TaggedProfileList& profiles = ior->iopProfiles();
+  std::vector<IIOP::ProfileBody> bodies;
+  for (CORBA::ULong i = 0; i < profiles.length(); ++i) {
+    if (profiles[i].tag != IOP::TAG_INTERNET_IOP) continue;
+    try {
+      IIOP::unmarshalProfile(profiles[i], bodies.emplace_back());
+    } catch (const CORBA::SystemException&) {
+      return std::nullopt;
+    }
+  }
+  return bodies;
+}
+
 }  // namespace
 
 TlsFolder check_tls_folder(const fs::path& folder) {
@@ -280,18 +298,10 @@ void configure_tls(const TlsFolder& folder) {
 bool tls_configured() { return g_tls.configured.load(); }
 
 bool reachable_only_over_tls(CORBA::Object_ptr object) {
-  if (CORBA::is_nil(object) || !object->_PR_getobj()) return false;
-  omniIOR_var ior = object->_PR_getobj()->_getIOR();
-  const IOP::TaggedProfileList& profiles = ior->iopProfiles();
+  const std::optional<std::vector<IIOP::ProfileBody>> bodies = iiop_profiles(object);
+  if (!bodies) return false;
   bool ssl = false;
-  for (CORBA::ULong i = 0; i < profiles.length(); ++i) {
-    if (profiles[i].tag != IOP::TAG_INTERNET_IOP) continue;
-    IIOP::ProfileBody body;
-    try {
-      IIOP::unmarshalProfile(profiles[i], body);
-    } catch (const CORBA::SystemException&) {
-      return false;
-    }
+  for (const IIOP::ProfileBody& body : *bodies) {
     if (body.address.port != 0) return false;  // a plain TCP address
     for (CORBA::ULong c = 0; c < body.components.length(); ++c) {
       const IOP::ComponentId tag = body.components[c].tag;
@@ -342,17 +352,7 @@ struct SslAddress {
 // target_supports, target_requires, port).
 std::vector<SslAddress> ssl_addresses(CORBA::Object_ptr object) {
   std::vector<SslAddress> out;
-  if (CORBA::is_nil(object) || !object->_PR_getobj()) return out;
-  omniIOR_var ior = object->_PR_getobj()->_getIOR();
-  const IOP::TaggedProfileList& profiles = ior->iopProfiles();
-  for (CORBA::ULong i = 0; i < profiles.length(); ++i) {
-    if (profiles[i].tag != IOP::TAG_INTERNET_IOP) continue;
-    IIOP::ProfileBody body;
-    try {
-      IIOP::unmarshalProfile(profiles[i], body);
-    } catch (const CORBA::SystemException&) {
-      continue;
-    }
+  for (const IIOP::ProfileBody& body : iiop_profiles(object).value_or(std::vector<IIOP::ProfileBody>{})) {
     for (CORBA::ULong c = 0; c < body.components.length(); ++c) {
       const IOP::TaggedComponent& component = body.components[c];
       if (component.tag != IOP::TAG_SSL_SEC_TRANS || component.component_data.length() < 8) continue;
