@@ -25,11 +25,11 @@
 #include <fmt/format.h>
 
 #include <atomic>
-#include <mutex>
-#include <unordered_map>
 #include <cstring>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 
 #include "rtm/log.h"
 #include "rtm/socket_peer.h"
