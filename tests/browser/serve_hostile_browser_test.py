@@ -19,6 +19,7 @@ Exit 77 (skipped) when Chromium's driver or Selenium is not installed.
 import http.server
 import json
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -102,8 +103,9 @@ try:
     hostile = start([HOSTILE, "--name", "hostile0", "--naming", naming, "--beacon", beacon, "--bind-names", "--on"])
     start([TALKER, "--name", "talker0", "--naming", naming, "--on"])
     start([TALKER, "--name", "talker1", "--naming", naming])
-    wait_for(lambda: {"hostile0", "talker0", "talker1"} <= {c["name"] for c in rtm_json("ls")}, 20,
-             "the hostile component and the two talkers are bound")
+    start([TALKER, "--name", "slow0", "--naming", naming, "--in0-delay-ms", "3000"])
+    wait_for(lambda: {"hostile0", "talker0", "talker1", "slow0"} <= {c["name"] for c in rtm_json("ls")}, 20,
+             "the hostile component and the three talkers are bound")
     serve = start([RTM, "--naming", naming, "serve"], env=dict(os.environ, RTM_TLS=""))
     url = serve.stdout.readline().strip()
     check(url.startswith("http://127.0.0.1:"), "rtm serve printed its URL: " + url)
@@ -210,6 +212,21 @@ try:
     wait_for(lambda: "talker1.in0" in subscriptions(), 10, "a drag from talker0.force onto talker1.in0 connects them")
     EDGE = 'path.edge[data-from="talker0.force"]'
     wait_for(lambda: driver.find_elements("css selector", EDGE), 10, "the new edge is drawn")
+    # A reader slow to take its data (each put into slow0.in0 waits 3 s): talker0's deliveries
+    # fail, and the edge says so and why.
+    def post(path, body):
+        request = urllib.request.Request(base + path, data=json.dumps(body).encode(), method="POST",
+                                         headers={"X-RTM-Token": token, "Content-Type": "application/json"})
+        return json.load(urllib.request.urlopen(request, timeout=20))
+    post("/api/connect", {"from": "talker0.force", "to": "slow0.in0", "type": "repeated"})
+    SLOW_EDGE = 'path.edge.failing[data-from="talker0.force"][data-to="slow0.in0"]'
+    wait_for(lambda: "TIMEOUT" in driver.find_element("css selector", SLOW_EDGE).get_attribute("textContent"), 20,
+             "an edge whose deliveries fail is drawn failing, with why")
+    shot(driver, "2-failing-edge")
+    post("/api/disconnect", {"from": "talker0.force", "to": "slow0.in0", "type": "repeated"})
+    wait_for(lambda: not driver.find_elements("css selector", 'path.edge[data-to="slow0.in0"]'), 20,
+             "the failing edge goes with its subscription")
+
 
     retrying(lambda: driver.find_element("css selector", 'circle[data-port="talker0.force"]').click())
     wait_for(lambda: in_page("const c = document.querySelector('#plots canvas'); return c && c.dataset.series") == "6",

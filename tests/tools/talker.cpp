@@ -4,7 +4,9 @@
 //   out: force (TimedFloat6, a ramp: value i of cycle n is n + i + offset; fx..tz in N, N·m),
 //        out3 (TimedFloat3)
 // Statistic "cycles"; parameters "offset" (live), "fail_after" (while off) and "name" (fixed).
-// --fail-after N makes its N-th cycle throw (the component goes to COMPONENT_ERROR).
+// --fail-after N makes its N-th cycle throw (the component goes to COMPONENT_ERROR);
+// --in0-delay-ms N makes in0 a reader slow to take its data: each put waits N ms (its writer's
+// calls time out, while the component answers everything else).
 #include "rt/live_value.h"
 #include "rtm/data.h"
 #include "rtm/runner.h"
@@ -13,13 +15,16 @@
 #include <memory>
 #include <span>
 #include <stdexcept>
+#include <thread>
 
 namespace {
 
 class Talker final : public rtm::Component {
  public:
-  Talker(const std::string& name, long fail_after)
-      : Component(name, "talker"), fail_after_(fail_after) {
+  Talker(const std::string& name, long fail_after, int in0_delay_ms)
+      : Component(name, "talker"),
+        in0_(add_in_port<RTM::TimedFloat6>("in0", in0_policy(in0_delay_ms))),
+        fail_after_(fail_after) {
     add_statistic("cycles", "", "cycles run", [this] { return static_cast<double>(cycles_.load()); });
     add_parameter({.name = "offset",
                    .unit = "N",
@@ -55,7 +60,13 @@ class Talker final : public rtm::Component {
   }
 
  private:
-  rtm::InPort<RTM::TimedFloat6>& in0_ = add_in_port<RTM::TimedFloat6>("in0");
+  static rtm::InPortPolicy in0_policy(int delay_ms) {
+    if (delay_ms <= 0) return rtm::InPortPolicy::latest();
+    return rtm::InPortPolicy::callback<RTM::TimedFloat6>(
+        [delay_ms](const RTM::TimedFloat6&) { std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms)); });
+  }
+
+  rtm::InPort<RTM::TimedFloat6>& in0_;
   rtm::InPort<RTM::TimedFloat3>& pos3_ =
       add_in_port<RTM::TimedFloat3>("pos3", {"a position", rtm::elements("x y z", "m m m")});
   rtm::OutPort<RTM::TimedFloat6>& force_ = add_out_port<RTM::TimedFloat6>(
@@ -75,13 +86,17 @@ class Talker final : public rtm::Component {
 
 int main(int argc, char** argv) {
   long fail_after = 0;
+  int in0_delay_ms = 0;
   return rtm::run_component(argc, argv, {
       .kind = "talker",
       .description = "test component with TimedFloat6 and TimedFloat3 ports",
       .add_options = [&](CLI::App& app) {
         app.add_option("--fail-after", fail_after, "throw in every N-th cycle (0: never)");
+        app.add_option("--in0-delay-ms", in0_delay_ms, "each put into in0 waits this long (a slow reader)");
       },
-      .create = [&](const rtm::RunSettings& s) { return std::make_unique<Talker>(s.name, fail_after); },
+      .create = [&](const rtm::RunSettings& s) {
+        return std::make_unique<Talker>(s.name, fail_after, in0_delay_ms);
+      },
       .activity = {},
   });
 }

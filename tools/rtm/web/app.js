@@ -65,7 +65,8 @@ function timingText(c) {
 // written into the drawing in place, so that a drag or a click is never cut by a redraw.
 function shapeOf(list) {
   return JSON.stringify(list.map(c => [c.host, c.name, c.name_ok, c.alive, c.state, c.unreachable,
-    (c.ports || []).map(p => [p.name, p.type, (p.subscriptions || []).map(s => [s.peer, s.type])])]));
+    (c.ports || []).map(p => [p.name, p.type,
+      (p.subscriptions || []).map(s => [s.peer, s.type, s.failures > 0, s.last_failure || ""])])]));
 }
 
 // A component whose name breaks the naming rule: its name as text, marked, and nothing to do.
@@ -127,9 +128,13 @@ function drawEdges(svg) {
       for (const s of p.subscriptions || []) {
         const from = `${c.name}.${p.name}`, a = portAt.get(from), b = portAt.get(s.peer);
         if (!a || !b) continue;
-        const path = el("path", { class: "edge " + (s.type === "once" ? "once" : "repeated"), "data-from": from,
-                                  "data-to": s.peer, d: curve(a, b) }, svg);
-        el("title", {}, path, `${from} → ${s.peer} (${s.type}); click to disconnect`);
+        // A subscription whose deliveries fail (a refusal by access control, a stalled reader)
+        // says so on its edge, with why.
+        const failing = s.failures > 0;
+        const path = el("path", { class: "edge " + (s.type === "once" ? "once" : "repeated") + (failing ? " failing" : ""),
+                                  "data-from": from, "data-to": s.peer, d: curve(a, b) }, svg);
+        const why = failing ? `; failing ×${s.failures}${s.last_failure ? ": " + s.last_failure : ""}` : "";
+        el("title", {}, path, `${from} → ${s.peer} (${s.type})${why}; click to disconnect`);
         path.addEventListener("click", () => api("POST", "/api/disconnect", { from, to: s.peer, type: s.type })
           .then(done).catch(e => showError(e.message)));
       }
