@@ -45,11 +45,14 @@ fail() {
 }
 
 mkdir -p "$tmp/run"
+# The tool tip starts 20 mm above the table and descends at the approach speed (5 mm/s), so it
+# touches down about 4 s into the 10 N press; the press lasts 6 s so that the phase's steady
+# state (its last second) is in contact with time to spare on a slow or busy machine.
 cat >"$tmp/profile.yaml" <<'YAML'
 segments:
   - hold: 1.0
   - ramp: {duration_s: 0.5, force_N: [0, 0, -10]}
-  - hold: 4.0
+  - hold: 6.0
   - ramp: {duration_s: 0.5, force_N: [0, 0, -20]}
   - hold: 3.0
   - ramp: {duration_s: 0.5, force_N: [0, 0, 3]}
@@ -57,7 +60,7 @@ segments:
 YAML
 
 status=0
-TMPDIR="$tmp/run" "$demo" --bin "$bin_dir" "${system_args[@]}" --profile "$tmp/profile.yaml" --duration 11 --out "$tmp/out" \
+TMPDIR="$tmp/run" "$demo" --bin "$bin_dir" "${system_args[@]}" --profile "$tmp/profile.yaml" --duration 13 --out "$tmp/out" \
   >"$tmp/demo.log" 2>&1 || status=$?
 ((status == 0)) || fail "exit code $status, want 0"
 
