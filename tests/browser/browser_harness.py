@@ -72,6 +72,30 @@ def shot(driver, folder, name):
     driver.save_screenshot(os.path.join(folder, name + ".png"))
 
 
+def retrying(action):
+    """action(), found anew while the page redraws between finding an element and using it."""
+    from selenium.common.exceptions import StaleElementReferenceException
+    for _ in range(5):
+        try:
+            return action()
+        except StaleElementReferenceException:
+            time.sleep(0.2)
+    check(False, "the page kept redrawing under an action")
+    return None
+
+
+def drag(driver, source, target):
+    """Drag the port circle of address source onto that of target, as a user does."""
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    def act():
+        a = driver.find_element("css selector", f'circle[data-port="{source}"]')
+        b = driver.find_element("css selector", f'circle[data-port="{target}"]')
+        driver.execute_script("arguments[0].scrollIntoView({block: 'center'})", a)
+        ActionChains(driver).move_to_element(a).click_and_hold().move_to_element(b).release().perform()
+    retrying(act)
+
+
 def chrome(webdriver, service, window="1400,1000", console=False):
     """Headless Chromium; console: keep the page's console (driver.get_log("browser"))."""
     options = webdriver.ChromeOptions()

@@ -21,15 +21,13 @@ import urllib.request
 
 try:
     from selenium import webdriver
-    from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
     from selenium.webdriver.chrome.service import Service
-    from selenium.common.exceptions import StaleElementReferenceException
 except ImportError:
     print("python3-selenium is not installed: skipped")
     sys.exit(77)
 
-from browser_harness import check, chrome, finish, start, start_names, stop_all, wait_for
+from browser_harness import check, chrome, drag, finish, retrying, start, start_names, stop_all, wait_for
 import browser_harness
 
 BIN, SIM, TALKER, EXAMPLE, ARTIFACTS = sys.argv[1:6]
@@ -90,32 +88,17 @@ try:
     check(len(circles) == ports and ports >= 10, f"every port is shown ({len(circles)} circles, {ports} ports)")
     shot(driver, "1-system")
 
-    def retrying(action):
-        for attempt in range(5):  # a redraw between finding an element and using it: find it again
-            try:
-                return action()
-            except StaleElementReferenceException:
-                time.sleep(0.2)
-        check(False, "the page kept redrawing under an action")
-
-    def drag(source, target):
-        def act():
-            a = driver.find_element(By.CSS_SELECTOR, f'circle[data-port="{source}"]')
-            b = driver.find_element(By.CSS_SELECTOR, f'circle[data-port="{target}"]')
-            ActionChains(driver).move_to_element(a).click_and_hold().move_to_element(b).release().perform()
-        retrying(act)
-
     # servo0's reference InPort is its controller's (the composite exposes it): the
     # subscription's peer is controller0.reference.
     wired = "-> controller0.reference"
     JOYSTICK_EDGE = 'path.edge[data-from="joystick0.reference"]'
-    drag("joystick0.reference", "servo0.reference")
+    drag(driver, "joystick0.reference", "servo0.reference")
     wait_for(lambda: wired in rtm("cat", "joystick0").stdout, 10,
              "a drag from joystick0.reference onto servo0.reference subscribes it (rtm cat)")
     wait_for(lambda: driver.find_elements(By.CSS_SELECTOR, JOYSTICK_EDGE), 10, "the new edge is drawn")
     shot(driver, "2-connected")
 
-    drag("joystick0.reference", "talker0.pos3")
+    drag(driver, "joystick0.reference", "talker0.pos3")
     wait_for(lambda: "types differ" in driver.find_element(By.ID, "error").text, 10,
              "a mismatched drag shows rtm connect's message: " + repr(driver.find_element(By.ID, "error").text))
     msgs = [t.text for t in driver.find_elements(By.CSS_SELECTOR, "text.msg")]

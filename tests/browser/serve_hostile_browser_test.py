@@ -29,14 +29,12 @@ import urllib.request
 
 try:
     from selenium import webdriver
-    from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.chrome.service import Service
-    from selenium.common.exceptions import StaleElementReferenceException
 except ImportError:
     print("python3-selenium is not installed: skipped")
     sys.exit(77)
 
-from browser_harness import check, chrome, finish, free_port, start, start_names, stop_all, wait_for
+from browser_harness import check, chrome, drag, finish, free_port, retrying, start, start_names, stop_all, wait_for
 import browser_harness
 
 RTM, HOSTILE, TALKER, ARTIFACTS = sys.argv[1:5]
@@ -189,26 +187,11 @@ try:
     shot(driver, "2-hostile-details")
 
     # Beside it, the page's own features on two talkers.
-    def retrying(action):
-        for _ in range(5):  # a redraw between finding an element and using it: find it again
-            try:
-                return action()
-            except StaleElementReferenceException:
-                time.sleep(0.2)
-        check(False, "the page kept redrawing under an action")
-
-    def drag(source, target):
-        def act():
-            a = driver.find_element("css selector", f'circle[data-port="{source}"]')
-            b = driver.find_element("css selector", f'circle[data-port="{target}"]')
-            in_page("arguments[0].scrollIntoView({block: 'center'})", a)
-            ActionChains(driver).move_to_element(a).click_and_hold().move_to_element(b).release().perform()
-        retrying(act)
 
     def subscriptions():
         talker0 = next(c for c in api("/api/system") if c["name"] == "talker0")
         return [s["peer"] for p in talker0["ports"] for s in p.get("subscriptions", [])]
-    drag("talker0.force", "talker1.in0")
+    drag(driver, "talker0.force", "talker1.in0")
     wait_for(lambda: "talker1.in0" in subscriptions(), 10, "a drag from talker0.force onto talker1.in0 connects them")
     EDGE = 'path.edge[data-from="talker0.force"]'
     wait_for(lambda: driver.find_elements("css selector", EDGE), 10, "the new edge is drawn")
