@@ -178,6 +178,8 @@ TEST_F(OutPortTest, OnceThroughTheOrbDeliversTheFirstDatumAfterSubscribing) {
   RTM::TimedFloat6 got{};
   ASSERT_EQ(in->read(got), ReadResult::NewData);
   EXPECT_FLOAT_EQ(got.val[0], 1.0f);
+  EXPECT_EQ(out->counters_snapshot().by_writer, 0u)
+      << "its thread made the call, under the subscription's bound, not write() under its own";
   out->close();
   in->deactivate();
 }
@@ -580,6 +582,37 @@ TEST_F(OutPortTest, AStalledSubscriberCostsWriteOneFailedCallThenItsThreadTakesO
   c = out->counters_snapshot();
   EXPECT_EQ(c.failed, 1u);
   EXPECT_LE(c.dropped, 29u - 1 - 8) << "data 2..30: one failed in write(), 8 fit the ring";
+  out->close();
+}
+
+// A once-subscription whose datum could not be delivered (the call timed out) is not spent:
+// it takes the next datum, and is retired once one has gone through.
+TEST_F(OutPortTest, AOnceSubscriptionWhoseDeliveryTimedOutDeliversTheNextDatum) {
+  Peer peer(orb());
+  rtm::OutPortOptions options;
+  options.call_timeout_ms = 200;
+  auto out = make_out(options);
+  ASSERT_TRUE(out->subscribe(RTM::once, peer.port.in()));
+  peer.process.pause();
+  out->write(float6(1.0f));
+  ASSERT_TRUE(eventually([&] { return out->counters_snapshot().timed_out == 1; }));
+  EXPECT_EQ(out->subscription_count(), 1u) << "a failed delivery does not spend the subscription";
+  peer.process.resume();
+  ASSERT_TRUE(eventually([&] {
+    out->write(float6(2.0f));
+    return out->subscription_count() == 0;
+  })) << "the next datum is taken, and the subscription retired once it has gone through";
+  const rtm::OutPortCounters c = out->counters_snapshot();
+  EXPECT_EQ(c.pushed, 1u);
+  EXPECT_EQ(c.failed, 1u);
+  EXPECT_EQ(c.by_writer, 0u);
+  // Datum 1 may have reached the peer after its call timed out (before datum 2, or it is
+  // dropped there as late); datum 2 did.
+  const std::uint64_t accepted = peer.accepted();
+  EXPECT_GE(accepted, 1u);
+  EXPECT_LE(accepted, 2u);
+  out->write(float6(3.0f));
+  EXPECT_EQ(peer.accepted(), accepted) << "nothing after the subscription was spent";
   out->close();
 }
 

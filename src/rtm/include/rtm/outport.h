@@ -45,6 +45,9 @@ struct OutPortOptions {
   //     and after a call of the writer's failed, the subscription's delivery thread, until
   //     that thread has delivered again.
   //   thread: always the delivery thread; write() never makes a CORBA call.
+  // A once-subscription is always served by its thread, under call_timeout_ms: it takes the
+  // first datum written after it was made and, should that delivery fail, the next, until one
+  // is delivered (a call that timed out may still have arrived: then the subscriber has two).
   enum class Delivery { writer_when_idle, thread };
   Delivery delivery = Delivery::writer_when_idle;
   // Bound on one call made by write() (omniORB client call timeout on a reference of its

@@ -112,8 +112,13 @@ template <PortData T>
 std::uint64_t OutPort<T>::queue_or_take(TypedSubscription& sub, const T& value, bool may_call) {
   {
     std::lock_guard slot_lock(sub.slot_mu);
-    // A once-subscription takes exactly the first datum written after it was made.
-    if (sub.req_type == RTM::once && sub.written_seq > 0) return 0;
+    // A once-subscription takes one datum at a time until one is delivered: the first written
+    // after it was made, or the next when that one's delivery failed. Its thread makes the call,
+    // under the subscription's bound, not write()'s shorter one: the datum is all it is for.
+    if (sub.req_type == RTM::once) {
+      if (sub.done || sub.in_flight || sub.written_seq != sub.delivered_seq) return 0;
+      may_call = false;
+    }
     const bool idle = !sub.in_flight && sub.written_seq == sub.delivered_seq;
     if (may_call && idle && sub.writer_may_call && !CORBA::is_nil(sub.writer_port)) {
       sub.in_flight = true;
