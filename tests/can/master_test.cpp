@@ -765,10 +765,24 @@ TEST(Pa10MasterTakeOver, RepeatedTakeOverAndHandBackNeverLeavesTwoThreadsCycling
   Rig rig({}, patient_config());
   rig.master->start();
   rig.master->run_periodic();
+  // The nodes' SYNC count once no SYNC has arrived for 10 periods: the thread's last one, sent
+  // before take_over_cycles() returned, has then reached them, however late the host let it
+  // (a fixed wait was too short under TSan). 0 if SYNCs kept coming for 5 s: a thread cycling.
+  const auto settled_syncs = [&] {
+    const auto deadline = std::chrono::steady_clock::now() + 5s;
+    std::uint64_t seen = rig.nodes->syncs_seen();
+    while (std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(20ms);
+      const std::uint64_t now = rig.nodes->syncs_seen();
+      if (now == seen) return seen;
+      seen = now;
+    }
+    return std::uint64_t{0};
+  };
   for (int round = 0; round < 20; ++round) {
     rig.master->take_over_cycles();
-    std::this_thread::sleep_for(5ms);  // the thread's last SYNC reaches the nodes
-    const std::uint64_t syncs = rig.nodes->syncs_seen();
+    const std::uint64_t syncs = settled_syncs();
+    ASSERT_NE(syncs, 0u) << "round " << round << ": SYNCs kept coming after the cycles were taken over";
     ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes)) << "round " << round;
     EXPECT_EQ(rig.nodes->syncs_seen(), syncs + 1) << "round " << round << ": the idle thread sent a SYNC";
     rig.master->hand_back_cycles(0);
