@@ -113,12 +113,9 @@ std::uint64_t OutPort<T>::queue_or_take(TypedSubscription& sub, const T& value, 
   {
     std::lock_guard slot_lock(sub.slot_mu);
     // A once-subscription takes one datum at a time until one is delivered: the first written
-    // after it was made, or the next when that one's delivery failed. Its thread makes the call,
-    // under the subscription's bound, not write()'s shorter one: the datum is all it is for.
-    if (sub.req_type == RTM::once) {
-      if (sub.done || sub.in_flight || sub.written_seq != sub.delivered_seq) return 0;
-      may_call = false;
-    }
+    // after it was made, or the next when that one's delivery failed. It has no writer_port:
+    // its thread makes the call, under the subscription's bound, not write() under its own.
+    if (sub.req_type == RTM::once && (sub.done || sub.in_flight || sub.written_seq != sub.delivered_seq)) return 0;
     const bool idle = !sub.in_flight && sub.written_seq == sub.delivered_seq;
     if (may_call && idle && sub.writer_may_call && !CORBA::is_nil(sub.writer_port)) {
       sub.in_flight = true;
@@ -286,7 +283,11 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
       omniORB::setClientCallTimeout(sub->port_ordered.in(), options_.call_timeout_ms);
       sub->sender = random_sender();
     }
-    if (delivery() == OutPortOptions::Delivery::writer_when_idle) make_writer_references(*sub);
+    // A once-subscription is served by its thread alone (OutPortOptions::delivery): write()
+    // gets no reference of its own to it.
+    if (delivery() == OutPortOptions::Delivery::writer_when_idle && r_type != RTM::once) {
+      make_writer_references(*sub);
+    }
     // A wiring whose every datum the InPort's access control would refuse is refused now.
     if (!CORBA::is_nil(sub->port_ex)) {
       try {
