@@ -9,6 +9,7 @@
 #include <climits>
 #include <cstring>
 #include <ctime>
+#include <limits>
 #include <new>
 #include <stdexcept>
 #include <string>
@@ -226,6 +227,7 @@ ReadResult ShmRingReader::take_next(std::span<std::byte> buffer) {
 
 bool ShmRingReader::wait_for_data(std::int64_t deadline_ns) {
   const timespec deadline{static_cast<time_t>(deadline_ns / 1'000'000'000), static_cast<long>(deadline_ns % 1'000'000'000)};
+  const bool forever = deadline_ns == std::numeric_limits<std::int64_t>::max();
   header_->waiters.fetch_add(1, std::memory_order_seq_cst);
   bool ready = false;
   for (;;) {
@@ -235,7 +237,9 @@ bool ShmRingReader::wait_for_data(std::int64_t deadline_ns) {
       break;
     }
     // FUTEX_WAIT_BITSET takes an absolute CLOCK_MONOTONIC deadline; EAGAIN: woken meanwhile.
-    if (futex(&header_->wake, FUTEX_WAIT_BITSET, seen, &deadline) != 0 && errno == ETIMEDOUT) break;
+    // No deadline: no timer to arm and cancel at every wait (each costs a VM exit here).
+    if (futex(&header_->wake, FUTEX_WAIT_BITSET, seen, forever ? nullptr : &deadline) != 0 && errno == ETIMEDOUT)
+      break;
   }
   header_->waiters.fetch_sub(1, std::memory_order_seq_cst);
   return ready;

@@ -104,7 +104,9 @@ class ShmRingReader {
 
   // Waits until a datum newer than the last one this reader took (or saw at construction) is
   // published: true at once when there is one, else when a write wakes it; false when
-  // deadline_ns (CLOCK_MONOTONIC) passed first.
+  // deadline_ns (CLOCK_MONOTONIC) passed first. kNoDeadline waits for a write however long
+  // it takes and saves arming a timer at each wait.
+  static constexpr std::int64_t kNoDeadline = INT64_MAX;
   bool wait_for_data(std::int64_t deadline_ns);
 
   // Number of the newest datum published (0: none yet). One load.
