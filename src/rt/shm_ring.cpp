@@ -189,11 +189,11 @@ bool ShmRingReader::copy_datum(std::uint64_t number, std::span<std::byte> buffer
   return true;
 }
 
-ReadResult ShmRingReader::take_latest(std::span<std::byte> buffer) {
+RingRead ShmRingReader::take_latest(std::span<std::byte> buffer) {
   for (int attempt = 0; attempt < 64; ++attempt) {
     const std::uint64_t head = header_->head.load(std::memory_order_acquire);
     if (head == 0) return {};
-    ReadResult result;
+    RingRead result;
     if (!copy_datum(head, buffer, result.size)) continue;  // lapped during the copy: the newer one
     result.number = head;
     result.status = head == last_taken_ ? ReadStatus::old_data : ReadStatus::new_data;
@@ -203,8 +203,8 @@ ReadResult ShmRingReader::take_latest(std::span<std::byte> buffer) {
   return {};
 }
 
-ReadResult ShmRingReader::take_next(std::span<std::byte> buffer) {
-  ReadResult result;
+RingRead ShmRingReader::take_next(std::span<std::byte> buffer) {
+  RingRead result;
   for (int attempt = 0; attempt < 64; ++attempt) {
     const std::uint64_t head = header_->head.load(std::memory_order_acquire);
     if (head <= last_taken_) return result;  // no_data (missed may count skipped ones)

@@ -116,6 +116,15 @@ unsigned long long process_start_ticks(long pid) {
   return 0;
 }
 
+std::string shm_host_identity() {
+  std::ifstream boot("/proc/sys/kernel/random/boot_id");
+  std::string id;
+  std::getline(boot, id);
+  struct stat net {};
+  const std::string ns = ::stat("/proc/self/ns/net", &net) == 0 ? std::to_string(net.st_ino) : "?";
+  return (id.empty() ? "?" : id) + "/net:" + ns;
+}
+
 fs::path ShmSegment::folder() {
   const char* runtime = std::getenv("XDG_RUNTIME_DIR");
   if (runtime && runtime[0] == '/' && on_tmpfs(runtime)) {

@@ -72,6 +72,12 @@ InPortBase::~InPortBase() {
 std::string InPortBase::full_name() const { return owner_ + "." + name_; }
 
 InPortCounters InPortBase::counters_snapshot() const {
+  {
+    // Data waiting in a publisher's ring have arrived as much as a put's: they count now, not
+    // only once the component reads (they stay unread for it).
+    std::lock_guard lock(mu_);
+    for (const auto& ring : rings_) const_cast<InPortBase*>(this)->take_from_ring_locked(*ring);
+  }
   InPortCounters c;
   c.accepted = accepted_.load(std::memory_order_relaxed);
   c.rejected = rejected_.load(std::memory_order_relaxed);
@@ -79,6 +85,7 @@ InPortCounters InPortBase::counters_snapshot() const {
   c.in_process = in_process_.load(std::memory_order_relaxed);
   c.callback_failures = callback_failures_.load(std::memory_order_relaxed);
   c.late = late_.load(std::memory_order_relaxed);
+  c.shared_memory = shared_memory_.load(std::memory_order_relaxed);
   return c;
 }
 
@@ -99,6 +106,64 @@ bool InPortBase::stores_without_waiting() const {
     case InPortPolicy::Kind::Callback: return false;
   }
   return false;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The same-host path
+
+CORBA::Boolean InPortBase::attach_ring(const char* segment, const char* host, CORBA::ULongLong type_id,
+                                       CORBA::Long writer_pid, CORBA::ULongLong writer_start, CORBA::String_out why) {
+  auto refuse = [&](const std::string& reason) {
+    why = CORBA::string_dup(reason.c_str());
+    return false;
+  };
+  if (std::string(host) != shm_host_identity()) return refuse("the publisher runs on another host or network namespace");
+  if (policy_.kind() == InPortPolicy::Kind::Callback) return refuse("a callback policy runs on each arrival");
+  if (policy_.kind() == InPortPolicy::Kind::Fifo && policy_.full_policy() == FullPolicy::Block)
+    return refuse("a FIFO that blocks its writer needs the writer to wait");
+  if (std::string type_why = ring_refusal(type_id); !type_why.empty()) return refuse(type_why);
+  std::unique_ptr<AttachedRing> ring;
+  try {
+    ShmSegment mapped = ShmSegment::open(segment);
+    ShmRingReader reader(mapped.data(), mapped.size(), type_id);
+    ring.reset(new AttachedRing{segment, writer_pid, writer_start, std::move(mapped), reader, reader.published()});
+  } catch (const std::exception& e) {
+    return refuse(e.what());
+  }
+  std::lock_guard lock(mu_);
+  if (signal_) return refuse("the port wakes an on-arrival activity");
+  // Rings of publishers that are gone (killed, or restarted as another process) are let go.
+  std::erase_if(rings_, [](const std::unique_ptr<AttachedRing>& r) {
+    return process_start_ticks(r->writer_pid) != r->writer_start;
+  });
+  for (const auto& r : rings_) {
+    if (r->name != ring->name) continue;
+    ++r->attached;  // already reading it (a second subscribe of the same port, soon refused)
+    why = CORBA::string_dup("");
+    return true;
+  }
+  if (rings_.size() >= kMaxRings)
+    return refuse("already " + std::to_string(kMaxRings) + " shared-memory publishers, the most a port reads");
+  rings_.push_back(std::move(ring));
+  why = CORBA::string_dup("");
+  return true;
+}
+
+CORBA::Boolean InPortBase::detach_ring(const char* segment) {
+  std::lock_guard lock(mu_);
+  for (auto it = rings_.begin(); it != rings_.end(); ++it) {
+    if ((*it)->name != segment) continue;
+    if (--(*it)->attached > 0) return true;
+    take_from_ring_locked(**it);  // what was written before the unsubscribe still counts
+    rings_.erase(it);
+    return true;
+  }
+  return false;
+}
+
+std::size_t InPortBase::attached_rings() const {
+  std::lock_guard lock(mu_);
+  return rings_.size();
 }
 
 // The POA is called with activation_mu_ held but never with the registry lock held, so the

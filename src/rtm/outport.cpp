@@ -8,13 +8,14 @@
 
 #include <pthread.h>
 
+#include <chrono>
 #include <random>
 #include <stdexcept>
 
 namespace rtm {
 
 OutPortBase::OutPortBase(std::string name, std::string owner, OutPortOptions options)
-    : name_(std::move(name)), owner_(std::move(owner)), options_(options), delivery_(options.delivery) {
+    : name_(std::move(name)), owner_(std::move(owner)), options_(options), delivery_(options.delivery), shared_memory_(options.shared_memory) {
   if (name_.empty()) throw std::invalid_argument("OutPort: empty port name (owner '" + owner_ + "')");
   if (options_.max_failures == 0) throw std::invalid_argument("OutPort " + full_name() + ": max_failures must be >= 1");
   if (options_.max_subscriptions == 0)
@@ -107,6 +108,7 @@ void OutPortBase::stop_and_join(std::unique_ptr<Subscription> sub,
     }
     sub->thread.join();
   }
+  if (sub->shm) detach_quietly(sub->port_shm.in(), sub->segment);
 }
 
 void OutPortBase::close() {
@@ -224,6 +226,10 @@ bool OutPortBase::count_failure(Subscription& sub, const char* exception_name, b
 
 void OutPortBase::delivery_loop(Subscription* sub) {
   pthread_setname_np(pthread_self(), "rtm-deliver");
+  if (sub->shm) {
+    probe_loop(sub);
+    return;
+  }
   std::unique_lock lock(sub->slot_mu);
   for (;;) {
     // Not while write() makes a call for this subscription: data leave in order.
@@ -283,6 +289,61 @@ void OutPortBase::finish_writer_call(Subscription& sub, bool delivered, bool dea
     // context switch per datum (on a shared CPU, the price of a round trip). Notified before
     // the lock is released: once it is, a stop_and_join() may free sub.
     if (sub.stop || sub.written_seq != sub.delivered_seq) sub.slot_cv.notify_all();
+  }
+}
+
+bool OutPortBase::admitted(Subscription& sub) {
+  if (CORBA::is_nil(sub.port_ex)) return true;
+  try {
+    sub.port_ex->admit_writer();
+  } catch (const CORBA::NO_PERMISSION& e) {
+    refuse(full_name() + " -> " + sub.peer + ": " + access_refusal_text(e.minor()));
+    return false;
+  } catch (const CORBA::Exception&) {
+    // Not answering now is found out by the first write(), as for any subscriber.
+  }
+  return true;
+}
+
+void OutPortBase::detach_quietly(RTM::InPortShm_ptr reader, const std::string& ring) {
+  if (CORBA::is_nil(reader)) return;
+  try {
+    reader->detach_ring(ring.c_str());
+  } catch (const CORBA::Exception& e) {
+    log().debug("detach_ring({}) raised {}: the subscriber is gone or busy", ring, e._name());
+  }
+}
+
+void OutPortBase::probe_loop(Subscription* sub) {
+  std::unique_lock lock(sub->slot_mu);
+  for (;;) {
+    if (sub->slot_cv.wait_for(lock, std::chrono::seconds(1), [&] { return sub->stop; })) return;
+    lock.unlock();
+    bool gone = false;
+    const char* failure = nullptr;
+    try {
+      gone = sub->port->_non_existent();
+      if (gone) failure = "OBJECT_NOT_EXIST";
+    } catch (const CORBA::TIMEOUT& e) {
+      failure = e._name();  // busy, not gone: counted, never dropped for it
+    } catch (const CORBA::Exception& e) {
+      gone = true;
+      failure = e._name();
+    }
+    bool drop = false;
+    if (failure) {
+      drop = count_failure(*sub, failure, gone);
+    } else {
+      sub->failures.store(0, std::memory_order_relaxed);
+      sub->failure_name.store(nullptr, std::memory_order_relaxed);
+    }
+    lock.lock();
+    if (drop) {
+      sub->done = true;
+      lock.unlock();
+      retire(sub);
+      return;
+    }
   }
 }
 
@@ -380,6 +441,7 @@ RTM::SubscriptionInfoList* OutPortBase::subscriptions() {
     info.subscriber = RTM::InPort::_duplicate(s.port.in());
     info.peer = CORBA::string_dup(s.peer.c_str());
     info.in_process = s.local.in() != nullptr;
+    info.path = CORBA::string_dup(info.in_process ? "in-process" : s.shm ? "shared memory" : "CORBA");
     info.pushed = s.pushed.load(std::memory_order_relaxed);
     info.dropped = s.dropped.load(std::memory_order_relaxed);
     info.failures = s.failures.load(std::memory_order_relaxed);

@@ -181,6 +181,13 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
                  "or thread (always the subscription's delivery thread)")
       ->check(CLI::IsMember({"writer", "thread"}))
       ->default_str("as each port was built (writer)");
+  std::string shared_memory_text;
+  app.add_option("--shared-memory", shared_memory_text,
+                 "whether an OutPort gives InPorts of other processes of this host and user its "
+                 "shared-memory ring, read in the reader's cycle with no call per datum (on), or always "
+                 "CORBA (off)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->default_str("as each port was built (on)");
   app.footer("Options -ORB<name> <value> go to omniORB unchanged.");
   if (main.add_options) main.add_options(app);
   // A wrapper script may add its own default before the user's: the last one given wins.
@@ -198,6 +205,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
     if (!delivery_text.empty())
       settings.delivery = delivery_text == "thread" ? OutPortOptions::Delivery::thread
                                                     : OutPortOptions::Delivery::writer_when_idle;
+    if (!shared_memory_text.empty()) settings.shared_memory = shared_memory_text == "on";
     settings.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
     if (main.validate) main.validate(settings);
   } catch (const CLI::ParseError& e) {
@@ -231,6 +239,7 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   if (component->description().empty()) component->set_description(main.description);
   for (OutPortBase* port : component->out_ports()) {
     if (settings.delivery) port->set_delivery(*settings.delivery);
+    if (settings.shared_memory) port->set_shared_memory(*settings.shared_memory);
   }
   component->add_out_port_statistics();
   component->add_process_statistic();

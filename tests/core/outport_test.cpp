@@ -29,8 +29,11 @@ using rtm::test::float6;
 using In6 = rtm::InPort<RTM::TimedFloat6>;
 using Out6 = rtm::OutPort<RTM::TimedFloat6>;
 
+enum class Path { in_process, shared_memory, corba };
+
 class OutPortTest : public rtm::test::OrbTest {
  protected:
+  void deliver_to_another_process(Path path);
   PortableServer::Servant_var<Out6> make_out(rtm::OutPortOptions options = {}) {
     return new Out6("out0", "sensor0", options);
   }
@@ -40,9 +43,24 @@ class OutPortTest : public rtm::test::OrbTest {
   }
 };
 
+// Through the ORB although the subscriber is in this process: neither in-process nor through
+// shared memory.
 rtm::OutPortOptions via_orb() {
   rtm::OutPortOptions o;
   o.in_process = false;
+  o.shared_memory = false;
+  return o;
+}
+
+// The three paths a subscription can take to an InPort of this process, as they would to one
+// of another process on this host.
+const char* path_name(Path p) {
+  return p == Path::in_process ? "in-process" : p == Path::shared_memory ? "shared memory" : "CORBA";
+}
+rtm::OutPortOptions options_for(Path p) {
+  rtm::OutPortOptions o;
+  o.in_process = p == Path::in_process;
+  o.shared_memory = p == Path::shared_memory;
   return o;
 }
 
@@ -133,11 +151,9 @@ TEST_F(OutPortTest, OnewayOptionStillDeliversEveryDatum) {
 }
 
 TEST_F(OutPortTest, RepeatedPushesEveryDatumOnceTakesOnlyTheNext) {
-  for (bool in_process : {true, false}) {
-    SCOPED_TRACE(in_process ? "in-process" : "through the ORB");
-    rtm::OutPortOptions options;
-    options.in_process = in_process;
-    auto out = make_out(options);
+  for (Path path : {Path::in_process, Path::shared_memory, Path::corba}) {
+    SCOPED_TRACE(path_name(path));
+    auto out = make_out(options_for(path));
     auto every = make_in("every", rtm::InPortPolicy::fifo(64));
     auto next = make_in("next", rtm::InPortPolicy::fifo(64));
     RTM::InPortEx_var every_ref = every->activate(orb());
@@ -240,10 +256,9 @@ TEST_F(OutPortTest, UnsubscribeRemovesOnlyAnExistingSubscriptionOfThatType) {
 }
 
 TEST_F(OutPortTest, DeadSubscriberIsDroppedAfterMaxFailuresWhileWritingGoesOn) {
-  for (bool in_process : {true, false}) {
-    SCOPED_TRACE(in_process ? "in-process" : "through the ORB");
-    rtm::OutPortOptions options;
-    options.in_process = in_process;
+  for (Path path : {Path::in_process, Path::corba}) {  // shared memory: below
+    SCOPED_TRACE(path_name(path));
+    rtm::OutPortOptions options = options_for(path);
     options.max_failures = 3;
     auto out = make_out(options);
     auto dead = make_in("dead");
@@ -432,7 +447,16 @@ class PeerProcess {
   int stdout_fd_ = -1;
 };
 
-TEST_F(OutPortTest, InPortOfAnotherProcessIsDeliveredThroughTheOrb) {
+// A process of this host and this user: through the ring by default, through the ORB when the
+// OutPort is told not to use shared memory.
+TEST_F(OutPortTest, InPortOfAnotherProcessIsDeliveredThroughSharedMemoryOrTheOrb) {
+  for (Path path : {Path::shared_memory, Path::corba}) {
+    SCOPED_TRACE(path_name(path));
+    deliver_to_another_process(path);
+  }
+}
+
+void OutPortTest::deliver_to_another_process(Path path) {
   PeerProcess peer;
   const std::string ior = peer.read_ior();
   ASSERT_EQ(ior.rfind("IOR:", 0), 0u) << "peer printed '" << ior << "'";
@@ -446,11 +470,12 @@ TEST_F(OutPortTest, InPortOfAnotherProcessIsDeliveredThroughTheOrb) {
   RTM::InPortEx_var local_ref = local_in->activate(orb());
   EXPECT_FALSE(local_ref->_is_equivalent(remote.in()));
 
-  auto out = make_out();
+  auto out = make_out(options_for(path));
   ASSERT_TRUE(out->subscribe(RTM::repeated, remote.in()));
   RTM::SubscriptionInfoList_var subs = out->subscriptions();
   ASSERT_EQ(subs->length(), 1u);
   EXPECT_FALSE(subs[0].in_process);
+  EXPECT_STREQ(subs[0].path.in(), path_name(path));
   EXPECT_STREQ(subs[0].peer.in(), "peer0.in0");
   out->write(float6(5.0f));
   ASSERT_TRUE(eventually([&] { return remote->counters().accepted == 1; }));
@@ -475,7 +500,7 @@ struct Peer {
 
 TEST_F(OutPortTest, AnIdleRemoteSubscriptionIsDeliveredByWriteItselfInOrder) {
   Peer peer(orb());
-  auto out = make_out();  // Delivery::writer_when_idle is the default
+  auto out = make_out(options_for(Path::corba));  // Delivery::writer_when_idle is the default
   ASSERT_TRUE(out->subscribe(RTM::repeated, peer.port.in()));
   for (int i = 1; i <= 20; ++i) {
     out->write(float6(static_cast<float>(i)));
@@ -495,6 +520,7 @@ TEST_F(OutPortTest, AnIdleRemoteSubscriptionIsDeliveredByWriteItselfInOrder) {
 TEST_F(OutPortTest, WithDeliveryThreadWriteNeverCallsTheSubscriber) {
   Peer peer(orb());
   rtm::OutPortOptions options;
+  options.shared_memory = false;  // the CORBA path (to InPorts of other processes)
   options.delivery = rtm::OutPortOptions::Delivery::thread;
   auto out = make_out(options);
   ASSERT_TRUE(out->subscribe(RTM::repeated, peer.port.in()));
@@ -548,6 +574,7 @@ TEST_F(OutPortTest, AnOutPortTakesAtMostMaxSubscriptionsAndRefusesMoreNamingTheL
 TEST_F(OutPortTest, AStalledSubscriberCostsWriteOneFailedCallThenItsThreadTakesOver) {
   Peer peer(orb());
   rtm::OutPortOptions options;
+  options.shared_memory = false;  // the CORBA path (to InPorts of other processes)
   options.call_timeout_ms = 60'000;   // the thread waits the stall out
   options.writer_call_timeout_ms = 5;  // write() does not
   auto out = make_out(options);
@@ -616,19 +643,26 @@ TEST_F(OutPortTest, AOnceSubscriptionWhoseDeliveryTimedOutDeliversTheNextDatum) 
   out->close();
 }
 
+// Over CORBA a failed call finds it out; through shared memory (no call per datum) the
+// subscription's thread, which asks the subscriber every second whether it still exists.
 TEST_F(OutPortTest, ASubscriberThatDiedIsDroppedWhetherWriteOrItsThreadFindsOut) {
-  auto peer = std::make_unique<Peer>(orb());
-  auto out = make_out();
-  ASSERT_TRUE(out->subscribe(RTM::repeated, peer->port.in()));
-  out->write(float6(1.0f));
-  ASSERT_TRUE(eventually([&] { return peer->accepted() == 1; }));
-  peer.reset();  // the process exits: its endpoint refuses connections
-  ASSERT_TRUE(eventually([&] {
-    out->write(float6(2.0f));
-    return out->subscription_count() == 0;
-  }));
-  EXPECT_GE(out->counters_snapshot().failed, 1u);
-  out->close();
+  for (Path path : {Path::corba, Path::shared_memory}) {
+    SCOPED_TRACE(path_name(path));
+    auto peer = std::make_unique<Peer>(orb());
+    auto out = make_out(options_for(path));
+    ASSERT_TRUE(out->subscribe(RTM::repeated, peer->port.in()));
+    RTM::SubscriptionInfoList_var subs = out->subscriptions();
+    EXPECT_STREQ(subs[0].path.in(), path_name(path));
+    out->write(float6(1.0f));
+    ASSERT_TRUE(eventually([&] { return peer->accepted() == 1; }));
+    peer.reset();  // the process exits: its endpoint refuses connections
+    ASSERT_TRUE(eventually([&] {
+      out->write(float6(2.0f));
+      return out->subscription_count() == 0;
+    }));
+    EXPECT_GE(out->counters_snapshot().failed, 1u);
+    out->close();
+  }
 }
 
 // write() begins no call once its budget (writer_call_timeout_ms) is spent: behind a stalled
@@ -637,6 +671,7 @@ TEST_F(OutPortTest, BehindACallThatUsedWritesBudgetTheNextSubscriberIsServedByIt
   Peer stalled(orb());
   Peer healthy(orb());
   rtm::OutPortOptions options;
+  options.shared_memory = false;  // the CORBA path (to InPorts of other processes)
   options.call_timeout_ms = 60'000;
   options.writer_call_timeout_ms = 5;
   auto out = make_out(options);
@@ -754,6 +789,7 @@ TEST_F(OutPortTest, ASubscriptionWhoseDataAreRefusedSaysWhyUntilOneGoesThrough) 
 TEST_F(OutPortTest, WithoutAWriterBoundWriteWaitsOutAStalledSubscriberAndDelivers) {
   Peer peer(orb());
   rtm::OutPortOptions options;
+  options.shared_memory = false;  // the CORBA path (to InPorts of other processes)
   options.writer_call_timeout_ms = 0;
   auto out = make_out(options);
   ASSERT_TRUE(out->subscribe(RTM::repeated, peer.port.in()));

@@ -18,10 +18,12 @@ using In6 = rtm::InPort<RTM::TimedFloat6>;
 using Out6 = rtm::OutPort<RTM::TimedFloat6>;
 
 TEST_F(ThreadingTest, SubscribeAndUnsubscribeWhileWriting) {
-  for (bool in_process : {true, false}) {
-    SCOPED_TRACE(in_process ? "in-process" : "through the ORB");
+  for (const int path : {0, 1, 2}) {
+    const char* names[] = {"in-process", "shared memory", "CORBA"};
+    SCOPED_TRACE(names[path]);
     rtm::OutPortOptions options;
-    options.in_process = in_process;
+    options.in_process = path == 0;
+    options.shared_memory = path == 1;
     PortableServer::Servant_var<Out6> out = new Out6("out0", "sensor0", options);
     PortableServer::Servant_var<In6> a = new In6("a", "ctl", rtm::InPortPolicy::fifo(4));
     PortableServer::Servant_var<In6> b = new In6("b", "ctl");

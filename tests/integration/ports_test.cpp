@@ -230,8 +230,10 @@ double statistic(RTM::RtComponentEx_ptr component, const std::string& name) {
 // --delivery reaches every OutPort of a component process, and each port's statistics say
 // who made its calls: by default write() itself, with --delivery thread never.
 TEST_F(IntegrationTest, DeliveryOptionChoosesWhoCallsAndThePortsStatisticsSayWho) {
-  start_component("writer0", {"--on"});
-  start_component("thread0", {"--on", "--delivery", "thread"});
+  // Who makes CORBA calls: the probe, an InPort of another process on this host, would
+  // otherwise read the components' rings and no call would be made.
+  start_component("writer0", {"--on", "--shared-memory", "off"});
+  start_component("thread0", {"--on", "--delivery", "thread", "--shared-memory", "off"});
   Probe from_writer, from_thread;
   ASSERT_TRUE(out_port("writer0", "out0")->subscribe(RTM::repeated, from_writer.ref));
   ASSERT_TRUE(out_port("thread0", "out0")->subscribe(RTM::repeated, from_thread.ref));

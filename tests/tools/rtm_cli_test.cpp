@@ -122,10 +122,12 @@ TEST_F(RtmCli, ConnectDeliversDataAndCatShowsTheSubscriptionAndCounters) {
   ASSERT_EQ((*force)["subscriptions"].size(), 1u);
   EXPECT_EQ((*force)["subscriptions"][0]["peer"], "dst.in0");
   EXPECT_EQ((*force)["subscriptions"][0]["type"], "repeated");
+  // Two processes of one user on one host: the data go through the port's shared-memory ring.
+  EXPECT_EQ((*force)["subscriptions"][0]["path"], "shared memory");
   auto dst = rtm_json({"cat", "dst"});
   EXPECT_GT((*port(dst, "in0"))["counters"]["accepted"].get<unsigned long long>(), 0u);
   auto text = rtm({"cat", "src"});
-  EXPECT_NE(text.out.find("-> dst.in0 (repeated)"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("-> dst.in0 (repeated, shared memory)"), std::string::npos) << text.out;
 
   ASSERT_EQ(rtm({"disconnect", "src.force", "dst.in0"}).exit_code, 0);
   src = rtm_json({"cat", "src"});

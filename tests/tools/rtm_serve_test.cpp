@@ -352,7 +352,7 @@ TEST_F(RtmServe, SaveWritesASystemFileRtmUpAcceptsAndApplyingItRestoresTheWiring
                                   {"XDG_RUNTIME_DIR=" + dir.string(), "RTM_TLS="}, 30s);
   EXPECT_EQ(up.exit_code, 0) << up.out << up.err;
   auto cat = rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "cat", "src"});
-  EXPECT_NE(cat.out.find("-> dst.in0 (repeated)"), std::string::npos) << cat.out;
+  EXPECT_NE(cat.out.find("-> dst.in0 (repeated, shared memory)"), std::string::npos) << cat.out;
   rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "down", "pair"},
                         {"XDG_RUNTIME_DIR=" + dir.string(), "RTM_TLS="}, 30s);
   std::filesystem::remove_all(dir);

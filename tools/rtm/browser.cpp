@@ -128,8 +128,8 @@ PortInfo inspect_out(RTM::OutPort_ptr port, int index) {
   for (CORBA::ULong i = 0; i < subs->length(); ++i) {
     const RTM::SubscriptionInfo& s = subs[i];
     info.subscriptions.push_back({s.peer.in(), s.req_type == RTM::once ? "once" : "repeated",
-                                  static_cast<bool>(s.in_process), s.pushed, s.dropped, s.failures,
-                                  s.last_failure.in()});
+                                  static_cast<bool>(s.in_process), s.path.in(), s.pushed, s.dropped,
+                                  s.failures, s.last_failure.in()});
   }
   return info;
 }

@@ -53,6 +53,7 @@ struct PortInfo {
     std::string peer;        // "<component>.<port>", or "?" when the InPort does not tell
     std::string req_type;    // "once" / "repeated"
     bool in_process = false;
+    std::string path;        // "in-process", "shared memory" or "CORBA"
     unsigned long long pushed = 0, dropped = 0;
     unsigned long failures = 0;
     std::string last_failure;  // why the last delivery failed, "" after one that did not

@@ -54,8 +54,8 @@ void print_port(const PortInfo& p) {
     fmt::print("        {}\n", terminal_text(elements));
   if (!p.last_error.empty()) fmt::print("        last error: {}\n", terminal_text(p.last_error));
   for (const auto& s : p.subscriptions) {
-    fmt::print("        -> {} ({}{})  pushed {}  dropped {}{}\n", terminal_text(s.peer), s.req_type,
-               s.in_process ? ", in-process" : "", s.pushed, s.dropped,
+    fmt::print("        -> {} ({}, {})  pushed {}  dropped {}{}\n", terminal_text(s.peer), s.req_type,
+               terminal_text(s.path), s.pushed, s.dropped,
                s.failures ? fmt::format("  failing x{}{}", s.failures,
                                         s.last_failure.empty() ? "" : ": " + terminal_text(s.last_failure))
                           : "");
@@ -170,6 +170,7 @@ json port_json(const PortInfo& p) {
     j["subscriptions"] = json::array();
     for (const auto& s : p.subscriptions) {
       j["subscriptions"].push_back({{"peer", s.peer}, {"type", s.req_type}, {"in_process", s.in_process},
+                                    {"path", s.path},
                                     {"pushed", s.pushed}, {"dropped", s.dropped}, {"failures", s.failures},
                                     {"last_failure", s.last_failure}});
     }

@@ -44,7 +44,7 @@ enum class ReadStatus {
   new_data,  // a datum not taken before
 };
 
-struct ReadResult {
+struct RingRead {
   ReadStatus status = ReadStatus::no_data;
   std::size_t size = 0;        // bytes copied into the buffer
   std::uint64_t number = 0;    // the datum's number (1 for the first written)
@@ -96,11 +96,11 @@ class ShmRingReader {
   // taken by this reader before, old_data when it was (copied again), no_data before the
   // first write. Wait-free in practice: gives up (no_data) only after a writer lapped the
   // ring 64 times during one read.
-  ReadResult take_latest(std::span<std::byte> buffer);
+  RingRead take_latest(std::span<std::byte> buffer);
 
   // The oldest datum this reader has not taken yet (FIFO), with how many older ones it missed
   // because the writer overwrote them first. no_data when there is none newer.
-  ReadResult take_next(std::span<std::byte> buffer);
+  RingRead take_next(std::span<std::byte> buffer);
 
   // Waits until a datum newer than the last one this reader took (or saw at construction) is
   // published: true at once when there is one, else when a write wakes it; false when

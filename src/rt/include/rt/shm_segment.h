@@ -27,6 +27,11 @@ namespace rtm {
 // such process exists. With the pid it names one process, even after the pid is reused.
 unsigned long long process_start_ticks(long pid);
 
+// Who can share memory with this process: the kernel's boot id and this process's network
+// namespace ("<boot id>/net:<inode>"). Two processes with the same text run on one kernel and
+// see one loopback; another host, or a network namespace standing in for one, differs.
+std::string shm_host_identity();
+
 class ShmSegment {
  public:
   // The folder of this user's segments (made when missing). Throws std::runtime_error saying

@@ -5,6 +5,8 @@
 
 #include "RTMExt.hh"
 #include "rt/activity.h"
+#include "rt/shm_ring.h"
+#include "rt/shm_segment.h"
 #include "rtm/data.h"
 #include "rtm/describe.h"
 #include "rtm/sender_order.h"
@@ -17,6 +19,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <type_traits>
 #include <typeinfo>
 #include <vector>
 
@@ -92,6 +95,7 @@ struct InPortCounters {
   std::uint64_t dropped = 0;   // data overwritten unread (latest) or lost to a full FIFO, or late
   std::uint64_t late = 0;      // of dropped: put_in_order data older than one already taken
   std::uint64_t in_process = 0;  // of accepted: delivered without an any (in-process path)
+  std::uint64_t shared_memory = 0;  // of accepted: taken from a publisher's shared-memory ring
   std::uint64_t callback_failures = 0;  // callback policy: calls that threw
 };
 
@@ -103,11 +107,20 @@ void check_port_info(const std::string& port, std::size_t element_count, const P
 // As RTMExt.idl's PortDescription.
 RTM::PortDescription* to_idl(const PortInfo& info);
 
+// What a shared-memory ring of T carries (rt/shm_ring.h's type id): the type's name and size,
+// so that a ring of another type or another build's layout of it is refused.
+template <PortData T>
+std::uint64_t ring_type_id() {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;  // FNV-1a
+  for (const char c : DataTraits<T>::name) hash = (hash ^ static_cast<unsigned char>(c)) * 0x100000001b3ULL;
+  return (hash ^ sizeof(T)) * 0x100000001b3ULL;
+}
+
 // ============================ InPortBase ==============================
 
 // The type-independent part of every InPort: IDL attributes, counters, activation, the
 // process registry that lets an OutPort of this process find it (in-process fast path).
-class InPortBase : public virtual POA_RTM::InPortOrdered {
+class InPortBase : public virtual POA_RTM::InPortShm {
  public:
   ~InPortBase() override;
 
@@ -124,6 +137,7 @@ class InPortBase : public virtual POA_RTM::InPortOrdered {
   // std::invalid_argument when elements are given and their number is not element_count().
   void set_info(PortInfo info);
   const PortInfo& info() const { return info_; }
+  // Takes what publishers' rings hold first (a lock, no system call).
   InPortCounters counters_snapshot() const;
   std::string last_rejection() const;  // "" when none
 
@@ -152,6 +166,16 @@ class InPortBase : public virtual POA_RTM::InPortOrdered {
   void push_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override;
   RTM::PortDescription* describe() override;
   void admit_writer() override {}  // the access screen (rtm/access.h) is the whole answer
+  // The same-host path (RTMExt.idl's InPortShm): maps a publisher's ring and takes data from
+  // it in read(), from then on; false with why when the port keeps CORBA: another host or
+  // network namespace, another type, a policy that must run on arrival (callback, an arrival
+  // signal, a FIFO that blocks its writer), a datum that is not plain memory, a segment this
+  // user cannot map. Rings of publishers that are gone are let go here.
+  CORBA::Boolean attach_ring(const char* segment, const char* host, CORBA::ULongLong type_id, CORBA::Long writer_pid,
+                             CORBA::ULongLong writer_start, CORBA::String_out why) override;
+  // Takes what the ring still holds for this port, then unmaps it.
+  CORBA::Boolean detach_ring(const char* segment) override;
+  std::size_t attached_rings() const;
 
   // The local InPort servant behind ref (with a reference count added), or nullptr when ref
   // is nil or points into another process.
@@ -163,6 +187,24 @@ class InPortBase : public virtual POA_RTM::InPortOrdered {
   void reject(CORBA::TypeCode_ptr got);
   void notify_arrival();  // caller holds mu_
   void callback_failed(const char* what);  // counts; logs the first one
+
+  // A publisher's ring this port reads (guarded by mu_).
+  struct AttachedRing {
+    std::string name;
+    long writer_pid = 0;
+    unsigned long long writer_start = 0;
+    ShmSegment segment;
+    ShmRingReader reader;
+    std::uint64_t last_number = 0;  // the last datum taken (latest policy: what it skipped is dropped)
+    int attached = 1;               // attach_ring calls not yet undone by detach_ring
+  };
+  static constexpr std::size_t kMaxRings = 16;
+  // Why a ring cannot be read by this port's type, "" when it can.
+  virtual std::string ring_refusal(CORBA::ULongLong type_id) const = 0;
+  // Takes the data ring holds for this port into its storage (caller holds mu_).
+  virtual void take_from_ring_locked(AttachedRing& ring) = 0;
+  std::vector<std::unique_ptr<AttachedRing>> rings_;  // guarded by mu_
+  std::atomic<std::uint64_t> shared_memory_{0};
 
   const std::string name_;
   const std::string owner_;
@@ -215,6 +257,13 @@ class InPort final : public InPortBase {
   const T& extract(const CORBA::Any& value);  // the datum, or reject() and BAD_PARAM
   // order: checked under the same lock as the store. Caller holds no lock.
   void store(const T& value, bool in_process, const SenderSeq* order = nullptr);
+  // The policy's part of a store; false when the datum was dropped. lock holds mu_.
+  bool keep(const T& value, std::unique_lock<std::mutex>& lock);
+  std::string ring_refusal(CORBA::ULongLong type_id) const override;
+  void take_from_ring_locked(AttachedRing& ring) override;
+  void take_from_rings_locked() {
+    for (auto& ring : rings_) take_from_ring_locked(*ring);
+  }
   std::vector<T> ring_;        // latest: 1 slot; FIFO: capacity slots
   std::size_t head_ = 0;       // FIFO: index of the oldest
   std::size_t count_ = 0;      // FIFO: stored; latest: 1 once written

@@ -2,6 +2,7 @@
 // Template definitions of rtm/inport.h; include that header, not this one.
 #pragma once
 
+#include <span>
 #include <stdexcept>
 
 namespace rtm {
@@ -20,6 +21,40 @@ InPort<T>::InPort(std::string name, std::string owner, InPortPolicy policy)
 }
 
 template <PortData T>
+bool InPort<T>::keep(const T& value, std::unique_lock<std::mutex>& lock) {
+  if (policy_.kind() != InPortPolicy::Kind::Fifo) {
+    if (unread_) dropped_.fetch_add(1, std::memory_order_relaxed);
+    ring_[0] = value;
+    unread_ = true;
+    count_ = 1;
+    return true;
+  }
+  const std::size_t capacity = ring_.size();
+  if (count_ == capacity) {
+    switch (policy_.full_policy()) {
+      case FullPolicy::DropOldest:
+        head_ = (head_ + 1) % capacity;
+        --count_;
+        dropped_.fetch_add(1, std::memory_order_relaxed);
+        break;
+      case FullPolicy::DropNewest:
+        dropped_.fetch_add(1, std::memory_order_relaxed);
+        return false;
+      case FullPolicy::Block:
+        if (!space_cv_.wait_for(lock, std::chrono::nanoseconds(policy_.block_timeout_ns()),
+                                [&] { return count_ < capacity; })) {
+          dropped_.fetch_add(1, std::memory_order_relaxed);
+          return false;
+        }
+        break;
+    }
+  }
+  ring_[(head_ + count_) % capacity] = value;
+  ++count_;
+  return true;
+}
+
+template <PortData T>
 void InPort<T>::store(const T& value, bool in_process, const SenderSeq* order) {
   std::unique_lock lock(mu_);
   if (order != nullptr && !order_.admit(order->sender, order->seq)) {
@@ -27,35 +62,9 @@ void InPort<T>::store(const T& value, bool in_process, const SenderSeq* order) {
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
-  if (policy_.kind() == InPortPolicy::Kind::Fifo) {
-    const std::size_t capacity = ring_.size();
-    if (count_ == capacity) {
-      switch (policy_.full_policy()) {
-        case FullPolicy::DropOldest:
-          head_ = (head_ + 1) % capacity;
-          --count_;
-          dropped_.fetch_add(1, std::memory_order_relaxed);
-          break;
-        case FullPolicy::DropNewest:
-          dropped_.fetch_add(1, std::memory_order_relaxed);
-          return;
-        case FullPolicy::Block:
-          if (!space_cv_.wait_for(lock, std::chrono::nanoseconds(policy_.block_timeout_ns()),
-                                  [&] { return count_ < capacity; })) {
-            dropped_.fetch_add(1, std::memory_order_relaxed);
-            return;
-          }
-          break;
-      }
-    }
-    ring_[(head_ + count_) % capacity] = value;
-    ++count_;
-  } else {
-    if (unread_) dropped_.fetch_add(1, std::memory_order_relaxed);
-    ring_[0] = value;
-    unread_ = true;
-    count_ = 1;
-  }
+  // Data already in a ring were written before this one: they go first.
+  if (!rings_.empty()) take_from_rings_locked();
+  if (!keep(value, lock)) return;
   accepted_.fetch_add(1, std::memory_order_relaxed);
   if (in_process) in_process_.fetch_add(1, std::memory_order_relaxed);
   notify_arrival();
@@ -72,8 +81,44 @@ void InPort<T>::store(const T& value, bool in_process, const SenderSeq* order) {
 }
 
 template <PortData T>
+std::string InPort<T>::ring_refusal(CORBA::ULongLong type_id) const {
+  if constexpr (!std::is_trivially_copyable_v<T>) {
+    return std::string(DataTraits<T>::name) + " is not plain memory (a sequence or a string)";
+  } else {
+    if (type_id != ring_type_id<T>()) return "the ring carries another data type";
+    return "";
+  }
+}
+
+// Latest: the newest datum, and what it skipped counted as dropped. FIFO: each datum in order
+// as a put would store it, and those the writer overwrote first counted as dropped.
+template <PortData T>
+void InPort<T>::take_from_ring_locked(AttachedRing& ring) {
+  if constexpr (std::is_trivially_copyable_v<T>) {
+    T datum;
+    const auto bytes = std::as_writable_bytes(std::span(&datum, 1));
+    // keep() waits only under FullPolicy::Block, and such a port never attaches a ring.
+    std::unique_lock<std::mutex> unused;
+    const bool fifo = policy_.kind() == InPortPolicy::Kind::Fifo;
+    for (;;) {
+      const RingRead r = fifo ? ring.reader.take_next(bytes) : ring.reader.take_latest(bytes);
+      if (r.status != ReadStatus::new_data || r.size != sizeof(T)) return;
+      const std::uint64_t skipped = fifo ? r.missed : r.number - ring.last_number - 1;
+      ring.last_number = r.number;
+      if (skipped > 0) dropped_.fetch_add(skipped, std::memory_order_relaxed);
+      if (keep(datum, unused)) {
+        accepted_.fetch_add(1, std::memory_order_relaxed);
+        shared_memory_.fetch_add(1, std::memory_order_relaxed);
+      }
+      if (!fifo) return;
+    }
+  }
+}
+
+template <PortData T>
 ReadResult InPort<T>::read(T& out) {
   std::unique_lock lock(mu_);
+  if (!rings_.empty()) take_from_rings_locked();  // the same-host path: no system call
   if (policy_.kind() != InPortPolicy::Kind::Fifo) {
     if (count_ == 0) return ReadResult::NoData;
     out = ring_[0];
@@ -105,6 +150,9 @@ void InPort<T>::deliver(const T& value) {
 template <PortData T>
 std::size_t InPort<T>::queued() const {
   std::lock_guard lock(mu_);
+  // What the rings hold counts as queued: taken into storage now (storage is the port's state,
+  // not the caller's view of it, hence the cast).
+  if (!rings_.empty()) const_cast<InPort<T>*>(this)->take_from_rings_locked();
   if (policy_.kind() == InPortPolicy::Kind::Fifo) return count_;
   return unread_ ? 1 : 0;
 }

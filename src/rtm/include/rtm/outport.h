@@ -13,6 +13,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -29,6 +30,12 @@ struct OutPortOptions {
   std::uint32_t call_timeout_ms = 1000;
   // Deliver T straight into InPorts of this process (no any, no ORB). Off: always put(any).
   bool in_process = true;
+  // To InPorts of other processes on this host that read a ring (RTM::InPortShm): data go
+  // through the port's shared-memory ring (rt/shm_ring.h) and no call is made per datum; the
+  // subscriber takes them when its component reads. Repeated subscriptions of plain-memory
+  // data only; a subscriber that declines (another host or user, an on-arrival policy) keeps
+  // CORBA. Off: CORBA for every subscriber of another process.
+  bool shared_memory = true;
   // To RTM::InPortEx subscribers use the oneway push() instead of put(): more throughput,
   // but a dead subscriber is only detected by COMM_FAILURE / TRANSIENT.
   bool oneway = false;
@@ -112,6 +119,10 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   // theirs): e.g. set from a runner's command line after the component built its ports.
   void set_delivery(OutPortOptions::Delivery delivery) { delivery_.store(delivery, std::memory_order_relaxed); }
   OutPortOptions::Delivery delivery() const { return delivery_.load(std::memory_order_relaxed); }
+  // Whether subscriptions made from now on may take the shared-memory ring
+  // (OutPortOptions::shared_memory); those made before keep their path.
+  void set_shared_memory(bool on) { shared_memory_.store(on, std::memory_order_relaxed); }
+  bool shared_memory() const { return shared_memory_.load(std::memory_order_relaxed); }
   // Cheap (a few relaxed loads): may be polled.
   OutPortCounters counters_snapshot() const;
   // Percentiles of the time write() held its caller (walks a histogram: not for a hot loop).
@@ -150,6 +161,11 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
     RTM::InPortOrdered_var port_ordered;  // ... and when it keeps each sender's order
     std::uint64_t sender = 0;        // this subscription's number for InPortOrdered (random)
     PortableServer::Servant_var<InPortBase> local;  // set for in-process delivery
+    // The same-host path: the subscriber reads the port's ring (no call per datum); the
+    // subscription's thread only asks, every second, whether the subscriber still exists.
+    bool shm = false;
+    RTM::InPortShm_var port_shm;
+    std::string segment;             // the ring's segment name, told again at detach
     std::string peer;
     bool direct = false;             // filled by write() itself (no thread)
     bool check_active = true;        // subscribe(): a deactivated local InPort counts as dead
@@ -182,6 +198,10 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   bool add_subscription(std::unique_ptr<Subscription> sub, bool start_thread, std::string& why);
   // Delivery thread body: waits for data, delivers it with no lock held.
   void delivery_loop(Subscription* sub);
+  // The thread of a shared-memory subscription: drops it once the subscriber is found dead
+  // (max_failures probes in a row, one a second), as failed deliveries would.
+  void probe_loop(Subscription* sub);
+
   // Type-specific delivery of the slot's datum: copies it out under slot_lock, delivers with
   // the lock released, and returns with it held again. Throws what the delivery raised.
   virtual void deliver_slot(Subscription& sub, std::uint64_t seq,
@@ -200,6 +220,12 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   bool guarded_call(Subscription& sub, Call call, bool* dead);
   // write()'s part after its lock: the calls it took on (sub->in_flight set by write()).
   void finish_writer_call(Subscription& sub, bool delivered, bool dead);
+  // subscribe(): false (refused, with the reason) when the InPort's access control would
+  // refuse every datum of this port; a subscriber that does not answer now passes (the first
+  // write() finds it out, as for any subscriber).
+  bool admitted(Subscription& sub);
+  // Tells a shared-memory subscriber to stop reading the ring; failures are only logged.
+  static void detach_quietly(RTM::InPortShm_ptr reader, const std::string& ring);
   // subscribe(): write()'s own references to a remote subscriber, with their call timeout.
   void make_writer_references(Subscription& sub) const;
   // A subscription's sender number for InPortOrdered: random, so that two publishers (or
@@ -223,6 +249,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   const std::string owner_;
   const OutPortOptions options_;
   std::atomic<OutPortOptions::Delivery> delivery_;
+  std::atomic<bool> shared_memory_;
   PortInfo info_;
   mutable std::mutex mu_;  // guards subs_, retired_, the latest value (derived)
   std::vector<std::unique_ptr<Subscription>> subs_;
@@ -293,6 +320,13 @@ class OutPort final : public OutPortBase {
     return static_cast<const TypedSubscription&>(sub).ring.size();
   }
   std::unique_ptr<TypedSubscription> new_subscription() const;
+  // subscribe(): offers the port's ring (made at the first offer) to a subscriber of this
+  // host; true when it reads from it (sub.shm set).
+  bool offer_ring(TypedSubscription& sub);
+  // The ring, made at the first offer; written by write() under mu_.
+  std::mutex ring_mu_;  // serialises making it
+  std::optional<ShmSegment> ring_segment_;
+  std::optional<ShmRingWriter> ring_writer_;  // guarded by mu_
   T latest_{};
   bool has_latest_ = false;
 };

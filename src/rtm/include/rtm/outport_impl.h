@@ -66,9 +66,16 @@ void OutPort<T>::write(const T& value) {
     latest_ = value;
     has_latest_ = true;
     written_.fetch_add(1, std::memory_order_relaxed);
+    if constexpr (std::is_trivially_copyable_v<T>) {
+      // Readers of the ring take it in their own cycle: no call, no wake-up, no system call.
+      if (ring_writer_) ring_writer_->write(std::as_bytes(std::span(&value, 1)));
+    }
     for (std::size_t i = 0; i < subs_.size();) {
       auto& sub = static_cast<TypedSubscription&>(*subs_[i]);
-      if (sub.direct) {
+      if (sub.shm) {
+        sub.pushed.fetch_add(1, std::memory_order_relaxed);  // in the ring: the reader counts what it skips
+        pushed_.fetch_add(1, std::memory_order_relaxed);
+      } else if (sub.direct) {
         if (!deliver_direct(sub, value)) {
           retire_locked(i);
           continue;
@@ -236,6 +243,55 @@ CORBA::Any* OutPort<T>::get() {
 }
 
 template <PortData T>
+bool OutPort<T>::offer_ring(TypedSubscription& sub) {
+  if constexpr (!std::is_trivially_copyable_v<T>) {
+    return false;
+  } else {
+    if (CORBA::is_nil(sub.port_ex)) return false;  // a 2004 InPort: CORBA
+    try {
+      sub.port_shm = RTM::InPortShm::_narrow(sub.port.in());
+    } catch (const CORBA::Exception&) {
+      return false;
+    }
+    if (CORBA::is_nil(sub.port_shm)) return false;
+    omniORB::setClientCallTimeout(sub.port_shm.in(), options_.call_timeout_ms);
+    std::string name;
+    {
+      std::lock_guard make(ring_mu_);
+      if (!ring_segment_) {
+        const ShmRingShape shape{std::max<std::uint32_t>(2 * options_.queue_depth, 16), sizeof(T), ring_type_id<T>()};
+        try {
+          ShmSegment segment = ShmSegment::create(shm_ring_bytes(shape), full_name());
+          std::lock_guard lock(mu_);
+          ring_writer_.emplace(segment.data(), segment.size(), shape);
+          ring_segment_.emplace(std::move(segment));
+        } catch (const std::exception& e) {
+          log().warn("{}: no shared-memory ring ({}): subscribers on this host get CORBA", full_name(), e.what());
+          return false;
+        }
+      }
+      name = ring_segment_->name();
+    }
+    static const std::string host = shm_host_identity();
+    static const long pid = ::getpid();
+    static const unsigned long long start = process_start_ticks(pid);
+    CORBA::String_var why;
+    try {
+      if (!sub.port_shm->attach_ring(name.c_str(), host.c_str(), ring_type_id<T>(), pid, start, why.out())) {
+        log().debug("{} -> {}: CORBA, not shared memory: {}", full_name(), sub.peer, why.in());
+        return false;
+      }
+    } catch (const CORBA::Exception& e) {
+      log().debug("{} -> {}: CORBA, not shared memory: attach_ring raised {}", full_name(), sub.peer, e._name());
+      return false;
+    }
+    sub.shm = true;
+    sub.segment = name;
+    return true;
+  }
+}
+
+template <PortData T>
 CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) {
   reap_retired();
   if (CORBA::is_nil(i_port)) {
@@ -279,6 +335,16 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
   if (sub->local.in() == nullptr) {
     omniORB::setClientCallTimeout(sub->port.in(), options_.call_timeout_ms);
     if (!CORBA::is_nil(sub->port_ex)) omniORB::setClientCallTimeout(sub->port_ex.in(), options_.call_timeout_ms);
+    if (!admitted(*sub)) return false;
+    if (shared_memory() && r_type == RTM::repeated && offer_ring(*sub)) {
+      RTM::InPortShm_var reader = sub->port_shm;
+      const std::string segment = sub->segment;
+      std::string why;
+      if (add_subscription(std::move(sub), true, why)) return true;
+      detach_quietly(reader.in(), segment);  // a duplicate or a full port: its attach is undone
+      refuse(why);
+      return false;
+    }
     if (!CORBA::is_nil(sub->port_ordered)) {
       omniORB::setClientCallTimeout(sub->port_ordered.in(), options_.call_timeout_ms);
       sub->sender = random_sender();
@@ -287,17 +353,6 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
     // gets no reference of its own to it.
     if (delivery() == OutPortOptions::Delivery::writer_when_idle && r_type != RTM::once) {
       make_writer_references(*sub);
-    }
-    // A wiring whose every datum the InPort's access control would refuse is refused now.
-    if (!CORBA::is_nil(sub->port_ex)) {
-      try {
-        sub->port_ex->admit_writer();
-      } catch (const CORBA::NO_PERMISSION& e) {
-        refuse(full_name() + " -> " + sub->peer + ": " + access_refusal_text(e.minor()));
-        return false;
-      } catch (const CORBA::Exception&) {
-        // Not answering now is found out by the first write(), as for any subscriber.
-      }
     }
   }
   const bool threaded = !sub->direct;

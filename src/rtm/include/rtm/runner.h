@@ -25,6 +25,9 @@
 //                        who makes an OutPort's remote calls: write() itself when the
 //                        subscription is idle (writer, the default) or always the
 //                        subscription's delivery thread (thread); see OutPortOptions
+//   --shared-memory on|off
+//                        whether an OutPort gives InPorts of other processes of this host
+//                        and user its shared-memory ring (on, the default) or always CORBA
 //   -ORB<option> VALUE   passed to omniORB unchanged
 //
 // Every OutPort of the component reports, as statistics of the component (`rtm cat`), how
@@ -71,6 +74,8 @@ struct RunSettings {
   // --delivery: applied to every OutPort of the component once it is built; unset: each
   // port keeps what it was built with.
   std::optional<OutPortOptions::Delivery> delivery;
+  // --shared-memory: likewise for OutPortOptions::shared_memory.
+  std::optional<bool> shared_memory;
   std::vector<std::string> endpoints;  // omniORB endpoints, e.g. giop:tcp:127.0.0.1:
   AccessPolicy access = AccessPolicy::owner;  // --access: who may change it (rtm/access.h)
   std::string tls_folder;  // --tls / $RTM_TLS: certificates for giop:ssl: endpoints (rtm/tls.h)

@@ -1,0 +1,202 @@
+// SPDX-License-Identifier: Apache-2.0
+// Ports on the same-host path: an OutPort offers its shared-memory ring at subscribe and an
+// InPort that can read it takes data from it when its component reads, with no call per datum.
+// Here the InPort is in the test's own process, reached through the ORB with the in-process
+// path off, as one of another process is (outport_test.cpp runs one in another process).
+#include "core_test_support.h"
+
+#include "rtm/outport.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace {
+
+using rtm::ReadResult;
+using rtm::test::eventually;
+using rtm::test::float6;
+
+using In6 = rtm::InPort<RTM::TimedFloat6>;
+using Out6 = rtm::OutPort<RTM::TimedFloat6>;
+
+class ShmPortTest : public rtm::test::OrbTest {
+ protected:
+  static rtm::OutPortOptions through_ring() {
+    rtm::OutPortOptions o;
+    o.in_process = false;  // as if the InPort were in another process of this host
+    return o;
+  }
+  PortableServer::Servant_var<Out6> make_out() { return new Out6("out0", "sensor0", through_ring()); }
+  PortableServer::Servant_var<In6> make_in(rtm::InPortPolicy policy = rtm::InPortPolicy::latest()) {
+    return new In6("in0", "controller0", std::move(policy));
+  }
+  static std::string path_of(Out6& out) {
+    RTM::SubscriptionInfoList_var subs = out.subscriptions();
+    if (subs->length() != 1) return "not one subscription";
+    return subs[0].path.in();
+  }
+};
+
+TEST_F(ShmPortTest, AFifoSubscriberTakesEveryDatumInOrderWhenItReadsAndNoCallIsMade) {
+  auto out = make_out();
+  auto in = make_in(rtm::InPortPolicy::fifo(8));
+  RTM::InPortEx_var ref = in->activate(orb());
+  out->write(float6(0.0f));  // before the subscription: not for it
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  EXPECT_EQ(path_of(*out), "shared memory");
+  EXPECT_EQ(in->attached_rings(), 1u);
+  for (int i = 1; i <= 5; ++i) out->write(float6(static_cast<float>(i)));
+  RTM::TimedFloat6 got{};
+  for (float want : {1.0f, 2.0f, 3.0f, 4.0f, 5.0f}) {
+    ASSERT_EQ(in->read(got), ReadResult::NewData);
+    EXPECT_FLOAT_EQ(got.val[0], want);
+  }
+  EXPECT_EQ(in->read(got), ReadResult::OldData);
+  const rtm::OutPortCounters oc = out->counters_snapshot();
+  EXPECT_EQ(oc.by_writer, 0u) << "write() made no call";
+  EXPECT_EQ(oc.failed, 0u);
+  EXPECT_EQ(oc.pushed, 5u);
+  const rtm::InPortCounters ic = in->counters_snapshot();
+  EXPECT_EQ(ic.accepted, 5u);
+  EXPECT_EQ(ic.shared_memory, 5u);
+  EXPECT_EQ(ic.dropped, 0u);
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(ShmPortTest, ALatestSubscriberGetsTheNewestAndCountsWhatItSkippedAsDropped) {
+  auto out = make_out();
+  auto in = make_in();
+  RTM::InPortEx_var ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  RTM::TimedFloat6 got{};
+  EXPECT_EQ(in->read(got), ReadResult::NoData);
+  for (int i = 1; i <= 10; ++i) out->write(float6(static_cast<float>(i)));
+  ASSERT_EQ(in->read(got), ReadResult::NewData);
+  EXPECT_FLOAT_EQ(got.val[0], 10.0f);
+  EXPECT_EQ(in->read(got), ReadResult::OldData);
+  const rtm::InPortCounters c = in->counters_snapshot();
+  EXPECT_EQ(c.accepted, 1u);
+  EXPECT_EQ(c.dropped, 9u) << "as a put of each would have overwritten the unread one";
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(ShmPortTest, AFifoSubscriberFarBehindCountsTheDataTheRingNoLongerHeldAsDropped) {
+  rtm::OutPortOptions options = through_ring();
+  options.queue_depth = 8;  // a ring of 16 slots
+  PortableServer::Servant_var<Out6> out = new Out6("out0", "sensor0", options);
+  auto in = make_in(rtm::InPortPolicy::fifo(64));
+  RTM::InPortEx_var ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  for (int i = 1; i <= 100; ++i) out->write(float6(static_cast<float>(i)));
+  RTM::TimedFloat6 got{};
+  std::vector<float> taken;
+  while (in->read(got) == ReadResult::NewData) taken.push_back(got.val[0]);
+  ASSERT_FALSE(taken.empty());
+  EXPECT_FLOAT_EQ(taken.back(), 100.0f);
+  for (std::size_t k = 1; k < taken.size(); ++k) EXPECT_FLOAT_EQ(taken[k], taken[k - 1] + 1.0f) << "in order";
+  const rtm::InPortCounters c = in->counters_snapshot();
+  EXPECT_EQ(c.accepted + c.dropped, 100u) << "every datum either taken or counted as dropped";
+  EXPECT_EQ(c.accepted, taken.size());
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(ShmPortTest, AfterUnsubscribeNothingMoreArrivesButWhatCameBeforeIsKept) {
+  auto out = make_out();
+  auto in = make_in(rtm::InPortPolicy::fifo(8));
+  RTM::InPortEx_var ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  out->write(float6(1.0f));
+  out->write(float6(2.0f));
+  ASSERT_TRUE(out->unsubscribe(RTM::repeated, ref.in()));
+  EXPECT_EQ(in->attached_rings(), 0u);
+  out->write(float6(3.0f));
+  RTM::TimedFloat6 got{};
+  std::vector<float> taken;
+  while (in->read(got) == ReadResult::NewData) taken.push_back(got.val[0]);
+  EXPECT_EQ(taken, (std::vector<float>{1.0f, 2.0f}));
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(ShmPortTest, PoliciesThatRunOnArrivalAndDataThatAreNotPlainMemoryKeepCorba) {
+  struct Case {
+    const char* what;
+    rtm::InPortPolicy policy;
+  };
+  std::vector<Case> cases{
+      {"callback", rtm::InPortPolicy::callback<RTM::TimedFloat6>([](const RTM::TimedFloat6&) {})},
+      {"FIFO that blocks", rtm::InPortPolicy::fifo(4, rtm::FullPolicy::Block, 1'000'000)}};
+  for (auto& c : cases) {
+    SCOPED_TRACE(c.what);
+    auto out = make_out();
+    auto in = make_in(c.policy);
+    RTM::InPortEx_var ref = in->activate(orb());
+    ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+    EXPECT_EQ(path_of(*out), "CORBA");
+    out->write(float6(1.0f));
+    ASSERT_TRUE(eventually([&] { return in->counters_snapshot().accepted == 1; }));
+    EXPECT_EQ(in->counters_snapshot().shared_memory, 0u);
+    out->close();
+    in->deactivate();
+  }
+  // A sequence: its datum points elsewhere, a copy of its bytes would carry a pointer.
+  using OutSeq = rtm::OutPort<RTM::TimedFloatSeq>;
+  using InSeq = rtm::InPort<RTM::TimedFloatSeq>;
+  PortableServer::Servant_var<OutSeq> out = new OutSeq("out0", "sensor0", through_ring());
+  PortableServer::Servant_var<InSeq> in = new InSeq("in0", "controller0");
+  RTM::InPortEx_var ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  RTM::SubscriptionInfoList_var subs = out->subscriptions();
+  EXPECT_STREQ(subs[0].path.in(), "CORBA");
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(ShmPortTest, AnInPortRefusesARingOfAnotherHostTypeOrNameAndSaysWhy) {
+  auto in = make_in();
+  RTM::InPortEx_var ref = in->activate(orb());
+  RTM::InPortShm_var shm = RTM::InPortShm::_narrow(ref.in());
+  ASSERT_FALSE(CORBA::is_nil(shm));
+  const std::string host = rtm::shm_host_identity();
+  const auto id = rtm::ring_type_id<RTM::TimedFloat6>();
+  const rtm::ShmRingShape shape{16, sizeof(RTM::TimedFloat6), id};
+  rtm::ShmSegment segment = rtm::ShmSegment::create(rtm::shm_ring_bytes(shape), "test.ring");
+  rtm::ShmRingWriter writer(segment.data(), segment.size(), shape);
+  auto refusal = [&](const std::string& name, const std::string& at, std::uint64_t type) {
+    CORBA::String_var why;
+    const bool taken = shm->attach_ring(name.c_str(), at.c_str(), type, getpid(), 0, why.out());
+    return taken ? std::string("attached") : std::string(why.in());
+  };
+  EXPECT_EQ(refusal(segment.name(), "another-boot/net:1", id), "the publisher runs on another host or network namespace");
+  EXPECT_EQ(refusal(segment.name(), host, id + 1), "the ring carries another data type");
+  EXPECT_NE(refusal("../../etc/passwd", host, id).find("is not a shared-memory segment's name"), std::string::npos);
+  EXPECT_NE(refusal("gone.1.1.1.shm", host, id).find("cannot open"), std::string::npos);
+  EXPECT_EQ(in->attached_rings(), 0u);
+  EXPECT_EQ(refusal(segment.name(), host, id), "attached");
+  EXPECT_EQ(in->attached_rings(), 1u);
+  EXPECT_TRUE(shm->detach_ring(segment.name().c_str()));
+  EXPECT_FALSE(shm->detach_ring(segment.name().c_str()));
+  in->deactivate();
+}
+
+TEST_F(ShmPortTest, ASecondSubscribeOfTheSamePortIsRefusedAndTheFirstKeepsReading) {
+  auto out = make_out();
+  auto in = make_in(rtm::InPortPolicy::fifo(8));
+  RTM::InPortEx_var ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  EXPECT_FALSE(out->subscribe(RTM::repeated, ref.in()));
+  EXPECT_EQ(in->attached_rings(), 1u);
+  out->write(float6(4.0f));
+  RTM::TimedFloat6 got{};
+  ASSERT_EQ(in->read(got), ReadResult::NewData);
+  EXPECT_FLOAT_EQ(got.val[0], 4.0f);
+  out->close();
+  EXPECT_EQ(in->attached_rings(), 0u) << "close() detached the subscriber";
+  in->deactivate();
+}
+
+}  // namespace
