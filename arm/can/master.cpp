@@ -77,7 +77,7 @@ void Pa10Master::run_periodic() {
   }
   reclaimed_.store(false);
   periodic_.store(true);
-  start_own(0);
+  start_own(config.first_deadline_ns);
 }
 
 void Pa10Master::run_periodic(std::int64_t period_ns) {

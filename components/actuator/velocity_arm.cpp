@@ -60,6 +60,7 @@ ArmHardware::ArmHardware(const Options& options) : options_(options) {
   config.period_ns = options.period_ns;
   config.realtime_priority = options.rt_priority;
   config.cpu = options.cpu;
+  config.first_deadline_ns = options.master_first_deadline_ns;
   config.step_timeout_ns = options.step_timeout_ns;
   config.following_velocity_window_rad_s = options.following_velocity_window_rad_s;
   config.following_position_window_rad = options.following_position_window_rad;

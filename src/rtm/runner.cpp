@@ -75,10 +75,17 @@ PeriodicOptions RunSettings::periodic_options() const {
   options.cpu = cpu;
   options.lock_memory = lock_memory;
   options.thread_name = name;
+  // A first deadline in the past on the grid k * period + phase: the activity joins that grid
+  // at every start, and so does every component of the host with the same period and a phase.
+  if (phase_ns) options.first_deadline_ns = period_ns + *phase_ns;
   return options;
 }
 
-std::int64_t parse_period_ns(std::string_view text) {
+namespace {
+
+// A duration as "2ms", "500us", "250000ns", "0.002s" or "0.002" (seconds); nullopt when the
+// text is none or not finite.
+std::optional<double> parse_duration_ns(std::string_view text) {
   struct Unit {
     std::string_view suffix;
     double ns;
@@ -97,12 +104,28 @@ std::int64_t parse_period_ns(std::string_view text) {
   double value = 0;
   const auto [end, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
   const double ns = value * scale;
+  if (ec != std::errc{} || end != number.data() + number.size() || !std::isfinite(ns)) return std::nullopt;
+  return ns;
+}
+
+}  // namespace
+
+std::int64_t parse_period_ns(std::string_view text) {
+  const std::optional<double> ns = parse_duration_ns(text);
   // Under 50 us a cycle would be shorter than waking a thread costs on these machines.
-  if (ec != std::errc{} || end != number.data() + number.size() || !std::isfinite(ns) || ns < 50e3 ||
-      ns > 3600e9) {
+  if (!ns || *ns < 50e3 || *ns > 3600e9) {
     throw std::invalid_argument(fmt::format("period '{}': want a duration from 50us to 1 h, e.g. 2ms, 500us, 0.002s", text));
   }
-  return std::llround(ns);
+  return std::llround(*ns);
+}
+
+std::int64_t parse_phase_ns(std::string_view text, std::int64_t period_ns) {
+  const std::optional<double> ns = parse_duration_ns(text);
+  if (!ns || *ns < 0 || std::llround(*ns) >= period_ns) {
+    throw std::invalid_argument(fmt::format("phase '{}': want a duration from 0 to less than the period ({} us), e.g. 0.5ms",
+                                            text, period_ns / 1000));
+  }
+  return std::llround(*ns);
 }
 
 SplitArguments split_orb_arguments(int argc, const char* const* argv) {
@@ -153,6 +176,12 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
       ->default_str(NamingAddress::from_environment().to_string())
       ->envname("RTM_NAMING");
   app.add_option("--period", period_text, "cycle period, 50us to 1h: 2ms, 500us, 0.002s")->capture_default_str();
+  std::string phase_text;
+  app.add_option("--phase", phase_text,
+                 "run each cycle this long after a multiple of the period on CLOCK_MONOTONIC (0 to less than "
+                 "the period, e.g. 0.5ms): components of one host with the same period and a phase share one "
+                 "grid, so a reader can run just after its writer")
+      ->default_str("none: the first cycle runs when the component is turned on");
   app.add_option("--rt-priority", settings.rt_priority, "SCHED_FIFO priority of the activity (1..99)")
       ->check(CLI::Range(0, 99));
   app.add_option("--cpu", settings.cpu,
@@ -200,6 +229,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   try {
     app.parse(static_cast<int>(own_argv.size()), own_argv.data());
     settings.period_ns = parse_period_ns(period_text);
+    if (!phase_text.empty()) settings.phase_ns = parse_phase_ns(phase_text, settings.period_ns);
     settings.access = *parse_access_policy(access_text);
     check_name(settings.name);
     if (!delivery_text.empty())

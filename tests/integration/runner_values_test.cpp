@@ -33,6 +33,32 @@ TEST(ParsePeriod, RejectsWhatIsNotADurationFrom50usTo1hNamingTheText) {
   }
 }
 
+TEST(ParsePhase, AcceptsZeroToLessThanThePeriodAndRefusesTheRestNamingIt) {
+  EXPECT_EQ(rtm::parse_phase_ns("0", 2'000'000), 0);
+  EXPECT_EQ(rtm::parse_phase_ns("0.5ms", 2'000'000), 500'000);
+  EXPECT_EQ(rtm::parse_phase_ns("1999us", 2'000'000), 1'999'000);
+  for (const char* bad : {"2ms", "3ms", "-1us", "soon", "", "nan"}) {
+    try {
+      rtm::parse_phase_ns(bad, 2'000'000);
+      ADD_FAILURE() << "'" << bad << "' was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("'") + bad + "'"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("less than the period (2000 us)"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// With a phase, every start joins the grid k * period + phase; without, it starts at once.
+TEST(RunSettings, APhasePutsTheFirstDeadlineOnTheGridOfThePeriod) {
+  rtm::RunSettings settings;
+  settings.period_ns = 2'000'000;
+  EXPECT_EQ(settings.periodic_options().first_deadline_ns, 0);
+  settings.phase_ns = 500'000;
+  const std::int64_t first = settings.periodic_options().first_deadline_ns;
+  EXPECT_EQ(first % 2'000'000, 500'000);
+  EXPECT_GT(first, 0);
+}
+
 TEST(SplitOrbArguments, TakesEachOrbOptionWithItsValueAndKeepsTheRestInOrder) {
   const char* argv[] = {"prog", "--name", "s0", "-ORBtraceLevel", "10", "--on", "-ORBendPoint", "giop:unix:", "x"};
   const auto split = rtm::split_orb_arguments(9, argv);

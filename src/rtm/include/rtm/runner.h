@@ -15,6 +15,8 @@
 //   --name NAME          component name (default <kind>0), bound as <host>.host_cxt/NAME.rtc
 //   --naming HOST:PORT   naming service (default $RTM_NAMING, else 127.0.0.1:2809)
 //   --period 2ms         cycle period, 50us to 1h: 2ms, 500us, 250000ns, 0.002 or 0.002s
+//   --phase 0.5ms        cycles at k * period + phase on CLOCK_MONOTONIC: one grid for every
+//                        component of the host with that period (default: from the first on())
 //   --rt-priority N      SCHED_FIFO priority of the activity thread (1..99)
 //   --cpu N              pin the process (and so its activity) to CPU N
 //   --mlock              lock the process's memory
@@ -67,6 +69,8 @@ struct RunSettings {
   std::string name;
   NamingAddress naming;
   std::int64_t period_ns = 2'000'000;
+  // --phase: cycles at k * period_ns + phase_ns on CLOCK_MONOTONIC; unset: from the first on().
+  std::optional<std::int64_t> phase_ns;
   int rt_priority = 0;   // 0: SCHED_OTHER
   int cpu = -1;          // -1: no affinity
   bool lock_memory = false;
@@ -144,6 +148,8 @@ CLI::Option* add_array_option(CLI::App& app, const std::string& name, std::array
 // Parses a period: "2ms", "500us", "250000ns", "0.002s" or "0.002" (seconds). Throws
 // std::invalid_argument naming the text when it is not a positive duration.
 std::int64_t parse_period_ns(std::string_view text);
+// "0.5ms" and the like, from 0 to less than period_ns; std::invalid_argument saying what is wanted.
+std::int64_t parse_phase_ns(std::string_view text, std::int64_t period_ns);
 
 // Splits -ORB<option> <value> pairs (omniORB's syntax) out of argv. The rest, argv[0] first,
 // stays in order for the command-line parser.

@@ -66,6 +66,11 @@ struct MasterConfig {
   // run_periodic(): SCHED_FIFO priority (0 = keep SCHED_OTHER) and CPU to pin to (-1 = none).
   int realtime_priority = 0;
   int cpu = -1;
+  // run_periodic(): CLOCK_MONOTONIC deadline of the first cycle; 0 = at once. A time already
+  // past puts the cycles on the grid first_deadline_ns + k * period_ns (rt/schedule.h
+  // first_deadline), where components with a --phase run too: SYNC can follow the cycle that
+  // hands the drives their command.
+  std::int64_t first_deadline_ns = 0;
 };
 
 struct JointState {

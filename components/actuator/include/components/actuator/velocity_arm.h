@@ -88,6 +88,7 @@ class ArmHardware final : public VelocityArm {
     bool run_master_thread = true;
     int rt_priority = 0;  // of the master's thread; 0 = SCHED_OTHER
     int cpu = -1;
+    std::int64_t master_first_deadline_ns = 0;  // rtm::can::MasterConfig::first_deadline_ns
     std::int64_t step_timeout_ns = 2'000'000'000;  // lock-step wait per SYNC
     // The master's following-error windows (rtm::can::MasterConfig; 0 turns one off).
     double following_velocity_window_rad_s = rtm::can::MasterConfig{}.following_velocity_window_rad_s;
