@@ -160,6 +160,33 @@ void keep_real_time_for_the_activity(RunSettings& settings) {
              "threads run at SCHED_OTHER", settings.name, param.sched_priority, settings.rt_priority);
 }
 
+// The options every OutPort of the component takes from the command line, as given.
+struct PortTexts {
+  std::string delivery;       // --delivery
+  std::string shared_memory;  // --shared-memory
+};
+
+void add_port_options(CLI::App& app, PortTexts& texts) {
+  app.add_option("--delivery", texts.delivery,
+                 "who makes an OutPort's remote calls: writer (write() itself when the subscription is idle) "
+                 "or thread (always the subscription's delivery thread)")
+      ->check(CLI::IsMember({"writer", "thread"}))
+      ->default_str("as each port was built (writer)");
+  app.add_option("--shared-memory", texts.shared_memory,
+                 "whether an OutPort gives InPorts of other processes of this host and user its "
+                 "shared-memory ring, read in the reader's cycle with no call per datum (on), or always "
+                 "CORBA (off)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->default_str("as each port was built (on)");
+}
+
+void apply_port_options(const PortTexts& texts, RunSettings& settings) {
+  if (!texts.delivery.empty())
+    settings.delivery = texts.delivery == "thread" ? OutPortOptions::Delivery::thread
+                                                   : OutPortOptions::Delivery::writer_when_idle;
+  if (!texts.shared_memory.empty()) settings.shared_memory = texts.shared_memory == "on";
+}
+
 // Parses the command line into settings; returns an exit status when the process should stop
 // here (--help, or a bad command line: 2).
 std::optional<int> parse_command_line(int argc, char** argv, const char* program, const ComponentMain& main,
@@ -204,19 +231,8 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
                  "over TCP)")
       ->check(CLI::IsMember({"owner", "open"}))
       ->capture_default_str();
-  std::string delivery_text;
-  app.add_option("--delivery", delivery_text,
-                 "who makes an OutPort's remote calls: writer (write() itself when the subscription is idle) "
-                 "or thread (always the subscription's delivery thread)")
-      ->check(CLI::IsMember({"writer", "thread"}))
-      ->default_str("as each port was built (writer)");
-  std::string shared_memory_text;
-  app.add_option("--shared-memory", shared_memory_text,
-                 "whether an OutPort gives InPorts of other processes of this host and user its "
-                 "shared-memory ring, read in the reader's cycle with no call per datum (on), or always "
-                 "CORBA (off)")
-      ->check(CLI::IsMember({"on", "off"}))
-      ->default_str("as each port was built (on)");
+  PortTexts port_texts;
+  add_port_options(app, port_texts);
   app.footer("Options -ORB<name> <value> go to omniORB unchanged.");
   if (main.add_options) main.add_options(app);
   // A wrapper script may add its own default before the user's: the last one given wins.
@@ -232,10 +248,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
     if (!phase_text.empty()) settings.phase_ns = parse_phase_ns(phase_text, settings.period_ns);
     settings.access = *parse_access_policy(access_text);
     check_name(settings.name);
-    if (!delivery_text.empty())
-      settings.delivery = delivery_text == "thread" ? OutPortOptions::Delivery::thread
-                                                    : OutPortOptions::Delivery::writer_when_idle;
-    if (!shared_memory_text.empty()) settings.shared_memory = shared_memory_text == "on";
+    apply_port_options(port_texts, settings);
     settings.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
     if (main.validate) main.validate(settings);
   } catch (const CLI::ParseError& e) {
