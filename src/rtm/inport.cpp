@@ -76,7 +76,7 @@ InPortCounters InPortBase::counters_snapshot() const {
     // Data waiting in a publisher's ring have arrived as much as a put's: they count now, not
     // only once the component reads (they stay unread for it).
     std::lock_guard lock(mu_);
-    for (const auto& ring : rings_) const_cast<InPortBase*>(this)->take_from_ring_locked(*ring);
+    take_from_rings_locked();
   }
   InPortCounters c;
   c.accepted = accepted_.load(std::memory_order_relaxed);
@@ -118,9 +118,9 @@ CORBA::Boolean InPortBase::attach_ring(const char* segment, const char* host, CO
     return false;
   };
   if (std::string(host) != shm_host_identity()) return refuse("the publisher runs on another host or network namespace");
-  if (policy_.kind() == InPortPolicy::Kind::Callback) return refuse("a callback policy runs on each arrival");
-  if (policy_.kind() == InPortPolicy::Kind::Fifo && policy_.full_policy() == FullPolicy::Block)
-    return refuse("a FIFO that blocks its writer needs the writer to wait");
+  // A ring is read in read(): only a policy that stores without waiting or running code (no
+  // callback, no FIFO that blocks its writer) can wait until then.
+  if (!stores_without_waiting()) return refuse("the port's policy runs or waits on each arrival");
   if (std::string type_why = ring_refusal(type_id); !type_why.empty()) return refuse(type_why);
   std::unique_ptr<AttachedRing> ring;
   try {

@@ -203,6 +203,11 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   virtual std::string ring_refusal(CORBA::ULongLong type_id) const = 0;
   // Takes the data ring holds for this port into its storage (caller holds mu_).
   virtual void take_from_ring_locked(AttachedRing& ring) = 0;
+  // The same for every attached ring (caller holds mu_). The port's storage changes, not what
+  // a caller sees of it: const for counters_snapshot() and queued().
+  void take_from_rings_locked() const {
+    for (const auto& ring : rings_) const_cast<InPortBase*>(this)->take_from_ring_locked(*ring);
+  }
   std::vector<std::unique_ptr<AttachedRing>> rings_;  // guarded by mu_
   std::atomic<std::uint64_t> shared_memory_{0};
 
@@ -261,9 +266,6 @@ class InPort final : public InPortBase {
   bool keep(const T& value, std::unique_lock<std::mutex>& lock);
   std::string ring_refusal(CORBA::ULongLong type_id) const override;
   void take_from_ring_locked(AttachedRing& ring) override;
-  void take_from_rings_locked() {
-    for (auto& ring : rings_) take_from_ring_locked(*ring);
-  }
   std::vector<T> ring_;        // latest: 1 slot; FIFO: capacity slots
   std::size_t head_ = 0;       // FIFO: index of the oldest
   std::size_t count_ = 0;      // FIFO: stored; latest: 1 once written

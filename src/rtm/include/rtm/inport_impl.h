@@ -62,8 +62,7 @@ void InPort<T>::store(const T& value, bool in_process, const SenderSeq* order) {
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
-  // Data already in a ring were written before this one: they go first.
-  if (!rings_.empty()) take_from_rings_locked();
+  take_from_rings_locked();  // data already in a ring were written before this one
   if (!keep(value, lock)) return;
   accepted_.fetch_add(1, std::memory_order_relaxed);
   if (in_process) in_process_.fetch_add(1, std::memory_order_relaxed);
@@ -118,7 +117,7 @@ void InPort<T>::take_from_ring_locked(AttachedRing& ring) {
 template <PortData T>
 ReadResult InPort<T>::read(T& out) {
   std::unique_lock lock(mu_);
-  if (!rings_.empty()) take_from_rings_locked();  // the same-host path: no system call
+  take_from_rings_locked();  // the same-host path: no system call
   if (policy_.kind() != InPortPolicy::Kind::Fifo) {
     if (count_ == 0) return ReadResult::NoData;
     out = ring_[0];
@@ -150,9 +149,7 @@ void InPort<T>::deliver(const T& value) {
 template <PortData T>
 std::size_t InPort<T>::queued() const {
   std::lock_guard lock(mu_);
-  // What the rings hold counts as queued: taken into storage now (storage is the port's state,
-  // not the caller's view of it, hence the cast).
-  if (!rings_.empty()) const_cast<InPort<T>*>(this)->take_from_rings_locked();
+  take_from_rings_locked();  // what the rings hold counts as queued
   if (policy_.kind() == InPortPolicy::Kind::Fifo) return count_;
   return unread_ ? 1 : 0;
 }
