@@ -152,7 +152,9 @@ bool Pa10Master::watch_owner(const rtm::CycleContext& ctx) {
                              "took them back",
                              silent_periods_);
   cycle.unlock();
-  start_own(0);
+  // On the owner's grid (this watchdog wakes half a period after each of its deadlines), so an
+  // owner that takes the cycles again goes on where the master's thread stops.
+  start_own(ctx.deadline_ns + ctx.period_ns / 2);
   return false;
 }
 

@@ -60,6 +60,10 @@ void Actuator::describe_self() {
   add_counter("watchdog_events", "commands stopped arriving (quick stop)", watchdog_events_);
   add_counter("non_finite_events", "commands started holding NaN/inf (quick stop)", non_finite_events_);
   add_counter("command_loss_recoveries", "drive RPDO timeouts reset and resumed from", command_loss_recoveries_);
+  add_counter("cycle_owner_recoveries", "bus cycles the master took back from a late tick, reset and resumed from",
+              cycle_owner_recoveries_);
+  add_counter("feedback_gap_recoveries", "drives silent for a few SYNCs with their heartbeat on, reset and resumed from",
+              feedback_gap_recoveries_);
   add_counter("not_ready_cycles", "cycles the arm was not enabled (zero velocity)", not_ready_cycles_);
   add_counter("sensor_heartbeat_losses", "a force sensor node fell silent (drives stopped, retried)",
               sensor_heartbeat_losses_);
@@ -143,18 +147,38 @@ void Actuator::record_sent_latency() {
   pending_sequence_ = 0;
 }
 
+void Actuator::resume_after(std::atomic<std::uint64_t>& events) {
+  const std::uint64_t event = events.fetch_add(1, std::memory_order_relaxed) + 1;
+  log().warn("{}: {}: resetting the drives, moving again on the next command (recovery {})", name(),
+             arm_->fault_reason(), event);
+  arm_->reset();
+  command_freshness_.reset();  // never on a command from before
+  command_bad_ = false;
+  twist_ = {};
+}
+
+void Actuator::recover_feedback_gap() {
+  const std::uint64_t now = cycles_.load(std::memory_order_relaxed);
+  if (feedback_gaps_in_window_ > 0 && now - last_feedback_gap_cycle_ > kFeedbackGapWindowCycles)
+    feedback_gaps_in_window_ = 0;
+  last_feedback_gap_cycle_ = now;
+  if (++feedback_gaps_in_window_ > kMaxFeedbackGaps)
+    throw std::runtime_error(fmt::format("arm fault: {} ({} times within {} cycles of each other)",
+                                         arm_->fault_reason(), feedback_gaps_in_window_, kFeedbackGapWindowCycles));
+  resume_after(feedback_gap_recoveries_);
+}
+
 // What the arm said of this cycle's order: recover from what is recoverable, throw otherwise.
 void Actuator::handle_arm_status(FaultKind status) {
   if (status == FaultKind::command_loss) {
-    // The drives faulted only because commands came late: reset them and move again on the
-    // next new command, never on one from before the loss.
-    const std::uint64_t event = command_loss_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
-    log().warn("{}: {}: resetting the drives, moving again on the next command (recovery {})", name(),
-               arm_->fault_reason(), event);
-    arm_->reset();
-    command_freshness_.reset();
-    command_bad_ = false;
-    twist_ = {};
+    // The drives faulted only because commands came late.
+    resume_after(command_loss_recoveries_);
+  } else if (status == FaultKind::cycle_owner_lost) {
+    // The master took its cycles back from a shared tick that sent no SYNC for a while (a
+    // stall): the drives are held at zero and the tick takes the cycles again.
+    resume_after(cycle_owner_recoveries_);
+  } else if (status == FaultKind::missing_feedback) {
+    recover_feedback_gap();
   } else if (status == FaultKind::heartbeat_lost && rtm::can::is_sensor_node(arm_->fault_node())) {
     retry_sensor_loss(true);
   } else if (rtm::can::latched(status)) {
@@ -250,10 +274,10 @@ void Actuator::on_stop() {
   const ActuatorCounters c = counters();
   log().info(
       "{}: off, zero velocity. cycles {}, commands {}, clamped {}, watchdog events {}, non-finite events {}, "
-      "command-loss recoveries {}, not-ready cycles {}, sample-to-master handover p50 {} us p99 {} us max {} us, "
+      "command-loss recoveries {}, cycle-owner recoveries {}, feedback-gap recoveries {}, not-ready cycles {}, sample-to-master handover p50 {} us p99 {} us max {} us, "
       "sample-to-drive latency p50 {} us p99 {} us max {} us ({} commands seen leaving for the bus)",
       name(), c.cycles, c.commands, c.clamped, c.watchdog_events, c.non_finite_events, c.command_loss_recoveries,
-      c.not_ready_cycles, c.handover_p50_ns / 1000, c.handover_p99_ns / 1000, c.handover_max_ns / 1000,
+      c.cycle_owner_recoveries, c.feedback_gap_recoveries, c.not_ready_cycles, c.handover_p50_ns / 1000, c.handover_p99_ns / 1000, c.handover_max_ns / 1000,
       c.latency_p50_ns / 1000, c.latency_p99_ns / 1000, c.latency_max_ns / 1000, c.latency_samples);
 }
 
@@ -266,6 +290,8 @@ ActuatorCounters Actuator::counters() const {
   c.non_finite_events = non_finite_events_.load();
   c.not_ready_cycles = not_ready_cycles_.load();
   c.command_loss_recoveries = command_loss_recoveries_.load();
+  c.cycle_owner_recoveries = cycle_owner_recoveries_.load();
+  c.feedback_gap_recoveries = feedback_gap_recoveries_.load();
   c.sensor_heartbeat_losses = sensor_heartbeat_losses_.load();
   c.sensor_heartbeat_recoveries = sensor_heartbeat_recoveries_.load();
   c.sensor_reset_attempts = sensor_reset_attempts_.load();

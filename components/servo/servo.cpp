@@ -251,8 +251,10 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
     };
   };
   if (bus_.set()) {
-    tick_.add([this](const rtm::CycleContext&) {
-      if (!bus_.receive()) bus_lost_.store(true);
+    add_counter("bus_retakes", "bus cycles taken again after the master took them back from a late tick",
+                bus_retakes_);
+    tick_.add([this](const rtm::CycleContext& ctx) {
+      if (bus_cycle_is_mine(ctx) && !bus_.receive()) bus_lost_.store(true);
       return true;
     });
   }
@@ -263,6 +265,7 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
   tick_.add(keep_going(actuator_->cycle_function()));
   if (bus_.set()) {
     tick_.add([this](const rtm::CycleContext& ctx) {
+      if (!bus_cycle_is_mine(ctx)) return true;
       if (bus_.transmit())
         last_transmit_deadline_ns_.store(ctx.deadline_ns, std::memory_order_relaxed);
       else
@@ -339,6 +342,7 @@ void SharedTickServo::on_start() {
     first_ns = bus_.take_over();  // the bus master's activity stops before its next deadline
     bus_taken_.store(true);
     bus_lost_.store(false);
+    bus_resume_ns_.store(0, std::memory_order_relaxed);
     last_transmit_deadline_ns_.store(0, std::memory_order_relaxed);
   } else if (phase_.next_reference_deadline_ns) {
     first_ns = phased_first_deadline(phase_.next_reference_deadline_ns(), phase_.lead_ns, tick_.options().period_ns);
@@ -361,15 +365,28 @@ void SharedTickServo::on_start() {
 }
 
 void SharedTickServo::on_cycle(const rtm::CycleContext&) {
-  if (bus_lost_.load()) {
-    bus_taken_.store(false);  // nothing to hand back: the bus master's thread runs the cycles
-    throw std::runtime_error(
-        "the bus master took its cycles back: this tick sent no SYNC for too long (see the actuator's fault)");
-  }
+  if (bus_lost_.load()) retake_bus();
   for (auto* member : {sensor_.in(), controller_.in(), actuator_.in()}) {
     if (member->current_state() == RTM::COMPONENT_ERROR)
       throw std::runtime_error("member " + member->component().name() + " failed: " + member->error_text());
   }
+}
+
+// The bus master's watchdog took the cycles back: this tick sent no SYNC for several periods
+// while the watchdog woke on time (this thread's CPU stalled, or higher-priority work held the
+// tick off). The master's own thread runs them meanwhile, on this tick's grid, holding the
+// drives at zero (FaultKind::cycle_owner_lost, which the actuator resets as a command loss).
+// The tick is running again, so it takes them again: take_over() waits for the master's cycle
+// in progress and returns the first deadline that thread did not run; the bus halves of the
+// tick's cycles before it are skipped, so no period carries two SYNCs.
+void SharedTickServo::retake_bus() {
+  const std::int64_t resume_ns = bus_.take_over();
+  bus_resume_ns_.store(resume_ns, std::memory_order_relaxed);
+  bus_lost_.store(false);
+  const std::uint64_t event = bus_retakes_.fetch_add(1, std::memory_order_relaxed) + 1;
+  log().warn("servo {}: the bus master had taken its cycles back (this tick sent no SYNC for too long): running "
+             "them again from the next deadline, the actuator resumes on the next command (retake {})",
+             name(), event);
 }
 
 void SharedTickServo::on_stop() {

@@ -489,6 +489,14 @@ std::string format_figures(const std::vector<ComponentTiming>& timing) {
   }
   if (const auto r = find_statistic(timing, "command_loss_recoveries"))
     out += fmt::format("Drive command-loss recoveries ({}): {}\n", r->component, statistic_text(r->statistic));
+  // Stalls survived: the master took the bus cycles back from a late shared tick, or drives
+  // fell silent for a few SYNCs with their heartbeat on. Shown only when they happened.
+  for (const auto& [name, text] : {std::pair{"cycle_owner_recoveries", "Bus cycles taken back from a late tick"},
+                                   std::pair{"feedback_gap_recoveries", "Drive feedback-gap recoveries"}}) {
+    const auto r = find_statistic(timing, name);
+    if (r && r->statistic.value > 0)
+      out += fmt::format("{} ({}): {}\n", text, r->component, statistic_text(r->statistic));
+  }
   const auto w = find_statistic(timing, "watchdog_events");
   out += fmt::format("Watchdog events ({}): {}\n", w ? w->component : "actuator",
                      w ? statistic_text(w->statistic) : std::string("unknown"));

@@ -11,6 +11,7 @@
 #include <time.h>
 
 #include <chrono>
+#include <cmath>
 #include <functional>
 #include <set>
 #include <string_view>
@@ -734,7 +735,8 @@ TEST(Pa10MasterTakeOver, ASilentOwnerLosesTheCyclesToTheMastersThreadWithAFaultA
   rig.master->start();
   rig.master->run_periodic();
   wait_cycles(*rig.master, 2);
-  rig.master->take_over_cycles();
+  const std::int64_t handover_ns = rig.master->take_over_cycles();
+  ASSERT_GT(handover_ns, 0);
   for (int i = 0; i < 3; ++i) {
     ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes, [&] { rig.master->set_target_velocities({0.3, 0, 0, 0, 0, 0, 0}); }));
   }
@@ -751,7 +753,40 @@ TEST(Pa10MasterTakeOver, ASilentOwnerLosesTheCyclesToTheMastersThreadWithAFaultA
   EXPECT_FALSE(rig.master->receive_cycle()) << "the cycles are no longer the caller's";
   EXPECT_FALSE(rig.master->transmit_cycle());
   rig.master->hand_back_cycles(0);  // nothing to hand back
-  EXPECT_GT(rig.master->next_cycle_deadline_ns(), 0) << "the master's thread runs the grid";
+  const std::int64_t next_ns = rig.master->next_cycle_deadline_ns();
+  EXPECT_GT(next_ns, 0) << "the master's thread runs the grid";
+  EXPECT_EQ((next_ns - handover_ns) % rig.master->period_ns(), 0) << "on the grid the owner had";
+  rig.master->stop();
+}
+
+// A stall, not a dead owner: the owner comes back, takes the cycles again from the master's
+// next deadline (on its own grid), resets the fault and the drives follow its targets again.
+TEST(Pa10MasterTakeOver, AnOwnerThatLostTheCyclesTakesThemAgainAndAFaultResetMovesTheArm) {
+  Rig rig;
+  rig.master->start();
+  rig.master->run_periodic();
+  wait_cycles(*rig.master, 2);
+  const std::int64_t handover_ns = rig.master->take_over_cycles();
+  ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes, [&] { rig.master->set_target_velocities({0.3, 0, 0, 0, 0, 0, 0}); }));
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (!rig.master->fault().active() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
+  ASSERT_EQ(rig.master->fault().kind, FaultKind::cycle_owner_lost) << rig.master->fault().reason;
+  ASSERT_FALSE(rig.master->receive_cycle()) << "the cycles are the master's thread's now";
+  const std::int64_t again_ns = rig.master->take_over_cycles();
+  EXPECT_TRUE(rig.master->cycles_taken_over());
+  EXPECT_GT(again_ns, handover_ns);
+  EXPECT_EQ((again_ns - handover_ns) % rig.master->period_ns(), 0) << "the owner's grid goes on";
+  rig.master->fault_reset();
+  bool moving = false;
+  for (int i = 0; i < 200 && !moving; ++i) {
+    ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes, [&] {
+      if (!rig.master->fault().active()) rig.master->set_target_velocities({0.2, 0, 0, 0, 0, 0, 0});
+    }));
+    moving = std::abs(rig.nodes->latched_velocity_rad_s(drive_node(0)) - 0.2) < 1e-6;
+  }
+  EXPECT_TRUE(moving) << rig.master->fault().reason;
+  EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
+  rig.master->hand_back_cycles(0);
   rig.master->stop();
 }
 

@@ -211,12 +211,65 @@ TEST(Actuator, OtherArmFaultsStillPutTheComponentInError) {
   EXPECT_EQ(t.actuator->counters().command_loss_recoveries, 0u);
 }
 
-TEST(Actuator, EveryLatchedFaultButCommandLossIsAComponentError) {
+// The bus master took its cycles back from the shared tick that runs this actuator (the tick
+// sent no SYNC for several periods: a stall). The drives are held at zero; the tick takes the
+// cycles again, and the actuator resumes as from a command loss, counted apart.
+TEST(Actuator, CyclesTakenBackFromALateTickResetTheArmAndMoveOnlyOnTheNextCommand) {
+  ActuatorUnderTest t;
+  const std::array<float, 6> cmd{0, 0, 0.01f, 0, 0, 0};
+  t.step(cmd);
+  t.arm->status = rtm::comp::FaultKind::cycle_owner_lost;
+  t.arm->reason = "cycle_owner_lost: the thread running the bus cycles sent no SYNC for 5 periods";
+  EXPECT_NO_THROW(t.step(cmd)) << "a stall is no component error";
+  EXPECT_EQ(t.arm->resets, 1);
+  EXPECT_EQ(t.actuator->counters().cycle_owner_recoveries, 1u);
+  EXPECT_EQ(t.actuator->counters().command_loss_recoveries, 0u) << "counted apart";
+  EXPECT_EQ(t.step(), kZero) << "the command from before the stall is not repeated";
+  EXPECT_EQ(t.step(cmd), cmd) << "moves again on the next command";
+}
+
+// A drive silent for a few SYNCs with its heartbeat on (the simulator's process stalled): reset
+// and resume, a few times; gaps that keep coming within the window are a drive that answers no
+// SYNC, an error. Gaps far apart each start a new window.
+TEST(Actuator, FeedbackGapsAreResumedFromAFewTimesThenAnError) {
+  using rtm::comp::Actuator;
+  ActuatorUnderTest t;
+  const std::array<float, 6> cmd{0, 0, 0.01f, 0, 0, 0};
+  auto gap = [&] {
+    t.arm->status = rtm::comp::FaultKind::missing_feedback;
+    t.arm->reason = "missing_feedback: drive 1 (S1): no TPDO for 26 consecutive SYNCs";
+    t.step(cmd);
+  };
+  t.step(cmd);
+  for (std::uint32_t i = 1; i <= Actuator::kMaxFeedbackGaps; ++i) {
+    EXPECT_NO_THROW(gap()) << "gap " << i;
+    EXPECT_EQ(t.arm->resets, static_cast<int>(i));
+    EXPECT_EQ(t.step(), kZero) << "the command from before the gap is not repeated";
+    EXPECT_EQ(t.step(cmd), cmd) << "moves again on the next command";
+  }
+  EXPECT_EQ(t.actuator->counters().feedback_gap_recoveries, Actuator::kMaxFeedbackGaps);
+  try {
+    gap();
+    FAIL() << "one gap more within the window is no stall";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("drive 1 (S1)"), std::string::npos) << e.what();
+  }
+
+  ActuatorUnderTest apart;
+  for (std::uint32_t i = 0; i < 2 * Actuator::kMaxFeedbackGaps; ++i) {
+    apart.arm->status = rtm::comp::FaultKind::missing_feedback;
+    apart.arm->reason = "missing_feedback: drive 2 (S2): no TPDO for 26 consecutive SYNCs";
+    EXPECT_NO_THROW(apart.step(cmd)) << "gap " << i;
+    for (std::uint64_t c = 0; c <= Actuator::kFeedbackGapWindowCycles; ++c) apart.step();
+  }
+  EXPECT_EQ(apart.actuator->counters().feedback_gap_recoveries, 2 * Actuator::kMaxFeedbackGaps);
+}
+
+TEST(Actuator, EveryOtherLatchedFaultIsAComponentError) {
   using rtm::comp::FaultKind;
   for (const FaultKind kind :
        {FaultKind::drive_fault, FaultKind::drive_disabled, FaultKind::emergency, FaultKind::heartbeat_lost,
-        FaultKind::bus_error, FaultKind::missing_feedback, FaultKind::node_not_operational,
-        FaultKind::cycle_owner_lost, FaultKind::ik_failed}) {
+        FaultKind::bus_error, FaultKind::node_not_operational, FaultKind::ik_failed}) {
     ActuatorUnderTest t;
     t.step({0.01f, 0, 0, 0, 0, 0});
     t.arm->status = kind;

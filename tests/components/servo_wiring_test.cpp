@@ -275,6 +275,9 @@ struct BusLog {
   int orders = 0;
   std::atomic<int> transmits{0};
   std::atomic<bool> bus_lost{false};  // the bus master has taken its cycles back
+  std::atomic<int> take_overs{0};
+  std::vector<std::int64_t> take_over_called_ns;  // when each take_over() was called
+  std::vector<std::int64_t> transmit_ns;          // when each transmit the bus took ran
 };
 
 class LoggingArm final : public rtm::comp::VelocityArm {
@@ -306,6 +309,9 @@ rtm::comp::TickBusCycle logging_bus(BusLog& log) {
   rtm::comp::TickBusCycle bus;
   bus.take_over = [&log] {
     log.events.push_back("take_over");
+    log.take_over_called_ns.push_back(monotonic_ns());
+    log.bus_lost.store(false);  // the cycles are the caller's again
+    log.take_overs.fetch_add(1);
     log.take_over_ns = monotonic_ns() + 20'000'000;  // the bus's next cycle: 20 ms from now
     return log.take_over_ns;
   };
@@ -321,7 +327,9 @@ rtm::comp::TickBusCycle logging_bus(BusLog& log) {
   bus.transmit = [&log] {
     log.events.push_back("transmit");
     log.transmits.fetch_add(1);
-    return !log.bus_lost.load();
+    if (log.bus_lost.load()) return false;
+    log.transmit_ns.push_back(monotonic_ns());
+    return true;
   };
   return bus;
 }
@@ -417,24 +425,46 @@ TEST(SharedTickBusCycle, AFailingActuatorPutsTheServoInErrorAndHandsTheBusBackAf
   servo->deactivate();
 }
 
-TEST(SharedTickBusCycle, CyclesTakenBackByTheBusMasterFailTheServoWithoutAHandBack) {
+// A stall made the bus master take its cycles back (receive and transmit refused). The tick,
+// running again, takes them again (the servo's own cycle, run last in the tick as rtm-servo
+// runs it): from the deadline the master returns, skipping the bus halves of its cycles before
+// it (no period carries two SYNCs), and the servo stays on.
+TEST(SharedTickBusCycle, CyclesTakenBackByTheBusMasterAreTakenAgainFromTheDeadlineItReturns) {
   BusLog log;
-  auto servo = make_shared_servo("servo_lost", log, logging_bus(log));
-  servo->activate_members(test_orb());
-  servo->on_start();
+  auto component = make_shared_servo("servo_lost", log, logging_bus(log));
+  rtm::comp::SharedTickServo* shared = component.get();
+  shared->activate_members(test_orb());
+  PortableServer::Servant_var<rtm::ComponentServant> servo =
+      new rtm::ComponentServant(std::move(component), rtm::ExternalTick{});
+  servo->set_timing_source(&shared->tick());
+  shared->add_to_tick(servo->cycle_function());
+  RTM::RtComponentEx_var ref = servo->activate(test_orb());
+  servo->on();
   wait_for_transmits(log, 3);
-  const rtm::CycleContext ctx = comp_test::cycle(1);
-  EXPECT_NO_THROW(servo->on_cycle(ctx)) << "the bus is still the tick's";
   log.bus_lost.store(true);
-  wait_for_transmits(log, log.transmits.load() + 2);  // the tick has seen receive/transmit refused
-  try {
-    servo->on_cycle(ctx);
-    FAIL() << "no exception";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("took its cycles back"), std::string::npos) << e.what();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (log.take_overs.load() < 2 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ASSERT_EQ(log.take_overs.load(), 2) << "the cycles were not taken again";
+  // The fake's next cycle is 20 ms after the retake: the transmits counted from here on come
+  // after it.
+  wait_for_transmits(log, log.transmits.load() + 3);
+  EXPECT_EQ(servo->current_state(), RTM::COMPONENT_ON) << "a stall is survived: " << servo->error_text();
+  servo->off();
+  EXPECT_EQ(log.take_overs.load(), 2) << "taken again once";
+  ASSERT_EQ(log.take_over_called_ns.size(), 2u);
+  const std::int64_t retaken_ns = log.take_over_called_ns[1];
+  const std::int64_t resume_ns = log.take_over_ns;
+  int after_resume = 0;
+  for (const std::int64_t t : log.transmit_ns) {
+    EXPECT_FALSE(t > retaken_ns && t < resume_ns) << "a transmit " << (resume_ns - t) / 1000
+                                                  << " us before the deadline the master returned";
+    if (t >= resume_ns) ++after_resume;
   }
-  servo->on_stop();
-  EXPECT_TRUE(log.hand_backs.empty()) << "the cycles were not the tick's to hand back";
+  EXPECT_GE(after_resume, 3) << "the tick runs the bus cycles again";
+  ASSERT_EQ(log.hand_backs.size(), 1u) << "the retaken cycles are handed back at the stop";
+  EXPECT_GT(log.hand_backs[0], resume_ns);
+  servo->deactivate();
 }
 
 TEST(SharedTickBusCycle, AnIncompleteBusCycleOrOneWithAPhaseReferenceIsRefused) {

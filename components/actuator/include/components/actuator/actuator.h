@@ -77,6 +77,8 @@ struct ActuatorCounters {
   std::uint64_t watchdog_events = 0;    // commands stopped arriving (quick stop)
   std::uint64_t non_finite_events = 0;  // commands started holding NaN/inf (quick stop)
   std::uint64_t command_loss_recoveries = 0;  // drive RPDO timeouts reset and resumed from
+  std::uint64_t cycle_owner_recoveries = 0;   // bus cycles the master took back from a late tick, resumed from
+  std::uint64_t feedback_gap_recoveries = 0;  // drives silent for a few SYNCs (heartbeat still on), resumed from
   std::uint64_t not_ready_cycles = 0;   // the arm was not enabled (zero velocity)
   std::uint64_t sensor_heartbeat_losses = 0;      // a force sensor node fell silent
   std::uint64_t sensor_heartbeat_recoveries = 0;  // ... and was heard again within the budget
@@ -97,6 +99,11 @@ struct ActuatorCounters {
 
 class Actuator final : public rtm::Component {
  public:
+  // Feedback gaps resumed from (see recover_feedback_gap): this many within this many cycles
+  // of each other.
+  static constexpr std::uint32_t kMaxFeedbackGaps = 3;
+  static constexpr std::uint64_t kFeedbackGapWindowCycles = 2500;
+
   Actuator(std::string name, std::unique_ptr<VelocityArm> arm, ActuatorParams params);
 
   void on_start() override;
@@ -135,13 +142,23 @@ class Actuator final : public rtm::Component {
   // (throws).
   void retry_sensor_loss(bool faulted);
   void handle_arm_status(FaultKind status);
+  // Resets the arm and moves again on the next new command only (command loss, a lost cycle
+  // owner, a feedback gap), counting the event in `events`.
+  void resume_after(std::atomic<std::uint64_t>& events);
+  // A drive's TPDOs stopped for the master's missed-feedback limit while its heartbeat went on
+  // (a dead drive's heartbeat stops too: heartbeat_lost, an error): on the simulator a stall of
+  // its process does that. Resumed from up to kMaxFeedbackGaps times within
+  // kFeedbackGapWindowCycles of each other; one more is a drive that answers no SYNC (throws).
+  void recover_feedback_gap();
+  std::uint32_t feedback_gaps_in_window_ = 0;
+  std::uint64_t last_feedback_gap_cycle_ = 0;
   bool in_sensor_loss_ = false;
   std::uint32_t sensor_loss_cycles_ = 0;
   std::uint32_t sensor_clear_cycles_ = 0;  // fault-free cycles in a row since the last retry
   static constexpr std::uint32_t kSensorClearCycles = 10;
   std::atomic<std::uint64_t> cycles_{0}, commands_{0}, clamped_{0}, watchdog_events_{0}, non_finite_events_{0},
-      not_ready_cycles_{0}, command_loss_recoveries_{0}, sensor_heartbeat_losses_{0}, sensor_heartbeat_recoveries_{0},
-      sensor_reset_attempts_{0};
+      not_ready_cycles_{0}, command_loss_recoveries_{0}, cycle_owner_recoveries_{0}, feedback_gap_recoveries_{0},
+      sensor_heartbeat_losses_{0}, sensor_heartbeat_recoveries_{0}, sensor_reset_attempts_{0};
   rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>(
       "twist", {"velocity command for the tool, base frame; clamped to ±limit",
                 rtm::twist_elements()});

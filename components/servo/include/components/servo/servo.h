@@ -153,8 +153,10 @@ class SharedTickServo final : public rtm::Component {
   bool runs_bus_cycle() const { return bus_.set(); }
 
   void on_start() override;
-  // Runs in the tick after the members: a member in COMPONENT_ERROR, or a bus master that
-  // took its cycles back from the tick, fails the servo.
+  // Runs in the tick after the members: a member in COMPONENT_ERROR fails the servo. A bus
+  // master that took its cycles back from the tick (the tick sent no SYNC for too long: a
+  // stall) gets them taken again, from its next deadline on; the actuator resumes as from a
+  // command loss. Counted as bus_retakes.
   void on_cycle(const rtm::CycleContext&) override;
   void on_stop() override;
 
@@ -173,12 +175,18 @@ class SharedTickServo final : public rtm::Component {
   TickBusCycle bus_;
   std::atomic<bool> bus_taken_{false};
   std::atomic<bool> bus_lost_{false};  // the bus master took its cycles back from the tick
+  std::atomic<std::int64_t> bus_resume_ns_{0};  // after a retake: the first deadline whose cycle is the tick's
+  std::atomic<std::uint64_t> bus_retakes_{0};
   std::atomic<std::int64_t> last_transmit_deadline_ns_{0};
 
   // A stage after the bus transmit that stops the tick gives the bus cycles back first, due
   // on the next deadline: the drives miss no SYNC.
   rtm::CycleFunction handing_back_on_stop(rtm::CycleFunction cycle);
   void hand_back_bus(std::int64_t next_deadline_ns);
+  void retake_bus();
+  bool bus_cycle_is_mine(const rtm::CycleContext& ctx) const {
+    return ctx.deadline_ns >= bus_resume_ns_.load(std::memory_order_relaxed);
+  }
 };
 
 }  // namespace rtm::comp
