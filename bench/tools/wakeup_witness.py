@@ -1,31 +1,87 @@
 #!/usr/bin/python3
 # SPDX-License-Identifier: Apache-2.0
-"""A witness for host stalls: sleeps to a 1 ms absolute grid at SCHED_FIFO 25 for SECONDS and
-prints every wake-up more than 4 ms late with its wall-clock time, to set beside a run's events
-(e.g. the demo's watchdog events, which name their time). Needs root or CAP_SYS_NICE.
+"""A witness for host stalls: sleeps to an absolute grid at SCHED_FIFO for SECONDS (or until
+SIGINT/SIGTERM) and reports every wake-up later than the threshold with its wall-clock time, to
+set beside a run's events (e.g. the demo's watchdog events, which name their time).
 
-usage: bench/tools/wakeup_witness.py SECONDS
+At the highest priority (the default, 99) nothing of the run can hold it off: a late wake-up is
+the host (the hypervisor took the vCPU) or the kernel. A vCPU can stall alone, so the demo runs
+one witness pinned to each CPU. Needs root or CAP_SYS_NICE for the priority.
+
+usage: bench/tools/wakeup_witness.py [--cpu N] [--priority P] [--period-ms MS]
+                                     [--threshold-ms MS] [--out FILE] [SECONDS]
+
+Without --out: one summary line at the end (stalls over the threshold, default 4 ms). With
+--out FILE: each stall is appended to FILE as it is seen, one line
+"HH:MM:SS.mmm LATE_MS" (local time of the wake-up, as the components' logs stamp theirs), and
+the summary line goes to standard output.
 """
+import argparse
 import os
+import signal
 import sys
 import time
 
-seconds = float(sys.argv[1]) if len(sys.argv) > 1 else 45
-os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(25))
-period = 0.001
-start = time.monotonic()
-deadline = start + period
-stalls, wakeups, worst = [], 0, 0.0
-while time.monotonic() - start < seconds:
-    wait = deadline - time.monotonic()
-    if wait > 0:
-        time.sleep(wait)
-    late = time.monotonic() - deadline
-    worst = max(worst, late)
-    wakeups += 1
-    if late > 0.004:
-        stalls.append(f"{time.strftime('%H:%M:%S', time.gmtime())}.{int(time.time() % 1 * 1000):03d} UTC {late * 1000:.1f} ms")
-    deadline += period
-    if deadline < time.monotonic():  # after a stall: back on the grid, no burst
-        deadline = time.monotonic() + period
-print(f"{wakeups} wake-ups, worst {worst * 1000:.1f} ms late; over 4 ms late: {', '.join(stalls) or 'none'}")
+
+def main():
+    parser = argparse.ArgumentParser(description="host stall witness")
+    parser.add_argument("seconds", nargs="?", type=float, default=45.0)
+    parser.add_argument("--cpu", type=int, default=None, help="pin to this CPU")
+    parser.add_argument("--priority", type=int, default=99, help="SCHED_FIFO priority (1..99)")
+    parser.add_argument("--period-ms", type=float, default=1.0)
+    parser.add_argument("--threshold-ms", type=float, default=4.0)
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args()
+    if args.period_ms <= 0 or args.threshold_ms <= 0 or not 1 <= args.priority <= 99:
+        parser.error("want --period-ms > 0, --threshold-ms > 0 and --priority in 1..99")
+
+    if args.cpu is not None:
+        os.sched_setaffinity(0, {args.cpu})
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.priority))
+    except PermissionError:
+        print("wakeup_witness: SCHED_FIFO refused (needs root or CAP_SYS_NICE)", file=sys.stderr)
+        return 2
+
+    stop = False
+
+    def request_stop(*_):
+        nonlocal stop
+        stop = True
+
+    signal.signal(signal.SIGINT, request_stop)
+    signal.signal(signal.SIGTERM, request_stop)
+    out = open(args.out, "a", buffering=1) if args.out else None
+    period = args.period_ms / 1000
+    threshold = args.threshold_ms / 1000
+    start = time.monotonic()
+    deadline = start + period
+    stalls, wakeups, worst = [], 0, 0.0
+    while not stop and time.monotonic() - start < args.seconds:
+        wait = deadline - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
+        late = time.monotonic() - deadline
+        worst = max(worst, late)
+        wakeups += 1
+        if late > threshold:
+            now = time.time()
+            stamp = f"{time.strftime('%H:%M:%S', time.localtime(now))}.{int(now % 1 * 1000):03d}"
+            stalls.append(f"{stamp} {late * 1000:.1f} ms")
+            if out:
+                out.write(f"{stamp} {late * 1000:.1f}\n")
+        deadline += period
+        if deadline < time.monotonic():  # after a stall: back on the grid, no burst
+            deadline = time.monotonic() + period
+    where = f" on CPU {args.cpu}" if args.cpu is not None else ""
+    if out:
+        print(f"{wakeups} wake-ups{where}, worst {worst * 1000:.1f} ms late; "
+              f"{len(stalls)} over {args.threshold_ms:g} ms (in {args.out})")
+    else:
+        print(f"{wakeups} wake-ups{where}, worst {worst * 1000:.1f} ms late; over {args.threshold_ms:g} ms late: "
+              f"{', '.join(stalls) or 'none'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
