@@ -185,9 +185,11 @@ TEST_F(IntegrationTest, PublisherKeepsItsPeriodAndDropsASubscriberKilledMidStrea
   ASSERT_TRUE(eventually([&] { return pub->timing().cycles >= cycles_when_dropped + 250; }));
   const RTM::TimingStats after = pub->timing();
 
-  // A write that waited on the dead peer (1 s call timeout) would cost hundreds of overruns;
-  // the odd host stall costs a few.
-  EXPECT_LT(after.overruns - before.overruns, 20u) << "overruns " << before.overruns << " -> " << after.overruns;
+  // A write that waited on the dead peer would have held one cycle for the 1 s call timeout;
+  // the overrun count is left alone: on these hosts stalls of a few ms come every 100 ms or so.
+  EXPECT_LT(after.lateness_max_ns, 500'000'000u)
+      << "a cycle " << after.lateness_max_ns / 1'000'000 << " ms late; overruns " << before.overruns << " -> "
+      << after.overruns;
   EXPECT_EQ(pub->state(), RTM::COMPONENT_ON);
 }
 
