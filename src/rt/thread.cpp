@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 
 namespace rtm {
 
@@ -69,6 +70,18 @@ long current_slice_ns() {
   if (::syscall(SYS_sched_getattr, 0, &attr, sizeof attr, 0) != 0) return 0;
   return static_cast<long>(attr.runtime);
 }
+
+namespace {
+std::atomic<int> g_path_thread_priority{0};
+}  // namespace
+
+void set_path_thread_priority(int fifo_priority) {
+  if (fifo_priority < 0 || fifo_priority > 99)
+    throw std::invalid_argument("path thread priority " + std::to_string(fifo_priority) + ": want 0..99");
+  g_path_thread_priority.store(fifo_priority, std::memory_order_relaxed);
+}
+
+int path_thread_priority() { return g_path_thread_priority.load(std::memory_order_relaxed); }
 
 void apply_thread_settings(const ThreadSettings& settings) {
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);

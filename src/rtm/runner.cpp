@@ -145,8 +145,9 @@ SplitArguments split_orb_arguments(int argc, const char* const* argv) {
 namespace {
 
 // Started under chrt (SCHED_FIFO or SCHED_RR inherited): the activity keeps that priority
-// (unless --rt-priority says otherwise), and every other thread (the ORB's, the delivery
-// threads) runs at SCHED_OTHER, so that a request that costs much CPU cannot starve the loops
+// (unless --rt-priority says otherwise), and so do the CAN listeners' receive threads (see
+// set_path_thread_priority); every other thread (the ORB's, the delivery threads) runs at
+// SCHED_OTHER, so that a request that costs much CPU cannot starve the loops
 // or the machine. The main thread is switched back before any other thread exists.
 void keep_real_time_for_the_activity(RunSettings& settings) {
   int policy = SCHED_OTHER;
@@ -156,8 +157,8 @@ void keep_real_time_for_the_activity(RunSettings& settings) {
   if (settings.rt_priority == 0) settings.rt_priority = param.sched_priority;
   const sched_param other{};
   if (pthread_setschedparam(pthread_self(), SCHED_OTHER, &other) != 0) return;
-  log().info("{}: started with real-time priority {}: kept for its activity only (SCHED_FIFO {}); ORB and delivery "
-             "threads run at SCHED_OTHER", settings.name, param.sched_priority, settings.rt_priority);
+  log().info("{}: started with real-time priority {}: kept for its activity and its CAN receive threads (SCHED_FIFO "
+             "{}); ORB and delivery threads run at SCHED_OTHER", settings.name, param.sched_priority, settings.rt_priority);
 }
 
 // The options every OutPort of the component takes from the command line, as given.
@@ -315,6 +316,9 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   if (auto exit_status = parse_command_line(argc, argv, program, main, settings)) return *exit_status;
   if (settings.cpu >= 0 && main.pin_process_to_cpu) pin_process_to_cpu(settings.cpu);
   keep_real_time_for_the_activity(settings);
+  // Threads on the real-time path that are not the activity (a CAN listener's receive thread)
+  // take its priority; the ORB's and the delivery threads stay at SCHED_OTHER.
+  set_path_thread_priority(settings.rt_priority);
 
   // ---- bring up: access policy, certificates, ORB, component, servant, names ----
   configure_access(settings.access);

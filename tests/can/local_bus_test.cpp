@@ -12,13 +12,18 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <atomic>
 #include <chrono>
+#include <pthread.h>
+#include <sched.h>
 #include <cstring>
 #include <thread>
 #include <vector>
 
 #include "arm/can/bus.h"
 #include "arm/can/local_bus.h"
+#include "arm/can/receive_thread.h"
+#include "rt/thread.h"
 #include "test_paths.h"
 
 namespace rtm::can {
@@ -368,6 +373,46 @@ TEST(CanHubProcess, UsageErrorWithoutAPath) {
   int status = 0;
   ASSERT_EQ(::waitpid(pid, &status, 0), pid);
   EXPECT_EQ(WEXITSTATUS(status), 2);
+}
+
+// A sensor's frames reach its loop through a listener's receive thread: with a real-time
+// priority for the path (the runner sets it from --rt-priority or chrt), that thread runs at
+// it; without one, at SCHED_OTHER. Needs CAP_SYS_NICE for the first half.
+TEST(CanReceiveThread, RunsAtThePathPriorityWhenTheProcessHasOne) {
+  sched_param probe{};
+  probe.sched_priority = 1;
+  if (sched_setscheduler(0, SCHED_FIFO, &probe) != 0) GTEST_SKIP() << "SCHED_FIFO not allowed here";
+  const sched_param other{};
+  sched_setscheduler(0, SCHED_OTHER, &other);
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto sender = open_local(dir.file("bus"));
+  auto listener_bus = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 2; }));
+  for (const int priority : {17, 0}) {
+    set_path_thread_priority(priority);
+    std::atomic<int> policy{-1}, seen_priority{-1};
+    ReceiveThread receiver;
+    receiver.start(
+        *listener_bus,
+        [&](const can_frame&, std::int64_t) {
+          int p = 0;
+          sched_param param{};
+          pthread_getschedparam(pthread_self(), &p, &param);
+          seen_priority.store(param.sched_priority);
+          policy.store(p);
+        },
+        [](const BusError&) {});
+    ASSERT_TRUE(eventually([&] {
+      sender->send(frame(0x181, 1));
+      return policy.load() != -1;
+    }));
+    receiver.stop();
+    EXPECT_EQ(policy.load(), priority > 0 ? SCHED_FIFO : SCHED_OTHER) << priority;
+    EXPECT_EQ(seen_priority.load(), priority);
+  }
+  EXPECT_THROW(set_path_thread_priority(100), std::invalid_argument);
+  EXPECT_EQ(path_thread_priority(), 0);
 }
 
 }  // namespace

@@ -30,6 +30,13 @@ void apply_thread_settings(const ThreadSettings& settings);
 // 6.12 and later), 0 where it reports none or the call fails.
 long current_slice_ns();
 
+// The SCHED_FIFO priority of the threads on the real-time path that are not an activity: the
+// CAN listeners' receive threads, which hand a sensor's frames to its loop. 0 (SCHED_OTHER)
+// unless the process's runner set it, before building the component, from the real-time
+// priority of its activity. Thread-safe.
+void set_path_thread_priority(int fifo_priority);
+int path_thread_priority();
+
 // Names the calling thread (cut to 15 characters).
 void set_thread_name(std::string_view name);
 
