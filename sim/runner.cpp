@@ -16,6 +16,7 @@
 
 #include "arm/can/bus.h"
 #include "arm/can/local_bus.h"
+#include "rt/background_writer.h"
 #include "rt/clock.h"
 #include "rt/schedule.h"
 #include "rt/thread.h"
@@ -45,51 +46,60 @@ std::unique_ptr<rtm::can::Bus> open_or_host(const std::string& spec,
   return rtm::can::open_bus(spec);
 }
 
-// CSV of the state after each SYNC. Buffered by stdio (1 MiB): a write() about every few
-// thousand rows, not per cycle.
+// CSV of the state after each SYNC. Rows are formatted in the loop into a fixed buffer and
+// written by a thread of their own (rtm::BackgroundWriter): the loop never calls write() nor
+// waits for the disk; rows it could not hand over (the disk stalled for a whole buffer) are
+// dropped and counted in the summary.
 class CsvLog {
  public:
   explicit CsvLog(const std::string& path) {
     if (path.empty()) return;
-    file_ = std::fopen(path.c_str(), "w");
-    if (!file_) throw RunError("--log " + path + ": " + std::strerror(errno));
-    std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
-    std::fputs("time_s", file_);
-    for (const char* j : {"s1", "s2", "s3", "e1", "e2", "w1", "w2"}) std::fprintf(file_, ",q_%s_rad", j);
-    for (const char* j : {"s1", "s2", "s3", "e1", "e2", "w1", "w2"})
-      std::fprintf(file_, ",qd_%s_rad_s", j);
-    std::fputs(",tool_x_m,tool_y_m,tool_z_m,wrist_fx_N,wrist_fy_N,wrist_fz_N,wrist_tx_Nm,"
-               "wrist_ty_Nm,wrist_tz_Nm,joy_fx_N,joy_fy_N,joy_fz_N,joy_tx_Nm,joy_ty_Nm,"
-               "joy_tz_Nm\n",
-               file_);
+    try {
+      writer_ = std::make_unique<BackgroundWriter>(path);
+    } catch (const std::runtime_error& e) {
+      throw RunError(std::string("--log ") + e.what());
+    }
+    std::string header = "time_s";
+    for (const char* j : {"s1", "s2", "s3", "e1", "e2", "w1", "w2"}) header += std::string(",q_") + j + "_rad";
+    for (const char* j : {"s1", "s2", "s3", "e1", "e2", "w1", "w2"}) header += std::string(",qd_") + j + "_rad_s";
+    header += ",tool_x_m,tool_y_m,tool_z_m,wrist_fx_N,wrist_fy_N,wrist_fz_N,wrist_tx_Nm,"
+              "wrist_ty_Nm,wrist_tz_Nm,joy_fx_N,joy_fy_N,joy_fz_N,joy_tx_Nm,joy_ty_Nm,"
+              "joy_tz_Nm\n";
+    writer_->append(header);
   }
-  ~CsvLog() {
-    if (file_) std::fclose(file_);
-  }
-  CsvLog(const CsvLog&) = delete;
-  CsvLog& operator=(const CsvLog&) = delete;
 
   void row(Pa10Simulator& sim) {
-    if (!file_) return;
+    if (!writer_) return;
     Pa10Plant& plant = sim.plant();
-    std::fprintf(file_, "%.4f", static_cast<double>(sim.time_ns()) * 1e-9);
-    for (int j = 0; j < kJointCount; ++j) std::fprintf(file_, ",%.6f", plant.joint_state(j).position_rad);
-    for (int j = 0; j < kJointCount; ++j)
-      std::fprintf(file_, ",%.6f", plant.joint_state(j).velocity_rad_s);
-    for (double p : plant.tool_position_m()) std::fprintf(file_, ",%.6f", p);
-    write_wrench(plant.wrist_wrench(), sim.wrist_sensor().offset());
-    write_wrench(plant.joystick_wrench(), sim.joystick_sensor().offset());
-    std::fputc('\n', file_);
+    used_ = 0;
+    add("%.4f", static_cast<double>(sim.time_ns()) * 1e-9);
+    for (int j = 0; j < kJointCount; ++j) add(",%.6f", plant.joint_state(j).position_rad);
+    for (int j = 0; j < kJointCount; ++j) add(",%.6f", plant.joint_state(j).velocity_rad_s);
+    for (double p : plant.tool_position_m()) add(",%.6f", p);
+    add_wrench(plant.wrist_wrench(), sim.wrist_sensor().offset());
+    add_wrench(plant.joystick_wrench(), sim.joystick_sensor().offset());
+    line_[used_++] = '\n';  // add() leaves room for it
+    writer_->append(std::string_view(line_, used_));
   }
+
+  std::uint64_t dropped_rows() const { return writer_ ? writer_->dropped() : 0; }
 
  private:
-  void write_wrench(const Wrench& raw, const Wrench& offset) {
-    for (int i = 0; i < 3; ++i) std::fprintf(file_, ",%.3f", raw.force_N[i] - offset.force_N[i]);
-    for (int i = 0; i < 3; ++i)
-      std::fprintf(file_, ",%.4f", raw.torque_Nm[i] - offset.torque_Nm[i]);
+  // Appends one formatted number to the row (a fixed buffer: no allocation in the loop).
+  void add(const char* format, double value) {
+    const std::size_t room = sizeof line_ - 1 - used_;  // one byte kept for the newline
+    if (room <= 1) return;
+    const int n = std::snprintf(line_ + used_, room, format, value);
+    if (n > 0) used_ += std::min(room - 1, static_cast<std::size_t>(n));
+  }
+  void add_wrench(const Wrench& raw, const Wrench& offset) {
+    for (int i = 0; i < 3; ++i) add(",%.3f", raw.force_N[i] - offset.force_N[i]);
+    for (int i = 0; i < 3; ++i) add(",%.4f", raw.torque_Nm[i] - offset.torque_Nm[i]);
   }
 
-  std::FILE* file_ = nullptr;
+  std::unique_ptr<BackgroundWriter> writer_;
+  char line_[1024] = {};
+  std::size_t used_ = 0;
 };
 
 // Non-blocking line reader for stdin wrench commands.
@@ -255,6 +265,9 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
   if (!options.quiet)
     print_summary(sim, sink.dropped() + (sensor_sink ? sensor_sink->dropped() : 0),
                   options.lock_step ? nullptr : &schedule);
+  if (const std::uint64_t lost = log.dropped_rows(); lost > 0)
+    std::fprintf(stderr, "pa10-sim: --log %s: %llu rows dropped (the disk kept the writer busy for a whole buffer)\n",
+                 options.log_path.c_str(), static_cast<unsigned long long>(lost));
 }
 
 }  // namespace rtm::sim

@@ -115,6 +115,9 @@ std::int64_t Pa10Master::take_over_cycles() {
     rtm::PeriodicOptions options;
     options.period_ns = config.period_ns;
     options.thread_name = "pa10-syncwatch";
+    // At the master's priority: beside ordinary work it still wakes on time, so a tick that
+    // sends no SYNC is told from a stall of the whole host (when this thread is late too).
+    options.fifo_priority = config.realtime_priority;
     options.first_deadline_ns =
         (handover_deadline_ns_ > 0 ? handover_deadline_ns_ : monotonic_ns()) + options.period_ns + options.period_ns / 2;
     silent_periods_ = 0;

@@ -4,12 +4,17 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "arm/can/bus.h"
+#include "arm/can/protocol.h"
 #include "rtm_test/child_process.h"
 
 using namespace std::chrono_literals;
@@ -100,6 +105,41 @@ TEST(Pa10SimCli, SigtermStopsItCleanlyAndRemovesTheHubSocket) {
   ASSERT_TRUE(status.has_value());
   EXPECT_TRUE(status->clean()) << status->to_string();
   EXPECT_FALSE(std::filesystem::exists(bus));
+}
+
+// --log: one CSV row per SYNC the drives saw, written by a thread of its own; after SIGTERM
+// the file holds the header and whole rows with as many fields as it names.
+TEST(Pa10SimCli, TheLogHoldsAHeaderAndOneWholeRowPerSyncSeen) {
+  const std::string bus = temp_path("d.bus");
+  const std::string log = temp_path("d.csv");
+  rtm_test::ChildProcess sim({PA10_SIM_EXE, "--bus", "local:" + bus, "--log", log});
+  sim.wait_for_line("pa10-sim: ready", 20s);
+  auto master = rtm::can::open_bus("local:" + bus);
+  for (int i = 0; i < 50; ++i) {
+    ASSERT_TRUE(master->send(*rtm::can::encode_sync(static_cast<std::uint8_t>(i % 240 + 1))));
+    std::this_thread::sleep_for(2ms);
+  }
+  sim.send_signal(SIGTERM);
+  const auto status = sim.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(status->clean()) << status->to_string() << sim.output();
+  std::ifstream in(log);
+  std::string header;
+  ASSERT_TRUE(std::getline(in, header));
+  EXPECT_EQ(header.rfind("time_s,q_s1_rad", 0), 0u) << header;
+  const auto fields = [](const std::string& line) { return std::count(line.begin(), line.end(), ',') + 1; };
+  int rows = 0;
+  double last_time = -1;
+  for (std::string row; std::getline(in, row); ++rows) {
+    EXPECT_EQ(fields(row), fields(header)) << "row " << rows << ": " << row;
+    const double t = std::stod(row);
+    EXPECT_GE(t, last_time) << "row " << rows;  // two SYNCs can fall in one 1 ms step
+    last_time = t;
+  }
+  EXPECT_GE(rows, 1) << "no row for 50 SYNCs";
+  EXPECT_LE(rows, 50);
+  EXPECT_EQ(sim.output().find("rows dropped"), std::string::npos) << sim.output();
+  std::filesystem::remove(log);
 }
 
 }  // namespace
