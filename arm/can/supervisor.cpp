@@ -115,7 +115,6 @@ DriveSummary Supervisor::check_drives(const std::array<bool, kDriveCount>& got,
                                       std::int64_t now_ns, bool count_silence) {
   DriveSummary summary;
   summary.all_quick_stopped = quick_stop_;
-  bool all_operation_enabled = true;
   const bool quick_stop_ok = quick_stop_expected(now_ns);
   for (int j = 0; j < kDriveCount; ++j) {
     const auto i = static_cast<std::size_t>(j);
@@ -132,12 +131,12 @@ DriveSummary Supervisor::check_drives(const std::array<bool, kDriveCount>& got,
     // not enabled; a drive silent for missed_feedback_limit SYNCs is a fault (above).
     summary.all_enabled = summary.all_enabled && enabled;
     summary.all_quick_stopped = summary.all_quick_stopped && quick_stopped;
-    all_operation_enabled = all_operation_enabled && state == DriveState::operation_enabled;
     if (enabling_ || !started_ || enabled || fault_.active()) continue;
     check_drive(j, statusword[i]);
   }
-  if (!quick_stop_ && quick_stop_release_deadline_ns_ != 0 && all_operation_enabled)
-    quick_stop_release_deadline_ns_ = 0;
+  // The grace after a released quick stop (quick_stop_expected) runs to its deadline even once
+  // every drive reported operation enabled: a TPDO late by a stall can still carry the quick
+  // stop active state of a SYNC before the release.
   check_recovery(statusword, summary.all_enabled, now_ns);
   return summary;
 }

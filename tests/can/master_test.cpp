@@ -20,6 +20,7 @@
 
 #include "arm/can/local_bus.h"
 #include "arm/can/sensor_listener.h"
+#include "arm/can/supervisor.h"
 #include "rtm_test/allocation_counter.h"
 #include "master_rig.h"
 
@@ -364,6 +365,37 @@ TEST(Pa10Master, SilenceInWindowsTheMasterClosedLateIsNotCountedAsMissingFeedbac
   }
   EXPECT_EQ(rig.master->fault().kind, FaultKind::missing_feedback) << rig.master->fault().reason;
   EXPECT_THAT(rig.master->fault().reason, HasSubstr("drive 4 (E1)"));
+}
+
+// After a quick stop the master released, a drive still reporting quick stop active is where
+// the master put it, for the whole grace (enable_timeout_ns): the answer can be one that a stall
+// made late, carrying the state of a SYNC before the release, even after every drive already
+// reported operation enabled. Past the grace it is a drive that left operation enabled.
+TEST(Supervisor, AQuickStopActiveAnswerWithinTheGraceAfterTheReleaseIsNoFaultAfterItIs) {
+  const MasterConfig config = test_config();
+  std::array<bool, 128> expected{};
+  for (int j = 0; j < kDriveCount; ++j) expected[drive_node(j)] = true;
+  Supervisor supervisor(config, expected);
+  std::int64_t t = 1'000'000'000;
+  supervisor.on_nmt_start(t);
+  supervisor.enabled_at_startup();
+  std::array<bool, kDriveCount> got{};
+  got.fill(true);
+  std::array<std::uint16_t, kDriveCount> enabled{}, quick_stopped{};
+  enabled.fill(statusword::kOperationEnabled);
+  quick_stopped.fill(statusword::kQuickStopActive);
+  supervisor.check_drives(got, enabled, t += 2'000'000, true);
+  supervisor.take_quick_stop(true, t);
+  supervisor.check_drives(got, quick_stopped, t += 2'000'000, true);
+  supervisor.take_quick_stop(false, t);
+  supervisor.check_drives(got, enabled, t += 2'000'000, true);  // every drive enabled again
+  std::array<std::uint16_t, kDriveCount> late = enabled;
+  late[0] = statusword::kQuickStopActive;  // S1's answer to a SYNC before the release, late
+  supervisor.check_drives(got, late, t += 2'000'000, true);
+  EXPECT_FALSE(supervisor.faulted()) << supervisor.fault().reason.data();
+  supervisor.check_drives(got, late, t += config.enable_timeout_ns, true);
+  EXPECT_EQ(supervisor.fault().kind, FaultKind::drive_disabled);
+  EXPECT_THAT(std::string(supervisor.fault().reason.data()), HasSubstr("drive 1 (S1)"));
 }
 
 TEST(Pa10Master, ATpdoMissingForOneSyncKeepsTheDrivesEnabledAndTheTargetFlowing) {
