@@ -351,6 +351,23 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_servo(const std::string&
       rtm::PeriodicOptions{}, std::move(phase), std::move(bus));
 }
 
+// As rtm-servo runs it: a shared-tick servo on the logging bus whose own servant runs last in
+// the tick and reports its members; activated.
+struct ServoInTick {
+  rtm::comp::SharedTickServo* shared = nullptr;
+  PortableServer::Servant_var<rtm::ComponentServant> servo;
+  RTM::RtComponentEx_var ref;
+  ServoInTick(const std::string& name, BusLog& log) {
+    auto component = make_shared_servo(name, log, logging_bus(log));
+    shared = component.get();
+    shared->activate_members(test_orb());
+    servo = new rtm::ComponentServant(std::move(component), rtm::ExternalTick{});
+    servo->set_timing_source(&shared->tick());
+    shared->add_to_tick(servo->cycle_function());
+    ref = servo->activate(test_orb());
+  }
+};
+
 void wait_for_transmits(BusLog& log, int n) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (log.transmits.load() < n && std::chrono::steady_clock::now() < deadline)
@@ -391,15 +408,9 @@ TEST(SharedTickBusCycle, EachTickReceivesThenCommandsThenTransmitsFromTheDeadlin
 TEST(SharedTickBusCycle, AFailingActuatorPutsTheServoInErrorAndHandsTheBusBackAfterItsZeroCommandLeft) {
   BusLog log;
   log.fail_on_order = 4;
-  auto component = make_shared_servo("servo_fail", log, logging_bus(log));
-  rtm::comp::SharedTickServo* shared = component.get();
-  shared->activate_members(test_orb());
-  // As rtm-servo does: the servo's own servant runs last in the tick and reports members.
-  PortableServer::Servant_var<rtm::ComponentServant> servo =
-      new rtm::ComponentServant(std::move(component), rtm::ExternalTick{});
-  servo->set_timing_source(&shared->tick());
-  shared->add_to_tick(servo->cycle_function());
-  RTM::RtComponentEx_var ref = servo->activate(test_orb());
+  ServoInTick in_tick("servo_fail", log);
+  rtm::comp::SharedTickServo* shared = in_tick.shared;
+  rtm::ComponentServant* servo = in_tick.servo.in();
   servo->on();
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while ((servo->current_state() != RTM::COMPONENT_ERROR || shared->tick().running()) &&
@@ -431,14 +442,8 @@ TEST(SharedTickBusCycle, AFailingActuatorPutsTheServoInErrorAndHandsTheBusBackAf
 // it (no period carries two SYNCs), and the servo stays on.
 TEST(SharedTickBusCycle, CyclesTakenBackByTheBusMasterAreTakenAgainFromTheDeadlineItReturns) {
   BusLog log;
-  auto component = make_shared_servo("servo_lost", log, logging_bus(log));
-  rtm::comp::SharedTickServo* shared = component.get();
-  shared->activate_members(test_orb());
-  PortableServer::Servant_var<rtm::ComponentServant> servo =
-      new rtm::ComponentServant(std::move(component), rtm::ExternalTick{});
-  servo->set_timing_source(&shared->tick());
-  shared->add_to_tick(servo->cycle_function());
-  RTM::RtComponentEx_var ref = servo->activate(test_orb());
+  ServoInTick in_tick("servo_lost", log);
+  rtm::ComponentServant* servo = in_tick.servo.in();
   servo->on();
   wait_for_transmits(log, 3);
   log.bus_lost.store(true);
