@@ -560,8 +560,17 @@ std::vector<FigureVerdict> evaluate_figures(const Report& report, const PhaseOpt
 
   const std::string watchdog_limit = fmt::format("<= {:g}", limits.max_watchdog_events);
   if (const auto w = find_statistic(report.timing, "watchdog_events")) {
-    verdicts.push_back({"watchdog events", fmt::format("{} ({})", statistic_text(w->statistic), w->component),
-                        watchdog_limit, w->statistic.value <= limits.max_watchdog_events});
+    const double explained = limits.explained_watchdog_events;
+    if (explained < 0) {
+      verdicts.push_back({"watchdog events", fmt::format("{} ({})", statistic_text(w->statistic), w->component),
+                          watchdog_limit, w->statistic.value <= limits.max_watchdog_events});
+    } else {
+      const double unexplained = std::max(0.0, w->statistic.value - explained);
+      verdicts.push_back({"watchdog events",
+                          fmt::format("{:g} not explained by a host stall, of {} ({})", unexplained,
+                                      statistic_text(w->statistic), w->component),
+                          watchdog_limit, unexplained <= limits.max_watchdog_events});
+    }
   } else {
     verdicts.push_back({"watchdog events", "not measured: no component reports watchdog_events", watchdog_limit, false});
   }

@@ -132,7 +132,8 @@ PhaseSummary summarize(const std::vector<Sample>& samples, const Phase& phase,
 //    reference exceeds the contact threshold) to the end of the recording, the number of
 //    times |force along that phase's reference| crosses release_level_N in either direction.
 //    One (a single lift) is the clean case; the recording must also end lifted.
-// 5. Watchdog events: the statistic "watchdog_events" a component (the actuator) publishes.
+// 5. Watchdog events: the statistic "watchdog_events" a component (the actuator) publishes,
+//    less those a host stall explains when the demo's witness classified them.
 // A figure that cannot be measured (no touch-down, no step in contact, no press, no
 // watchdog statistic) is reported as such and counts as missed.
 
@@ -143,6 +144,9 @@ struct FigureLimits {
   double release_level_N = 0.5;            // |force| level whose crossings count at release
   int max_release_transitions = 2;         // crossings of that level after the last press
   double max_watchdog_events = 0;
+  // Of the watchdog events, those a host stall explains (the demo's wake-up witness saw one
+  // overlapping the event): the limit then applies to the others. -1: not classified.
+  double explained_watchdog_events = -1;
 };
 
 struct TouchDown {

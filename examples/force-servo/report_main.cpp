@@ -39,6 +39,10 @@ void add_figure_options(CLI::App& app, rtm::demo::PhaseOptions& options, rtm::de
       ->capture_default_str()->check(CLI::NonNegativeNumber);
   app.add_option("--max-watchdog-events", limits.max_watchdog_events, "limit on the actuator's watchdog events")
       ->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--explained-watchdog-events", limits.explained_watchdog_events,
+                 "of the watchdog events, those a host stall explains (the demo's witness): the limit applies to "
+                 "the others")
+      ->check(CLI::NonNegativeNumber);
 }
 
 }  // namespace

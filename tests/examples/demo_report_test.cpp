@@ -542,6 +542,16 @@ TEST(DemoReportFigures, WatchdogEventsAreMissed) {
   EXPECT_EQ(v.limit, "<= 0");
   const auto missed = rtm::demo::missed_figures(report, PhaseOptions{});
   EXPECT_NE(std::find(missed.begin(), missed.end(), "watchdog events: 3 (actuator0) (limit <= 0)"), missed.end());
+  // Classified by the demo's witness: the limit applies to the events no host stall explains.
+  rtm::demo::FigureLimits classified;
+  classified.explained_watchdog_events = 3;
+  const auto all_explained = verdict(rtm::demo::evaluate_figures(report, PhaseOptions{}, classified), "watchdog events");
+  EXPECT_TRUE(all_explained.ok) << all_explained.value;
+  EXPECT_EQ(all_explained.value, "0 not explained by a host stall, of 3 (actuator0)");
+  classified.explained_watchdog_events = 1;
+  const auto some = verdict(rtm::demo::evaluate_figures(report, PhaseOptions{}, classified), "watchdog events");
+  EXPECT_FALSE(some.ok);
+  EXPECT_EQ(some.value, "2 not explained by a host stall, of 3 (actuator0)");
   // No component reporting the statistic: not measured, so not ok either.
   auto unknown = report_of(samples);
   unknown.timing.clear();
