@@ -2,6 +2,10 @@
 #include "components/joystick/joystick.h"
 
 #include "rtm/data.h"
+#include "rtm/log.h"
+
+#include <fmt/format.h>
+#include <spdlog/logger.h>
 
 #include <stdexcept>
 
@@ -29,15 +33,55 @@ Joystick::Joystick(std::string name, std::unique_ptr<JoystickSource> source)
   set_description("force-sensor joystick: the operator's force is the reference wrench");
   add_statistic("samples", "", "reference wrenches written",
                 [this] { return static_cast<double>(written_.load(std::memory_order_relaxed)); });
+  add_counter("heartbeat_losses", "the joystick node's heartbeat went silent (nothing written meanwhile)",
+              heartbeat_losses_);
+  add_counter("heartbeat_recoveries", "... and it was heard again with a new wrench within the budget",
+              heartbeat_recoveries_);
 }
 
-void Joystick::on_start() { last_sequence_ = source_->latest().sequence; }
+void Joystick::on_start() {
+  last_sequence_ = source_->latest().sequence;
+  lost_ = false;  // a loss still under way is seen again, and counted anew, in the first cycle
+}
+
+void Joystick::check_fault(const JoystickReading& reading) {
+  const std::string why = source_->fault();
+  if (why.empty()) return;
+  if (!source_->heartbeat_lost()) throw std::runtime_error(why);
+  lost_ = true;
+  lost_cycles_ = 0;
+  loss_sequence_ = reading.sequence;  // wrenches up to this one may be from before the loss
+  const std::uint64_t event = heartbeat_losses_.fetch_add(1, std::memory_order_relaxed) + 1;
+  log().warn("{}: {}: writing nothing until it is heard again with a new wrench, for at most {} cycles "
+             "(heartbeat loss {})",
+             name(), why, kHeartbeatRecoveryPeriods, event);
+}
+
+bool Joystick::back_from_loss(const JoystickReading& reading, bool fresh) {
+  if (fresh && reading.sequence > loss_sequence_ && !source_->heartbeat_lost()) {
+    lost_ = false;
+    const std::uint64_t event = heartbeat_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
+    log().info("{}: the joystick node is heard again after {} cycles: writing again (recovery {})", name(),
+               lost_cycles_, event);
+    return true;
+  }
+  if (++lost_cycles_ < kHeartbeatRecoveryPeriods) {
+    if (!source_->heartbeat_lost()) {
+      const std::string why = source_->fault();  // another fault meanwhile: no stall
+      if (!why.empty()) throw std::runtime_error(why);
+    }
+    return false;
+  }
+  throw std::runtime_error(fmt::format("{}: joystick node not heard again with a new wrench within {} cycles",
+                                       name(), kHeartbeatRecoveryPeriods));
+}
 
 void Joystick::on_cycle(const rtm::CycleContext&) {
   const JoystickReading reading = source_->latest();
-  if (!reading.valid || reading.sequence == last_sequence_) {
-    const std::string why = source_->fault();
-    if (!why.empty()) throw std::runtime_error(why);
+  const bool fresh = reading.valid && reading.sequence != last_sequence_;
+  if (lost_ && !back_from_loss(reading, fresh)) return;
+  if (!fresh) {
+    check_fault(reading);
     return;
   }
   last_sequence_ = reading.sequence;

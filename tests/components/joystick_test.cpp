@@ -16,8 +16,10 @@ class FakeJoystickSource final : public rtm::comp::JoystickSource {
  public:
   rtm::comp::JoystickReading reading;
   std::string why;
+  bool silent = false;  // the fault is a heartbeat loss
   rtm::comp::JoystickReading latest() const override { return reading; }
   std::string fault() const override { return why; }
+  bool heartbeat_lost() const override { return silent; }
 };
 
 struct JoystickUnderTest {
@@ -63,6 +65,57 @@ TEST(Joystick, SourceFaultThrowsTheReason) {
   t.joystick->on_start();
   t.source->why = "joystick sensor 0x11: EMCY 0x7300";
   EXPECT_THROW(t.joystick->on_cycle(cycle(0)), std::runtime_error);
+}
+
+// A silent joystick node (the simulator's process stalled) is waited out: nothing is written
+// meanwhile, not even a wrench read before the loss; heard again with a newer one, the
+// joystick writes again, the loss and the recovery counted once each.
+TEST(Joystick, AHeartbeatGapIsWaitedOutAndTheJoystickWritesAgainWhenHeard) {
+  JoystickUnderTest t;
+  t.joystick->on_start();
+  t.push({1, 0, 0, 0, 0, 0});
+  t.joystick->on_cycle(cycle(0));
+  ASSERT_EQ(t.joystick->samples_written(), 1u);
+  t.source->why = "joystick sensor 0x11: no heartbeat for 301 ms";
+  t.source->silent = true;
+  for (int i = 1; i < 50; ++i) EXPECT_NO_THROW(t.joystick->on_cycle(cycle(i))) << i;
+  EXPECT_EQ(t.joystick->heartbeat_losses(), 1u);
+  t.source->why.clear();
+  t.source->silent = false;
+  t.joystick->on_cycle(cycle(50));
+  EXPECT_EQ(t.joystick->samples_written(), 1u) << "heard again, but no new wrench yet";
+  t.push({-2, 0, 0, 0, 0, 0});
+  t.joystick->on_cycle(cycle(51));
+  EXPECT_EQ(t.joystick->samples_written(), 2u);
+  EXPECT_EQ(t.joystick->heartbeat_recoveries(), 1u);
+  RTM::TimedFloat6 out{};
+  ASSERT_TRUE(t.joystick->out().latest(out));
+  EXPECT_EQ(out.val[0], -2.0f);
+}
+
+TEST(Joystick, AHeartbeatGapLongerThanTheBudgetIsAnError) {
+  JoystickUnderTest t;
+  t.joystick->on_start();
+  t.source->why = "joystick sensor 0x11: no heartbeat for 301 ms";
+  t.source->silent = true;
+  std::uint64_t n = 0;
+  for (; n < rtm::comp::Joystick::kHeartbeatRecoveryPeriods; ++n)
+    ASSERT_NO_THROW(t.joystick->on_cycle(cycle(n))) << n;
+  try {
+    t.joystick->on_cycle(cycle(n));
+    FAIL() << "no error after the budget";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not heard again"), std::string::npos) << e.what();
+  }
+  // Another fault while the node is silent-then-back is no stall: thrown at once.
+  JoystickUnderTest other;
+  other.joystick->on_start();
+  other.source->why = "joystick sensor 0x11: no heartbeat for 301 ms";
+  other.source->silent = true;
+  other.joystick->on_cycle(cycle(0));
+  other.source->why = "joystick sensor 0x11: EMCY 0x7300";
+  other.source->silent = false;
+  EXPECT_THROW(other.joystick->on_cycle(cycle(1)), std::runtime_error);
 }
 
 }  // namespace

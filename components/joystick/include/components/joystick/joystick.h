@@ -36,6 +36,8 @@ class JoystickSource {
   virtual ~JoystickSource() = default;
   virtual JoystickReading latest() const = 0;  // never blocks
   virtual std::string fault() const = 0;       // "" when healthy; asked only when nothing new came
+  // The fault is the node's silence (it clears by itself when the node is heard again).
+  virtual bool heartbeat_lost() const { return false; }
 };
 
 // Reads the Pa10Master of this process (it listens to the joystick node too).
@@ -55,6 +57,9 @@ class BusJoystickSource final : public JoystickSource {
   explicit BusJoystickSource(std::string_view bus_spec);
   JoystickReading latest() const override;
   std::string fault() const override { return listener_.fault(); }
+  bool heartbeat_lost() const override {
+    return listener_.fault_kind() == rtm::can::FaultKind::heartbeat_lost;
+  }
 
  private:
   rtm::can::SensorListener listener_;
@@ -62,6 +67,11 @@ class BusJoystickSource final : public JoystickSource {
 
 class Joystick final : public rtm::Component {
  public:
+  // A silent joystick node (a host stall of the simulator, a loose cable) is waited out this
+  // many cycles, writing nothing (the controller's reference goes stale and the arm brakes);
+  // heard again with a newer wrench, the joystick writes again. Longer: an error.
+  static constexpr std::uint32_t kHeartbeatRecoveryPeriods = 1000;
+
   Joystick(std::string name, std::unique_ptr<JoystickSource> source);
 
   void on_start() override;
@@ -70,10 +80,21 @@ class Joystick final : public rtm::Component {
 
   rtm::OutPort<RTM::TimedFloat6>& out() { return out_; }
   std::uint64_t samples_written() const { return written_.load(std::memory_order_relaxed); }
+  std::uint64_t heartbeat_losses() const { return heartbeat_losses_.load(std::memory_order_relaxed); }
+  std::uint64_t heartbeat_recoveries() const { return heartbeat_recoveries_.load(std::memory_order_relaxed); }
 
  private:
+  // Nothing new came: the source's fault, if any, starts a heartbeat loss or is thrown.
+  void check_fault(const JoystickReading& reading);
+  // In a loss: true once the node is heard again with a wrench newer than the loss.
+  bool back_from_loss(const JoystickReading& reading, bool fresh);
+
   std::unique_ptr<JoystickSource> source_;
   std::uint64_t last_sequence_ = 0;
+  bool lost_ = false;
+  std::uint32_t lost_cycles_ = 0;
+  std::uint64_t loss_sequence_ = 0;
+  std::atomic<std::uint64_t> heartbeat_losses_{0}, heartbeat_recoveries_{0};
   RTM::TimedFloat6 datum_{};
   std::atomic<std::uint64_t> written_{0};
   rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>(
