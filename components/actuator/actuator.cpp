@@ -62,7 +62,8 @@ void Actuator::describe_self() {
   add_counter("command_loss_recoveries", "drive RPDO timeouts reset and resumed from", command_loss_recoveries_);
   add_counter("cycle_owner_recoveries", "bus cycles the master took back from a late tick, reset and resumed from",
               cycle_owner_recoveries_);
-  add_counter("feedback_gap_recoveries", "drives silent for a few SYNCs with their heartbeat on, reset and resumed from",
+  add_counter("feedback_gap_recoveries",
+              "drives silent for a few SYNCs with their heartbeat on, reset and resumed from",
               feedback_gap_recoveries_);
   add_counter("not_ready_cycles", "cycles the arm was not enabled (zero velocity)", not_ready_cycles_);
   add_counter("sensor_heartbeat_losses", "a force sensor node fell silent (drives stopped, retried)",
@@ -274,11 +275,12 @@ void Actuator::on_stop() {
   const ActuatorCounters c = counters();
   log().info(
       "{}: off, zero velocity. cycles {}, commands {}, clamped {}, watchdog events {}, non-finite events {}, "
-      "command-loss recoveries {}, cycle-owner recoveries {}, feedback-gap recoveries {}, not-ready cycles {}, sample-to-master handover p50 {} us p99 {} us max {} us, "
+      "command-loss recoveries {}, cycle-owner recoveries {}, feedback-gap recoveries {}, not-ready cycles {}, "
+      "sample-to-master handover p50 {} us p99 {} us max {} us, "
       "sample-to-drive latency p50 {} us p99 {} us max {} us ({} commands seen leaving for the bus)",
       name(), c.cycles, c.commands, c.clamped, c.watchdog_events, c.non_finite_events, c.command_loss_recoveries,
-      c.cycle_owner_recoveries, c.feedback_gap_recoveries, c.not_ready_cycles, c.handover_p50_ns / 1000, c.handover_p99_ns / 1000, c.handover_max_ns / 1000,
-      c.latency_p50_ns / 1000, c.latency_p99_ns / 1000, c.latency_max_ns / 1000, c.latency_samples);
+      c.cycle_owner_recoveries, c.feedback_gap_recoveries, c.not_ready_cycles, c.handover_p50_ns / 1000,
+      c.handover_p99_ns / 1000, c.handover_max_ns / 1000, c.latency_p50_ns / 1000, c.latency_p99_ns / 1000, c.latency_max_ns / 1000, c.latency_samples);
 }
 
 ActuatorCounters Actuator::counters() const {

@@ -122,8 +122,8 @@ std::int64_t parse_period_ns(std::string_view text) {
 std::int64_t parse_phase_ns(std::string_view text, std::int64_t period_ns) {
   const std::optional<double> ns = parse_duration_ns(text);
   if (!ns || *ns < 0 || std::llround(*ns) >= period_ns) {
-    throw std::invalid_argument(fmt::format("phase '{}': want a duration from 0 to less than the period ({} us), e.g. 0.5ms",
-                                            text, period_ns / 1000));
+    throw std::invalid_argument(fmt::format(
+        "phase '{}': want a duration from 0 to less than the period ({} us), e.g. 0.5ms", text, period_ns / 1000));
   }
   return std::llround(*ns);
 }
@@ -158,7 +158,8 @@ void keep_real_time_for_the_activity(RunSettings& settings) {
   const sched_param other{};
   if (pthread_setschedparam(pthread_self(), SCHED_OTHER, &other) != 0) return;
   log().info("{}: started with real-time priority {}: kept for its activity and its CAN receive threads (SCHED_FIFO "
-             "{}); ORB and delivery threads run at SCHED_OTHER", settings.name, param.sched_priority, settings.rt_priority);
+             "{}); ORB and delivery threads run at SCHED_OTHER",
+             settings.name, param.sched_priority, settings.rt_priority);
 }
 
 // The options every OutPort of the component takes from the command line, as given.
