@@ -319,11 +319,17 @@ TEST_F(RtmCli, WatchStreamsDataThenUnsubscribes) {
     }
     ++data;
     const double v0 = j["values"][0];
-    EXPECT_GT(v0, previous) << "data arrive in order";
+    if (previous >= 0) {
+      EXPECT_EQ(v0, previous + 1) << "every datum, in the order written";
+    }
     previous = v0;
   }
   EXPECT_EQ(data, 50);
   EXPECT_EQ(summary["received"], 50);
+  // One user, one host: the watch reads the port's shared-memory ring, no call per datum.
+  EXPECT_EQ(summary["path"], "shared memory");
+  EXPECT_GE(summary["shared_memory"].get<int>(), 50);
+  EXPECT_EQ(summary["dropped_display"], 0);
   std::ifstream csv_in(csv);
   int csv_lines = 0;
   for (std::string line; std::getline(csv_in, line);) ++csv_lines;
@@ -339,6 +345,10 @@ TEST_F(RtmCli, WatchUnsubscribesOnCtrlC) {
   opts.echo_output = false;
   ChildProcess watcher({RTM_CLI_PATH, "--naming", names_.address(), "watch", "t.force"}, opts);
   watcher.wait_for_line("T", 10s);  // first datum line carries an ISO time stamp
+  const json subs = (*port(rtm_json({"cat", "t"}), "force"))["subscriptions"];
+  ASSERT_EQ(subs.size(), 1u);
+  EXPECT_EQ(subs[0]["peer"], "rtm-watch-" + std::to_string(watcher.pid()) + ".in");
+  EXPECT_EQ(subs[0]["path"], "shared memory");
   watcher.send_signal(SIGINT);
   auto status = watcher.wait_for_exit(10s);
   ASSERT_TRUE(status.has_value());

@@ -124,25 +124,27 @@ struct WatchSubscription {
   }
 };
 
+// path: how the data came, "shared memory" (the publisher's ring) or "CORBA" (a put each).
 void print_summary(const ResolvedPort& port, const WatchSubscription& sub, std::uint64_t shown, double elapsed,
-                   unsigned long long dropped_publisher, bool as_json) {
+                   unsigned long long dropped_publisher, const char* path, bool as_json) {
   if (as_json) {
     fmt::print("{}\n", json{{"summary",
                              {{"port", port.address},
+                              {"path", path},
                               {"received", shown},
                               {"seconds", elapsed},
                               {"dropped_publisher", dropped_publisher},
                               {"dropped_display", sub.servant->overflowed()},
+                              {"shared_memory", sub.servant->shared_memory()},
                               {"dropped_late", sub.servant->late()},
                               {"rejected", sub.servant->rejected()}}}}
                            .dump());
     return;
   }
   fmt::print(stderr,
-             "{}: received {} in {:.2f} s ({:.1f} Hz), dropped {} by the publisher, {} by the display, {} late "
-             "(after a later one), {} of a wrong type\n",
-             port.address, shown, elapsed, elapsed > 0 ? shown / elapsed : 0.0, dropped_publisher,
-             sub.servant->overflowed(), sub.servant->late(), sub.servant->rejected());
+             "{}: received {} in {:.2f} s ({:.1f} Hz, through {}), dropped {} by the publisher, {} by the display, {} "
+             "late (after a later one), {} of a wrong type\n",
+             port.address, shown, elapsed, elapsed > 0 ? shown / elapsed : 0.0, path, dropped_publisher, sub.servant->overflowed(), sub.servant->late(), sub.servant->rejected());
 }
 
 }  // namespace
@@ -179,9 +181,10 @@ int watch(const Browser& browser, rtm::Orb& orb, const std::string& address, con
   }
   const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
   const unsigned long long dropped_publisher = sub.publisher_dropped();
+  const char* path = sub.servant->reads_ring() ? "shared memory" : "CORBA";
   const bool unsubscribed = sub.finish(orb, port.address);
   if (display.live()) fmt::print("\n\n");
-  print_summary(port, sub, shown, elapsed, dropped_publisher, options.json);
+  print_summary(port, sub, shown, elapsed, dropped_publisher, path, options.json);
   return unsubscribed ? 0 : 1;
 }
 

@@ -5,10 +5,15 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace rtm::cli {
 
 WatchPort::WatchPort(std::string owner, CORBA::TypeCode_ptr type, std::size_t capacity)
-    : owner_(std::move(owner)), type_(CORBA::TypeCode::_duplicate(type)), capacity_(capacity) {}
+    : owner_(std::move(owner)), type_(CORBA::TypeCode::_duplicate(type)), capacity_(capacity),
+      ring_type_(rtm::find_ring_data_type(type)) {
+  if (ring_type_ != nullptr) datum_.resize(ring_type_->size);
+}
 
 void WatchPort::put(const CORBA::Any& value) { take(value, nullptr); }
 
@@ -37,13 +42,75 @@ void WatchPort::take(const CORBA::Any& value, const rtm::SenderSeq* order) {
     ++late_;  // arrived after a later datum of its sender: shown out of order, so not at all
     return;
   }
+  queue_locked(value);
+  arrived_.notify_one();
+}
+
+void WatchPort::queue_locked(CORBA::Any value) {
   ++received_;
   if (queue_.size() >= capacity_) {
     queue_.pop_front();
     ++overflowed_;
   }
-  queue_.push_back(value);
-  arrived_.notify_one();
+  queue_.push_back(std::move(value));
+}
+
+CORBA::Boolean WatchPort::attach_ring(const char* segment, const char* host, CORBA::ULongLong type_id,
+                                      CORBA::Long /*writer_pid*/, CORBA::ULongLong /*writer_start*/,
+                                      CORBA::String_out why) {
+  auto refuse = [&](const std::string& reason) {
+    why = CORBA::string_dup(reason.c_str());
+    return false;
+  };
+  if (std::string(host) != rtm::shm_host_identity()) return refuse("the publisher runs on another host or network namespace");
+  if (ring_type_ == nullptr) return refuse(rtm::type_name(type_) + " has no plain layout this tool knows");
+  if (type_id != ring_type_->type_id) return refuse("the ring carries another data type");
+  std::lock_guard lock(mutex_);
+  for (const auto& r : rings_) {
+    if (r->name != segment) continue;
+    ++r->attached;
+    why = CORBA::string_dup("");
+    return true;
+  }
+  if (rings_.size() >= kMaxRings) return refuse(fmt::format("already {} rings, the most a watch reads", kMaxRings));
+  try {
+    rtm::ShmSegment mapped = rtm::ShmSegment::open(segment);
+    rtm::ShmRingReader reader(mapped.data(), mapped.size(), type_id);
+    rings_.push_back(std::unique_ptr<Ring>(new Ring{segment, std::move(mapped), reader}));
+  } catch (const std::exception& e) {
+    return refuse(e.what());
+  }
+  why = CORBA::string_dup("");
+  return true;
+}
+
+CORBA::Boolean WatchPort::detach_ring(const char* segment) {
+  std::lock_guard lock(mutex_);
+  for (auto it = rings_.begin(); it != rings_.end(); ++it) {
+    if ((*it)->name != segment) continue;
+    if (--(*it)->attached > 0) return true;
+    take_from_rings_locked();  // what was written before the unsubscribe is shown
+    rings_.erase(it);
+    return true;
+  }
+  return false;
+}
+
+// Every datum the rings hold that this port has not taken, in the order written; those the
+// publisher overwrote first are counted as dropped by the display (it fell a ring behind).
+void WatchPort::take_from_rings_locked() {
+  for (const auto& ring : rings_) {
+    for (;;) {
+      const rtm::RingRead r = ring->reader.take_next(datum_);
+      if (r.status != rtm::ReadStatus::new_data) break;
+      overflowed_ += r.missed;
+      if (r.size != datum_.size()) continue;  // the reader checked the layout: cannot happen
+      CORBA::Any value;
+      ring_type_->to_any(datum_, value);
+      ++shared_memory_;
+      queue_locked(std::move(value));
+    }
+  }
 }
 
 void WatchPort::push(const CORBA::Any& value) {
@@ -79,8 +146,17 @@ char* WatchPort::last_error() {
 }
 
 bool WatchPort::drain(std::vector<CORBA::Any>& out, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
   std::unique_lock lock(mutex_);
-  if (!arrived_.wait_for(lock, timeout, [this] { return !queue_.empty(); })) return false;
+  for (;;) {
+    take_from_rings_locked();
+    if (!queue_.empty()) break;
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= deadline) return false;
+    // A put wakes this at once; a ring is looked at again after kRingPollMs.
+    const auto until = rings_.empty() ? deadline : std::min(deadline, now + kRingPollMs);
+    arrived_.wait_until(lock, until, [this] { return !queue_.empty(); });
+  }
   while (!queue_.empty()) {
     out.push_back(std::move(queue_.front()));
     queue_.pop_front();
@@ -99,6 +175,14 @@ std::uint64_t WatchPort::overflowed() const {
 std::uint64_t WatchPort::late() const {
   std::lock_guard lock(mutex_);
   return late_;
+}
+std::uint64_t WatchPort::shared_memory() const {
+  std::lock_guard lock(mutex_);
+  return shared_memory_;
+}
+bool WatchPort::reads_ring() const {
+  std::lock_guard lock(mutex_);
+  return !rings_.empty();
 }
 std::uint64_t WatchPort::rejected() const {
   std::lock_guard lock(mutex_);

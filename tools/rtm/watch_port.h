@@ -1,25 +1,32 @@
 // SPDX-License-Identifier: Apache-2.0
 // The temporary InPort `rtm watch` subscribes: takes every datum of the watched port's type
 // into a bounded queue the display drains. Implements RTM::InPortEx so the publisher can name
-// it ("rtm-watch-<pid>.in") and report how many data it dropped for it, and InPortOrdered so
-// that what it shows is in the order written.
+// it ("rtm-watch-<pid>.in") and report how many data it dropped for it, InPortOrdered so that
+// what it shows is in the order written, and InPortShm so that a publisher on this host hands
+// it its shared-memory ring: then no call is made per datum, and drain() takes what the ring
+// holds every kRingPollMs (a few wake-ups a second instead of one per datum, and nothing a
+// slow display can hold the publisher up with).
 #pragma once
 
 #include <RTM.hh>
 #include <RTMExt.hh>
 
+#include "rt/shm_ring.h"
+#include "rt/shm_segment.h"
+#include "rtm/ring_types.h"
 #include "rtm/sender_order.h"
 
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
 namespace rtm::cli {
 
-class WatchPort final : public virtual POA_RTM::InPortOrdered {
+class WatchPort final : public virtual POA_RTM::InPortShm {
  public:
   WatchPort(std::string owner, CORBA::TypeCode_ptr type, std::size_t capacity);
 
@@ -35,6 +42,15 @@ class WatchPort final : public virtual POA_RTM::InPortOrdered {
   char* last_error() override;
   RTM::PortDescription* describe() override;  // "rtm watch display", no elements
   void admit_writer() override {}              // the access screen (rtm/access.h) answers
+  // RTM::InPortShm: reads the publisher's ring from now on (false with why: another host or
+  // network namespace, a type this tool has no plain layout of, a segment it cannot map).
+  CORBA::Boolean attach_ring(const char* segment, const char* host, CORBA::ULongLong type_id, CORBA::Long writer_pid,
+                             CORBA::ULongLong writer_start, CORBA::String_out why) override;
+  CORBA::Boolean detach_ring(const char* segment) override;  // takes what it still holds first
+
+  // How often drain() looks at an attached ring while no put wakes it; the ring keeps
+  // 256 data or more (a half second at 500 Hz), so a display this late loses nothing.
+  static constexpr std::chrono::milliseconds kRingPollMs{20};
 
   // Waits up to timeout for data; moves what arrived into out. Returns false on timeout.
   bool drain(std::vector<CORBA::Any>& out, std::chrono::milliseconds timeout);
@@ -43,9 +59,21 @@ class WatchPort final : public virtual POA_RTM::InPortOrdered {
   std::uint64_t overflowed() const;  // lost here because the display fell behind
   std::uint64_t late() const;        // dropped: arrived after a later datum of its sender
   std::uint64_t rejected() const;    // wrong type
+  std::uint64_t shared_memory() const;  // of received: taken from the publisher's ring
+  bool reads_ring() const;              // a ring is attached now
 
  private:
   void take(const CORBA::Any& value, const rtm::SenderSeq* order);  // put(), with the order check
+  void queue_locked(CORBA::Any value);                               // caller holds mutex_
+  void take_from_rings_locked();                                     // caller holds mutex_
+
+  struct Ring {
+    std::string name;
+    rtm::ShmSegment segment;
+    rtm::ShmRingReader reader;
+    int attached = 1;  // attach_ring calls not yet undone by detach_ring
+  };
+  static constexpr std::size_t kMaxRings = 4;
 
   const std::string owner_;
   CORBA::TypeCode_var type_;
@@ -53,7 +81,10 @@ class WatchPort final : public virtual POA_RTM::InPortOrdered {
   mutable std::mutex mutex_;
   std::condition_variable arrived_;
   std::deque<CORBA::Any> queue_;
-  std::uint64_t received_ = 0, overflowed_ = 0, rejected_ = 0, late_ = 0;
+  std::uint64_t received_ = 0, overflowed_ = 0, rejected_ = 0, late_ = 0, shared_memory_ = 0;
+  const rtm::RingDataType* ring_type_;  // the type's plain layout, nullptr: CORBA only
+  std::vector<std::unique_ptr<Ring>> rings_;
+  std::vector<std::byte> datum_;  // one datum taken from a ring
   rtm::SenderOrder order_;
   std::string last_error_;
 };

@@ -259,7 +259,8 @@ bool OutPort<T>::offer_ring(TypedSubscription& sub) {
     {
       std::lock_guard make(ring_mu_);
       if (!ring_segment_) {
-        const ShmRingShape shape{std::max<std::uint32_t>(2 * options_.queue_depth, 16), sizeof(T), ring_type_id<T>()};
+        const ShmRingShape shape{std::max<std::uint32_t>(2 * options_.queue_depth, kMinRingSlots), sizeof(T),
+                                 ring_type_id<T>()};
         try {
           ShmSegment segment = ShmSegment::create(shm_ring_bytes(shape), full_name());
           std::lock_guard lock(mu_);
