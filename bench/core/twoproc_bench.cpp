@@ -5,8 +5,14 @@
 // the floor, in the same run. Each transport is chosen by the publisher's client transport
 // rule: the receiving InPort offers both TCP and a unix socket.
 //
-//   rtm_bench_twoproc [--cpu N] [--paced N] [--burst N] [--transport tcp|unix|ssl|both|all]
+//   rtm_bench_twoproc [--cpu N] [--paced N] [--burst N] [--transport tcp|unix|ssl|shm|both|all]
 //                     [--neighbour none|busy|both] [--access-cost 1]
+//
+// --transport takes one name, a comma list (tcp,unix,shm), both (tcp and unix) or all. shm is
+// the same-host path: the OutPort hands a FIFO InPort of this process its shared-memory ring
+// (rtm/outport.h), and a thread here reads the port back to back (a reader polling in its own
+// cycle, without the cycle); its floor is the bare ring (rt/shm_ring.h) between the same two
+// processes, read by the same thread with nothing of the ports in between.
 //
 // --access-cost 1: instead, what access control's check costs a put (rtm/access.h): the bare
 // put with the receiver owner-only and open to all, alternating.
@@ -36,6 +42,9 @@
 #include "rtm/log.h"
 #include "rtm/orb.h"
 #include "rtm/outport.h"
+#include "rtm/ring_types.h"
+#include "rt/shm_ring.h"
+#include "rt/shm_segment.h"
 #include "rtm/tls.h"
 
 #include <fcntl.h>
@@ -51,9 +60,12 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <map>
-#include <optional>
 #include <mutex>
+#include <optional>
+#include <span>
 #include <string>
 #include <thread>
 #include <utility>
@@ -205,21 +217,73 @@ void write_through_port(Float6Out& out, const std::string& mode, std::size_t cou
   }
 }
 
+// The floor of the shm rows: the bare ring, made here and handed to the receiver's
+// BareRingPort by one attach_ring call (the port's own negotiation, nothing of it per datum),
+// written paced at 1 kHz on the same periodic thread as the RTM rows, or back to back.
+int run_ring_publisher(RTM::InPort_ptr target, const std::string& mode, std::size_t count, int cpu) {
+  RTM::InPortShm_var reader = RTM::InPortShm::_narrow(target);
+  if (CORBA::is_nil(reader)) {
+    std::fprintf(stderr, "publisher: the target reads no ring\n");
+    return 1;
+  }
+  const rtm::ShmRingShape shape{rtm::kMinRingSlots, sizeof(RTM::TimedFloat6), rtm::ring_type_id<RTM::TimedFloat6>()};
+  rtm::ShmSegment segment = rtm::ShmSegment::create(rtm::shm_ring_bytes(shape), "bench");
+  rtm::ShmRingWriter writer(segment.data(), segment.size(), shape);
+  CORBA::String_var why;
+  if (!reader->attach_ring(segment.name().c_str(), rtm::shm_host_identity().c_str(), shape.type_id, ::getpid(),
+                           rtm::process_start_ticks(::getpid()), why.out())) {
+    std::fprintf(stderr, "publisher: attach_ring refused: %s\n", why.in());
+    return 1;
+  }
+  RTM::TimedFloat6 datum{};
+  const auto one = [&] {
+    stamp(datum);
+    writer.write(std::as_bytes(std::span(&datum, 1)));
+  };
+  const auto writing_from = rtm_bench::monotonic_ns();
+  if (mode == "ring-paced") {
+    rtm::PeriodicOptions periodic;
+    periodic.period_ns = 1'000'000;
+    periodic.cpu = cpu;
+    std::atomic<std::size_t> written{0};
+    rtm::PeriodicActivity activity(
+        [&](const rtm::CycleContext&) {
+          one();
+          return written.fetch_add(1) + 1 < count;
+        },
+        periodic);
+    activity.start();
+    while (written.load() < count) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    activity.stop();
+  } else {
+    for (std::size_t i = 0; i < count; ++i) one();
+  }
+  const double writing_s = static_cast<double>(rtm_bench::monotonic_ns() - writing_from) / 1e9;
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the reader takes the last ones
+  reader->detach_ring(segment.name().c_str());
+  std::printf("RESULT written=%llu (%.0f/s)\n", static_cast<unsigned long long>(writer.written()),
+              static_cast<double>(writer.written()) / writing_s);
+  return 0;
+}
+
 int run_publisher(const Args& args) {
   const int cpu = static_cast<int>(args.number("--cpu", -1));
   pin(cpu);
   const std::string transport = args.get("--transport", "tcp");
+  const std::string client_transport = transport == "shm" ? "unix" : transport;  // shm: attach_ring's call
   const std::string mode = args.get("--mode", "paced");
   const auto count = static_cast<std::size_t>(args.number("--count", 1000));
   if (transport == "ssl") rtm::configure_tls(rtm::check_tls_folder(args.get("--tls", "")));
-  rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBclientTransportRule", "* " + transport});
+  rtm::Orb orb({"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBclientTransportRule", "* " + client_transport});
   CORBA::Object_var target_object = orb.from_string(args.get("--target", ""));
   RTM::InPort_var target = RTM::InPort::_narrow(target_object);
   if (mode == "bare-paced" || mode == "bare-burst")
     return run_bare_publisher(target, mode, count, cpu, static_cast<CORBA::ULong>(args.number("--bare-timeout-ms", 0)));
+  if (mode == "ring-paced" || mode == "ring-stream") return run_ring_publisher(target, mode, count, cpu);
 
   rtm::OutPortOptions options;
   options.oneway = mode == "stream-oneway";
+  options.shared_memory = args.get("--transport", "tcp") == "shm";
   options.writer_call_timeout_ms = static_cast<std::uint32_t>(args.number("--writer-timeout-ms", 2));
   // "writer-unbounded" is writer_when_idle with --writer-timeout-ms 0 (set by the receiver).
   if (args.get("--delivery", "writer") == "thread") options.delivery = rtm::OutPortOptions::Delivery::thread;
@@ -230,13 +294,15 @@ int run_publisher(const Args& args) {
     std::fprintf(stderr, "publisher: subscribe refused: %s\n", out->last_refusal().c_str());
     return 1;
   }
+  const auto writing_from = rtm_bench::monotonic_ns();
   write_through_port(*out, mode, count, cpu);
+  const double writing_s = static_cast<double>(rtm_bench::monotonic_ns() - writing_from) / 1e9;
   // Let the delivery thread finish what is in flight.
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const auto c = out->counters_snapshot();
   const rtm::WriteCost w = out->write_cost();
-  std::printf("RESULT written=%llu pushed=%llu (by write() %llu) dropped=%llu failed=%llu (timed out %llu); write() p50 %.1f p99 %.1f max %.1f us\n",
-              static_cast<unsigned long long>(c.written), static_cast<unsigned long long>(c.pushed),
+  std::printf("RESULT written=%llu (%.0f/s) pushed=%llu (by write() %llu) dropped=%llu failed=%llu (timed out %llu); write() p50 %.1f p99 %.1f max %.1f us\n",
+              static_cast<unsigned long long>(c.written), static_cast<double>(c.written) / writing_s, static_cast<unsigned long long>(c.pushed),
               static_cast<unsigned long long>(c.by_writer), static_cast<unsigned long long>(c.dropped),
               static_cast<unsigned long long>(c.failed), static_cast<unsigned long long>(c.timed_out),
               static_cast<double>(w.p50_ns) / 1e3, static_cast<double>(w.p99_ns) / 1e3,
@@ -297,6 +363,72 @@ void BareInPort::put(const CORBA::Any& value) {
 }
 
 using rtm_bench::BusyNeighbour;  // another program on the machine
+
+// The shm rows' floor on the receiving side: maps the ring a publisher hands it and nothing
+// else (no InPort, no lock, no copy into a queue); a Poller reads it.
+class BareRingPort : public virtual POA_RTM::InPortShm {
+ public:
+  void put(const CORBA::Any&) override { throw CORBA::NO_IMPLEMENT(); }
+  void push(const CORBA::Any&) override {}
+  void put_in_order(const CORBA::Any&, CORBA::ULongLong, CORBA::ULongLong) override { throw CORBA::NO_IMPLEMENT(); }
+  void push_in_order(const CORBA::Any&, CORBA::ULongLong, CORBA::ULongLong) override {}
+  char* name() override { return CORBA::string_dup("bare-ring"); }
+  CORBA::TypeCode_ptr port_type() override { return CORBA::TypeCode::_duplicate(RTM::_tc_TimedFloat6); }
+  char* owner() override { return CORBA::string_dup("receiver"); }
+  RTM::PortCounters counters() override { return RTM::PortCounters{}; }
+  char* last_error() override { return CORBA::string_dup(""); }
+  RTM::PortDescription* describe() override { return new RTM::PortDescription; }
+  void admit_writer() override {}
+  CORBA::Boolean attach_ring(const char* segment, const char*, CORBA::ULongLong type_id, CORBA::Long,
+                             CORBA::ULongLong, CORBA::String_out why) override {
+    std::lock_guard lock(mu_);
+    try {
+      rtm::ShmSegment mapped = rtm::ShmSegment::open(segment);
+      rtm::ShmRingReader reader(mapped.data(), mapped.size(), type_id);
+      rings_.push_back(std::make_unique<Mapped>(Mapped{std::move(mapped), reader}));
+    } catch (const std::exception& e) {
+      why = CORBA::string_dup(e.what());
+      return false;
+    }
+    current_.store(&rings_.back()->reader, std::memory_order_release);
+    why = CORBA::string_dup("");
+    return true;
+  }
+  // The mapping stays until this servant goes: the Poller may still be reading it.
+  CORBA::Boolean detach_ring(const char*) override { return true; }
+  // The ring attached last (nullptr before the first); read by one thread.
+  rtm::ShmRingReader* current() { return current_.load(std::memory_order_acquire); }
+
+ private:
+  struct Mapped {
+    rtm::ShmSegment segment;
+    rtm::ShmRingReader reader;
+  };
+  std::mutex mu_;
+  std::vector<std::unique_ptr<Mapped>> rings_;
+  std::atomic<rtm::ShmRingReader*> current_{nullptr};
+};
+
+// A reader that takes data as fast as it can on a thread of its own (what a reader polling in
+// its cycle sees, without the cycle): take() fills a datum and returns true for each new one.
+class Poller {
+ public:
+  Poller(Receiver& receiver, std::function<bool(RTM::TimedFloat6&)> take)
+      : thread_([this, &receiver, take = std::move(take)] {
+          RTM::TimedFloat6 d{};
+          while (!stop_.load(std::memory_order_relaxed)) {
+            if (take(d)) receiver.on_datum(d);
+          }
+        }) {}
+  ~Poller() {
+    stop_.store(true);
+    thread_.join();
+  }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
 
 std::string run_child(const char* self, const std::vector<std::string>& child_args) {
   int fds[2];
@@ -527,6 +659,90 @@ struct Rows {
   }
 };
 
+// The same-host path (--transport shm): RTM's ports through the port's ring beside the bare
+// ring, each read by a Poller here, paced in alternating slices and then back to back.
+struct ShmRows {
+  Rows& rows;
+  std::string ring_ior, bare_ring_ior;
+  Float6In& in_ring;  // FIFO: reads the port's ring
+  BareRingPort& bare_ring;
+  std::atomic<std::uint64_t> bare_missed{0};
+
+  std::function<bool(RTM::TimedFloat6&)> taker(bool bare) {
+    if (!bare) return [this](RTM::TimedFloat6& d) { return in_ring.read(d) == rtm::ReadResult::NewData; };
+    return [this](RTM::TimedFloat6& d) {
+      rtm::ShmRingReader* reader = bare_ring.current();
+      if (reader == nullptr) return false;
+      const rtm::RingRead r = reader->take_next(std::as_writable_bytes(std::span(&d, 1)));
+      bare_missed.fetch_add(r.missed, std::memory_order_relaxed);
+      return r.status == rtm::ReadStatus::new_data;
+    };
+  }
+
+  void paced() {
+    struct Paced {
+      const char* label;
+      bool bare;
+      std::vector<std::int64_t> latency_ns;
+      std::string publisher;
+    };
+    std::array<Paced, 2> paced_rows{{{"RTM shm, paced 1 kHz, reader polling", false, {}, {}},
+                                     {"bare ring, paced 1 kHz, reader polling", true, {}, {}}}};
+    for (std::size_t slice = 0; slice < Rows::kSlices; ++slice) {
+      for (Paced& row : paced_rows) {
+        Poller poller(rows.receiver, taker(row.bare));
+        row.publisher = rows.paced_slice(row.bare ? bare_ring_ior : ring_ior, row.bare ? "ring-paced" : "paced",
+                                         "writer", rows.paced / Rows::kSlices, row.latency_ns)
+                            .second;
+      }
+    }
+    std::array<rtm_bench::Summary, 2> summary;
+    for (std::size_t i = 0; i < paced_rows.size(); ++i) {
+      summary[i] = rtm_bench::summarize(paced_rows[i].latency_ns);
+      rtm_bench::print_row((rows.tag + " " + paced_rows[i].label).c_str(), summary[i]);
+      std::printf("%-44s publisher (last slice): %s\n", "", paced_rows[i].publisher.c_str());
+    }
+    std::printf("%s   RTM shm / bare ring, p50 %.2f, p99 %.2f\n", rows.tag.c_str(), summary[0].p50_us / summary[1].p50_us,
+                summary[0].p99_us / summary[1].p99_us);
+  }
+
+  void stream() {
+    struct Stream {
+      const char* label;
+      bool bare;
+      std::uint64_t count = 0, written = 0;
+      std::int64_t span_ns = 0;
+      std::string publisher;
+    };
+    std::array<Stream, 2> stream_rows{{{"RTM shm, writer back to back", false, 0, 0, 0, {}},
+                                       {"bare ring, writer back to back", true, 0, 0, 0, {}}}};
+    const std::uint64_t in_dropped_before = in_ring.counters_snapshot().dropped;
+    for (std::size_t slice = 0; slice < Rows::kBurstSlices; ++slice) {
+      for (Stream& row : stream_rows) {
+        Poller poller(rows.receiver, taker(row.bare));
+        const auto r = rows.receive(row.bare ? bare_ring_ior : ring_ior, row.bare ? "ring-stream" : "stream-oneway",
+                                    rows.burst / Rows::kBurstSlices, 2);
+        row.count += r.count;
+        row.span_ns += r.span_ns;
+        row.written += rows.burst / Rows::kBurstSlices;
+        row.publisher = r.publisher;
+      }
+    }
+    const std::uint64_t lost[2] = {in_ring.counters_snapshot().dropped - in_dropped_before, bare_missed.load()};
+    std::array<double, 2> per_s{};
+    for (std::size_t i = 0; i < stream_rows.size(); ++i) {
+      const Stream& row = stream_rows[i];
+      per_s[i] = Rows::rate(row.count, row.span_ns);
+      std::printf("%s %-38s %9.0f msg/s taken in order (%llu of %llu; %llu overwritten before the reader took them)\n",
+                  rows.tag.c_str(), row.label, per_s[i], static_cast<unsigned long long>(row.count),
+                  static_cast<unsigned long long>(row.written), static_cast<unsigned long long>(lost[i]));
+      std::printf("%-44s publisher (last slice): %s\n", "", row.publisher.c_str());
+    }
+    std::printf("%s   RTM shm / bare ring, taken per second: %.2f\n", rows.tag.c_str(),
+                per_s[0] / (per_s[1] > 0 ? per_s[1] : 1.0));
+  }
+};
+
 int run_receiver(const char* self, const Args& args) {
   const int cpu = static_cast<int>(args.number("--cpu", -1));
   pin(cpu);
@@ -556,11 +772,18 @@ int run_receiver(const char* self, const Args& args) {
   RTM::InPortEx_var in_ref = in->activate(orb);
   PortableServer::Servant_var<BareInPort> bare(new BareInPort(receiver));
   CORBA::Object_var bare_ref = orb.activate(bare.in());
+  // The shm rows' ports: a FIFO that holds all the ring does (so that a lost datum is one the
+  // ring overwrote, as for the bare reader), and the bare ring's servant.
+  PortableServer::Servant_var<Float6In> in_ring(new Float6In("ring", "receiver", rtm::InPortPolicy::fifo(2 * rtm::kMinRingSlots)));
+  RTM::InPortEx_var in_ring_ref = in_ring->activate(orb);
+  PortableServer::Servant_var<BareRingPort> bare_ring(new BareRingPort);
+  CORBA::Object_var bare_ring_ref = orb.activate(bare_ring.in());
 
   std::printf("two processes, TimedFloat6, %s\n", cpu >= 0 ? ("both pinned to CPU " + std::to_string(cpu)).c_str()
                                                             : "unpinned");
-  for (const std::string transport : {"tcp", "unix", "ssl"}) {
-    const bool chosen = which == transport || which == "all" || (which == "both" && transport != "ssl");
+  for (const std::string transport : {"tcp", "unix", "ssl", "shm"}) {
+    const bool listed = ("," + which + ",").find("," + transport + ",") != std::string::npos;
+    const bool chosen = listed || which == "all" || (which == "both" && (transport == "tcp" || transport == "unix"));
     if (!chosen) continue;
     for (const std::string busy : {"none", "busy"}) {
       if (neighbour != "both" && neighbour != busy) continue;
@@ -573,11 +796,19 @@ int run_receiver(const char* self, const Args& args) {
                 args.get("--access-cost", "0") != "0"};
       std::optional<BusyNeighbour> load;
       if (busy == "busy") load.emplace();
+      if (transport == "shm") {
+        ShmRows shm{rows, orb.to_string(in_ring_ref), orb.to_string(bare_ring_ref), *in_ring, *bare_ring};
+        shm.paced();
+        shm.stream();
+        continue;
+      }
       rows.run();
     }
   }
   in->deactivate();
+  in_ring->deactivate();
   orb.deactivate(bare.in());
+  orb.deactivate(bare_ring.in());
   if (ssl) std::filesystem::remove_all(tls_folder);
   return 0;
 }

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/outport.h"
 
+#include "rt/thread.h"
+
 #include "rtm/access.h"
 
 #include "rtm/log.h"
@@ -31,7 +33,7 @@ OutPortCounters OutPortBase::counters_snapshot() const {
   c.written = written_.load(std::memory_order_relaxed);
   c.refused = refused_.load(std::memory_order_relaxed);
   c.dropped = dropped_.load(std::memory_order_relaxed);
-  c.pushed = pushed_.load(std::memory_order_relaxed);
+  c.pushed = pushed_.load(std::memory_order_relaxed) + ring_pushed_.load(std::memory_order_relaxed);
   c.failed = failed_.load(std::memory_order_relaxed);
   c.timed_out = timed_out_.load(std::memory_order_relaxed);
   c.by_writer = by_writer_.load(std::memory_order_relaxed);
@@ -161,7 +163,17 @@ bool OutPortBase::add_subscription(std::unique_ptr<Subscription> sub, bool start
   }
   Subscription* raw = sub.get();
   subs_.push_back(std::move(sub));
-  if (start_thread) raw->thread = std::thread(&OutPortBase::delivery_loop, this, raw);
+  if (start_thread) {
+    raw->thread = std::thread(&OutPortBase::delivery_loop, this, raw);
+    // Data pass a delivery thread on their way to the subscriber: with real-time priorities
+    // on it runs at the path's (rt/thread.h), as the thread of the put that receives them
+    // does; set before subscribe() returns. A ring's probe thread carries no datum.
+    if (const int priority = path_thread_priority(); priority > 0 && !raw->shm) {
+      sched_param param{};
+      param.sched_priority = priority;
+      pthread_setschedparam(raw->thread.native_handle(), SCHED_FIFO, &param);
+    }
+  }
   return true;
 }
 

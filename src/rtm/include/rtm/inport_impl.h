@@ -99,17 +99,22 @@ void InPort<T>::take_from_ring_locked(AttachedRing& ring) {
     // keep() waits only under FullPolicy::Block, and such a port never attaches a ring.
     std::unique_lock<std::mutex> unused;
     const bool fifo = policy_.kind() == InPortPolicy::Kind::Fifo;
+    // Nothing new (the common case of a reader polling in its cycle): one load.
+    if (ring.reader.published() == ring.last_number) return;
+    std::uint64_t kept = 0, skipped = 0;
     for (;;) {
       const RingRead r = fifo ? ring.reader.take_next(bytes) : ring.reader.take_latest(bytes);
-      if (r.status != ReadStatus::new_data || r.size != sizeof(T)) return;
-      const std::uint64_t skipped = fifo ? r.missed : r.number - ring.last_number - 1;
+      if (r.status != ReadStatus::new_data || r.size != sizeof(T)) break;
+      skipped += fifo ? r.missed : r.number - ring.last_number - 1;
       ring.last_number = r.number;
-      if (skipped > 0) dropped_.fetch_add(skipped, std::memory_order_relaxed);
-      if (keep(datum, unused)) {
-        accepted_.fetch_add(1, std::memory_order_relaxed);
-        shared_memory_.fetch_add(1, std::memory_order_relaxed);
-      }
-      if (!fifo) return;
+      if (keep(datum, unused)) ++kept;
+      if (!fifo || r.number == ring.reader.published()) break;
+    }
+    // Counted once per take, not per datum: each is an atomic a reader of the counters shares.
+    if (skipped > 0) dropped_.fetch_add(skipped, std::memory_order_relaxed);
+    if (kept > 0) {
+      accepted_.fetch_add(kept, std::memory_order_relaxed);
+      shared_memory_.fetch_add(kept, std::memory_order_relaxed);
     }
   }
 }

@@ -264,6 +264,9 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   std::atomic<std::uint64_t> refused_{0};
   std::atomic<std::uint64_t> dropped_{0};
   std::atomic<std::uint64_t> pushed_{0};
+  // Of pushed: into the ring for shared-memory subscribers. Only write() changes it, under
+  // mu_, as it does written_: a plain store, not a locked add, per datum.
+  std::atomic<std::uint64_t> ring_pushed_{0};
   std::atomic<std::uint64_t> failed_{0};
   std::atomic<std::uint64_t> timed_out_{0};
   std::atomic<std::uint64_t> by_writer_{0};

@@ -65,7 +65,11 @@ void OutPort<T>::write(const T& value) {
     std::lock_guard lock(mu_);
     latest_ = value;
     has_latest_ = true;
-    written_.fetch_add(1, std::memory_order_relaxed);
+    // Counters only write() changes, under mu_: stores, not locked adds (a few per datum).
+    const auto bump = [](std::atomic<std::uint64_t>& n) {
+      n.store(n.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+    };
+    bump(written_);
     if constexpr (std::is_trivially_copyable_v<T>) {
       // Readers of the ring take it in their own cycle: no call, no wake-up, no system call.
       if (ring_writer_) ring_writer_->write(std::as_bytes(std::span(&value, 1)));
@@ -73,8 +77,8 @@ void OutPort<T>::write(const T& value) {
     for (std::size_t i = 0; i < subs_.size();) {
       auto& sub = static_cast<TypedSubscription&>(*subs_[i]);
       if (sub.shm) {
-        sub.pushed.fetch_add(1, std::memory_order_relaxed);  // in the ring: the reader counts what it skips
-        pushed_.fetch_add(1, std::memory_order_relaxed);
+        bump(sub.pushed);  // in the ring: the reader counts what it skips
+        bump(ring_pushed_);
       } else if (sub.direct) {
         if (!deliver_direct(sub, value)) {
           retire_locked(i);
