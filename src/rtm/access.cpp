@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/access.h"
 
+#include <pthread.h>
 #include <pwd.h>
+#include <sched.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -31,6 +33,7 @@
 #include <string>
 #include <unordered_map>
 
+#include "rt/thread.h"
 #include "rtm/log.h"
 #include "rtm/socket_peer.h"
 
@@ -212,11 +215,28 @@ void note_refusal(std::atomic<std::uint64_t>& count, omni::GIOP_S& request, cons
              why, refused);
 }
 
-// Both checks throw before the arguments are read: the request body is skipped, not unmarshalled.
-CORBA::Boolean screen_request(omni::omniInterceptors::serverReceiveRequest_T::info_T& info) {
-  const char* operation = info.operation();
-  if (!operation) return true;
-  if (is_put_operation(operation)) {
+// The thread serving a request runs at the real-time path's priority (rt/thread.h) while it
+// carries a put the screen let through from a caller it knows (this user's process, a peer
+// with a certificate of this process's authority): a datum that comes over CORBA passes no
+// thread at SCHED_OTHER. Every other request (a read from anyone, a change that is no put, any
+// request when the component is open to all) runs at SCHED_OTHER, so that nobody who may only
+// read can keep a real-time thread busy, and an admitted put costs what the screen bounds.
+// A system call only when the kind changes: a connection that carries only puts (omniORB
+// serves each connection on a thread of its own) makes none.
+void serve_at_path_priority(bool admitted_put) {
+  thread_local int t_priority = 0;  // this thread's now; ORB threads start at SCHED_OTHER
+  const int wanted = admitted_put ? path_thread_priority() : 0;
+  if (wanted == t_priority) return;
+  sched_param param{};
+  param.sched_priority = wanted;
+  if (pthread_setschedparam(pthread_self(), wanted > 0 ? SCHED_FIFO : SCHED_OTHER, &param) == 0) t_priority = wanted;
+}
+
+// Both checks throw before the arguments are read: the request body is skipped, not
+// unmarshalled. Returns true for a put from a caller the screen knows (see above).
+bool admit_request(omni::omniInterceptors::serverReceiveRequest_T::info_T& info, const char* operation) {
+  const bool put = is_put_operation(operation);
+  if (put) {
     const std::optional<CORBA::ULong> kind = first_typecode_kind(info.giop_s);
     if (kind && !plain_data_kind(*kind)) {
       note_refusal(g_access.refused_data, info.giop_s, operation,
@@ -224,24 +244,37 @@ CORBA::Boolean screen_request(omni::omniInterceptors::serverReceiveRequest_T::in
       throw CORBA::BAD_PARAM(kNotPlainDataMinor, CORBA::COMPLETED_NO);
     }
   }
-  if (g_access.policy.load(std::memory_order_relaxed) == AccessPolicy::open) return true;
-  if (!is_change_operation(operation)) return true;
+  if (g_access.policy.load(std::memory_order_relaxed) == AccessPolicy::open) return false;
+  if (!is_change_operation(operation)) return false;
   omni::giopConnection* connection = info.giop_s.strand().connection;
   if (!connection) throw CORBA::NO_PERMISSION(kCallerUnknownMinor, CORBA::COMPLETED_NO);
   // A certificate this process's authority issued, which omniORB verified in the handshake.
   if (starts_with(connection->peeraddress(), "giop:ssl:")) {
-    if (verified_certificate(*connection)) return true;
+    if (verified_certificate(*connection)) return put;
     note_refusal(g_access.refused, info.giop_s, operation, "its TLS connection carries no verified certificate");
     throw CORBA::NO_PERMISSION(kCallerUnknownMinor, CORBA::COMPLETED_NO);
   }
   const Callers::Caller caller = g_callers.of(connection);
-  if (caller.known && is_owner_uid(caller.uid)) return true;
+  if (caller.known && is_owner_uid(caller.uid)) return put;
   if (caller.known) {
     note_refusal(g_access.refused, info.giop_s, operation, "the caller is not this component's user");
     throw CORBA::NO_PERMISSION(kAccessRefusedMinor, CORBA::COMPLETED_NO);
   }
   note_refusal(g_access.refused, info.giop_s, operation, "who calls from another host over plain TCP is unknown");
   throw CORBA::NO_PERMISSION(kCallerUnknownMinor, CORBA::COMPLETED_NO);
+}
+
+CORBA::Boolean screen_request(omni::omniInterceptors::serverReceiveRequest_T::info_T& info) {
+  const char* operation = info.operation();
+  bool admitted_put = false;
+  try {
+    admitted_put = operation != nullptr && admit_request(info, operation);
+  } catch (...) {
+    serve_at_path_priority(false);  // a refusal is answered at SCHED_OTHER
+    throw;
+  }
+  serve_at_path_priority(admitted_put);
+  return true;
 }
 
 // peer_of(): the thread's call whose connection is wanted, and what was found.

@@ -145,10 +145,12 @@ SplitArguments split_orb_arguments(int argc, const char* const* argv) {
 namespace {
 
 // Started under chrt (SCHED_FIFO or SCHED_RR inherited): the activity keeps that priority
-// (unless --rt-priority says otherwise), and so do the CAN listeners' receive threads (see
-// set_path_thread_priority); every other thread (the ORB's, the delivery threads) runs at
-// SCHED_OTHER, so that a request that costs much CPU cannot starve the loops
-// or the machine. The main thread is switched back before any other thread exists.
+// (unless --rt-priority says otherwise), and so does every thread a datum passes on its way
+// (set_path_thread_priority): the CAN listeners' receive threads, the OutPorts' delivery
+// threads, and an ORB thread while it serves a put from a caller the access screen knows
+// (rtm/access.cpp). Every other request is served at SCHED_OTHER, so that one that costs much
+// CPU cannot starve the loops or the machine. The main thread is switched back before any
+// other thread exists.
 void keep_real_time_for_the_activity(RunSettings& settings) {
   int policy = SCHED_OTHER;
   sched_param param{};
@@ -157,8 +159,8 @@ void keep_real_time_for_the_activity(RunSettings& settings) {
   if (settings.rt_priority == 0) settings.rt_priority = param.sched_priority;
   const sched_param other{};
   if (pthread_setschedparam(pthread_self(), SCHED_OTHER, &other) != 0) return;
-  log().info("{}: started with real-time priority {}: kept for its activity and its CAN receive threads (SCHED_FIFO "
-             "{}); ORB and delivery threads run at SCHED_OTHER",
+  log().info("{}: started with real-time priority {}: kept for its activity, its CAN receive and delivery threads "
+             "and the ORB's while they serve a put of this user's (SCHED_FIFO {}); other requests at SCHED_OTHER",
              settings.name, param.sched_priority, settings.rt_priority);
 }
 
@@ -317,8 +319,8 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   if (auto exit_status = parse_command_line(argc, argv, program, main, settings)) return *exit_status;
   if (settings.cpu >= 0 && main.pin_process_to_cpu) pin_process_to_cpu(settings.cpu);
   keep_real_time_for_the_activity(settings);
-  // Threads on the real-time path that are not the activity (a CAN listener's receive thread)
-  // take its priority; the ORB's and the delivery threads stay at SCHED_OTHER.
+  // Threads on the real-time path that are not the activity (a CAN listener's receive thread,
+  // a delivery thread, an ORB thread serving an admitted put) take its priority.
   set_path_thread_priority(settings.rt_priority);
 
   // ---- bring up: access policy, certificates, ORB, component, servant, names ----

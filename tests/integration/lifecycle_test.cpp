@@ -3,10 +3,13 @@
 // extension interface.
 #include "integration_fixture.h"
 
+#include "rtm/inport.h"
+
 #include <pwd.h>
 #include <signal.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -111,6 +114,69 @@ TEST_F(IntegrationTest, StartedUnderChrtOnlyTheActivityKeepsRealTimePriorityOrbT
   }
   EXPECT_EQ(real_time, 1);
   EXPECT_GE(others, 2) << "the main thread and the ORB's";
+  EXPECT_TRUE(process.stop().clean());
+}
+
+// The threads a datum passes on its way over CORBA run at the activity's priority: the thread
+// serving a put from this user (the test runs as the component's user), and the delivery
+// thread of a subscription. A read on the same connection is served at SCHED_OTHER again: only
+// a put the access screen admitted gets the priority, so a caller who may only read cannot
+// keep a real-time thread busy.
+TEST_F(IntegrationTest, UnderChrtTheThreadsADatumPassesRunAtTheActivitysPriorityAndReadsDoNot) {
+  if (std::system("chrt -f 1 true >/dev/null 2>&1") != 0) GTEST_SKIP() << "SCHED_FIFO not allowed here";
+  // --shared-memory off: the subscription below goes over CORBA, through a delivery thread.
+  rtm_test::ChildProcess process({"chrt", "-f", "7", RTM_TEST_COMPONENT, "--name", "chrt1", "--naming",
+                                  names_.address(), "--shared-memory", "off"});
+  process.wait_until_bound();
+  // What runs at SCHED_FIFO besides the activity (named after the component), by name.
+  const auto real_time_others = [&] {
+    std::vector<std::string> names;
+    for (const auto& [name, policy] : thread_policies(process.pid()))
+      if (policy == SCHED_FIFO && name != "chrt1") names.push_back(name);
+    return names;
+  };
+  ASSERT_TRUE(real_time_others().empty());
+  auto c = component("chrt1");
+  RTM::InPortList_var ins = c->in_ports();
+  ASSERT_GT(ins->length(), 0u);
+  CORBA::Any datum;
+  datum <<= RTM::TimedFloat6{};
+  ins[0]->put(datum);
+  const std::vector<std::string> after_put = real_time_others();
+  ASSERT_EQ(after_put.size(), 1u) << "the ORB thread that served the put";
+  EXPECT_NE(after_put[0], "rtm-deliver");
+  (void)c->state();  // a read, on the same connection
+  EXPECT_TRUE(real_time_others().empty()) << "the read was served at SCHED_OTHER";
+
+  PortableServer::Servant_var<rtm::InPort<RTM::TimedFloat6>> probe(
+      new rtm::InPort<RTM::TimedFloat6>("probe", "itest", rtm::InPortPolicy::fifo(64)));
+  RTM::InPortEx_var probe_ref = probe->activate(test_orb());
+  RTM::OutPortList_var outs = c->out_ports();
+  ASSERT_GT(outs->length(), 0u);
+  ASSERT_TRUE(outs[0]->subscribe(RTM::repeated, probe_ref.in()));
+  const std::vector<std::string> after_subscribe = real_time_others();
+  EXPECT_EQ(std::count(after_subscribe.begin(), after_subscribe.end(), "rtm-deliver"), 1)
+      << "the subscription's delivery thread";
+  ASSERT_TRUE(outs[0]->unsubscribe(RTM::repeated, probe_ref.in()));
+  probe->deactivate();
+  EXPECT_TRUE(process.stop().clean());
+}
+
+// Open to all, a component does not know who puts: nobody's put gets a real-time thread.
+TEST_F(IntegrationTest, UnderChrtAComponentOpenToAllServesPutsAtSchedOther) {
+  if (std::system("chrt -f 1 true >/dev/null 2>&1") != 0) GTEST_SKIP() << "SCHED_FIFO not allowed here";
+  rtm_test::ChildProcess process({"chrt", "-f", "7", RTM_TEST_COMPONENT, "--name", "chrt2", "--naming",
+                                  names_.address(), "--access", "open"});
+  process.wait_until_bound();
+  auto c = component("chrt2");
+  RTM::InPortList_var ins = c->in_ports();
+  ASSERT_GT(ins->length(), 0u);
+  CORBA::Any datum;
+  datum <<= RTM::TimedFloat6{};
+  ins[0]->put(datum);
+  for (const auto& [name, policy] : thread_policies(process.pid()))
+    EXPECT_TRUE(policy != SCHED_FIFO || name == "chrt2") << name << " runs at SCHED_FIFO";
+  EXPECT_EQ(in_port("chrt2", "in0")->counters().accepted, 1u) << "the put went in";
   EXPECT_TRUE(process.stop().clean());
 }
 
