@@ -32,7 +32,20 @@ void RigServer::start() {
   rig_.set_mode(Pa10Rig::Mode::lock_step);
   rig_.set_sensor_sink(sensor_sink_.get());
   rig_.power_on(sink_);
+  flush_sinks_quietly();
   thread_ = std::thread([this] { run(); });
+}
+
+void RigServer::flush_sinks() {
+  sink_.flush();
+  if (sensor_sink_) sensor_sink_->flush();
+}
+
+void RigServer::flush_sinks_quietly() {
+  try {
+    flush_sinks();
+  } catch (const rtm::can::BusError&) {
+  }
 }
 
 void RigServer::stop() {
@@ -47,6 +60,7 @@ bool RigServer::serve_pending() {
     while (bus_->receive(frame, 0)) rig_.on_frame(frame, sink_);
     if (sensor_bus_)
       while (sensor_bus_->receive(frame, 0)) rig_.on_sensor_bus_frame(frame);
+    flush_sinks();
   } catch (const rtm::can::BusError&) {
     return false;  // the hub went away: whoever owns it is ending
   }
@@ -69,6 +83,11 @@ void RigServer::run() {
     if (now_ns >= next_beat_ns) {
       std::lock_guard lock(mutex_);
       rig_.send_heartbeats(sink_);
+      try {
+        flush_sinks();
+      } catch (const rtm::can::BusError&) {
+        return;  // the hub went away
+      }
       next_beat_ns = now_ns + kWallHeartbeatPeriod_ns;
     }
   }

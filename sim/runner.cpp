@@ -228,6 +228,9 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
                    {stdin_wrench.fd(), POLLIN, 0}};
   can_frame frame{};
   while (!stop.load(std::memory_order_relaxed)) {
+    // What the last round's frames and steps made the nodes send leaves now, in one batch.
+    sink.flush();
+    if (sensor_sink) sensor_sink->flush();
     if (duration_ns > 0 && sim.time_ns() >= duration_ns) break;
     const std::int64_t now_ns = monotonic_ns();
     const std::int64_t wake_ns = options.lock_step ? next_wall_beat_ns : schedule.deadline_ns();

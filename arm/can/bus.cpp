@@ -11,6 +11,7 @@
 
 #include <cerrno>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstring>
 #include <string>
@@ -233,24 +234,19 @@ class LocalBus final : public Bus {
     return send_frames(fd_.get(), frames, MSG_NOSIGNAL, failure());
   }
 
+  // Frames the hub queued for this endpoint are taken up to kBatch at a time (one recvmmsg for
+  // a cycle's frames, where a recv each once cost a system call per frame) and handed out one
+  // by one; a frame that does not pass the filters costs no system call of its own.
   bool receive(can_frame& frame, std::int64_t timeout_ns) override {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
     for (;;) {
-      // One byte more than a frame: MSG_TRUNC then reports an oversized datagram's real size.
-      unsigned char buffer[sizeof(can_frame) + 1];
-      const ssize_t n = ::recv(fd_.get(), buffer, sizeof buffer, MSG_DONTWAIT | MSG_TRUNC);
-      if (n == 0) throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
-      if (n < 0) {
-        if (errno == EINTR) continue;
-        if (errno == ECONNRESET) throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
-        if (errno != EAGAIN) fail(name_, "recv", errno);
-        if (!wait_readable(fd_.get(), deadline, name_)) return false;
-        continue;
+      while (next_ < taken_) {
+        const can_frame& f = batch_[next_++];
+        if (!passes(f, filters_)) continue;
+        frame = f;
+        return true;
       }
-      if (n != static_cast<ssize_t>(sizeof(can_frame))) continue;  // not a frame: skip
-      std::memcpy(&frame, buffer, sizeof frame);
-      if (frame.can_dlc > CAN_MAX_DLEN) continue;
-      if (passes(frame, filters_)) return true;
+      if (!take_batch() && !wait_readable(fd_.get(), deadline, name_)) return false;
     }
   }
 
@@ -279,9 +275,48 @@ class LocalBus final : public Bus {
     return fd;
   }
 
+  // Fills batch_ with the frames queued now (whole, well-formed ones); false when none was
+  // queued. Throws BusError when the hub closed the connection.
+  bool take_batch() {
+    next_ = taken_ = 0;
+    std::array<std::array<unsigned char, sizeof(can_frame) + 1>, kBatch> buffers;  // +1: MSG_TRUNC shows longer ones
+    std::array<iovec, kBatch> iov;
+    std::array<mmsghdr, kBatch> messages{};
+    for (std::size_t i = 0; i < kBatch; ++i) {
+      iov[i] = {buffers[i].data(), buffers[i].size()};
+      messages[i].msg_hdr.msg_iov = &iov[i];
+      messages[i].msg_hdr.msg_iovlen = 1;
+    }
+    int n = -1;
+    do {
+      n = ::recvmmsg(fd_.get(), messages.data(), kBatch, MSG_DONTWAIT, nullptr);
+    } while (n < 0 && errno == EINTR);
+    if (n < 0) {
+      if (errno == EAGAIN) return false;
+      if (errno == ECONNRESET) throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
+      fail(name_, "recvmmsg", errno);
+    }
+    for (int i = 0; i < n; ++i) {
+      const unsigned length = messages[i].msg_len;
+      if (length == 0) {  // the hub closed the connection (it never sends an empty datagram)
+        if (taken_ > 0) return true;  // these first; the next take finds the close again
+        throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
+      }
+      if (length != sizeof(can_frame) || (messages[i].msg_hdr.msg_flags & MSG_TRUNC) != 0) continue;  // not a frame
+      can_frame& f = batch_[taken_];
+      std::memcpy(&f, buffers[i].data(), sizeof f);
+      if (f.can_dlc <= CAN_MAX_DLEN) ++taken_;
+    }
+    return true;
+  }
+
+  static constexpr std::size_t kBatch = 32;
   std::string name_;
   std::vector<FrameFilter> filters_;
   FdOwner fd_;
+  std::array<can_frame, kBatch> batch_{};
+  std::size_t next_ = 0;   // the next frame of batch_ to hand out
+  std::size_t taken_ = 0;  // frames in batch_
 };
 
 }  // namespace

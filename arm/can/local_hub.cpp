@@ -7,8 +7,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cstring>
+#include <memory>
 #include <vector>
 
 #include "arm/can/bus.h"
@@ -104,37 +106,96 @@ LocalHub::Counters LocalHub::counters() const {
   return counters_;
 }
 
-bool LocalHub::forward_from(int from, const std::vector<int>& endpoints, Counters& local) {
-  // One datagram = one frame.
-  for (;;) {
-    unsigned char buffer[sizeof(can_frame) + 1];
-    const ssize_t got = ::recv(from, buffer, sizeof buffer, MSG_DONTWAIT | MSG_TRUNC);
-    if (got < 0 && errno == EINTR) continue;
-    if (got < 0 && errno == EAGAIN) return true;
-    if (got <= 0) return false;  // orderly close (0) or a reset connection
-    can_frame frame{};
-    if (got != static_cast<ssize_t>(sizeof frame)) {
-      ++local.datagrams_malformed;
-      continue;
-    }
-    std::memcpy(&frame, buffer, sizeof frame);
-    if (frame.can_dlc > CAN_MAX_DLEN) {
-      ++local.datagrams_malformed;
-      continue;
-    }
-    ++local.frames_forwarded;
-    for (int to : endpoints) {
-      if (to == from) continue;
-      const ssize_t sent = ::send(to, &frame, sizeof frame, MSG_DONTWAIT | MSG_NOSIGNAL);
-      if (sent == static_cast<ssize_t>(sizeof frame)) {
-        ++local.deliveries;
-      } else if (sent < 0 && (errno == EAGAIN || errno == ENOBUFS)) {
-        ++local.deliveries_dropped;
+// One poll round's frames: taken from every endpoint that has some in one recvmmsg per 32,
+// then handed to each other endpoint in one sendmmsg per 32. A cycle's frames arrive together
+// (a sender queues them with one sendmmsg), so a round costs a few system calls where a frame
+// per endpoint once cost one each: the hub's work was most of the simulator's CPU.
+class LocalHub::Relay {
+ public:
+  static constexpr std::size_t kChunk = 32;         // datagrams per recvmmsg / sendmmsg
+  static constexpr std::size_t kRoundFrames = 256;  // per round; the rest wait for the next poll
+
+  void clear() { count_ = 0; }
+
+  // Takes what `from` has queued, up to the round's room; false when `from` closed (or its
+  // connection broke).
+  bool take_from(int from, Counters& counters) {
+    for (;;) {
+      const std::size_t room = std::min(kChunk, kRoundFrames - count_);
+      if (room == 0) return true;  // poll is level-triggered: the rest come next round
+      for (std::size_t i = 0; i < room; ++i) {
+        in_iov_[i] = {in_buffers_[i].data(), in_buffers_[i].size()};
+        in_[i] = {};
+        in_[i].msg_hdr.msg_iov = &in_iov_[i];
+        in_[i].msg_hdr.msg_iovlen = 1;
       }
-      // A broken receiver shows up as POLLHUP/POLLERR on its own descriptor.
+      const int n = ::recvmmsg(from, in_.data(), static_cast<unsigned>(room), MSG_DONTWAIT, nullptr);
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && errno == EAGAIN) return true;
+      if (n <= 0) return false;  // a reset connection
+      for (int i = 0; i < n; ++i) {
+        const unsigned length = in_[i].msg_len;
+        if (length == 0) return false;  // orderly close (no endpoint sends an empty datagram)
+        can_frame frame{};
+        // One byte more than a frame is read: a longer datagram shows as MSG_TRUNC.
+        if (length != sizeof frame || (in_[i].msg_hdr.msg_flags & MSG_TRUNC) != 0) {
+          ++counters.datagrams_malformed;
+          continue;
+        }
+        std::memcpy(&frame, in_buffers_[i].data(), sizeof frame);
+        if (frame.can_dlc > CAN_MAX_DLEN) {
+          ++counters.datagrams_malformed;
+          continue;
+        }
+        frames_[count_] = frame;
+        sources_[count_] = from;
+        out_iov_[count_] = {&frames_[count_], sizeof(can_frame)};
+        ++count_;
+        ++counters.frames_forwarded;
+      }
+      if (static_cast<std::size_t>(n) < room) return true;  // drained
     }
   }
-}
+
+  // Gives every frame of the round to every endpoint but its sender, in the round's order. A
+  // receiver whose socket buffer is full loses the rest of the round (counted); a broken one
+  // shows up as POLLHUP/POLLERR on its own descriptor.
+  void deliver(const std::vector<int>& endpoints, Counters& counters) {
+    for (int to : endpoints) {
+      std::size_t mine = 0;
+      for (std::size_t i = 0; i < count_; ++i)
+        if (sources_[i] != to) for_endpoint_[mine++] = i;
+      std::size_t done = 0;
+      while (done < mine) {
+        const std::size_t k = std::min(kChunk, mine - done);
+        for (std::size_t j = 0; j < k; ++j) {
+          out_[j] = {};
+          out_[j].msg_hdr.msg_iov = &out_iov_[for_endpoint_[done + j]];
+          out_[j].msg_hdr.msg_iovlen = 1;
+        }
+        const int n = ::sendmmsg(to, out_.data(), static_cast<unsigned>(k), MSG_DONTWAIT | MSG_NOSIGNAL);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) {
+          if (errno == EAGAIN || errno == ENOBUFS) counters.deliveries_dropped += mine - done;
+          break;
+        }
+        counters.deliveries += static_cast<std::uint64_t>(n);
+        done += static_cast<std::size_t>(n);
+      }
+    }
+  }
+
+ private:
+  std::array<can_frame, kRoundFrames> frames_{};
+  std::array<int, kRoundFrames> sources_{};
+  std::array<iovec, kRoundFrames> out_iov_{};
+  std::array<std::size_t, kRoundFrames> for_endpoint_{};
+  std::array<mmsghdr, kChunk> out_{};
+  std::array<std::array<unsigned char, sizeof(can_frame) + 1>, kChunk> in_buffers_{};
+  std::array<iovec, kChunk> in_iov_{};
+  std::array<mmsghdr, kChunk> in_{};
+  std::size_t count_ = 0;
+};
 
 void LocalHub::run() {
   // pollfds[0] = wake, [1] = listen, [2..] = endpoints (parallel to `endpoints`).
@@ -152,6 +213,7 @@ void LocalHub::run() {
 
   Counters local{};  // accumulated here, published after each poll round
   std::vector<int> closed;
+  auto relay = std::make_unique<Relay>();  // 13 KiB of round buffers, made once
   while (!stopping_.load()) {
     const int n = ::poll(pollfds.data(), pollfds.size(), -1);
     if (n < 0) {
@@ -181,11 +243,13 @@ void LocalHub::run() {
     }
 
     closed.clear();
+    relay->clear();
     for (std::size_t i = 2; i < pollfds.size(); ++i) {
       if (pollfds[i].revents == 0) continue;
       const int from = pollfds[i].fd;
-      if (!forward_from(from, endpoints, local)) closed.push_back(from);
+      if (!relay->take_from(from, local)) closed.push_back(from);
     }
+    relay->deliver(endpoints, local);
     for (int fd : closed) {
       ::close(fd);
       endpoints.erase(std::find(endpoints.begin(), endpoints.end(), fd));

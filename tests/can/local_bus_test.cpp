@@ -17,6 +17,7 @@
 #include <pthread.h>
 #include <sched.h>
 #include <cstring>
+#include <memory>
 #include <thread>
 #include <vector>
 
@@ -108,6 +109,91 @@ TEST(CanLocalBus, ABatchArrivesWholeAndInOrderAcrossSeveralSystemCalls) {
   }
   EXPECT_FALSE(b->receive(got, kAbsent_ns)) << "a frame sent twice";
   EXPECT_FALSE(a->receive(got, kAbsent_ns)) << "the sender heard its own batch";
+}
+
+// The hub takes what its endpoints queued in rounds of at most 256 frames, and hands each
+// round on in batches: several senders' batches, larger than a round together, still reach
+// every other endpoint whole, each sender's frames in its order.
+TEST(CanLocalBus, SeveralSendersBatchesLargerThanARoundArriveWholeAndEachInItsOrder) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  constexpr int kSenders = 3, kFrames = 250;  // each batch fits a sender's socket buffer (~270 frames)
+  std::vector<std::unique_ptr<Bus>> senders;
+  for (int s = 0; s < kSenders; ++s) senders.push_back(open_local(dir.file("bus")));
+  auto receiver = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == kSenders + 1; }));
+  std::vector<std::vector<can_frame>> batches(kSenders);
+  for (int s = 0; s < kSenders; ++s) {
+    for (int i = 0; i < kFrames; ++i) {
+      can_frame f = frame(static_cast<canid_t>(0x100 + s), static_cast<std::uint8_t>(i));
+      f.can_dlc = 2;
+      f.data[1] = static_cast<std::uint8_t>(i >> 8);
+      batches[s].push_back(f);
+    }
+  }
+  std::vector<std::thread> threads;
+  for (int s = 0; s < kSenders; ++s)
+    threads.emplace_back([&, s] { EXPECT_EQ(senders[s]->send_batch(batches[s]), batches[s].size()); });
+  std::vector<int> next(kSenders, 0);
+  can_frame got{};
+  for (int k = 0; k < kSenders * kFrames; ++k) {
+    ASSERT_TRUE(receiver->receive(got, kArrives_ns)) << "frame " << k;
+    const int s = static_cast<int>(got.can_id) - 0x100;
+    ASSERT_TRUE(s >= 0 && s < kSenders) << std::hex << got.can_id;
+    EXPECT_EQ(got.data[0] | (got.data[1] << 8), next[s]) << "sender " << s;
+    ++next[s];
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(next, std::vector<int>(kSenders, kFrames));
+  EXPECT_FALSE(receiver->receive(got, kAbsent_ns)) << "a frame delivered twice";
+  for (int s = 0; s < kSenders; ++s) {  // each sender hears the others' frames, never its own
+    for (int k = 0; k < (kSenders - 1) * kFrames; ++k) {
+      ASSERT_TRUE(senders[s]->receive(got, kArrives_ns)) << "sender " << s << ", frame " << k;
+      EXPECT_NE(got.can_id, static_cast<canid_t>(0x100 + s)) << "sender " << s << " heard itself";
+    }
+  }
+  EXPECT_EQ(hub.counters().deliveries_dropped, 0u);
+}
+
+// An endpoint takes what its hub queued in one go; what is no frame in that go is skipped and
+// the frames around it still arrive, and a close after them is seen once they are taken. The
+// hub here is a protocol-level peer that writes whatever it likes.
+TEST(CanLocalBus, AnEndpointSkipsDatagramsThatAreNoFrameAmongGoodOnesAndThenSeesTheClose) {
+  TempDir dir;
+  const std::string path = dir.file("bus");
+  const int listener = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+  ASSERT_GE(listener, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::strncpy(address.sun_path, path.c_str(), sizeof address.sun_path - 1);
+  ASSERT_EQ(::bind(listener, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  ASSERT_EQ(::listen(listener, 1), 0);
+  auto endpoint = open_local(path);
+  const int hub = ::accept(listener, nullptr, nullptr);
+  ASSERT_GE(hub, 0);
+  const can_frame first = frame(0x181, 1), second = frame(0x182, 2);
+  const char shorty[5] = {1, 2, 3, 4, 5};
+  char longer[sizeof(can_frame) + 4] = {};
+  can_frame bad_dlc = frame(0x111, 0);
+  bad_dlc.can_dlc = 12;
+  ASSERT_EQ(::send(hub, &first, sizeof first, 0), static_cast<ssize_t>(sizeof first));
+  ASSERT_EQ(::send(hub, shorty, sizeof shorty, 0), 5);
+  ASSERT_EQ(::send(hub, longer, sizeof longer, 0), static_cast<ssize_t>(sizeof longer));
+  ASSERT_EQ(::send(hub, &bad_dlc, sizeof bad_dlc, 0), static_cast<ssize_t>(sizeof bad_dlc));
+  ASSERT_EQ(::send(hub, &second, sizeof second, 0), static_cast<ssize_t>(sizeof second));
+  ::close(hub);  // queued after the frames
+  can_frame got{};
+  ASSERT_TRUE(endpoint->receive(got, kArrives_ns));
+  EXPECT_EQ(got.can_id, 0x181u);
+  ASSERT_TRUE(endpoint->receive(got, kArrives_ns));
+  EXPECT_EQ(got.can_id, 0x182u);
+  try {
+    endpoint->receive(got, kArrives_ns);
+    FAIL() << "no BusError after the last frame";
+  } catch (const BusError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("hub closed the connection"));
+  }
+  ::close(listener);
 }
 
 TEST(CanLocalBus, ABatchToAStoppedHubThrowsHubClosed) {

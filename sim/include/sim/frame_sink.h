@@ -15,6 +15,9 @@ class FrameSink {
   virtual ~FrameSink() = default;
   // Sends one frame. Must not block for long (the simulator calls it from its stepping loop).
   virtual void send(const can_frame& frame) = 0;
+  // Hands on what send() kept; a sink that sends at once keeps nothing. The simulator's loop
+  // calls it before it waits.
+  virtual void flush() {}
 };
 
 // Where a node cut off the bus sends: nowhere.

@@ -37,15 +37,22 @@ class RigServer {
 
   // Runs f(rig, out) with the serving thread held off; `out` is the drive bus, for frames a
   // fault injection sends (Pa10Rig::sensor_sink(out) is the sensors').
+  // What f sent leaves when it returns.
   template <class F>
   decltype(auto) with_rig(F&& f) {
     std::lock_guard lock(mutex_);
+    struct FlushAfter {
+      RigServer& server;
+      ~FlushAfter() { server.flush_sinks_quietly(); }
+    } flush_after{*this};
     return f(rig_, static_cast<FrameSink&>(sink_));
   }
 
  private:
   void run();
   bool serve_pending();  // false when a bus went away
+  void flush_sinks();          // the sinks keep frames until this (BusSink); throws BusError
+  void flush_sinks_quietly();  // the same; a bus that went away is found by the serving thread
 
   Pa10Rig& rig_;
   std::unique_ptr<rtm::can::Bus> bus_;

@@ -49,10 +49,8 @@ class LocalHub {
   Counters counters() const;
 
  private:
+  class Relay;  // one poll round's frames, taken and handed on in batches
   void run();
-  // Forwards every datagram endpoint `from` has queued to the other endpoints; false when
-  // `from` closed (or its connection broke).
-  bool forward_from(int from, const std::vector<int>& endpoints, Counters& counters);
 
   std::string socket_path_;
   int listen_fd_ = -1;
