@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "arm/can/bus.h"
+#include "arm/can/local_bus.h"
 
 #include <linux/can/raw.h>
 #include <net/if.h>
@@ -227,7 +228,9 @@ class LocalBus final : public Bus {
   LocalBus(std::string_view path, std::span<const FrameFilter> filters)
       : name_("local:" + std::string(path)),
         filters_(filters.begin(), filters.end()),
-        fd_(connect_hub(path, name_)) {}
+        fd_(connect_hub(path, name_)) {
+    tell_hub_the_filters();
+  }
 
   bool send(const can_frame& frame) override { return send_frame(fd_.get(), frame, MSG_NOSIGNAL, failure()); }
   std::size_t send_batch(std::span<const can_frame> frames) override {
@@ -273,6 +276,22 @@ class LocalBus final : public Bus {
            error);
     }
     return fd;
+  }
+
+  // The hub then copies this endpoint only the frames it wants and wakes it for no other
+  // (local_bus.h); the filters here still apply, for a hub that does not know the message.
+  void tell_hub_the_filters() {
+    if (filters_.empty() || filters_.size() > kMaxFilters) return;
+    std::array<unsigned char, kFilterMagic.size() + 8 * kMaxFilters> message{};
+    std::memcpy(message.data(), kFilterMagic.data(), kFilterMagic.size());
+    std::size_t length = kFilterMagic.size();
+    for (const FrameFilter& f : filters_) {
+      std::memcpy(message.data() + length, &f.id, 4);
+      std::memcpy(message.data() + length + 4, &f.mask, 4);
+      length += 8;
+    }
+    if (::send(fd_.get(), message.data(), length, MSG_NOSIGNAL) != static_cast<ssize_t>(length))
+      fail(name_, "send (filters to the hub)", errno);
   }
 
   // Fills batch_ with the frames queued now (whole, well-formed ones); false when none was

@@ -11,6 +11,8 @@
 #include <cerrno>
 #include <cstring>
 #include <memory>
+#include <span>
+#include <unordered_map>
 #include <vector>
 
 #include "arm/can/bus.h"
@@ -116,6 +118,7 @@ class LocalHub::Relay {
   static constexpr std::size_t kRoundFrames = 256;  // per round; the rest wait for the next poll
 
   void clear() { count_ = 0; }
+  void forget(int endpoint) { filters_.erase(endpoint); }  // it closed
 
   // Takes what `from` has queued, up to the round's room; false when `from` closed (or its
   // connection broke).
@@ -136,9 +139,9 @@ class LocalHub::Relay {
       for (int i = 0; i < n; ++i) {
         const unsigned length = in_[i].msg_len;
         if (length == 0) return false;  // orderly close (no endpoint sends an empty datagram)
+        if (take_filters(from, in_buffers_[i].data(), length, in_[i].msg_hdr.msg_flags, counters)) continue;
         can_frame frame{};
-        // One byte more than a frame is read: a longer datagram shows as MSG_TRUNC.
-        if (length != sizeof frame || (in_[i].msg_hdr.msg_flags & MSG_TRUNC) != 0) {
+        if (length != sizeof frame) {
           ++counters.datagrams_malformed;
           continue;
         }
@@ -162,9 +165,18 @@ class LocalHub::Relay {
   // shows up as POLLHUP/POLLERR on its own descriptor.
   void deliver(const std::vector<int>& endpoints, Counters& counters) {
     for (int to : endpoints) {
+      const auto wanted = filters_.find(to);
+      const std::span<const FrameFilter> filters =
+          wanted == filters_.end() ? std::span<const FrameFilter>{} : std::span<const FrameFilter>(wanted->second);
       std::size_t mine = 0;
-      for (std::size_t i = 0; i < count_; ++i)
-        if (sources_[i] != to) for_endpoint_[mine++] = i;
+      for (std::size_t i = 0; i < count_; ++i) {
+        if (sources_[i] == to) continue;
+        if (!passes(frames_[i], filters)) {
+          ++counters.frames_filtered;  // neither copied nor woken for
+          continue;
+        }
+        for_endpoint_[mine++] = i;
+      }
       std::size_t done = 0;
       while (done < mine) {
         const std::size_t k = std::min(kChunk, mine - done);
@@ -186,12 +198,33 @@ class LocalHub::Relay {
   }
 
  private:
+  // A filter list (local_bus.h: kFilterMagic, then (id, mask) pairs): kept for `from`; true
+  // when the datagram was one.
+  bool take_filters(int from, const unsigned char* data, unsigned length, int flags, Counters& counters) {
+    if ((flags & MSG_TRUNC) != 0 || length < kFilterMagic.size() || (length - kFilterMagic.size()) % 8 != 0) return false;
+    if (std::memcmp(data, kFilterMagic.data(), kFilterMagic.size()) != 0) return false;
+    std::vector<FrameFilter>& list = filters_[from];
+    list.clear();
+    for (unsigned at = kFilterMagic.size(); at + 8 <= length; at += 8) {
+      FrameFilter f;
+      std::memcpy(&f.id, data + at, 4);
+      std::memcpy(&f.mask, data + at + 4, 4);
+      list.push_back(f);
+    }
+    if (list.empty()) filters_.erase(from);  // an empty list: every frame again
+    ++counters.filters_set;
+    return true;
+  }
+
+  static constexpr std::size_t kLargestDatagram = kFilterMagic.size() + 8 * kMaxFilters;
   std::array<can_frame, kRoundFrames> frames_{};
   std::array<int, kRoundFrames> sources_{};
   std::array<iovec, kRoundFrames> out_iov_{};
   std::array<std::size_t, kRoundFrames> for_endpoint_{};
   std::array<mmsghdr, kChunk> out_{};
-  std::array<std::array<unsigned char, sizeof(can_frame) + 1>, kChunk> in_buffers_{};
+  // One byte more than the largest datagram: a longer one shows as MSG_TRUNC.
+  std::array<std::array<unsigned char, kLargestDatagram + 1>, kChunk> in_buffers_{};
+  std::unordered_map<int, std::vector<FrameFilter>> filters_;  // by endpoint; none: every frame
   std::array<iovec, kChunk> in_iov_{};
   std::array<mmsghdr, kChunk> in_{};
   std::size_t count_ = 0;
@@ -213,7 +246,7 @@ void LocalHub::run() {
 
   Counters local{};  // accumulated here, published after each poll round
   std::vector<int> closed;
-  auto relay = std::make_unique<Relay>();  // 13 KiB of round buffers, made once
+  auto relay = std::make_unique<Relay>();  // some 24 KiB of round buffers, made once
   while (!stopping_.load()) {
     const int n = ::poll(pollfds.data(), pollfds.size(), -1);
     if (n < 0) {
@@ -251,6 +284,7 @@ void LocalHub::run() {
     }
     relay->deliver(endpoints, local);
     for (int fd : closed) {
+      relay->forget(fd);
       ::close(fd);
       endpoints.erase(std::find(endpoints.begin(), endpoints.end(), fd));
       ++local.endpoints_closed;

@@ -4,6 +4,7 @@
 #include "rt/clock.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <stdexcept>
@@ -19,8 +20,22 @@ SensorListener::SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node, std:
   }
 }
 
+namespace {
+
+// What handle() reads: SYNC and the sensor node's own frames (TPDOs, heartbeat, EMCY: any
+// function code, that node id, standard frames only). The bus (the kernel, or the local hub)
+// then neither copies the listener the rest of the bus's traffic nor wakes it for it.
+std::array<FrameFilter, 2> sensor_filters(std::uint8_t node) {
+  constexpr canid_t kExactId = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
+  constexpr canid_t kNodeId = 0x7f | CAN_EFF_FLAG | CAN_RTR_FLAG;  // the node-id bits of a COB-ID
+  return {{{cob::kSync, kExactId}, {node, kNodeId}}};
+}
+
+}  // namespace
+
 SensorListener::SensorListener(std::string_view bus_spec, ForceSensor sensor, std::int64_t heartbeat_timeout_ns)
-    : SensorListener(open_bus(bus_spec), sensor_node(sensor), heartbeat_timeout_ns) {}
+    : SensorListener(open_bus(bus_spec, sensor_filters(sensor_node(sensor))), sensor_node(sensor),
+                     heartbeat_timeout_ns) {}
 
 SensorListener::~SensorListener() { stop(); }
 

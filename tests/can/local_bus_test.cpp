@@ -315,6 +315,35 @@ TEST(CanLocalBus, AppliesFiltersLikeSocketCan) {
   EXPECT_FALSE(b->receive(got, kAbsent_ns));
 }
 
+// An endpoint's filters go to the hub (as a SocketCAN socket's go to the kernel): the hub
+// neither copies it other frames nor wakes it for them, and what passes still arrives in order.
+TEST(CanLocalBus, TheHubAppliesAnEndpointsFiltersAndCopiesItNothingElse) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto a = open_local(dir.file("bus"));
+  const FrameFilter sync_and_node_5[] = {{0x080, CAN_SFF_MASK}, {0x005, 0x7f}};
+  auto b = open_local(dir.file("bus"), sync_and_node_5);
+  auto everything = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 3 && hub.counters().filters_set == 1; }));
+  const std::vector<can_frame> traffic{frame(0x080, 1), frame(0x181, 2), frame(0x185, 3), frame(0x706, 4),
+                                       frame(0x705, 5), frame(0x201, 6)};
+  ASSERT_EQ(a->send_batch(traffic), traffic.size());
+  can_frame got{};
+  for (const canid_t id : {0x080u, 0x185u, 0x705u}) {
+    ASSERT_TRUE(b->receive(got, kArrives_ns));
+    EXPECT_EQ(got.can_id, id);
+  }
+  EXPECT_FALSE(b->receive(got, kAbsent_ns));
+  for (const can_frame& sent : traffic) {
+    ASSERT_TRUE(everything->receive(got, kArrives_ns));
+    EXPECT_EQ(got.can_id, sent.can_id) << "an endpoint without filters gets every frame";
+  }
+  // Copies made: 6 to `everything`, 3 to b; the other 3 were kept from b by its filters.
+  EXPECT_TRUE(eventually([&] { return hub.counters().deliveries == 9; })) << hub.counters().deliveries;
+  EXPECT_EQ(hub.counters().frames_filtered, 3u);
+  EXPECT_EQ(hub.counters().datagrams_malformed, 0u) << "the filter list is no frame";
+}
+
 TEST(CanLocalBus, ReceiveOnAStoppedHubThrowsHubClosed) {
   TempDir dir;
   auto hub = std::make_unique<LocalHub>(dir.file("bus"));

@@ -7,8 +7,16 @@
 // counted. An endpoint that cannot keep up loses frames (counted), like a CAN controller whose
 // receive FIFO overflows: the hub never blocks on a slow endpoint. Endpoints connect with
 // `open_bus("local:<path>")`; the `rtm-canhub <path>` executable runs a hub as a process.
+//
+// An endpoint may tell the hub which frames it wants, as a SocketCAN socket tells the kernel
+// (CAN_RAW_FILTER): one datagram of kFilterMagic (8 bytes) and then up to kMaxFilters pairs of
+// little-endian u32 (id, mask). The hub then neither copies it other frames nor wakes it for
+// them; a new such datagram replaces the list, none (the default) means every frame. The magic
+// reads as a frame with can_dlc 'A' (65), so a hub that does not know it drops it as malformed
+// and the endpoint's own filtering still holds. open_local() sends its filters so.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <mutex>
@@ -17,6 +25,9 @@
 #include <vector>
 
 namespace rtm::can {
+
+inline constexpr std::array<unsigned char, 8> kFilterMagic{'R', 'T', 'M', 'C', 'A', 'N', 'F', '1'};
+inline constexpr std::size_t kMaxFilters = 32;
 
 class LocalHub {
  public:
@@ -28,6 +39,8 @@ class LocalHub {
     std::uint64_t endpoints_connected = 0;  // total connections accepted
     std::uint64_t endpoints_closed = 0;     // total connections that went away
     std::uint64_t endpoints_refused = 0;    // connections closed at once: kMaxEndpoints reached
+    std::uint64_t filters_set = 0;          // filter lists endpoints sent
+    std::uint64_t frames_filtered = 0;      // frame copies an endpoint's filters kept from it
   };
   // Endpoints the hub serves at once (a bus has a master, the nodes, a few listeners).
   static constexpr std::size_t kMaxEndpoints = 32;
