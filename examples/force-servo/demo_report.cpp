@@ -712,4 +712,51 @@ std::string gnuplot_script(const std::filesystem::path& csv, const std::filesyst
   return s;
 }
 
+// ============================ live display ============================
+
+std::optional<Row> last_complete_row(std::string_view text) {
+  // From the last '\n' back: what follows it is a line still being written.
+  std::size_t end = text.rfind('\n');
+  while (end != std::string_view::npos) {
+    const std::size_t previous = end == 0 ? std::string_view::npos : text.rfind('\n', end - 1);
+    const std::size_t start = previous == std::string_view::npos ? 0 : previous + 1;
+    const auto fields = split_fields(text.substr(start, end - start));
+    Row row{};
+    bool ok = fields.size() == row.size();
+    for (std::size_t i = 0; ok && i < row.size(); ++i) ok = parse_number(fields[i], row[i]);
+    if (ok) return row;
+    end = previous;
+  }
+  return std::nullopt;
+}
+
+std::optional<Row> last_complete_row_of(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return std::nullopt;
+  const std::streamoff size = in.tellg();
+  constexpr std::streamoff kTail = 4096;
+  const std::streamoff from = std::max<std::streamoff>(0, size - kTail);
+  std::string tail(static_cast<std::size_t>(size - from), '\0');
+  in.seekg(from);
+  if (!in.read(tail.data(), static_cast<std::streamsize>(tail.size()))) return std::nullopt;
+  // A tail that starts mid-file starts mid-line: a mark no number starts with keeps its first
+  // line from reading as a row.
+  if (from > 0) tail.insert(tail.begin(), 'x');
+  return last_complete_row(tail);
+}
+
+std::string live_line(int t_s, const Row& r, const Row& s, const Row& c) {
+  const double reference_N = std::sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
+  std::string phase;
+  if (reference_N < 0.5) {
+    phase = "hands off";
+  } else if (-r[3] > std::sqrt(r[1] * r[1] + r[2] * r[2])) {
+    phase = fmt::format("press {:.0f} N", -r[3]);
+  } else {
+    phase = "free-space push";
+  }
+  return fmt::format("  {:5d}  {:<16} {:7.1f} {:7.1f} {:7.1f}  {:7.1f} {:7.1f} {:7.1f}  {:7.1f} {:7.1f} {:7.1f}", t_s, phase,
+                     r[1], r[2], r[3], -s[1], -s[2], -s[3], 1000 * c[1], 1000 * c[2], 1000 * c[3]);
+}
+
 }  // namespace rtm::demo

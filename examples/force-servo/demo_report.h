@@ -266,4 +266,22 @@ void write_samples_csv(const std::filesystem::path& path, const std::vector<Samp
 std::string gnuplot_script(const std::filesystem::path& csv, const std::filesystem::path& png,
                            const std::vector<PhaseSummary>& phases);
 
+// ============================ live display ============================
+
+// One row of a recording: time_ns and the six values.
+using Row = std::array<double, 7>;
+
+// The newest complete row of a recording's text: the last line that ends in '\n' and holds
+// seven numbers (a recorder's buffered write can end mid-line); nullopt when none. The text's
+// first line counts as whole.
+std::optional<Row> last_complete_row(std::string_view tail);
+// The same read from the end of the file (its last 4 KiB, one pread); nullopt when the file
+// is missing or holds no complete row yet.
+std::optional<Row> last_complete_row_of(const std::filesystem::path& path);
+
+// The demo's live line at t s: the phase the reference says (hands off below 0.5 N, a press
+// when it points down more than sideways, else a free-space push), the reference and the
+// measured force [N] and the commanded velocity [mm/s], x y z. A missing row reads as zeros.
+std::string live_line(int t_s, const Row& reference, const Row& sensor, const Row& command);
+
 }  // namespace rtm::demo

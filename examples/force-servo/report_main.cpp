@@ -4,20 +4,60 @@
 //
 //   rtm-demo-report --reference joystick.csv --sensor sensor.csv --command controller.csv
 //                   [--timing timing.json] --out DIR
+//   rtm-demo-report live --seconds N --reference ... --sensor ... --command ...
 //
 // Writes DIR/force_servo.csv, DIR/force_servo.gp (draws DIR/force_servo.png) and
 // DIR/summary.txt, and prints the summary. Exit 0 on success, 1 for unusable input,
 // 2 for a bad command line, 3 with --check when a figure the demo promises (demo_report.h:
 // touch-down overshoot, settling, release transitions, watchdog events; steady-state error,
 // overruns) is missed or cannot be measured.
+//
+// live: the demo's display while it runs, one line a second for N seconds on one
+// CLOCK_MONOTONIC grid, from the newest complete row of each recording (demo_report.h). One
+// process reading three file tails a second, where the demo's shell loop once started a dozen
+// commands a second for it.
 #include "demo_report.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <time.h>
+
+#include <cerrno>
+#include <cstdio>
 #include <fstream>
+#include <string_view>
 
 namespace {
+
+int run_live(int argc, char** argv) {
+  CLI::App app{"rtm-demo-report live: the demo's live line, once a second"};
+  int seconds = 0;
+  std::string reference_csv, sensor_csv, command_csv;
+  app.add_option("--seconds", seconds, "lines to print, one a second")->required()->check(CLI::PositiveNumber);
+  app.add_option("--reference", reference_csv, "rtm watch --csv of the joystick's out0")->required();
+  app.add_option("--sensor", sensor_csv, "rtm watch --csv of the wrist sensor's out0")->required();
+  app.add_option("--command", command_csv, "rtm watch --csv of the controller's out0")->required();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error) == 0 ? 0 : 2;
+  }
+  timespec next{};
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  const rtm::demo::Row none{};
+  for (int t = 1; t <= seconds; ++t) {
+    ++next.tv_sec;
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR) {
+    }
+    const auto reference = rtm::demo::last_complete_row_of(reference_csv);
+    const auto sensor = rtm::demo::last_complete_row_of(sensor_csv);
+    const auto command = rtm::demo::last_complete_row_of(command_csv);
+    fmt::print("{}\n", rtm::demo::live_line(t, reference.value_or(none), sensor.value_or(none), command.value_or(none)));
+    std::fflush(stdout);
+  }
+  return 0;
+}
 
 // The figures' limits and the contact threshold (demo_report.h); --max-overshoot is in %.
 void add_figure_options(CLI::App& app, rtm::demo::PhaseOptions& options, rtm::demo::FigureLimits& limits,
@@ -48,6 +88,7 @@ void add_figure_options(CLI::App& app, rtm::demo::PhaseOptions& options, rtm::de
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc > 1 && std::string_view(argv[1]) == "live") return run_live(argc - 1, argv + 1);
   CLI::App app{"rtm-demo-report: summary, CSV and plot of a force-servo demo recording"};
   std::string reference_csv, sensor_csv, command_csv, timing_json, out_dir;
   bool check = false;

@@ -64,6 +64,50 @@ TEST(DemoReportCsv, ParsesRtmWatchOutputAndToleratesACutLastLine) {
   EXPECT_DOUBLE_EQ(s.values[1][5], 1e-3);
 }
 
+// The live display reads the newest whole row: a line still being written (no '\n' yet, here
+// "300,7,8,9,1,2,3" that may yet grow digits) is not one, nor the header.
+TEST(DemoReportLive, TheNewestCompleteRowIsTheLastLineEndedByANewlineThatHoldsSevenNumbers) {
+  const auto row = rtm::demo::last_complete_row("time_ns,v0,v1,v2,v3,v4,v5\n100,1,2,3,4,5,6\n200,0.5,0,-10,0,0,0\n300,7,8,9,1,2,3");
+  ASSERT_TRUE(row.has_value());
+  EXPECT_DOUBLE_EQ((*row)[0], 200.0);
+  EXPECT_DOUBLE_EQ((*row)[3], -10.0);
+  EXPECT_FALSE(rtm::demo::last_complete_row("time_ns,v0,v1,v2,v3,v4,v5\n").has_value());
+  EXPECT_FALSE(rtm::demo::last_complete_row("time_ns,v0,v1,v2,v3,v4,v5\n100,1,2").has_value());
+  EXPECT_FALSE(rtm::demo::last_complete_row("").has_value());
+  const auto after_bad = rtm::demo::last_complete_row("100,1,2,3,4,5,6\n200,1,2\n");
+  ASSERT_TRUE(after_bad.has_value()) << "a short line is skipped for the one before it";
+  EXPECT_DOUBLE_EQ((*after_bad)[0], 100.0);
+}
+
+// From a file: only its last 4 KiB are read, and a row cut at the front of that tail is not taken
+// for a whole one.
+TEST(DemoReportLive, AFilesNewestRowIsFoundInItsTailAndAMissingFileHasNone) {
+  const auto path = std::filesystem::temp_directory_path() / ("demo-live-" + std::to_string(::getpid()) + ".csv");
+  EXPECT_FALSE(rtm::demo::last_complete_row_of(path).has_value());
+  {
+    std::ofstream out(path);
+    out << "time_ns,v0,v1,v2,v3,v4,v5\n";
+    for (int i = 1; i <= 2000; ++i) out << i << ",1,2,3,4,5,6\n";
+    out << "2001,1,2";  // being written
+  }
+  const auto row = rtm::demo::last_complete_row_of(path);
+  std::filesystem::remove(path);
+  ASSERT_TRUE(row.has_value());
+  EXPECT_DOUBLE_EQ((*row)[0], 2000.0);
+}
+
+TEST(DemoReportLive, TheLineNamesThePhaseFromTheReference) {
+  const rtm::demo::Row none{};
+  const rtm::demo::Row press{0, 0, 0, -10, 0, 0, 0}, push{0, 5, 0, -1, 0, 0, 0};
+  const rtm::demo::Row sensor{0, 0.5, 0, 9.5, 0, 0, 0}, command{0, 0, 0, -0.002, 0, 0, 0};
+  EXPECT_NE(rtm::demo::live_line(1, none, none, none).find("hands off"), std::string::npos);
+  const std::string pressing = rtm::demo::live_line(12, press, sensor, command);
+  EXPECT_NE(pressing.find("press 10 N"), std::string::npos) << pressing;
+  EXPECT_NE(pressing.find("   -0.5"), std::string::npos) << "the measured force is the sensor's negative: " << pressing;
+  EXPECT_NE(pressing.find("   -2.0"), std::string::npos) << "velocity in mm/s: " << pressing;
+  EXPECT_NE(rtm::demo::live_line(3, push, none, none).find("free-space push"), std::string::npos);
+}
+
 TEST(DemoReportCsv, MalformedRowNamesFileAndLine) {
   try {
     rtm::demo::parse_watch_csv("time_ns,v0,v1,v2,v3,v4,v5\n100,1,2,3,4,5,6\n200,1,x,3,4,5,6\n", "rec.csv");
