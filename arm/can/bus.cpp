@@ -229,8 +229,15 @@ class LocalBus final : public Bus {
       : name_("local:" + std::string(path)),
         filters_(filters.begin(), filters.end()),
         fd_(connect_hub(path, name_)) {
+    for (std::size_t i = 0; i < kBatch; ++i) {  // the kernel writes only msg_len and msg_flags
+      iov_[i] = {buffers_[i].data(), buffers_[i].size()};
+      messages_[i].msg_hdr.msg_iov = &iov_[i];
+      messages_[i].msg_hdr.msg_iovlen = 1;
+    }
     tell_hub_the_filters();
   }
+  LocalBus(const LocalBus&) = delete;
+  LocalBus& operator=(const LocalBus&) = delete;
 
   bool send(const can_frame& frame) override { return send_frame(fd_.get(), frame, MSG_NOSIGNAL, failure()); }
   std::size_t send_batch(std::span<const can_frame> frames) override {
@@ -298,17 +305,9 @@ class LocalBus final : public Bus {
   // queued. Throws BusError when the hub closed the connection.
   bool take_batch() {
     next_ = taken_ = 0;
-    std::array<std::array<unsigned char, sizeof(can_frame) + 1>, kBatch> buffers;  // +1: MSG_TRUNC shows longer ones
-    std::array<iovec, kBatch> iov;
-    std::array<mmsghdr, kBatch> messages{};
-    for (std::size_t i = 0; i < kBatch; ++i) {
-      iov[i] = {buffers[i].data(), buffers[i].size()};
-      messages[i].msg_hdr.msg_iov = &iov[i];
-      messages[i].msg_hdr.msg_iovlen = 1;
-    }
     int n = -1;
     do {
-      n = ::recvmmsg(fd_.get(), messages.data(), kBatch, MSG_DONTWAIT, nullptr);
+      n = ::recvmmsg(fd_.get(), messages_.data(), kBatch, MSG_DONTWAIT, nullptr);
     } while (n < 0 && errno == EINTR);
     if (n < 0) {
       if (errno == EAGAIN) return false;
@@ -316,14 +315,14 @@ class LocalBus final : public Bus {
       fail(name_, "recvmmsg", errno);
     }
     for (int i = 0; i < n; ++i) {
-      const unsigned length = messages[i].msg_len;
+      const unsigned length = messages_[i].msg_len;
       if (length == 0) {  // the hub closed the connection (it never sends an empty datagram)
         if (taken_ > 0) return true;  // these first; the next take finds the close again
         throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
       }
-      if (length != sizeof(can_frame) || (messages[i].msg_hdr.msg_flags & MSG_TRUNC) != 0) continue;  // not a frame
+      if (length != sizeof(can_frame) || (messages_[i].msg_hdr.msg_flags & MSG_TRUNC) != 0) continue;  // not a frame
       can_frame& f = batch_[taken_];
-      std::memcpy(&f, buffers[i].data(), sizeof f);
+      std::memcpy(&f, buffers_[i].data(), sizeof f);
       if (f.can_dlc <= CAN_MAX_DLEN) ++taken_;
     }
     return true;
@@ -334,6 +333,10 @@ class LocalBus final : public Bus {
   std::vector<FrameFilter> filters_;
   FdOwner fd_;
   std::array<can_frame, kBatch> batch_{};
+  // recvmmsg's datagrams, one byte more than a frame each: MSG_TRUNC shows a longer one.
+  std::array<std::array<unsigned char, sizeof(can_frame) + 1>, kBatch> buffers_{};
+  std::array<iovec, kBatch> iov_{};
+  std::array<mmsghdr, kBatch> messages_{};
   std::size_t next_ = 0;   // the next frame of batch_ to hand out
   std::size_t taken_ = 0;  // frames in batch_
 };

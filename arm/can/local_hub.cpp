@@ -117,6 +117,17 @@ class LocalHub::Relay {
   static constexpr std::size_t kChunk = 32;         // datagrams per recvmmsg / sendmmsg
   static constexpr std::size_t kRoundFrames = 256;  // per round; the rest wait for the next poll
 
+  Relay() {  // the kernel writes only msg_len and msg_flags: the headers are set up once
+    for (std::size_t i = 0; i < kChunk; ++i) {
+      in_iov_[i] = {in_buffers_[i].data(), in_buffers_[i].size()};
+      in_[i].msg_hdr.msg_iov = &in_iov_[i];
+      in_[i].msg_hdr.msg_iovlen = 1;
+      out_[i].msg_hdr.msg_iovlen = 1;
+    }
+  }
+  Relay(const Relay&) = delete;
+  Relay& operator=(const Relay&) = delete;
+
   void clear() { count_ = 0; }
   void forget(int endpoint) { filters_.erase(endpoint); }  // it closed
 
@@ -126,12 +137,6 @@ class LocalHub::Relay {
     for (;;) {
       const std::size_t room = std::min(kChunk, kRoundFrames - count_);
       if (room == 0) return true;  // poll is level-triggered: the rest come next round
-      for (std::size_t i = 0; i < room; ++i) {
-        in_iov_[i] = {in_buffers_[i].data(), in_buffers_[i].size()};
-        in_[i] = {};
-        in_[i].msg_hdr.msg_iov = &in_iov_[i];
-        in_[i].msg_hdr.msg_iovlen = 1;
-      }
       const int n = ::recvmmsg(from, in_.data(), static_cast<unsigned>(room), MSG_DONTWAIT, nullptr);
       if (n < 0 && errno == EINTR) continue;
       if (n < 0 && errno == EAGAIN) return true;
@@ -180,11 +185,7 @@ class LocalHub::Relay {
       std::size_t done = 0;
       while (done < mine) {
         const std::size_t k = std::min(kChunk, mine - done);
-        for (std::size_t j = 0; j < k; ++j) {
-          out_[j] = {};
-          out_[j].msg_hdr.msg_iov = &out_iov_[for_endpoint_[done + j]];
-          out_[j].msg_hdr.msg_iovlen = 1;
-        }
+        for (std::size_t j = 0; j < k; ++j) out_[j].msg_hdr.msg_iov = &out_iov_[for_endpoint_[done + j]];
         const int n = ::sendmmsg(to, out_.data(), static_cast<unsigned>(k), MSG_DONTWAIT | MSG_NOSIGNAL);
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) {

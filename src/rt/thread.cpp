@@ -83,6 +83,12 @@ void set_path_thread_priority(int fifo_priority) {
 
 int path_thread_priority() { return g_path_thread_priority.load(std::memory_order_relaxed); }
 
+int set_thread_fifo_priority(pthread_t thread, int fifo_priority) {
+  sched_param param{};
+  param.sched_priority = fifo_priority;
+  return pthread_setschedparam(thread, fifo_priority > 0 ? SCHED_FIFO : SCHED_OTHER, &param);
+}
+
 void apply_thread_settings(const ThreadSettings& settings) {
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
   if (!settings.name.empty()) set_thread_name(settings.name);
@@ -96,9 +102,7 @@ void apply_thread_settings(const ThreadSettings& settings) {
            "); running unpinned");
   }
   if (settings.fifo_priority > 0) {
-    sched_param param{};
-    param.sched_priority = settings.fifo_priority;
-    if (int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param); err != 0)
+    if (int err = set_thread_fifo_priority(pthread_self(), settings.fifo_priority); err != 0)
       warn(who + ": SCHED_FIFO priority " + std::to_string(settings.fifo_priority) + " refused (" +
            std::strerror(err) + "); running SCHED_OTHER" +
            (err == EPERM ? " (needs CAP_SYS_NICE or an rtprio limit)" : ""));

@@ -3,7 +3,6 @@
 
 #include <pthread.h>
 #include <pwd.h>
-#include <sched.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -227,9 +226,7 @@ void serve_at_path_priority(bool admitted_put) {
   thread_local int t_priority = 0;  // this thread's now; ORB threads start at SCHED_OTHER
   const int wanted = admitted_put ? path_thread_priority() : 0;
   if (wanted == t_priority) return;
-  sched_param param{};
-  param.sched_priority = wanted;
-  if (pthread_setschedparam(pthread_self(), wanted > 0 ? SCHED_FIFO : SCHED_OTHER, &param) == 0) t_priority = wanted;
+  if (set_thread_fifo_priority(pthread_self(), wanted) == 0) t_priority = wanted;
 }
 
 // Both checks throw before the arguments are read: the request body is skipped, not

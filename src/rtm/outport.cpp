@@ -168,11 +168,8 @@ bool OutPortBase::add_subscription(std::unique_ptr<Subscription> sub, bool start
     // Data pass a delivery thread on their way to the subscriber: with real-time priorities
     // on it runs at the path's (rt/thread.h), as the thread of the put that receives them
     // does; set before subscribe() returns. A ring's probe thread carries no datum.
-    if (const int priority = path_thread_priority(); priority > 0 && !raw->shm) {
-      sched_param param{};
-      param.sched_priority = priority;
-      pthread_setschedparam(raw->thread.native_handle(), SCHED_FIFO, &param);
-    }
+    if (const int priority = path_thread_priority(); priority > 0 && !raw->shm)
+      set_thread_fifo_priority(raw->thread.native_handle(), priority);
   }
   return true;
 }

@@ -144,7 +144,8 @@ void print_summary(const ResolvedPort& port, const WatchSubscription& sub, std::
   fmt::print(stderr,
              "{}: received {} in {:.2f} s ({:.1f} Hz, through {}), dropped {} by the publisher, {} by the display, {} "
              "late (after a later one), {} of a wrong type\n",
-             port.address, shown, elapsed, elapsed > 0 ? shown / elapsed : 0.0, path, dropped_publisher, sub.servant->overflowed(), sub.servant->late(), sub.servant->rejected());
+             port.address, shown, elapsed, elapsed > 0 ? shown / elapsed : 0.0, path, dropped_publisher,
+             sub.servant->overflowed(), sub.servant->late(), sub.servant->rejected());
 }
 
 }  // namespace

@@ -5,6 +5,8 @@
 // runs everything, only with worse timing.
 #pragma once
 
+#include <pthread.h>
+
 #include <string>
 #include <string_view>
 
@@ -36,6 +38,11 @@ long current_slice_ns();
 // priority of its activity. Thread-safe.
 void set_path_thread_priority(int fifo_priority);
 int path_thread_priority();
+
+// Puts `thread` at SCHED_FIFO fifo_priority (1..99), or back at SCHED_OTHER for 0; returns
+// pthread_setschedparam's error (0 on success). For threads whose priority follows what they
+// carry (a delivery thread, an ORB thread serving a put), set from outside or per request.
+int set_thread_fifo_priority(pthread_t thread, int fifo_priority);
 
 // Names the calling thread (cut to 15 characters).
 void set_thread_name(std::string_view name);
