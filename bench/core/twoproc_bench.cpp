@@ -379,6 +379,7 @@ class BareRingPort : public virtual POA_RTM::InPortShm {
   char* last_error() override { return CORBA::string_dup(""); }
   RTM::PortDescription* describe() override { return new RTM::PortDescription; }
   void admit_writer() override {}
+  char* reader_policy() override { return CORBA::string_dup("latest"); }
   CORBA::Boolean attach_ring(const char* segment, const char*, CORBA::ULongLong type_id, CORBA::Long,
                              CORBA::ULongLong, CORBA::String_out why) override {
     std::lock_guard lock(mu_);

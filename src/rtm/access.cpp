@@ -307,7 +307,7 @@ bool is_change_operation(std::string_view name) {
   static constexpr std::string_view kChanges[] = {"on",           "off",           "reset", "set_parameter",
                                                   "subscribe",    "unsubscribe",   "put",   "push",
                                                   "put_in_order", "push_in_order", "hold",  "release",
-                                                  "admit_writer", "attach_ring",   "detach_ring"};
+                                                  "admit_writer", "attach_ring",   "detach_ring", "connect"};
   for (std::string_view change : kChanges)
     if (name == change) return true;
   return false;

@@ -99,6 +99,21 @@ void InPortBase::set_arrival_signal(std::shared_ptr<ArrivalSignal> signal) {
   signal_ = std::move(signal);
 }
 
+ReaderPolicy InPortBase::reader() const {
+  ReaderPolicy r;
+  switch (policy_.kind()) {
+    case InPortPolicy::Kind::Latest: r.kind = ReaderPolicy::Kind::latest; break;
+    case InPortPolicy::Kind::Fifo:
+      r.kind = ReaderPolicy::Kind::fifo;
+      r.capacity = static_cast<std::uint32_t>(policy_.capacity());
+      break;
+    case InPortPolicy::Kind::Callback: r.kind = ReaderPolicy::Kind::callback; break;
+  }
+  return r;
+}
+
+char* InPortBase::reader_policy() { return CORBA::string_dup(to_string(reader()).c_str()); }
+
 bool InPortBase::stores_without_waiting() const {
   switch (policy_.kind()) {
     case InPortPolicy::Kind::Latest: return true;

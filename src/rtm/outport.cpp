@@ -110,7 +110,7 @@ void OutPortBase::stop_and_join(std::unique_ptr<Subscription> sub,
     }
     sub->thread.join();
   }
-  if (sub->shm) detach_quietly(sub->port_shm.in(), sub->segment);
+  if (sub->kind == ConnKind::shared_memory) detach_quietly(sub->port_shm.in(), sub->segment);
 }
 
 void OutPortBase::close() {
@@ -168,7 +168,7 @@ bool OutPortBase::add_subscription(std::unique_ptr<Subscription> sub, bool start
     // Data pass a delivery thread on their way to the subscriber: with real-time priorities
     // on it runs at the path's (rt/thread.h), as the thread of the put that receives them
     // does; set before subscribe() returns. A ring's probe thread carries no datum.
-    if (const int priority = path_thread_priority(); priority > 0 && !raw->shm)
+    if (const int priority = path_thread_priority(); priority > 0 && raw->kind != ConnKind::shared_memory)
       set_thread_fifo_priority(raw->thread.native_handle(), priority);
   }
   return true;
@@ -235,7 +235,7 @@ bool OutPortBase::count_failure(Subscription& sub, const char* exception_name, b
 
 void OutPortBase::delivery_loop(Subscription* sub) {
   pthread_setname_np(pthread_self(), "rtm-deliver");
-  if (sub->shm) {
+  if (sub->kind == ConnKind::shared_memory) {
     probe_loop(sub);
     return;
   }
@@ -260,7 +260,7 @@ void OutPortBase::delivery_loop(Subscription* sub) {
     sub->in_flight = false;
     if (delivered) {
       sub->writer_may_call = true;  // delivered: write() may call again
-      drop = sub->req_type == RTM::once;
+      drop = sub->once();
     }
     if (drop) {
       sub->done = true;
@@ -279,7 +279,7 @@ void OutPortBase::count_pushed(Subscription& sub) {
 }
 
 void OutPortBase::finish_writer_call(Subscription& sub, bool delivered, bool dead) {
-  if (dead || (delivered && sub.req_type == RTM::once)) {
+  if (dead || (delivered && sub.once())) {
     {
       std::lock_guard slot_lock(sub.slot_mu);
       sub.done = true;
@@ -367,7 +367,7 @@ void OutPortBase::make_writer_references(Subscription& sub) const {
   // code and touches memory no later call does, and on a loaded machine outlived the short
   // bound (the first datum then failed as TIMEOUT). A subscriber that does not answer here
   // is found out by the first write() as before.
-  omniORB::setClientCallTimeout(copy.in(), options_.call_timeout_ms);
+  omniORB::setClientCallTimeout(copy.in(), sub.policy.call_timeout_ms);
   try {
     (void)copy->_non_existent();
   } catch (const CORBA::Exception&) {
@@ -383,6 +383,54 @@ void OutPortBase::make_writer_references(Subscription& sub) const {
   }
   sub.writer_port = RTM::InPort::_unchecked_narrow(copy.in());
   omniORB::setClientCallTimeout(sub.writer_port.in(), options_.writer_call_timeout_ms);
+}
+
+ConnPolicy OutPortBase::resolve(const ConnPolicy& asked) const {
+  ConnPolicy p = asked;
+  if (p.depth == 0) p.depth = std::max<std::uint32_t>(options_.queue_depth, 1);
+  if (p.call_timeout_ms == 0) p.call_timeout_ms = options_.call_timeout_ms;
+  if (p.delivery == ConnPolicy::Delivery::port_default)
+    p.delivery = delivery() == OutPortOptions::Delivery::thread ? ConnPolicy::Delivery::thread
+                                                                 : ConnPolicy::Delivery::writer_when_idle;
+  // A once-subscription is served by its thread, under the call bound (OutPortOptions::delivery).
+  if (p.once) p.delivery = ConnPolicy::Delivery::thread;
+  return p;
+}
+
+bool OutPortBase::reader_matches(Subscription& sub, const InPortBase* local) {
+  const ReaderPolicy& wanted = sub.policy.reader;
+  if (local != nullptr) {
+    sub.reader = to_string(local->reader());
+  } else if (!CORBA::is_nil(sub.port_ex)) {
+    try {
+      CORBA::String_var kept = sub.port_ex->reader_policy();
+      sub.reader = kept.in();
+    } catch (const CORBA::Exception& e) {
+      // An InPortEx of an older build: it keeps something, but does not tell what.
+      if (wanted.kind == ReaderPolicy::Kind::any) return true;
+      refuse(full_name() + " -> " + sub.peer + ": the InPort does not tell what it keeps (" + e._name() +
+             "), and the connection asks reader=" + to_string(wanted));
+      return false;
+    }
+  }
+  if (wanted.kind == ReaderPolicy::Kind::any) return true;
+  if (sub.reader.empty()) {
+    refuse(full_name() + " -> " + sub.peer + ": a 2004 InPort does not tell what it keeps, and the connection asks reader=" +
+           to_string(wanted));
+    return false;
+  }
+  ReaderPolicy kept;
+  try {
+    kept = parse_conn_policy("reader=" + sub.reader).reader;
+  } catch (const std::invalid_argument&) {
+    kept.kind = ReaderPolicy::Kind::any;  // a text we cannot read satisfies nothing asked
+  }
+  if (kept.kind == ReaderPolicy::Kind::any || !satisfies(kept, wanted)) {
+    refuse(full_name() + " -> " + sub.peer + ": the InPort keeps " + sub.reader + ", the connection asks reader=" +
+           to_string(wanted));
+    return false;
+  }
+  return true;
 }
 
 std::uint64_t OutPortBase::random_sender() {
@@ -410,7 +458,7 @@ CORBA::Boolean OutPortBase::unsubscribe(RTM::ReqType r_type, RTM::InPort_ptr i_p
   if (CORBA::is_nil(i_port)) return false;
   PortableServer::Servant_var<InPortBase> local = InPortBase::find_local(i_port);
   return remove_matching([&](const Subscription& s) {
-    if (s.req_type != r_type) return false;
+    if (s.once() != (r_type == RTM::once)) return false;
     if (!CORBA::is_nil(s.port)) return static_cast<bool>(s.port->_is_equivalent(i_port));
     return local.in() != nullptr && s.local.in() == local.in();
   });
@@ -446,11 +494,17 @@ RTM::SubscriptionInfoList* OutPortBase::subscriptions() {
   for (CORBA::ULong i = 0; i < subs_.size(); ++i) {
     const Subscription& s = *subs_[i];
     RTM::SubscriptionInfo& info = (*list)[i];
-    info.req_type = s.req_type;
+    info.req_type = s.once() ? RTM::once : RTM::repeated;
     info.subscriber = RTM::InPort::_duplicate(s.port.in());
     info.peer = CORBA::string_dup(s.peer.c_str());
     info.in_process = s.local.in() != nullptr;
-    info.path = CORBA::string_dup(info.in_process ? "in-process" : s.shm ? "shared memory" : "CORBA");
+    info.path = CORBA::string_dup(info.in_process                            ? "in-process"
+                                  : s.kind == ConnKind::shared_memory ? "shared memory"
+                                                                      : "CORBA");
+    info.kind = CORBA::string_dup(to_string(s.kind));
+    info.asked = to_idl(s.asked);
+    info.policy = to_idl(s.policy);
+    info.reader = CORBA::string_dup(s.reader.c_str());
     info.pushed = s.pushed.load(std::memory_order_relaxed);
     info.dropped = s.dropped.load(std::memory_order_relaxed);
     info.failures = s.failures.load(std::memory_order_relaxed);

@@ -712,6 +712,7 @@ class OrderRecorder : public virtual POA_RTM::InPortOrdered {
   char* last_error() override { return CORBA::string_dup(""); }
   RTM::PortDescription* describe() override { return new RTM::PortDescription; }
   void admit_writer() override {}
+  char* reader_policy() override { return CORBA::string_dup("fifo"); }
 
   std::vector<Call> calls() {
     std::lock_guard lock(mu_);

@@ -140,6 +140,8 @@ RTM::PortDescription* WatchPort::describe() {
   return out;
 }
 
+char* WatchPort::reader_policy() { return CORBA::string_dup(("fifo:" + std::to_string(capacity_)).c_str()); }
+
 char* WatchPort::last_error() {
   std::lock_guard lock(mutex_);
   return CORBA::string_dup(last_error_.c_str());

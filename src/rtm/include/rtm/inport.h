@@ -7,6 +7,7 @@
 #include "rt/activity.h"
 #include "rt/shm_ring.h"
 #include "rt/shm_segment.h"
+#include "rtm/conn_policy.h"
 #include "rtm/data.h"
 #include "rtm/describe.h"
 #include "rtm/sender_order.h"
@@ -166,6 +167,8 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   void push_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override;
   RTM::PortDescription* describe() override;
   void admit_writer() override {}  // the access screen (rtm/access.h) is the whole answer
+  char* reader_policy() override;  // to_string(reader())
+  ReaderPolicy reader() const;     // what policy() keeps, as a connection policy names it
   // The same-host path (RTMExt.idl's InPortShm): maps a publisher's ring and takes data from
   // it in read(), from then on; false with why when the port keeps CORBA: another host or
   // network namespace, another type, a policy that must run on arrival (callback, an arrival

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "RTMExt.hh"
+#include "rtm/conn_policy.h"
 #include "rtm/data.h"
 #include "rt/histogram.h"
 #include "rtm/inport.h"
@@ -27,6 +28,8 @@ inline constexpr std::uint32_t kMinRingSlots = 256;
 
 // Delivery settings of one OutPort.
 struct OutPortOptions {
+  // The defaults a ConnPolicy (rtm/conn_policy.h) leaves to the port: queue_depth, delivery,
+  // call_timeout_ms. The rest bound the port as a whole.
   // Consecutive COMM_FAILURE / TRANSIENT / OBJECT_NOT_EXIST before a subscriber is dropped.
   std::uint32_t max_failures = 3;
   // Bound on one remote put (omniORB client call timeout), ms.
@@ -143,7 +146,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void close();
 
   // ---- IDL ----
-  // subscribe() is typed: see OutPort<T>.
+  // subscribe() and connect() are typed: see OutPort<T>.
   // False when i_port has no subscription of type r_type.
   CORBA::Boolean unsubscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) override;
   char* name() override;
@@ -160,19 +163,22 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   // One subscription; the typed slot lives in the derived class.
   struct Subscription {
     virtual ~Subscription() = default;
-    RTM::ReqType req_type = RTM::repeated;
+    bool once() const { return policy.once; }
+    ConnPolicy asked;   // as subscribe/connect was given it
+    ConnPolicy policy;  // what it is: asked, with the port's defaults filled in
+    ConnKind kind = ConnKind::remote_by_thread;
+    std::string reader;              // what the InPort keeps, as it tells ("" untold)
     RTM::InPort_var port;            // nil for a C++ connect()
     RTM::InPortEx_var port_ex;       // narrowed when the subscriber is an InPortEx
     RTM::InPortOrdered_var port_ordered;  // ... and when it keeps each sender's order
     std::uint64_t sender = 0;        // this subscription's number for InPortOrdered (random)
     PortableServer::Servant_var<InPortBase> local;  // set for in-process delivery
-    // The same-host path: the subscriber reads the port's ring (no call per datum); the
+    // ConnKind::shared_memory: the subscriber reads the port's ring (no call per datum); the
     // subscription's thread only asks, every second, whether the subscriber still exists.
-    bool shm = false;
     RTM::InPortShm_var port_shm;
     std::string segment;             // the ring's segment name, told again at detach
     std::string peer;
-    bool direct = false;             // filled by write() itself (no thread)
+    bool direct = false;             // in_process, filled by write() itself (no thread)
     bool check_active = true;        // subscribe(): a deactivated local InPort counts as dead
     // Slot state, guarded by slot_mu.
     std::mutex slot_mu;
@@ -233,6 +239,11 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   static void detach_quietly(RTM::InPortShm_ptr reader, const std::string& ring);
   // subscribe(): write()'s own references to a remote subscriber, with their call timeout.
   void make_writer_references(Subscription& sub) const;
+  // The asked policy with the port's defaults filled in.
+  ConnPolicy resolve(const ConnPolicy& asked) const;
+  // subscribe(): false (refused, with the reason) when the InPort keeps another reader policy
+  // than sub.policy asks; sets sub.reader. A remote InPort is asked (bounded).
+  bool reader_matches(Subscription& sub, const InPortBase* local);
   // A subscription's sender number for InPortOrdered: random, so that two publishers (or
   // two runs of one) do not share one.
   static std::uint64_t random_sender();
@@ -297,8 +308,9 @@ class OutPort final : public OutPortBase {
   bool latest(T& out) const;
 
   // Direct C++ connection to an InPort of this process, without the ORB (composites). The
-  // same rules as subscribe(): false (with last_refusal()) for a duplicate.
-  bool connect(InPort<T>& in, RTM::ReqType type = RTM::repeated);
+  // same rules as subscribe(): false (with last_refusal()) for a duplicate or a reader policy
+  // the InPort does not keep.
+  bool connect(InPort<T>& in, const ConnPolicy& policy = ConnPolicy::repeated());
   bool disconnect(InPort<T>& in);
 
   CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
@@ -311,6 +323,11 @@ class OutPort final : public OutPortBase {
   // port_type is not equivalent to ours. An InPort of this process carrying T is fed without
   // the ORB (SubscriptionInfo.in_process) unless options().in_process is false.
   CORBA::Boolean subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) override;
+  // subscribe() with a whole policy (RTMExt.idl): a policy out of range, a reader policy the
+  // InPort does not keep, or depth > ConnPolicy::kMaxDepth is refused with the reason.
+  CORBA::Boolean connect(const RTM::ConnPolicy& policy, RTM::InPort_ptr i_port) override;
+  // The same from C++.
+  bool subscribe_with(const ConnPolicy& policy, RTM::InPort_ptr i_port);
 
  private:
   struct TypedSubscription : Subscription {
@@ -327,14 +344,15 @@ class OutPort final : public OutPortBase {
   std::uint64_t ring_size(const Subscription& sub) const override {
     return static_cast<const TypedSubscription&>(sub).ring.size();
   }
-  std::unique_ptr<TypedSubscription> new_subscription() const;
+  std::unique_ptr<TypedSubscription> new_subscription(const ConnPolicy& asked) const;
   // subscribe(): offers the port's ring (made at the first offer) to a subscriber of this
-  // host; true when it reads from it (sub.shm set).
+  // host; true when it reads from it (sub.kind set to ConnKind::shared_memory).
   bool offer_ring(TypedSubscription& sub);
   // The ring, made at the first offer; written by write() under mu_.
   std::mutex ring_mu_;  // serialises making it
   std::optional<ShmSegment> ring_segment_;
   std::optional<ShmRingWriter> ring_writer_;  // guarded by mu_
+  std::uint32_t ring_slots_ = 0;              // guarded by ring_mu_
   T latest_{};
   bool has_latest_ = false;
 };

@@ -76,7 +76,7 @@ void OutPort<T>::write(const T& value) {
     }
     for (std::size_t i = 0; i < subs_.size();) {
       auto& sub = static_cast<TypedSubscription&>(*subs_[i]);
-      if (sub.shm) {
+      if (sub.kind == ConnKind::shared_memory) {
         bump(sub.pushed);  // in the ring: the reader counts what it skips
         bump(ring_pushed_);
       } else if (sub.direct) {
@@ -114,7 +114,7 @@ bool OutPort<T>::deliver_direct(TypedSubscription& sub, const T& value) {
   }
   static_cast<InPort<T>*>(sub.local.in())->deliver(value);
   count_pushed(sub);
-  return sub.req_type != RTM::once;
+  return !sub.once();
 }
 
 // Queues value for the delivery thread (returns 0), or - when write() may call and the
@@ -126,7 +126,7 @@ std::uint64_t OutPort<T>::queue_or_take(TypedSubscription& sub, const T& value, 
     // A once-subscription takes one datum at a time until one is delivered: the first written
     // after it was made, or the next when that one's delivery failed. It has no writer_port:
     // its thread makes the call, under the subscription's bound, not write() under its own.
-    if (sub.req_type == RTM::once && (sub.done || sub.in_flight || sub.written_seq != sub.delivered_seq)) return 0;
+    if (sub.once() && (sub.done || sub.in_flight || sub.written_seq != sub.delivered_seq)) return 0;
     const bool idle = !sub.in_flight && sub.written_seq == sub.delivered_seq;
     if (may_call && idle && sub.writer_may_call && !CORBA::is_nil(sub.writer_port)) {
       sub.in_flight = true;
@@ -181,9 +181,11 @@ bool OutPort<T>::latest(T& out) const {
 }
 
 template <PortData T>
-std::unique_ptr<typename OutPort<T>::TypedSubscription> OutPort<T>::new_subscription() const {
+std::unique_ptr<typename OutPort<T>::TypedSubscription> OutPort<T>::new_subscription(const ConnPolicy& asked) const {
   auto sub = std::make_unique<TypedSubscription>();
-  sub->ring.resize(std::max<std::uint32_t>(options_.queue_depth, 1));
+  sub->asked = asked;
+  sub->policy = resolve(asked);
+  sub->ring.resize(std::max<std::uint32_t>(sub->policy.depth, 1));
   return sub;
 }
 
@@ -206,15 +208,21 @@ void OutPort<T>::deliver_slot(Subscription& base, std::uint64_t seq,
 }
 
 template <PortData T>
-bool OutPort<T>::connect(InPort<T>& in, RTM::ReqType type) {
+bool OutPort<T>::connect(InPort<T>& in, const ConnPolicy& policy) {
   reap_retired();
-  auto sub = new_subscription();
-  sub->req_type = type;
+  if (policy.depth > ConnPolicy::kMaxDepth) {
+    refuse(full_name() + " -> " + in.full_name() + ": depth " + std::to_string(policy.depth) + " is above " +
+           std::to_string(ConnPolicy::kMaxDepth));
+    return false;
+  }
+  auto sub = new_subscription(policy);
   in._add_ref();
   sub->local = &in;
   sub->peer = in.full_name();
+  sub->kind = ConnKind::in_process;
   sub->direct = in.stores_without_waiting();
   sub->check_active = false;
+  if (!reader_matches(*sub, &in)) return false;
   const bool threaded = !sub->direct;
   std::string why;
   if (!add_subscription(std::move(sub), threaded, why)) {
@@ -263,17 +271,24 @@ bool OutPort<T>::offer_ring(TypedSubscription& sub) {
     {
       std::lock_guard make(ring_mu_);
       if (!ring_segment_) {
-        const ShmRingShape shape{std::max<std::uint32_t>(2 * options_.queue_depth, kMinRingSlots), sizeof(T),
+        const ShmRingShape shape{std::max({2 * options_.queue_depth, kMinRingSlots, sub.policy.depth}), sizeof(T),
                                  ring_type_id<T>()};
         try {
           ShmSegment segment = ShmSegment::create(shm_ring_bytes(shape), full_name());
           std::lock_guard lock(mu_);
           ring_writer_.emplace(segment.data(), segment.size(), shape);
           ring_segment_.emplace(std::move(segment));
+          ring_slots_ = shape.slots;
         } catch (const std::exception& e) {
           log().warn("{}: no shared-memory ring ({}): subscribers on this host get CORBA", full_name(), e.what());
           return false;
         }
+      }
+      // A ring made for shallower subscriptions cannot keep what this one may fall behind by.
+      if (ring_slots_ < sub.policy.depth) {
+        log().debug("{} -> {}: CORBA, not shared memory: depth {} is above the ring's {} slots", full_name(),
+                    sub.peer, sub.policy.depth, ring_slots_);
+        return false;
       }
       name = ring_segment_->name();
     }
@@ -290,7 +305,7 @@ bool OutPort<T>::offer_ring(TypedSubscription& sub) {
       log().debug("{} -> {}: CORBA, not shared memory: attach_ring raised {}", full_name(), sub.peer, e._name());
       return false;
     }
-    sub.shm = true;
+    sub.kind = ConnKind::shared_memory;
     sub.segment = name;
     return true;
   }
@@ -298,9 +313,31 @@ bool OutPort<T>::offer_ring(TypedSubscription& sub) {
 
 template <PortData T>
 CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) {
+  return subscribe_with(r_type == RTM::once ? ConnPolicy::one_shot() : ConnPolicy::repeated(), i_port);
+}
+
+template <PortData T>
+CORBA::Boolean OutPort<T>::connect(const RTM::ConnPolicy& policy, RTM::InPort_ptr i_port) {
+  ConnPolicy asked;
+  try {
+    asked = from_idl(policy);
+  } catch (const std::invalid_argument& e) {
+    refuse(full_name() + ": " + e.what());
+    return false;
+  }
+  return subscribe_with(asked, i_port);
+}
+
+template <PortData T>
+bool OutPort<T>::subscribe_with(const ConnPolicy& policy, RTM::InPort_ptr i_port) {
   reap_retired();
   if (CORBA::is_nil(i_port)) {
     refuse(full_name() + ": nil InPort reference");
+    return false;
+  }
+  if (policy.depth > ConnPolicy::kMaxDepth) {
+    refuse(full_name() + ": depth " + std::to_string(policy.depth) + " is above " +
+           std::to_string(ConnPolicy::kMaxDepth) + " (ConnPolicy::kMaxDepth)");
     return false;
   }
   // A full port refuses before any remote call; add_subscription() checks again under its lock.
@@ -308,15 +345,15 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
     refuse(full_name() + ": " + full_port_text());
     return false;
   }
-  auto sub = new_subscription();
-  sub->req_type = r_type;
+  auto sub = new_subscription(policy);
   sub->port = RTM::InPort::_duplicate(i_port);
+  const std::uint32_t call_timeout_ms = sub->policy.call_timeout_ms;
   // Remote calls: made before any lock is taken, each bounded (an InPort that never answers
   // must not hold this upcall, and the component's shutdown, for ever).
-  omniORB::setClientCallTimeout(i_port, options_.call_timeout_ms);
+  omniORB::setClientCallTimeout(i_port, call_timeout_ms);
   CORBA::TypeCode_var their_type;
   try {
-    sub->peer = peer_name(i_port, options_.call_timeout_ms);
+    sub->peer = peer_name(i_port, call_timeout_ms);
     their_type = i_port->port_type();
     sub->port_ex = RTM::InPortEx::_narrow(i_port);
     if (!CORBA::is_nil(sub->port_ex)) sub->port_ordered = RTM::InPortOrdered::_narrow(i_port);
@@ -334,14 +371,16 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
     PortableServer::Servant_var<InPortBase> local = InPortBase::find_local(i_port);
     if (local.in() != nullptr && local->data_type() == typeid(T)) {
       sub->direct = local->stores_without_waiting();
+      sub->kind = ConnKind::in_process;
       sub->local = local._retn();
     }
   }
+  if (!reader_matches(*sub, sub->local.in())) return false;
   if (sub->local.in() == nullptr) {
-    omniORB::setClientCallTimeout(sub->port.in(), options_.call_timeout_ms);
-    if (!CORBA::is_nil(sub->port_ex)) omniORB::setClientCallTimeout(sub->port_ex.in(), options_.call_timeout_ms);
+    omniORB::setClientCallTimeout(sub->port.in(), call_timeout_ms);
+    if (!CORBA::is_nil(sub->port_ex)) omniORB::setClientCallTimeout(sub->port_ex.in(), call_timeout_ms);
     if (!admitted(*sub)) return false;
-    if (shared_memory() && r_type == RTM::repeated && offer_ring(*sub)) {
+    if (shared_memory() && !sub->policy.corba_only && !sub->once() && offer_ring(*sub)) {
       RTM::InPortShm_var reader = sub->port_shm;
       const std::string segment = sub->segment;
       std::string why;
@@ -351,13 +390,15 @@ CORBA::Boolean OutPort<T>::subscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port
       return false;
     }
     if (!CORBA::is_nil(sub->port_ordered)) {
-      omniORB::setClientCallTimeout(sub->port_ordered.in(), options_.call_timeout_ms);
+      omniORB::setClientCallTimeout(sub->port_ordered.in(), call_timeout_ms);
       sub->sender = random_sender();
     }
-    // A once-subscription is served by its thread alone (OutPortOptions::delivery): write()
-    // gets no reference of its own to it.
-    if (delivery() == OutPortOptions::Delivery::writer_when_idle && r_type != RTM::once) {
+    // A once-subscription is served by its thread alone (resolve() says so): write() gets no
+    // reference of its own to it.
+    sub->kind = ConnKind::remote_by_thread;
+    if (sub->policy.delivery == ConnPolicy::Delivery::writer_when_idle) {
       make_writer_references(*sub);
+      if (!CORBA::is_nil(sub->writer_port)) sub->kind = ConnKind::remote_by_writer;
     }
   }
   const bool threaded = !sub->direct;

@@ -1,0 +1,50 @@
+// SPDX-License-Identifier: Apache-2.0
+// The access screen (rtm/access.h) must know every operation of our IDL: one it does not list
+// as a change is served to anyone, so an operation added without its line is a hole. Reads
+// are listed here by hand; every other operation the IDL files declare must be a change.
+#include "rtm/access.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+
+namespace {
+
+std::set<std::string> operations_in(const std::string& file) {
+  std::ifstream in(file);
+  EXPECT_TRUE(in) << "cannot read " << file;
+  std::set<std::string> ops;
+  // "[oneway] <type words> <name>(" at the start of a declaration; comments cut off first.
+  const std::regex declaration(R"(^\s*(?:oneway\s+)?[A-Za-z_][\w:]*(?:\s+[A-Za-z_]\w*)*\s+([A-Za-z_]\w*)\s*\()");
+  for (std::string line; std::getline(in, line);) {
+    line = line.substr(0, line.find("//"));
+    std::smatch m;
+    if (std::regex_search(line, m, declaration)) ops.insert(m[1]);
+  }
+  return ops;
+}
+
+TEST(AccessOperations, EveryOperationOfTheIdlIsAReadListedHereOrAChangeTheScreenKnows) {
+  const std::set<std::string> reads = {"get",   "in_ports", "out_ports",  "counters",   "describe",
+                                       "state", "timing",   "statistics", "parameters", "subscriptions",
+                                       "last_error"};
+  std::set<std::string> ops = operations_in(std::string(RTM_IDL_DIR) + "/RTM.idl");
+  const std::set<std::string> ext = operations_in(std::string(RTM_IDL_DIR) + "/RTMExt.idl");
+  ops.insert(ext.begin(), ext.end());
+  ASSERT_GE(ops.size(), 25u) << "the IDL parse found too little to prove anything";
+  EXPECT_TRUE(ops.count("connect")) << "the parse misses an operation it must see";
+  for (const std::string& op : ops) {
+    if (reads.count(op)) {
+      EXPECT_FALSE(rtm::is_change_operation(op)) << op << " is a read";
+    } else {
+      EXPECT_TRUE(rtm::is_change_operation(op)) << op << ": an operation the access screen does not know as a change";
+    }
+  }
+  for (const std::string& read : reads) EXPECT_TRUE(ops.count(read)) << read << " is listed but not in the IDL";
+}
+
+}  // namespace
