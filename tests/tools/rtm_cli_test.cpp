@@ -137,6 +137,33 @@ TEST_F(RtmCli, ConnectDeliversDataAndCatShowsTheSubscriptionAndCounters) {
   EXPECT_NE(again.err.find("is not connected"), std::string::npos) << again.err;
 }
 
+TEST_F(RtmCli, ConnectTakesAWholePolicyAndCatShowsItsKindPolicyAndWhatTheInPortKeeps) {
+  talker("src", {"--on"});
+  talker("dst");
+  auto bad = rtm({"connect", "src.force", "dst.in0", "--policy", "depth=deep"});
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;
+  EXPECT_NE(bad.err.find("'depth=deep'"), std::string::npos) << bad.err;
+  auto refused = rtm({"connect", "src.force", "dst.in0", "--policy", "reader=fifo:4"});
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_NE(refused.err.find("the InPort keeps latest, the connection asks reader=fifo:4"), std::string::npos)
+      << refused.err;
+  auto r = rtm({"connect", "src.force", "dst.in0", "--policy", "reader=latest depth=32 delivery=thread path=corba"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("(repeated reader=latest depth=32 delivery=thread path=corba)"), std::string::npos) << r.out;
+  auto src = rtm_json({"cat", "src"});
+  const json& sub = (*port(src, "force"))["subscriptions"].at(0);
+  EXPECT_EQ(sub["path"], "CORBA") << "path=corba keeps the ring out of it";
+  EXPECT_EQ(sub["kind"], "CORBA by thread");
+  EXPECT_EQ(sub["policy"], "repeated reader=latest depth=32 delivery=thread call=1000ms path=corba");
+  EXPECT_EQ(sub["reader"], "latest");
+  auto text = rtm({"cat", "src"});
+  EXPECT_NE(text.out.find("CORBA by thread: repeated reader=latest depth=32 delivery=thread call=1000ms path=corba; "
+                          "the InPort keeps latest"),
+            std::string::npos)
+      << text.out;
+  ASSERT_EQ(rtm({"disconnect", "src.force", "dst.in0"}).exit_code, 0);
+}
+
 TEST_F(RtmCli, PortsMayBeNamedByIndex) {
   talker("src");
   talker("dst");

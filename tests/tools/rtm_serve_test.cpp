@@ -325,11 +325,18 @@ activate: [dst]
 }
 
 TEST_F(RtmServe, SaveWritesASystemFileRtmUpAcceptsAndApplyingItRestoresTheWiring) {
-  ASSERT_EQ(post("/api/connect", {{"from", "src.force"}, {"to", "dst.in0"}}, with_token())->status, 200);
+  const auto wrong = post("/api/connect", {{"from", "src.force"}, {"to", "dst.in0"}, {"policy", "depth=all"}}, with_token());
+  EXPECT_EQ(wrong->status, 400);
+  EXPECT_NE(wrong->body.find("'depth=all'"), std::string::npos) << wrong->body;
+  ASSERT_EQ(post("/api/connect", {{"from", "src.force"}, {"to", "dst.in0"}, {"policy", "depth=16 delivery=thread"}},
+                 with_token())
+                ->status,
+            200);
   const json saved = get_json("/api/system-file?name=pair");
   const std::string yaml = saved["yaml"];
   EXPECT_TRUE(saved["left_out"].empty()) << saved.dump();
-  EXPECT_NE(yaml.find("{from: src.force, to: dst.in0}"), std::string::npos) << yaml;
+  // The policy as it was asked, not the port's defaults filled in.
+  EXPECT_NE(yaml.find("{from: src.force, to: dst.in0, policy: depth=16 delivery=thread}"), std::string::npos) << yaml;
   EXPECT_NE(yaml.find("rtm-test-talker"), std::string::npos) << yaml;
   EXPECT_EQ(yaml.find("--naming"), std::string::npos) << "rtm up adds --naming itself: " << yaml;
   // Unwire, then apply the saved file: the wiring comes back.
@@ -353,6 +360,7 @@ TEST_F(RtmServe, SaveWritesASystemFileRtmUpAcceptsAndApplyingItRestoresTheWiring
   EXPECT_EQ(up.exit_code, 0) << up.out << up.err;
   auto cat = rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "cat", "src"});
   EXPECT_NE(cat.out.find("-> dst.in0 (repeated, shared memory)"), std::string::npos) << cat.out;
+  EXPECT_NE(cat.out.find("shared memory: repeated depth=16 delivery=thread call=1000ms"), std::string::npos) << cat.out;
   rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "down", "pair"},
                         {"XDG_RUNTIME_DIR=" + dir.string(), "RTM_TLS="}, 30s);
   std::filesystem::remove_all(dir);

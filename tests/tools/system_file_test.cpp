@@ -9,6 +9,9 @@
 #include <fstream>
 #include <unistd.h>
 
+using rtm::ConnPolicy;
+using rtm::ReaderPolicy;
+
 namespace {
 
 using rtm::cli::SystemFile;
@@ -37,6 +40,7 @@ components:
 connections:
   - {from: src.out0, to: sink.in0}
   - {from: src.out0, to: sink.in1, type: once}
+  - {from: src.out0, to: sink.in2, policy: "reader=fifo:16, depth=32 delivery=thread call=250ms path=corba"}
 activate: [src, sink]
 )", kFile);
   EXPECT_EQ(f.name, "servo");
@@ -44,9 +48,16 @@ activate: [src, sink]
   ASSERT_EQ(f.components.size(), 2u);
   EXPECT_EQ(f.components[0].command, (std::vector<std::string>{"rtm-example-source", "--period", "2ms"}));
   EXPECT_EQ(f.components[1].command, (std::vector<std::string>{"rtm-example-sink"}));
-  ASSERT_EQ(f.connections.size(), 2u);
-  EXPECT_FALSE(f.connections[0].once);
-  EXPECT_TRUE(f.connections[1].once);
+  ASSERT_EQ(f.connections.size(), 3u);
+  EXPECT_EQ(f.connections[0].policy, ConnPolicy::repeated());
+  EXPECT_EQ(f.connections[1].policy, ConnPolicy::one_shot());
+  const ConnPolicy& p = f.connections[2].policy;
+  EXPECT_FALSE(p.once);
+  EXPECT_EQ(p.reader, (ReaderPolicy{ReaderPolicy::Kind::fifo, 16}));
+  EXPECT_EQ(p.depth, 32u);
+  EXPECT_EQ(p.delivery, ConnPolicy::Delivery::thread);
+  EXPECT_EQ(p.call_timeout_ms, 250u);
+  EXPECT_TRUE(p.corba_only);
   EXPECT_EQ(f.activate, (std::vector<std::string>{"src", "sink"}));
 }
 
@@ -57,17 +68,23 @@ TEST(RtmSystemFile, ToYamlReadsBackToTheSameSystemQuotingWhatNeedsIt) {
   f.naming = "127.0.0.1:2999";
   f.components = {{"src", {"/opt/rtm/bin/rtm-example-source", "--period", "2ms", "--note", "a: b, [c]"}},
                   {"sink", {"rtm-example-sink"}}};
-  f.connections = {{"src.out0", "sink.in0", false}, {"src.out0", "sink.in1", true}};
+  ConnPolicy deep = ConnPolicy::one_shot();
+  deep.depth = 64;
+  deep.reader = {ReaderPolicy::Kind::latest, 0};
+  f.connections = {{"src.out0", "sink.in0", ConnPolicy::repeated()},
+                   {"src.out0", "sink.in1", ConnPolicy::one_shot()},
+                   {"src.out0", "sink.in2", deep}};
   f.activate = {"src"};
   const SystemFile back = SystemFile::parse(f.to_yaml(), kFile);
   EXPECT_EQ(back.name, "saved");
   EXPECT_EQ(back.naming, f.naming);
   ASSERT_EQ(back.components.size(), 2u);
   EXPECT_EQ(back.components[0].command, f.components[0].command);
-  ASSERT_EQ(back.connections.size(), 2u);
+  ASSERT_EQ(back.connections.size(), 3u);
   EXPECT_EQ(back.connections[1].to, "sink.in1");
-  EXPECT_TRUE(back.connections[1].once);
-  EXPECT_FALSE(back.connections[0].once);
+  EXPECT_EQ(back.connections[0].policy, ConnPolicy::repeated());
+  EXPECT_EQ(back.connections[1].policy, ConnPolicy::one_shot());
+  EXPECT_EQ(back.connections[2].policy, deep);
   EXPECT_EQ(back.activate, f.activate);
 }
 
@@ -111,6 +128,21 @@ TEST(RtmSystemFile, BadConnectionTypeIsRefused) {
                      "connections: [{from: a.out0, to: a.in0, type: twice}]")
                 .find("neither 'once' nor 'repeated'"),
             std::string::npos);
+}
+
+TEST(RtmSystemFile, ABadConnectionPolicyIsRefusedNamingTheTokenAndTheLine) {
+  const std::string head = "components: [{name: a, command: x}, {name: b, command: y}]\nconnections:\n";
+  const std::string depth = error_of(head + "  - {from: a.out0, to: b.in0, policy: \"depth=lots\"}\n");
+  EXPECT_NE(depth.find("servo.yaml:3"), std::string::npos) << depth;
+  EXPECT_NE(depth.find("'depth=lots'"), std::string::npos) << depth;
+  const std::string key = error_of(head + "  - {from: a.out0, to: b.in0, policy: \"buffer=4\"}\n");
+  EXPECT_NE(key.find("unknown key"), std::string::npos) << key;
+  const std::string typo = error_of(head + "  - {from: a.out0, to: b.in0, polcy: \"depth=4\"}\n");
+  EXPECT_NE(typo.find("unknown key 'polcy' in a connection"), std::string::npos) << typo;
+  const std::string clash = error_of(head + "  - {from: a.out0, to: b.in0, type: once, policy: \"repeated\"}\n");
+  EXPECT_NE(clash.find("disagree"), std::string::npos) << clash;
+  // The same lifetime twice is no clash.
+  EXPECT_EQ(error_of(head + "  - {from: a.out0, to: b.in0, type: once, policy: \"once depth=2\"}\n"), "");
 }
 
 TEST(RtmSystemFile, ActivatingUnlistedComponentIsRefused) {

@@ -127,9 +127,17 @@ PortInfo inspect_out(RTM::OutPort_ptr port, int index) {
   RTM::SubscriptionInfoList_var subs = ex->subscriptions();
   for (CORBA::ULong i = 0; i < subs->length(); ++i) {
     const RTM::SubscriptionInfo& s = subs[i];
+    std::string policy;
+    std::optional<ConnPolicy> asked;
+    try {
+      policy = rtm::to_string(rtm::from_idl(s.policy));
+      asked = rtm::from_idl(s.asked);
+    } catch (const std::invalid_argument&) {
+      policy = "?";  // a value this build does not know
+    }
     info.subscriptions.push_back({s.peer.in(), s.req_type == RTM::once ? "once" : "repeated",
-                                  static_cast<bool>(s.in_process), s.path.in(), s.pushed, s.dropped,
-                                  s.failures, s.last_failure.in()});
+                                  static_cast<bool>(s.in_process), s.path.in(), s.kind.in(), policy, asked,
+                                  s.reader.in(), s.pushed, s.dropped, s.failures, s.last_failure.in()});
   }
   return info;
 }
@@ -423,13 +431,20 @@ std::pair<ResolvedPort, ResolvedPort> Browser::pair(const PortAddress& out,
   return {std::move(o), std::move(i)};
 }
 
-void Browser::connect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const {
+void Browser::connect(const PortAddress& out, const PortAddress& in, const ConnPolicy& policy) const {
   auto [o, i] = pair(out, in);
   RTM::OutPort_var op = RTM::OutPort::_narrow(o.object);
   RTM::InPort_var ip = RTM::InPort::_narrow(i.object);
-  if (!op->subscribe(type, ip)) {
+  RTM::OutPortEx_var ex = RTM::OutPortEx::_narrow(op);
+  // Plain once/repeated is RTM.idl's subscribe, which every OutPort takes.
+  const bool plain = policy == ConnPolicy::repeated() || policy == ConnPolicy::one_shot();
+  if (!plain && CORBA::is_nil(ex))
+    throw BrowseError(fmt::format("{} is a 2004 OutPort: it takes once or repeated, not '{}'", o.address,
+                                  rtm::to_string(policy)));
+  const bool made = plain ? op->subscribe(policy.once ? RTM::once : RTM::repeated, ip)
+                          : ex->connect(rtm::to_idl(policy), ip);
+  if (!made) {
     std::string why;
-    RTM::OutPortEx_var ex = RTM::OutPortEx::_narrow(op);
     if (!CORBA::is_nil(ex)) {
       CORBA::String_var err = ex->last_error();
       why = err.in();

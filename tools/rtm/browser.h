@@ -3,6 +3,7 @@
 // results the command line prints as text or JSON. No printing here.
 #pragma once
 
+#include "rtm/conn_policy.h"
 #include "rtm/naming.h"
 
 #include <RTM.hh>
@@ -54,6 +55,11 @@ struct PortInfo {
     std::string req_type;    // "once" / "repeated"
     bool in_process = false;
     std::string path;        // "in-process", "shared memory" or "CORBA"
+    std::string kind;        // rtm::ConnKind's text ("CORBA by writer"); "" from an older build
+    std::string policy;      // the connection policy (rtm/conn_policy.h), defaults filled in; ""
+                             // from an older build
+    std::optional<ConnPolicy> asked;  // as the subscriber asked it (what a system file keeps)
+    std::string reader;      // what the InPort keeps ("latest", "fifo:8"), "" when untold
     unsigned long long pushed = 0, dropped = 0;
     unsigned long failures = 0;
     std::string last_failure;  // why the last delivery failed, "" after one that did not
@@ -151,7 +157,8 @@ class Browser {
 
   // subscribe/unsubscribe out -> in. Checks directions and types first, throwing BrowseError
   // "sensor0.out0 (RTM::TimedFloat6) -> ctl.in1 (RTM::TimedFloat3): types differ".
-  void connect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const;
+  // A policy other than plain once/repeated needs an OutPortEx (RTMExt.idl's connect).
+  void connect(const PortAddress& out, const PortAddress& in, const ConnPolicy& policy) const;
   void disconnect(const PortAddress& out, const PortAddress& in, RTM::ReqType type) const;
   // Both ports resolved and checked as connect() checks them, without subscribing (a system
   // file shown before it is applied).

@@ -151,8 +151,8 @@ void SystemState::save() const {
   out << YAML::EndSeq << YAML::Key << "connections" << YAML::Value << YAML::BeginSeq;
   for (const auto& c : connections) {
     out << YAML::Flow << YAML::BeginMap << YAML::Key << "from" << YAML::Value << c.from
-        << YAML::Key << "to" << YAML::Value << c.to << YAML::Key << "type" << YAML::Value
-        << (c.once ? "once" : "repeated") << YAML::EndMap;
+        << YAML::Key << "to" << YAML::Value << c.to << YAML::Key << "policy" << YAML::Value
+        << to_string(c.policy) << YAML::EndMap;
   }
   out << YAML::EndSeq << YAML::Key << "activated" << YAML::Value << YAML::Flow << activated
       << YAML::EndMap;
@@ -201,12 +201,17 @@ SystemState SystemState::load(const std::string& system) {
                              n["start"].as<unsigned long long>(), n["log"].as<std::string>()});
     }
     for (const auto& n : root["connections"]) {
-      s.connections.push_back({n["from"].as<std::string>(), n["to"].as<std::string>(),
-                               n["type"].as<std::string>() == "once"});
+      // "type" in the state files of older builds; a whole policy since.
+      ConnPolicy policy = n["policy"] ? parse_conn_policy(n["policy"].as<std::string>())
+                          : n["type"].as<std::string>() == "once" ? ConnPolicy::one_shot()
+                                                                  : ConnPolicy::repeated();
+      s.connections.push_back({n["from"].as<std::string>(), n["to"].as<std::string>(), policy});
     }
     for (const auto& n : root["activated"]) s.activated.push_back(n.as<std::string>());
   } catch (const YAML::Exception& e) {
     throw SystemFileError(fmt::format("{}: damaged state file: {}", p.string(), e.msg));
+  } catch (const std::invalid_argument& e) {
+    throw SystemFileError(fmt::format("{}: damaged state file: {}", p.string(), e.what()));
   }
   return s;
 }
@@ -302,8 +307,7 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
     }
     for (const auto& c : file.connections) {
       check_interrupt();
-      browser.connect(PortAddress::parse(c.from), PortAddress::parse(c.to),
-                      c.once ? RTM::once : RTM::repeated);
+      browser.connect(PortAddress::parse(c.from), PortAddress::parse(c.to), c.policy);
       state.connections.push_back(c);
       state.save();
       say(fmt::format("connected {} -> {}", c.from, c.to));
@@ -341,7 +345,7 @@ std::vector<std::string> system_down(const SystemState& state, const Browser* br
     for (auto it = state.connections.rbegin(); it != state.connections.rend(); ++it) {
       try {
         browser->disconnect(PortAddress::parse(it->from), PortAddress::parse(it->to),
-                            it->once ? RTM::once : RTM::repeated);
+                            it->policy.once ? RTM::once : RTM::repeated);
       } catch (const std::exception&) {
       } catch (const CORBA::Exception&) {
       }

@@ -6,7 +6,7 @@
 //                                         their elements and units, subscriptions, counters,
 //                                         timing, statistics, parameters
 //   rtm set <comp> <param> <value>...     change a parameter (live, or while off)
-//   rtm connect|disconnect <out> <in>     subscribe/unsubscribe (RTM.idl), --once
+//   rtm connect|disconnect <out> <in>     subscribe/unsubscribe (RTM.idl), --once, --policy
 //   rtm on|off|reset <comp>...            reset: leave COMPONENT_ERROR (RTMExt)
 //   rtm get <comp>.<out>                  pull one datum
 //   rtm put <comp>.<in> <values>...       inject one datum
@@ -80,6 +80,7 @@ struct Cli {
   std::vector<std::string> values;  // set, put
   std::string conn_out, conn_in;
   bool conn_once = false;
+  std::string conn_policy;
   std::vector<std::string> components;  // on, off, reset
   std::string port;                     // get, put, watch
   WatchOptions watch_options;
@@ -116,6 +117,9 @@ void add_wiring_commands(CLI::App& app, Cli& c) {
     sub->add_option("in", c.conn_in, "<component>.<InPort>")->required();
     sub->add_flag("--once", c.conn_once, "a once subscription (next datum only) instead of repeated");
   }
+  c.connect->add_option("--policy", c.conn_policy,
+                        "the connection's policy, e.g. \"reader=fifo:16 depth=32 delivery=thread call=500ms\" "
+                        "(docs/connections.md)");
   c.on = app.add_subcommand("on", "start components' activities");
   c.off = app.add_subcommand("off", "stop components' activities");
   c.reset = app.add_subcommand("reset", "take components out of the error state (then `on`)");
@@ -204,17 +208,25 @@ int run_set(const Browser& browser, const Cli& c) {
 
 int run_connect(const Browser& browser, const Cli& c) {
   const PortAddress o = PortAddress::parse(c.conn_out), i = PortAddress::parse(c.conn_in);
-  const auto type = c.conn_once ? RTM::once : RTM::repeated;
+  bool policy_says = false;
+  rtm::ConnPolicy policy = rtm::parse_conn_policy(c.conn_policy, &policy_says);  // std::invalid_argument: usage
+  if (c.conn_once && policy_says && !policy.once)
+    throw std::invalid_argument("--once and --policy '" + c.conn_policy + "' disagree");
+  if (c.conn_once) policy.once = true;
   const bool connecting = c.connect->parsed();
   if (connecting) {
-    browser.connect(o, i, type);
+    browser.connect(o, i, policy);
   } else {
-    browser.disconnect(o, i, type);
+    browser.disconnect(o, i, policy.once ? RTM::once : RTM::repeated);
   }
   const char* verb = connecting ? "connected" : "disconnected";
-  const char* kind = c.conn_once ? "once" : "repeated";
+  const char* kind = policy.once ? "once" : "repeated";
   if (c.json) {
-    fmt::print("{}\n", json{{verb, {{"from", o.to_string()}, {"to", i.to_string()}, {"type", kind}}}}.dump());
+    json j{{"from", o.to_string()}, {"to", i.to_string()}, {"type", kind}};
+    if (connecting) j["policy"] = rtm::to_string(policy);
+    fmt::print("{}\n", json{{verb, j}}.dump());
+  } else if (connecting && policy != rtm::ConnPolicy::repeated() && policy != rtm::ConnPolicy::one_shot()) {
+    fmt::print("{} {} -> {} ({})\n", verb, o.to_string(), i.to_string(), rtm::to_string(policy));
   } else {
     fmt::print("{} {} -> {} ({})\n", verb, o.to_string(), i.to_string(), kind);
   }

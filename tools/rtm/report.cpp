@@ -59,6 +59,9 @@ void print_port(const PortInfo& p) {
                s.failures ? fmt::format("  failing x{}{}", s.failures,
                                         s.last_failure.empty() ? "" : ": " + terminal_text(s.last_failure))
                           : "");
+    if (!s.policy.empty())
+      fmt::print("           {}: {}{}\n", terminal_text(s.kind), terminal_text(s.policy),
+                 s.reader.empty() ? "" : "; the InPort keeps " + terminal_text(s.reader));
   }
 }
 
@@ -170,7 +173,7 @@ json port_json(const PortInfo& p) {
     j["subscriptions"] = json::array();
     for (const auto& s : p.subscriptions) {
       j["subscriptions"].push_back({{"peer", s.peer}, {"type", s.req_type}, {"in_process", s.in_process},
-                                    {"path", s.path},
+                                    {"path", s.path}, {"kind", s.kind}, {"policy", s.policy}, {"reader", s.reader},
                                     {"pushed", s.pushed}, {"dropped", s.dropped}, {"failures", s.failures},
                                     {"last_failure", s.last_failure}});
     }

@@ -50,7 +50,7 @@ _rtm() {
         COMPREPLY=($(compgen -S . -W "$(_rtm_components)" -- "$cur"))
       fi
       [[ $cmd == watch && $cur == -* ]] && COMPREPLY=($(compgen -W "--rate --csv --count --duration" -- "$cur"))
-      [[ $cmd == connect && $cur == -* ]] && COMPREPLY=($(compgen -W "--once" -- "$cur"))
+      [[ $cmd == connect && $cur == -* ]] && COMPREPLY=($(compgen -W "--once --policy" -- "$cur"))
       ;;
     up|down) COMPREPLY=($(compgen -f -X '!*.@(yaml|yml)' -- "$cur")) ;;
     new)

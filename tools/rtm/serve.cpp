@@ -213,7 +213,7 @@ json preview_system_file(const Browser& browser, const std::string& yaml) {
   }
   json connections = json::array(), activations = json::array(), not_running = json::array();
   for (const auto& c : file.connections) {
-    json j{{"from", c.from}, {"to", c.to}, {"type", c.once ? "once" : "repeated"}};
+    json j{{"from", c.from}, {"to", c.to}, {"type", c.policy.once ? "once" : "repeated"}, {"policy", to_string(c.policy)}};
     try {
       const auto [o, i] = browser.pair(addressed_port(c.from), addressed_port(c.to));
       const std::string from = PortAddress::parse(o.address).component + "." + o.name;
@@ -271,7 +271,8 @@ json save_system_file(const Browser& browser, const std::string& name) {
     if (c.state == "on") file.activate.push_back(c.path.name);
     for (const auto& p : c.ports)
       for (const auto& s : p.subscriptions)
-        file.connections.push_back({c.path.name + "." + p.name, s.peer, s.req_type == "once"});
+        file.connections.push_back({c.path.name + "." + p.name, s.peer,
+                                    s.asked ? *s.asked : s.req_type == "once" ? ConnPolicy::one_shot() : ConnPolicy::repeated()});
   }
   return json{{"yaml", file.to_yaml()}, {"left_out", left_out}};
 }
@@ -282,7 +283,7 @@ json apply_system_file(const Browser& browser, const std::string& yaml) {
   json done = json::array(), failed = json::array();
   for (const auto& c : file.connections) {
     try {
-      browser.connect(addressed_port(c.from), addressed_port(c.to), c.once ? RTM::once : RTM::repeated);
+      browser.connect(addressed_port(c.from), addressed_port(c.to), c.policy);
       done.push_back("connected " + c.from + " -> " + c.to);
     } catch (const BrowseError& e) {
       failed.push_back(e.what());
@@ -505,14 +506,18 @@ struct WebServer::Impl {
     const PortAddress to = addressed_port(body.at("to").get<std::string>());
     const std::string kind = body.value("type", "repeated");
     if (kind != "once" && kind != "repeated") throw std::invalid_argument("type must be once or repeated");
-    const RTM::ReqType type = kind == "once" ? RTM::once : RTM::repeated;
+    // "policy": a whole connection policy (rtm/conn_policy.h's text); "type" sets once.
+    bool policy_says = false;
+    ConnPolicy policy = parse_conn_policy(body.value("policy", ""), &policy_says);
+    if (policy_says && policy.once != (kind == "once")) throw std::invalid_argument("type and policy disagree");
+    policy.once = kind == "once";
     if (connecting) {
-      browser.connect(from, to, type);
+      browser.connect(from, to, policy);
     } else {
-      browser.disconnect(from, to, type);
+      browser.disconnect(from, to, policy.once ? RTM::once : RTM::repeated);
     }
     return json{{connecting ? "connected" : "disconnected",
-                 {{"from", from.to_string()}, {"to", to.to_string()}, {"type", kind}}}};
+                 {{"from", from.to_string()}, {"to", to.to_string()}, {"type", kind}, {"policy", to_string(policy)}}}};
   }
 
   json preview(const std::string& yaml) const { return preview_system_file(browser, yaml); }

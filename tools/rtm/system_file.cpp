@@ -66,6 +66,47 @@ SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) 
   return comp;
 }
 
+// One entry of 'connections': its ends (components the file lists) and its policy ('type'
+// and 'policy' must not disagree on once/repeated).
+SystemFile::Connection parse_connection(const SystemFile& f, const YAML::Node& c, const std::set<std::string>& names) {
+  using Connection = SystemFile::Connection;
+  if (!c.IsMap()) fail(f, c, "each connection must be a mapping with 'from' and 'to'");
+  for (const auto& kv : c) {
+    const auto key = kv.first.as<std::string>();
+    if (key != "from" && key != "to" && key != "type" && key != "policy")
+      fail(f, kv.first, fmt::format("unknown key '{}' in a connection (known: from, to, type, policy)", key));
+  }
+  Connection conn{scalar_field(f, c, "from", "a connection's 'from'"),
+                  scalar_field(f, c, "to", "a connection's 'to'"), {}};
+  bool policy_says = false;
+  if (const YAML::Node p = c["policy"]) {
+    try {
+      conn.policy = parse_conn_policy(scalar(f, p, "a connection's 'policy'"), &policy_says);
+    } catch (const std::invalid_argument& e) {
+      fail(f, p, e.what());
+    }
+  }
+  if (const YAML::Node t = c["type"]) {
+    const auto type = scalar(f, t, "a connection's 'type'");
+    if (type != "once" && type != "repeated") {
+      fail(f, t, fmt::format("connection type '{}' is neither 'once' nor 'repeated'", type));
+    }
+    if (policy_says && (type == "once") != conn.policy.once)
+      fail(f, t, fmt::format("type '{}' and policy '{}' disagree", type, to_string(conn.policy)));
+    conn.policy.once = type == "once";
+  }
+  for (const auto* end : {&conn.from, &conn.to}) {
+    if (end->find('.') == std::string::npos) {
+      fail(f, c, fmt::format("'{}' is not <component>.<port>", *end));
+    }
+    if (!names.count(component_of(*end))) {
+      fail(f, c, fmt::format("'{}' names component '{}', which 'components' does not list",
+                             *end, component_of(*end)));
+    }
+  }
+  return conn;
+}
+
 }  // namespace
 
 SystemFile SystemFile::load(const std::filesystem::path& file) {
@@ -117,26 +158,7 @@ SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem
   if (const YAML::Node conns = root["connections"]) {
     if (!conns.IsSequence()) fail(f, conns, "'connections' must be a list");
     for (const auto& c : conns) {
-      if (!c.IsMap()) fail(f, c, "each connection must be a mapping with 'from' and 'to'");
-      Connection conn{scalar_field(f, c, "from", "a connection's 'from'"),
-                      scalar_field(f, c, "to", "a connection's 'to'"), false};
-      if (const YAML::Node t = c["type"]) {
-        const auto type = scalar(f, t, "a connection's 'type'");
-        if (type != "once" && type != "repeated") {
-          fail(f, t, fmt::format("connection type '{}' is neither 'once' nor 'repeated'", type));
-        }
-        conn.once = type == "once";
-      }
-      for (const auto* end : {&conn.from, &conn.to}) {
-        if (end->find('.') == std::string::npos) {
-          fail(f, c, fmt::format("'{}' is not <component>.<port>", *end));
-        }
-        if (!names.count(component_of(*end))) {
-          fail(f, c, fmt::format("'{}' names component '{}', which 'components' does not list",
-                                 *end, component_of(*end)));
-        }
-      }
-      f.connections.push_back(std::move(conn));
+      f.connections.push_back(parse_connection(f, c, names));
     }
   }
 
@@ -193,7 +215,14 @@ std::string SystemFile::to_yaml() const {
     for (const auto& c : connections) {
       out << YAML::Flow << YAML::BeginMap << YAML::Key << "from" << YAML::Value << c.from << YAML::Key << "to"
           << YAML::Value << c.to;
-      if (c.once) out << YAML::Key << "type" << YAML::Value << "once";
+      if (c.policy.once) out << YAML::Key << "type" << YAML::Value << "once";
+      ConnPolicy rest = c.policy;
+      rest.once = false;
+      if (rest != ConnPolicy::repeated()) {
+        // Without once/repeated: 'type' says that, as in files written by hand.
+        const std::string text = to_string(rest);
+        out << YAML::Key << "policy" << YAML::Value << text.substr(text.find(' ') + 1);
+      }
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;

@@ -9,11 +9,15 @@
 //       command: [rtm-sensor, --bus, "local:/tmp/pa10.bus"]   # program + arguments
 //   connections:
 //     - {from: sensor0.out0, to: controller0.in0}              # type: repeated (default)|once
+//     - {from: joystick0.out0, to: controller0.in1, policy: "reader=latest depth=4"}
+//                                    # a whole connection policy (rtm/conn_policy.h's text)
 //   activate: [sensor0]
 //
 // A program without a '/' is searched in $RTM_BIN_PATH (':'-separated), then $PATH; one with
 // a '/' is taken relative to the file's folder. `rtm up` adds `--name <name> --naming <addr>`.
 #pragma once
+
+#include "rtm/conn_policy.h"
 
 #include <filesystem>
 #include <optional>
@@ -36,7 +40,7 @@ struct SystemFile {
   };
   struct Connection {
     std::string from, to;  // "<component>.<port>"
-    bool once = false;
+    ConnPolicy policy;     // 'type' sets its once/repeated; 'policy' the rest (or all of it)
   };
 
   std::filesystem::path path;      // absolute

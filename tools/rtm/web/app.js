@@ -66,7 +66,8 @@ function timingText(c) {
 function shapeOf(list) {
   return JSON.stringify(list.map(c => [c.host, c.name, c.name_ok, c.alive, c.state, c.unreachable,
     (c.ports || []).map(p => [p.name, p.type,
-      (p.subscriptions || []).map(s => [s.peer, s.type, s.path || "", s.failures > 0, s.last_failure || ""])])]));
+      (p.subscriptions || []).map(s => [s.peer, s.type, s.path || "", s.kind || "", s.policy || "", s.failures > 0,
+        s.last_failure || ""])])]));
 }
 
 // A component whose name breaks the naming rule: its name as text, marked, and nothing to do.
@@ -134,8 +135,9 @@ function drawEdges(svg) {
         const path = el("path", { class: "edge " + (s.type === "once" ? "once" : "repeated") + (failing ? " failing" : ""),
                                   "data-from": from, "data-to": s.peer, d: curve(a, b) }, svg);
         const why = failing ? `; failing ×${s.failures}${s.last_failure ? ": " + s.last_failure : ""}` : "";
-        const via = s.path ? `, ${s.path}` : "";
-        el("title", {}, path, `${from} → ${s.peer} (${s.type}${via})${why}; click to disconnect`);
+        const via = s.kind ? `, ${s.kind}` : s.path ? `, ${s.path}` : "";
+        const policy = s.policy && s.policy !== s.type ? `; policy ${s.policy}` : "";
+        el("title", {}, path, `${from} → ${s.peer} (${s.type}${via})${policy}${why}; click to disconnect`);
         path.addEventListener("click", () => api("POST", "/api/disconnect", { from, to: s.peer, type: s.type })
           .then(done).catch(e => showError(e.message)));
       }
