@@ -50,6 +50,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sched.h>
+#include <sys/resource.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -431,6 +432,46 @@ class Poller {
   std::thread thread_;
 };
 
+// The on-arrival floor: a thread that waits on the bare ring's futex (wait_for_data) and takes
+// each datum as it is woken, with nothing of the ports in between. A publisher child maps a
+// new ring each slice: it waits for the one attached after it was made.
+class RingWaiter {
+ public:
+  RingWaiter(Receiver& receiver, BareRingPort& port)
+      : stale_(port.current()), thread_([this, &receiver, &port] {
+          RTM::TimedFloat6 d{};
+          while (!stop_.load()) {
+            rtm::ShmRingReader* reader = reader_.load();
+            if (reader == nullptr) {
+              if (port.current() != stale_) reader_.store(port.current());
+              else std::this_thread::sleep_for(std::chrono::microseconds(200));
+              continue;
+            }
+            if (!reader->wait_for_data(rtm::ShmRingReader::kNoDeadline, &stop_)) continue;
+            while (reader->take_next(std::as_writable_bytes(std::span(&d, 1))).status == rtm::ReadStatus::new_data)
+              receiver.on_datum(d);
+          }
+        }) {}
+  ~RingWaiter() {
+    stop_.store(true);
+    if (rtm::ShmRingReader* reader = reader_.load()) reader->interrupt();
+    thread_.join();
+  }
+
+ private:
+  rtm::ShmRingReader* const stale_;
+  std::atomic<bool> stop_{false};
+  std::atomic<rtm::ShmRingReader*> reader_{nullptr};
+  std::thread thread_;
+};
+
+// Context switches of this process so far (voluntary + involuntary, every thread).
+std::uint64_t context_switches() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<std::uint64_t>(u.ru_nvcsw + u.ru_nivcsw);
+}
+
 std::string run_child(const char* self, const std::vector<std::string>& child_args) {
   int fds[2];
   if (pipe(fds) != 0) return {};
@@ -669,7 +710,25 @@ struct ShmRows {
   BareRingPort& bare_ring;
   std::atomic<std::uint64_t> bare_missed{0};
 
-  std::function<bool(RTM::TimedFloat6&)> taker(bool bare) {
+  // batch: the port is read with read_many() into a buffer of 256 (one lock per batch), as a
+  // reader that drains its FIFO each cycle does.
+  std::function<bool(RTM::TimedFloat6&)> taker(bool bare, bool batch = false) {
+    if (!bare && batch) {
+      struct Buffer {
+        std::array<RTM::TimedFloat6, 256> data{};
+        std::size_t next = 0, size = 0;
+      };
+      auto buffer = std::make_shared<Buffer>();
+      return [this, buffer](RTM::TimedFloat6& d) {
+        if (buffer->next == buffer->size) {
+          buffer->size = in_ring.read_many(buffer->data);
+          buffer->next = 0;
+          if (buffer->size == 0) return false;
+        }
+        d = buffer->data[buffer->next++];
+        return true;
+      };
+    }
     if (!bare) return [this](RTM::TimedFloat6& d) { return in_ring.read(d) == rtm::ReadResult::NewData; };
     return [this](RTM::TimedFloat6& d) {
       rtm::ShmRingReader* reader = bare_ring.current();
@@ -707,40 +766,81 @@ struct ShmRows {
                 summary[0].p99_us / summary[1].p99_us);
   }
 
+  // On arrival: the receiver's callback InPort reads the port's ring with a waiter thread of its
+  // own (woken by the writer's futex wake), beside the bare ring's futex wait, paced at 1 kHz in
+  // alternating slices; with the receiver's context switches per datum.
+  void on_arrival() {
+    struct Paced {
+      const char* label;
+      bool bare;
+      std::vector<std::int64_t> latency_ns;
+      std::uint64_t switches = 0;
+      std::string publisher;
+    };
+    std::array<Paced, 2> paced_rows{{{"RTM shm, paced 1 kHz, callback on arrival", false, {}, 0, {}},
+                                     {"bare ring, paced 1 kHz, futex wait", true, {}, 0, {}}}};
+    for (std::size_t slice = 0; slice < Rows::kSlices; ++slice) {
+      for (Paced& row : paced_rows) {
+        std::optional<RingWaiter> waiter;
+        if (row.bare) waiter.emplace(rows.receiver, bare_ring);
+        const std::uint64_t before = context_switches();
+        row.publisher = rows.paced_slice(row.bare ? bare_ring_ior : rows.in_ior, row.bare ? "ring-paced" : "paced",
+                                         "writer", rows.paced / Rows::kSlices, row.latency_ns)
+                            .second;
+        row.switches += context_switches() - before;
+      }
+    }
+    std::array<rtm_bench::Summary, 2> summary;
+    for (std::size_t i = 0; i < paced_rows.size(); ++i) {
+      summary[i] = rtm_bench::summarize(paced_rows[i].latency_ns);
+      rtm_bench::print_row((rows.tag + " " + paced_rows[i].label).c_str(), summary[i]);
+      const double data = static_cast<double>(paced_rows[i].latency_ns.size());
+      std::printf("%-44s context switches per datum in the receiver: %.2f; publisher (last slice): %s\n", "",
+                  data > 0 ? static_cast<double>(paced_rows[i].switches) / data : 0.0,
+                  paced_rows[i].publisher.c_str());
+    }
+    std::printf("%s   RTM on arrival / bare futex wait, p50 %.2f, p99 %.2f\n", rows.tag.c_str(),
+                summary[0].p50_us / summary[1].p50_us, summary[0].p99_us / summary[1].p99_us);
+  }
+
   void stream() {
     struct Stream {
       const char* label;
-      bool bare;
-      std::uint64_t count = 0, written = 0;
+      bool bare, batch;
+      std::uint64_t count = 0, written = 0, lost = 0;
       std::int64_t span_ns = 0;
       std::string publisher;
     };
-    std::array<Stream, 2> stream_rows{{{"RTM shm, writer back to back", false, 0, 0, 0, {}},
-                                       {"bare ring, writer back to back", true, 0, 0, 0, {}}}};
-    const std::uint64_t in_dropped_before = in_ring.counters_snapshot().dropped;
+    std::array<Stream, 3> stream_rows{{{"RTM shm, writer back to back", false, false, 0, 0, 0, 0, {}},
+                                       {"RTM shm, the same, read_many()", false, true, 0, 0, 0, 0, {}},
+                                       {"bare ring, writer back to back", true, false, 0, 0, 0, 0, {}}}};
     for (std::size_t slice = 0; slice < Rows::kBurstSlices; ++slice) {
       for (Stream& row : stream_rows) {
-        Poller poller(rows.receiver, taker(row.bare));
-        const auto r = rows.receive(row.bare ? bare_ring_ior : ring_ior, row.bare ? "ring-stream" : "stream-oneway",
-                                    rows.burst / Rows::kBurstSlices, 2);
-        row.count += r.count;
-        row.span_ns += r.span_ns;
-        row.written += rows.burst / Rows::kBurstSlices;
-        row.publisher = r.publisher;
+        const std::uint64_t dropped_before = in_ring.counters_snapshot().dropped, missed_before = bare_missed.load();
+        {
+          Poller poller(rows.receiver, taker(row.bare, row.batch));
+          const auto r = rows.receive(row.bare ? bare_ring_ior : ring_ior, row.bare ? "ring-stream" : "stream-oneway",
+                                      rows.burst / Rows::kBurstSlices, 2);
+          row.count += r.count;
+          row.span_ns += r.span_ns;
+          row.written += rows.burst / Rows::kBurstSlices;
+          row.publisher = r.publisher;
+        }
+        row.lost += row.bare ? bare_missed.load() - missed_before : in_ring.counters_snapshot().dropped - dropped_before;
       }
     }
-    const std::uint64_t lost[2] = {in_ring.counters_snapshot().dropped - in_dropped_before, bare_missed.load()};
-    std::array<double, 2> per_s{};
+    std::array<double, 3> per_s{};
     for (std::size_t i = 0; i < stream_rows.size(); ++i) {
       const Stream& row = stream_rows[i];
       per_s[i] = Rows::rate(row.count, row.span_ns);
       std::printf("%s %-38s %9.0f msg/s taken in order (%llu of %llu; %llu overwritten before the reader took them)\n",
                   rows.tag.c_str(), row.label, per_s[i], static_cast<unsigned long long>(row.count),
-                  static_cast<unsigned long long>(row.written), static_cast<unsigned long long>(lost[i]));
+                  static_cast<unsigned long long>(row.written), static_cast<unsigned long long>(row.lost));
       std::printf("%-44s publisher (last slice): %s\n", "", row.publisher.c_str());
     }
-    std::printf("%s   RTM shm / bare ring, taken per second: %.2f\n", rows.tag.c_str(),
-                per_s[0] / (per_s[1] > 0 ? per_s[1] : 1.0));
+    const double bare = per_s[2] > 0 ? per_s[2] : 1.0;
+    std::printf("%s   RTM shm / bare ring, taken per second: read() %.2f, read_many() %.2f\n", rows.tag.c_str(),
+                per_s[0] / bare, per_s[1] / bare);
   }
 };
 
@@ -800,6 +900,7 @@ int run_receiver(const char* self, const Args& args) {
       if (transport == "shm") {
         ShmRows shm{rows, orb.to_string(in_ring_ref), orb.to_string(bare_ring_ref), *in_ring, *bare_ring};
         shm.paced();
+        shm.on_arrival();
         shm.stream();
         continue;
       }

@@ -170,6 +170,7 @@ ShmRingReader::ShmRingReader(void* memory, std::size_t bytes, std::uint64_t expe
                              std::to_string(shape_.type_id) + ", expected " + std::to_string(expected_type_id) + ")");
   slots_ = static_cast<std::byte*>(memory) + sizeof(RingHeader);
   last_taken_ = header_->head.load(std::memory_order_acquire);
+  known_head_ = last_taken_;
 }
 
 bool ShmRingReader::copy_datum(std::uint64_t number, std::span<std::byte> buffer, std::size_t& size) const {
@@ -208,8 +209,14 @@ RingRead ShmRingReader::take_latest(std::span<std::byte> buffer) {
 
 RingRead ShmRingReader::take_next(std::span<std::byte> buffer) {
   RingRead result;
+  bool reload = false;
   for (int attempt = 0; attempt < 64; ++attempt) {
-    const std::uint64_t head = header_->head.load(std::memory_order_acquire);
+    // While this reader is behind the head it saw last, that head is enough: the slot's own
+    // sequence number says whether the datum is still there. The head, a line the writer
+    // writes at every datum, is loaded again only once caught up with it or when a slot no
+    // longer held the datum: a reader taking a backlog pays one such load, not one per datum.
+    if (reload || known_head_ <= last_taken_) known_head_ = header_->head.load(std::memory_order_acquire);
+    const std::uint64_t head = known_head_;
     if (head <= last_taken_) return result;  // no_data (missed may count skipped ones)
     std::uint64_t want = last_taken_ + 1;
     // The slot of head - slots + 1 is the one the writer fills next: skip it too.
@@ -219,7 +226,10 @@ RingRead ShmRingReader::take_next(std::span<std::byte> buffer) {
       want = oldest;
       last_taken_ = want - 1;
     }
-    if (!copy_datum(want, buffer, result.size)) continue;  // overwritten meanwhile: look again
+    if (!copy_datum(want, buffer, result.size)) {  // overwritten meanwhile: look again
+      reload = true;
+      continue;
+    }
     last_taken_ = want;
     result.number = want;
     result.status = ReadStatus::new_data;
@@ -228,7 +238,7 @@ RingRead ShmRingReader::take_next(std::span<std::byte> buffer) {
   return result;
 }
 
-bool ShmRingReader::wait_for_data(std::int64_t deadline_ns) {
+bool ShmRingReader::wait_for_data(std::int64_t deadline_ns, const std::atomic<bool>* cancel) {
   const timespec deadline{static_cast<time_t>(deadline_ns / 1'000'000'000), static_cast<long>(deadline_ns % 1'000'000'000)};
   const bool forever = deadline_ns == std::numeric_limits<std::int64_t>::max();
   header_->waiters.fetch_add(1, std::memory_order_seq_cst);
@@ -239,6 +249,9 @@ bool ShmRingReader::wait_for_data(std::int64_t deadline_ns) {
       ready = true;
       break;
     }
+    // After loading `seen`: an interrupt() that set the flag before it is seen here, one after
+    // it changes the word and the wait below returns at once.
+    if (cancel != nullptr && cancel->load(std::memory_order_seq_cst)) break;
     // FUTEX_WAIT_BITSET takes an absolute CLOCK_MONOTONIC deadline; EAGAIN: woken meanwhile.
     // No deadline: no timer to arm and cancel at every wait (each costs a VM exit here).
     if (futex(&header_->wake, FUTEX_WAIT_BITSET, seen, forever ? nullptr : &deadline) != 0 && errno == ETIMEDOUT)
@@ -246,6 +259,11 @@ bool ShmRingReader::wait_for_data(std::int64_t deadline_ns) {
   }
   header_->waiters.fetch_sub(1, std::memory_order_seq_cst);
   return ready;
+}
+
+void ShmRingReader::interrupt() {
+  header_->wake.fetch_add(1, std::memory_order_seq_cst);
+  futex(&header_->wake, FUTEX_WAKE, INT_MAX, nullptr);
 }
 
 std::uint64_t ShmRingReader::published() const { return header_->head.load(std::memory_order_acquire); }

@@ -1,8 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/inport.h"
 
+#include "rt/thread.h"
+
 #include "rtm/log.h"
 #include "rtm/orb.h"
+
+#include <pthread.h>
 
 #include <algorithm>
 #include <stdexcept>
@@ -97,6 +101,10 @@ std::string InPortBase::last_rejection() const {
 void InPortBase::set_arrival_signal(std::shared_ptr<ArrivalSignal> signal) {
   std::lock_guard lock(mu_);
   signal_ = std::move(signal);
+  // Rings read until now in read() must from now on wake the activity as they arrive.
+  if (signal_)
+    for (auto& ring : rings_)
+      if (!ring->has_waiter) start_waiter_locked(*ring);
 }
 
 ReaderPolicy InPortBase::reader() const {
@@ -133,9 +141,6 @@ CORBA::Boolean InPortBase::attach_ring(const char* segment, const char* host, CO
     return false;
   };
   if (std::string(host) != shm_host_identity()) return refuse("the publisher runs on another host or network namespace");
-  // A ring is read in read(): only a policy that stores without waiting or running code (no
-  // callback, no FIFO that blocks its writer) can wait until then.
-  if (!stores_without_waiting()) return refuse("the port's policy runs or waits on each arrival");
   if (std::string type_why = ring_refusal(type_id); !type_why.empty()) return refuse(type_why);
   std::unique_ptr<AttachedRing> ring;
   try {
@@ -145,40 +150,106 @@ CORBA::Boolean InPortBase::attach_ring(const char* segment, const char* host, CO
   } catch (const std::exception& e) {
     return refuse(e.what());
   }
-  std::lock_guard lock(mu_);
-  if (signal_) return refuse("the port wakes an on-arrival activity");
-  // Rings of publishers that are gone (killed, or restarted as another process) are let go.
-  std::erase_if(rings_, [](const std::unique_ptr<AttachedRing>& r) {
-    return process_start_ticks(r->writer_pid) != r->writer_start;
-  });
-  for (const auto& r : rings_) {
-    if (r->name != ring->name) continue;
-    ++r->attached;  // already reading it (a second subscribe of the same port, soon refused)
-    why = CORBA::string_dup("");
-    return true;
+  std::vector<std::unique_ptr<AttachedRing>> gone;
+  std::string reason;
+  {
+    std::lock_guard lock(mu_);
+    // Rings of publishers that are gone (killed, or restarted as another process) are let go.
+    for (auto it = rings_.begin(); it != rings_.end();) {
+      if (process_start_ticks((*it)->writer_pid) == (*it)->writer_start) {
+        ++it;
+        continue;
+      }
+      gone.push_back(std::move(*it));
+      it = rings_.erase(it);
+    }
+    bool known = false;
+    for (const auto& r : rings_) {
+      if (r->name != ring->name) continue;
+      ++r->attached;  // already reading it (a second subscribe of the same port, soon refused)
+      known = true;
+    }
+    if (!known && rings_.size() >= kMaxRings) {
+      reason = "already " + std::to_string(kMaxRings) + " shared-memory publishers, the most a port reads";
+    } else if (!known) {
+      if (acts_on_arrival_locked()) start_waiter_locked(*ring);
+      rings_.push_back(std::move(ring));
+    }
   }
-  if (rings_.size() >= kMaxRings)
-    return refuse("already " + std::to_string(kMaxRings) + " shared-memory publishers, the most a port reads");
-  rings_.push_back(std::move(ring));
+  for (auto& r : gone)
+    if (r->has_waiter) stop_waiter(*r, false);
+  if (!reason.empty()) return refuse(reason);
   why = CORBA::string_dup("");
   return true;
 }
 
 CORBA::Boolean InPortBase::detach_ring(const char* segment) {
-  std::lock_guard lock(mu_);
-  for (auto it = rings_.begin(); it != rings_.end(); ++it) {
-    if ((*it)->name != segment) continue;
+  std::unique_ptr<AttachedRing> gone;
+  {
+    std::lock_guard lock(mu_);
+    const auto it = std::find_if(rings_.begin(), rings_.end(), [&](const auto& r) { return r->name == segment; });
+    if (it == rings_.end()) return false;
     if (--(*it)->attached > 0) return true;
-    take_from_ring_locked(**it);  // what was written before the unsubscribe still counts
+    if (!(*it)->has_waiter) {
+      take_from_ring_locked(**it);  // what was written before the unsubscribe still counts
+      rings_.erase(it);
+      return true;
+    }
+    gone = std::move(*it);
     rings_.erase(it);
-    return true;
   }
-  return false;
+  stop_waiter(*gone, true);  // outside mu_: the waiter may be storing, which takes it
+  return true;
 }
 
 std::size_t InPortBase::attached_rings() const {
   std::lock_guard lock(mu_);
   return rings_.size();
+}
+
+std::size_t InPortBase::ring_waiters() const {
+  std::lock_guard lock(mu_);
+  return static_cast<std::size_t>(std::count_if(rings_.begin(), rings_.end(), [](const auto& r) { return r->has_waiter; }));
+}
+
+void InPortBase::start_waiter_locked(AttachedRing& ring) {
+  ring.has_waiter = true;
+  ring.waiter = std::thread(&InPortBase::waiter_loop, this, &ring);
+  // Data pass this thread between the publisher and the port's reader: with real-time
+  // priorities on it runs at the path's (rt/thread.h), as a delivery thread does.
+  if (const int priority = path_thread_priority(); priority > 0) set_thread_fifo_priority(ring.waiter.native_handle(), priority);
+}
+
+void InPortBase::waiter_loop(AttachedRing* ring) {
+  pthread_setname_np(pthread_self(), "rtm-ring-wait");
+  // One futex wait per datum (or per batch the writer got ahead by), no timer: a detach wakes
+  // it through the ring's own word (ShmRingReader::interrupt).
+  while (!ring->stop.load(std::memory_order_acquire)) {
+    if (ring->reader.wait_for_data(ShmRingReader::kNoDeadline, &ring->stop)) store_from_ring(*ring);
+  }
+}
+
+void InPortBase::stop_waiter(AttachedRing& ring, bool keep_rest) {
+  ring.stop.store(true, std::memory_order_seq_cst);
+  ring.reader.interrupt();
+  if (ring.waiter.joinable()) ring.waiter.join();
+  if (keep_rest) store_from_ring(ring);
+}
+
+void InPortBase::stop_ring_waiters() {
+  std::vector<std::unique_ptr<AttachedRing>> gone;
+  {
+    std::lock_guard lock(mu_);
+    for (auto it = rings_.begin(); it != rings_.end();) {
+      if (!(*it)->has_waiter) {
+        ++it;
+        continue;
+      }
+      gone.push_back(std::move(*it));
+      it = rings_.erase(it);
+    }
+  }
+  for (auto& r : gone) stop_waiter(*r, false);
 }
 
 // The POA is called with activation_mu_ held but never with the registry lock held, so the
@@ -212,6 +283,7 @@ void InPortBase::deactivate() {
         entries.end());
     orb = orb_;
   }
+  stop_ring_waiters();  // no datum is stored on arrival, and no callback runs, from now on
   // After the Orb is gone its POA has already released every servant.
   if (Orb::instance() == orb) orb->deactivate(this);
 }

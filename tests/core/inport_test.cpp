@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <span>
 #include <thread>
 
 namespace {
@@ -167,6 +169,32 @@ TEST_F(InPortTest, FifoDropOldestKeepsTheNewest) {
   EXPECT_FLOAT_EQ(got.val[0], 5.0f);
   EXPECT_EQ(port->counters_snapshot().dropped, 2u);
   EXPECT_EQ(port->counters_snapshot().accepted, 5u);
+}
+
+TEST_F(InPortTest, ReadManyTakesTheNewDataOldestFirstAsManyAsFitThenTheRest) {
+  auto fifo = make_port(rtm::InPortPolicy::fifo(8));
+  for (int i = 1; i <= 5; ++i) fifo->deliver(float6(static_cast<float>(i)));
+  std::array<RTM::TimedFloat6, 3> three{};
+  ASSERT_EQ(fifo->read_many(three), 3u);
+  EXPECT_FLOAT_EQ(three[0].val[0], 1.0f);
+  EXPECT_FLOAT_EQ(three[2].val[0], 3.0f);
+  std::array<RTM::TimedFloat6, 8> rest{};
+  ASSERT_EQ(fifo->read_many(rest), 2u);
+  EXPECT_FLOAT_EQ(rest[0].val[0], 4.0f);
+  EXPECT_FLOAT_EQ(rest[1].val[0], 5.0f);
+  EXPECT_EQ(fifo->read_many(rest), 0u);
+  RTM::TimedFloat6 last{};
+  EXPECT_EQ(fifo->read(last), ReadResult::OldData) << "read() after read_many() knows what was read last";
+  EXPECT_FLOAT_EQ(last.val[0], 5.0f);
+
+  auto latest = make_port();
+  EXPECT_EQ(latest->read_many(rest), 0u);
+  latest->deliver(float6(7.0f));
+  latest->deliver(float6(8.0f));
+  ASSERT_EQ(latest->read_many(rest), 1u) << "a latest port gives its newest datum once";
+  EXPECT_FLOAT_EQ(rest[0].val[0], 8.0f);
+  EXPECT_EQ(latest->read_many(rest), 0u);
+  EXPECT_EQ(latest->read_many(std::span<RTM::TimedFloat6>{}), 0u);
 }
 
 TEST_F(InPortTest, FifoDropNewestKeepsTheOldest) {

@@ -9,7 +9,10 @@
 
 #include <gtest/gtest.h>
 
+#include <memory>
+#include <mutex>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -124,27 +127,83 @@ TEST_F(ShmPortTest, AfterUnsubscribeNothingMoreArrivesButWhatCameBeforeIsKept) {
   in->deactivate();
 }
 
-TEST_F(ShmPortTest, PoliciesThatRunOnArrivalAndDataThatAreNotPlainMemoryKeepCorba) {
-  struct Case {
-    const char* what;
-    rtm::InPortPolicy policy;
-  };
-  std::vector<Case> cases{
-      {"callback", rtm::InPortPolicy::callback<RTM::TimedFloat6>([](const RTM::TimedFloat6&) {})},
-      {"FIFO that blocks", rtm::InPortPolicy::fifo(4, rtm::FullPolicy::Block, 1'000'000)}};
-  for (auto& c : cases) {
-    SCOPED_TRACE(c.what);
-    auto out = make_out();
-    auto in = make_in(c.policy);
-    RTM::InPortEx_var ref = in->activate(orb());
-    ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
-    EXPECT_EQ(path_of(*out), "CORBA");
-    out->write(float6(1.0f));
-    ASSERT_TRUE(eventually([&] { return in->counters_snapshot().accepted == 1; }));
-    EXPECT_EQ(in->counters_snapshot().shared_memory, 0u);
-    out->close();
-    in->deactivate();
+// A port that acts on each arrival (a callback, a FIFO that blocks, an arrival signal) reads
+// the ring too: a thread of its own waits on the ring's futex and stores each datum as a put
+// would, in order; read() leaves that ring to it. The thread ends at unsubscribe, keeping what
+// came before, and at deactivate.
+TEST_F(ShmPortTest, PortsThatActOnArrivalAreWokenByTheRingAndStoreEachDatumInOrder) {
+  std::mutex mu;
+  std::vector<float> called;
+  auto out = make_out();
+  auto in = make_in(rtm::InPortPolicy::callback<RTM::TimedFloat6>([&](const RTM::TimedFloat6& d) {
+    std::lock_guard lock(mu);
+    called.push_back(d.val[0]);
+  }));
+  RTM::InPortEx_var ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  EXPECT_EQ(path_of(*out), "shared memory");
+  EXPECT_EQ(in->ring_waiters(), 1u);
+  std::vector<float> expected;
+  for (int i = 1; i <= 50; ++i) {
+    out->write(float6(static_cast<float>(i)));
+    expected.push_back(static_cast<float>(i));
   }
+  const auto called_count = [&] {
+    std::lock_guard lock(mu);
+    return called.size();
+  };
+  ASSERT_TRUE(eventually([&] { return called_count() == 50; })) << "nobody read the port: the thread alone woke";
+  {
+    std::lock_guard lock(mu);
+    EXPECT_EQ(called, expected);
+  }
+  EXPECT_EQ(in->counters_snapshot().shared_memory, 50u);
+  EXPECT_EQ(in->counters_snapshot().accepted, 50u);
+  ASSERT_TRUE(out->unsubscribe(RTM::repeated, ref.in()));
+  EXPECT_EQ(in->ring_waiters(), 0u);
+  out->write(float6(99.0f));
+  EXPECT_EQ(called_count(), 50u) << "a datum written after the unsubscribe reached the callback";
+  out->close();
+  in->deactivate();
+
+  // A FIFO that blocks: every datum, in order, through the ring.
+  auto out2 = make_out();
+  auto fifo = make_in(rtm::InPortPolicy::fifo(64, rtm::FullPolicy::Block, 1'000'000));
+  RTM::InPortEx_var fifo_ref = fifo->activate(orb());
+  ASSERT_TRUE(out2->subscribe(RTM::repeated, fifo_ref.in()));
+  EXPECT_EQ(path_of(*out2), "shared memory");
+  for (int i = 1; i <= 10; ++i) out2->write(float6(static_cast<float>(i)));
+  ASSERT_TRUE(eventually([&] { return fifo->queued() == 10; }));
+  RTM::TimedFloat6 got{};
+  for (int i = 1; i <= 10; ++i) {
+    ASSERT_EQ(fifo->read(got), ReadResult::NewData);
+    EXPECT_FLOAT_EQ(got.val[0], static_cast<float>(i));
+  }
+  fifo->deactivate();  // with the ring still attached: its thread ends here
+  EXPECT_EQ(fifo->ring_waiters(), 0u);
+  out2->close();
+}
+
+// An arrival signal set after the ring was attached (a component that makes its activity
+// later) is bumped by data from the ring from then on, without a read.
+TEST_F(ShmPortTest, AnArrivalSignalSetLaterIsBumpedByTheRing) {
+  auto out = make_out();
+  auto in = make_in(rtm::InPortPolicy::fifo(16));
+  RTM::InPortEx_var ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  EXPECT_EQ(in->ring_waiters(), 0u) << "a FIFO that drops is read in its reader's cycle";
+  auto signal = std::make_shared<rtm::ArrivalSignal>();
+  in->set_arrival_signal(signal);
+  EXPECT_EQ(in->ring_waiters(), 1u);
+  out->write(float6(1.0f));
+  out->write(float6(2.0f));
+  ASSERT_TRUE(eventually([&] { return signal->count() >= 1; }));
+  ASSERT_TRUE(eventually([&] { return in->counters_snapshot().shared_memory == 2; }));
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(ShmPortTest, DataThatAreNotPlainMemoryKeepCorba) {
   // A sequence: its datum points elsewhere, a copy of its bytes would carry a pointer.
   using OutSeq = rtm::OutPort<RTM::TimedFloatSeq>;
   using InSeq = rtm::InPort<RTM::TimedFloatSeq>;

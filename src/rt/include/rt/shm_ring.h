@@ -105,9 +105,14 @@ class ShmRingReader {
   // Waits until a datum newer than the last one this reader took (or saw at construction) is
   // published: true at once when there is one, else when a write wakes it; false when
   // deadline_ns (CLOCK_MONOTONIC) passed first. kNoDeadline waits for a write however long
-  // it takes and saves arming a timer at each wait.
+  // it takes and saves arming a timer at each wait. cancel, when given, is looked at after
+  // every wake-up: once true the wait ends (false) at the next interrupt() or write.
   static constexpr std::int64_t kNoDeadline = INT64_MAX;
-  bool wait_for_data(std::int64_t deadline_ns);
+  bool wait_for_data(std::int64_t deadline_ns, const std::atomic<bool>* cancel = nullptr);
+  // Wakes every reader of this ring waiting in wait_for_data(), in any process: each looks at
+  // its cancel flag and its data again (one spurious wake-up for those with nothing new). Set
+  // the flag first.
+  void interrupt();
 
   // Number of the newest datum published (0: none yet). One load.
   std::uint64_t published() const;
@@ -129,6 +134,7 @@ class ShmRingReader {
   ShmRingShape shape_;
   std::uint32_t slot_bytes_;
   std::uint64_t last_taken_ = 0;  // number of the last datum taken (or seen at construction)
+  std::uint64_t known_head_ = 0;  // the head take_next() loaded last
 };
 
 }  // namespace rtm

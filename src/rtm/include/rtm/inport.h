@@ -19,7 +19,9 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
+#include <thread>
 #include <type_traits>
 #include <typeinfo>
 #include <vector>
@@ -171,14 +173,17 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   ReaderPolicy reader() const;     // what policy() keeps, as a connection policy names it
   // The same-host path (RTMExt.idl's InPortShm): maps a publisher's ring and takes data from
   // it in read(), from then on; false with why when the port keeps CORBA: another host or
-  // network namespace, another type, a policy that must run on arrival (callback, an arrival
-  // signal, a FIFO that blocks its writer), a datum that is not plain memory, a segment this
-  // user cannot map. Rings of publishers that are gone are let go here.
+  // network namespace, another type, a datum that is not plain memory, a segment this user
+  // cannot map. A port that acts on arrival (callback, an arrival signal, a FIFO that blocks)
+  // gets a thread per ring that waits on the ring's futex and stores each datum as a put
+  // would, at the path's priority: one wake-up per datum, no call. Rings of publishers that
+  // are gone are let go here.
   CORBA::Boolean attach_ring(const char* segment, const char* host, CORBA::ULongLong type_id, CORBA::Long writer_pid,
                              CORBA::ULongLong writer_start, CORBA::String_out why) override;
   // Takes what the ring still holds for this port, then unmaps it.
   CORBA::Boolean detach_ring(const char* segment) override;
   std::size_t attached_rings() const;
+  std::size_t ring_waiters() const;  // rings read on arrival by a thread of their own
 
   // The local InPort servant behind ref (with a reference count added), or nullptr when ref
   // is nil or points into another process.
@@ -200,17 +205,37 @@ class InPortBase : public virtual POA_RTM::InPortShm {
     ShmRingReader reader;
     std::uint64_t last_number = 0;  // the last datum taken (latest policy: what it skipped is dropped)
     int attached = 1;               // attach_ring calls not yet undone by detach_ring
+    // On arrival: the thread that waits on the ring and alone reads it (read() leaves it be).
+    // Set under mu_ while the ring is listed; stopped and joined after it was taken off.
+    bool has_waiter = false;
+    std::atomic<bool> stop{false};
+    std::thread waiter{};
   };
   static constexpr std::size_t kMaxRings = 16;
   // Why a ring cannot be read by this port's type, "" when it can.
   virtual std::string ring_refusal(CORBA::ULongLong type_id) const = 0;
   // Takes the data ring holds for this port into its storage (caller holds mu_).
   virtual void take_from_ring_locked(AttachedRing& ring) = 0;
-  // The same for every attached ring (caller holds mu_). The port's storage changes, not what
-  // a caller sees of it: const for counters_snapshot() and queued().
+  // The same for every attached ring a thread does not wait on (caller holds mu_). The port's
+  // storage changes, not what a caller sees of it: const for counters_snapshot() and queued().
   void take_from_rings_locked() const {
-    for (const auto& ring : rings_) const_cast<InPortBase*>(this)->take_from_ring_locked(*ring);
+    for (const auto& ring : rings_)
+      if (!ring->has_waiter) const_cast<InPortBase*>(this)->take_from_ring_locked(*ring);
   }
+  // On arrival: stores each datum ring holds that this port did not take yet, as a put would
+  // (callback, arrival signal, a FIFO that waits for room), oldest first. No lock held; only
+  // the ring's waiter (or, once it is joined, whoever took the ring off) calls it.
+  virtual void store_from_ring(AttachedRing& ring) = 0;
+  // Whether data must be stored as they arrive rather than when read (caller holds mu_).
+  bool acts_on_arrival_locked() const { return !stores_without_waiting() || signal_ != nullptr; }
+  void start_waiter_locked(AttachedRing& ring);  // caller holds mu_
+  void waiter_loop(AttachedRing* ring);
+  // Stops and joins ring's waiter (no lock held); keep_rest: then stores what the ring still
+  // holds (an unsubscribe keeps what came before it).
+  void stop_waiter(AttachedRing& ring, bool keep_rest);
+  // Takes every ring with a waiter off and stops it (~InPort, deactivate): no callback runs
+  // after either.
+  void stop_ring_waiters();
   std::vector<std::unique_ptr<AttachedRing>> rings_;  // guarded by mu_
   std::atomic<std::uint64_t> shared_memory_{0};
 
@@ -244,9 +269,15 @@ template <PortData T>
 class InPort final : public InPortBase {
  public:
   InPort(std::string name, std::string owner, InPortPolicy policy = InPortPolicy::latest());
+  ~InPort() override { stop_ring_waiters(); }  // here: the waiters call store_from_ring()
 
   // Latest/callback: copies the newest value. FIFO: pops the oldest.
   ReadResult read(T& out);
+  // The new data, oldest first, as many as out holds, under one lock: FIFO pops up to
+  // out.size(); latest/callback gives the newest if it is unread (then 1). Returns how many
+  // were copied (0: nothing new). A reader that drains a FIFO each cycle pays one lock for
+  // all, not one per datum.
+  std::size_t read_many(std::span<T> out);
   // Stores value as a put would (the in-process path; counted in counters().in_process).
   void deliver(const T& value);
   std::size_t queued() const;  // FIFO length now; latest: 1 if unread data, else 0
@@ -263,8 +294,10 @@ class InPort final : public InPortBase {
 
  private:
   const T& extract(const CORBA::Any& value);  // the datum, or reject() and BAD_PARAM
-  // order: checked under the same lock as the store. Caller holds no lock.
-  void store(const T& value, bool in_process, const SenderSeq* order = nullptr);
+  // order: checked under the same lock as the store. Caller holds no lock. False when the
+  // datum was dropped.
+  bool store(const T& value, bool in_process, const SenderSeq* order = nullptr);
+  void store_from_ring(AttachedRing& ring) override;
   // The policy's part of a store; false when the datum was dropped. lock holds mu_.
   bool keep(const T& value, std::unique_lock<std::mutex>& lock);
   std::string ring_refusal(CORBA::ULongLong type_id) const override;

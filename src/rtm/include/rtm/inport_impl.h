@@ -2,6 +2,7 @@
 // Template definitions of rtm/inport.h; include that header, not this one.
 #pragma once
 
+#include <algorithm>
 #include <span>
 #include <stdexcept>
 
@@ -55,15 +56,15 @@ bool InPort<T>::keep(const T& value, std::unique_lock<std::mutex>& lock) {
 }
 
 template <PortData T>
-void InPort<T>::store(const T& value, bool in_process, const SenderSeq* order) {
+bool InPort<T>::store(const T& value, bool in_process, const SenderSeq* order) {
   std::unique_lock lock(mu_);
   if (order != nullptr && !order_.admit(order->sender, order->seq)) {
     late_.fetch_add(1, std::memory_order_relaxed);
     dropped_.fetch_add(1, std::memory_order_relaxed);
-    return;
+    return false;
   }
   take_from_rings_locked();  // data already in a ring were written before this one
-  if (!keep(value, lock)) return;
+  if (!keep(value, lock)) return false;
   accepted_.fetch_add(1, std::memory_order_relaxed);
   if (in_process) in_process_.fetch_add(1, std::memory_order_relaxed);
   notify_arrival();
@@ -75,6 +76,22 @@ void InPort<T>::store(const T& value, bool in_process, const SenderSeq* order) {
       callback_failed(e.what());
     } catch (...) {
       callback_failed("unknown exception");
+    }
+  }
+  return true;
+}
+
+template <PortData T>
+void InPort<T>::store_from_ring(AttachedRing& ring) {
+  if constexpr (std::is_trivially_copyable_v<T>) {
+    T datum;
+    const auto bytes = std::as_writable_bytes(std::span(&datum, 1));
+    for (;;) {
+      const RingRead r = ring.reader.take_next(bytes);
+      if (r.status != ReadStatus::new_data || r.size != sizeof(T)) return;
+      if (r.missed > 0) dropped_.fetch_add(r.missed, std::memory_order_relaxed);
+      ring.last_number = r.number;
+      if (store(datum, false)) shared_memory_.fetch_add(1, std::memory_order_relaxed);
     }
   }
 }
@@ -96,7 +113,7 @@ void InPort<T>::take_from_ring_locked(AttachedRing& ring) {
   if constexpr (std::is_trivially_copyable_v<T>) {
     T datum;
     const auto bytes = std::as_writable_bytes(std::span(&datum, 1));
-    // keep() waits only under FullPolicy::Block, and such a port never attaches a ring.
+    // keep() waits only under FullPolicy::Block, whose rings a waiter reads (store_from_ring).
     std::unique_lock<std::mutex> unused;
     const bool fifo = policy_.kind() == InPortPolicy::Kind::Fifo;
     // Nothing new (the common case of a reader polling in its cycle): one load.
@@ -108,7 +125,9 @@ void InPort<T>::take_from_ring_locked(AttachedRing& ring) {
       skipped += fifo ? r.missed : r.number - ring.last_number - 1;
       ring.last_number = r.number;
       if (keep(datum, unused)) ++kept;
-      if (!fifo || r.number == ring.reader.published()) break;
+      // FIFO: on until take_next() finds nothing newer (it looks at the writer's head once
+      // it has caught up with the head it saw, not per datum).
+      if (!fifo) break;
     }
     // Counted once per take, not per datum: each is an atomic a reader of the counters shares.
     if (skipped > 0) dropped_.fetch_add(skipped, std::memory_order_relaxed);
@@ -144,6 +163,32 @@ ReadResult InPort<T>::read(T& out) {
   lock.unlock();
   if (wake_putter) space_cv_.notify_one();
   return ReadResult::NewData;
+}
+
+template <PortData T>
+std::size_t InPort<T>::read_many(std::span<T> out) {
+  if (out.empty()) return 0;
+  std::unique_lock lock(mu_);
+  take_from_rings_locked();  // the same-host path: no system call
+  if (policy_.kind() != InPortPolicy::Kind::Fifo) {
+    if (count_ == 0 || !unread_) return 0;
+    out[0] = ring_[0];
+    unread_ = false;
+    return 1;
+  }
+  const std::size_t n = std::min(count_, out.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    out[i] = ring_[head_];
+    head_ = (head_ + 1) % ring_.size();
+  }
+  if (n == 0) return 0;
+  count_ -= n;
+  last_read_ = out[n - 1];
+  ever_read_ = true;
+  const bool wake_putter = policy_.full_policy() == FullPolicy::Block;
+  lock.unlock();
+  if (wake_putter) space_cv_.notify_all();
+  return n;
 }
 
 template <PortData T>

@@ -39,7 +39,7 @@ struct OutPortOptions {
   // To InPorts of other processes on this host that read a ring (RTM::InPortShm): data go
   // through the port's shared-memory ring (rt/shm_ring.h) and no call is made per datum; the
   // subscriber takes them when its component reads. Repeated subscriptions of plain-memory
-  // data only; a subscriber that declines (another host or user, an on-arrival policy) keeps
+  // data only; a subscriber that declines (another host or user, a segment it cannot map) keeps
   // CORBA. Off: CORBA for every subscriber of another process. The ring keeps
   // max(2 x queue_depth, kMinRingSlots) data: a FIFO reader that looks at it every 20 ms (a
   // recorder) loses nothing at 500 Hz even a few hundred ms late.
