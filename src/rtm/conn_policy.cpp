@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/conn_policy.h"
 
+#include "rtm/describe.h"
+
 #include <charconv>
 #include <limits>
 #include <stdexcept>
@@ -40,19 +42,6 @@ ReaderPolicy parse_reader(std::string_view token, std::string_view text) {
     bad(token, "the reader is latest, fifo, fifo:<capacity> or callback");
   }
   return r;
-}
-
-std::vector<std::string_view> tokens_of(std::string_view text) {
-  std::vector<std::string_view> out;
-  std::size_t i = 0;
-  while (i < text.size()) {
-    while (i < text.size() && (text[i] == ' ' || text[i] == ',' || text[i] == '\t')) ++i;
-    std::size_t j = i;
-    while (j < text.size() && text[j] != ' ' && text[j] != ',' && text[j] != '\t') ++j;
-    if (j > i) out.push_back(text.substr(i, j - i));
-    i = j;
-  }
-  return out;
 }
 
 }  // namespace
@@ -98,7 +87,8 @@ ConnPolicy parse_conn_policy(std::string_view text, bool* names_lifetime) {
   ConnPolicy p;
   if (names_lifetime) *names_lifetime = false;
   std::vector<std::string_view> seen;  // keys given, to refuse one given twice
-  for (const std::string_view token : tokens_of(text)) {
+  const std::vector<std::string> words = split_words(text);
+  for (const std::string_view token : words) {
     const std::size_t eq = token.find('=');
     const std::string_view key = token.substr(0, eq);
     const std::string_view value = eq == std::string_view::npos ? std::string_view{} : token.substr(eq + 1);

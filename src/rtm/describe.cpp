@@ -11,7 +11,16 @@ namespace rtm {
 
 namespace {
 
-std::vector<std::string> words(std::string_view text) {
+template <class T>
+std::string format_all(std::span<const T> values) {
+  std::string out;
+  for (std::size_t i = 0; i < values.size(); ++i) out += fmt::format("{}{}", i == 0 ? "" : " ", values[i]);
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> split_words(std::string_view text) {
   std::vector<std::string> out;
   std::size_t i = 0;
   while (i < text.size()) {
@@ -24,18 +33,9 @@ std::vector<std::string> words(std::string_view text) {
   return out;
 }
 
-template <class T>
-std::string format_all(std::span<const T> values) {
-  std::string out;
-  for (std::size_t i = 0; i < values.size(); ++i) out += fmt::format("{}{}", i == 0 ? "" : " ", values[i]);
-  return out;
-}
-
-}  // namespace
-
 std::vector<Element> elements(std::string_view names, std::string_view units) {
-  const auto n = words(names);
-  const auto u = words(units);
+  const auto n = split_words(names);
+  const auto u = split_words(units);
   if (n.empty() || n.size() != u.size())
     throw std::invalid_argument(fmt::format("elements: {} names ('{}') but {} units ('{}')", n.size(), names,
                                             u.size(), units));
@@ -49,7 +49,7 @@ std::vector<Element> twist_elements() { return elements("vx vy vz wx wy wz", "m/
 
 std::vector<double> parse_numbers(std::string_view text, std::size_t count) {
   std::vector<double> out;
-  for (const auto& w : words(text)) {
+  for (const auto& w : split_words(text)) {
     double v = 0;
     const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
     if (ec != std::errc{} || end != w.data() + w.size())

@@ -225,7 +225,10 @@ void InPortBase::waiter_loop(AttachedRing* ring) {
   // One futex wait per datum (or per batch the writer got ahead by), no timer: a detach wakes
   // it through the ring's own word (ShmRingReader::interrupt).
   while (!ring->stop.load(std::memory_order_acquire)) {
-    if (ring->reader.wait_for_data(ShmRingReader::kNoDeadline, &ring->stop)) store_from_ring(*ring);
+    if (!ring->reader.wait_for_data(ShmRingReader::kNoDeadline, &ring->stop)) continue;
+    // A head ahead of every datum the slots hold (a ring someone wrote over by hand) would
+    // wake it at once, again and again, at a real-time priority: it backs off instead.
+    if (store_from_ring(*ring) == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
 }
 

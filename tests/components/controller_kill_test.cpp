@@ -300,9 +300,10 @@ void expect_ls_tells_the_dead_member_from_the_live_composite(const std::string& 
   const std::string listing = rtm_cli({"ls", "-l"});
   std::istringstream lines(listing);
   std::string line, servo_line, controller_line;
+  // A component's own line starts with its name (the wiring lines under it name peers).
   while (std::getline(lines, line)) {
-    if (line.find("servo0") != std::string::npos && servo_line.empty()) servo_line = line;
-    if (line.find("controller0") != std::string::npos && controller_line.empty()) controller_line = line;
+    if (line.rfind("  servo0 ", 0) == 0 && servo_line.empty()) servo_line = line;
+    if (line.rfind("  controller0 ", 0) == 0 && controller_line.empty()) controller_line = line;
   }
   EXPECT_NE(controller_line.find("dead"), std::string::npos) << listing;
   EXPECT_EQ(servo_line.find("dead"), std::string::npos) << "the live composite called dead:\n" << listing;

@@ -161,6 +161,11 @@ TEST_F(RtmCli, ConnectTakesAWholePolicyAndCatShowsItsKindPolicyAndWhatTheInPortK
                           "the InPort keeps latest"),
             std::string::npos)
       << text.out;
+  auto ls = rtm({"ls", "-l"});
+  EXPECT_NE(ls.out.find("force -> dst.in0  CORBA by thread: repeated reader=latest depth=32 delivery=thread call=1000ms "
+                        "path=corba"),
+            std::string::npos)
+      << ls.out;
   ASSERT_EQ(rtm({"disconnect", "src.force", "dst.in0"}).exit_code, 0);
 }
 

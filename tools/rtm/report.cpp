@@ -249,6 +249,12 @@ void print_ls(const std::vector<ComponentInfo>& comps, bool detailed) {
       fmt::print("  {:<16} lateness p50 {} us  p99 {} us  max {} us  overruns {} of {} cycles\n", "",
                  us(t.lateness_p50_ns), us(t.lateness_p99_ns), us(t.lateness_max_ns), t.overruns, t.cycles);
     }
+    if (!detailed) continue;
+    // Its wiring: each subscription of its OutPorts, with its kind and connection policy.
+    for (const auto& p : c.ports)
+      for (const auto& s : p.subscriptions)
+        fmt::print("  {:<16} {} -> {}  {}: {}\n", "", terminal_text(p.name), terminal_text(s.peer),
+                   terminal_text(s.kind.empty() ? s.path : s.kind), terminal_text(s.policy.empty() ? s.req_type : s.policy));
   }
   if (comps.empty()) fmt::print("(no components)\n");
 }

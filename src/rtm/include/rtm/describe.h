@@ -31,6 +31,10 @@ struct Element {
   std::string unit;  // "N"; "" when dimensionless
 };
 
+// The words of text, separated by spaces, commas or tabs (lists of names, units, values, a
+// connection policy's tokens).
+std::vector<std::string> split_words(std::string_view text);
+
 // Elements from two space-separated lists of the same length ("-" for no unit). Throws
 // std::invalid_argument when the lengths differ or a list is empty.
 std::vector<Element> elements(std::string_view names, std::string_view units);

@@ -224,8 +224,9 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   }
   // On arrival: stores each datum ring holds that this port did not take yet, as a put would
   // (callback, arrival signal, a FIFO that waits for room), oldest first. No lock held; only
-  // the ring's waiter (or, once it is joined, whoever took the ring off) calls it.
-  virtual void store_from_ring(AttachedRing& ring) = 0;
+  // the ring's waiter (or, once it is joined, whoever took the ring off) calls it. Returns how
+  // many data it took from the ring.
+  virtual std::size_t store_from_ring(AttachedRing& ring) = 0;
   // Whether data must be stored as they arrive rather than when read (caller holds mu_).
   bool acts_on_arrival_locked() const { return !stores_without_waiting() || signal_ != nullptr; }
   void start_waiter_locked(AttachedRing& ring);  // caller holds mu_
@@ -297,7 +298,7 @@ class InPort final : public InPortBase {
   // order: checked under the same lock as the store. Caller holds no lock. False when the
   // datum was dropped.
   bool store(const T& value, bool in_process, const SenderSeq* order = nullptr);
-  void store_from_ring(AttachedRing& ring) override;
+  std::size_t store_from_ring(AttachedRing& ring) override;
   // The policy's part of a store; false when the datum was dropped. lock holds mu_.
   bool keep(const T& value, std::unique_lock<std::mutex>& lock);
   std::string ring_refusal(CORBA::ULongLong type_id) const override;

@@ -82,18 +82,20 @@ bool InPort<T>::store(const T& value, bool in_process, const SenderSeq* order) {
 }
 
 template <PortData T>
-void InPort<T>::store_from_ring(AttachedRing& ring) {
+std::size_t InPort<T>::store_from_ring(AttachedRing& ring) {
+  std::size_t taken = 0;
   if constexpr (std::is_trivially_copyable_v<T>) {
     T datum;
     const auto bytes = std::as_writable_bytes(std::span(&datum, 1));
-    for (;;) {
+    for (;; ++taken) {
       const RingRead r = ring.reader.take_next(bytes);
-      if (r.status != ReadStatus::new_data || r.size != sizeof(T)) return;
+      if (r.status != ReadStatus::new_data || r.size != sizeof(T)) break;
       if (r.missed > 0) dropped_.fetch_add(r.missed, std::memory_order_relaxed);
       ring.last_number = r.number;
       if (store(datum, false)) shared_memory_.fetch_add(1, std::memory_order_relaxed);
     }
   }
+  return taken;
 }
 
 template <PortData T>
