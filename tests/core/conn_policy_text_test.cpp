@@ -64,11 +64,11 @@ TEST(ConnPolicyText, AReaderIsSatisfiedByItsKindAndAnyOrTheSameCapacity) {
 TEST(ConnPolicyIdl, ValuesOutOfRangeFromTheWireAreRefusedNotTrusted) {
   RTM::ConnPolicy wire = rtm::to_idl(rtm::parse_conn_policy("once reader=fifo:4 depth=9 delivery=thread call=7ms"));
   EXPECT_EQ(rtm::to_string(rtm::from_idl(wire)), "once reader=fifo:4 depth=9 delivery=thread call=7ms");
-  RTM::ConnPolicy bad_reader = wire;
-  bad_reader.reader = static_cast<RTM::ConnReader>(7);
-  EXPECT_THROW(rtm::from_idl(bad_reader), std::invalid_argument);
+  // omniORB refuses an enumerator beyond the IDL's when it unmarshals one (MARSHAL); inside the
+  // C++ enum's range one can still be unnamed (3 of ConnDelivery's 0..3), as a newer build's
+  // would be.
   RTM::ConnPolicy bad_delivery = wire;
-  bad_delivery.delivery = static_cast<RTM::ConnDelivery>(9);
+  bad_delivery.delivery = static_cast<RTM::ConnDelivery>(3);
   EXPECT_THROW(rtm::from_idl(bad_delivery), std::invalid_argument);
   RTM::ConnPolicy deep = wire;
   deep.depth = 1u << 30;
