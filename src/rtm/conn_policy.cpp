@@ -83,9 +83,9 @@ std::string to_string(const ConnPolicy& p) {
   return out;
 }
 
-ConnPolicy parse_conn_policy(std::string_view text, bool* names_lifetime) {
+ConnPolicy parse_conn_policy(std::string_view text, std::optional<bool> once_apart) {
   ConnPolicy p;
-  if (names_lifetime) *names_lifetime = false;
+  bool names_lifetime = false;
   std::vector<std::string_view> seen;  // keys given, to refuse one given twice
   const std::vector<std::string> words = split_words(text);
   for (const std::string_view token : words) {
@@ -100,7 +100,7 @@ ConnPolicy parse_conn_policy(std::string_view text, bool* names_lifetime) {
     if (lifetime) {
       if (eq != std::string_view::npos) bad(token, "once and repeated take no value");
       p.once = key == "once";
-      if (names_lifetime) *names_lifetime = true;
+      names_lifetime = true;
     } else if (eq == std::string_view::npos) {
       bad(token, std::string("not a policy; one of ") + kKeys + " is expected");
     } else if (key == "reader") {
@@ -121,8 +121,16 @@ ConnPolicy parse_conn_policy(std::string_view text, bool* names_lifetime) {
       bad(token, std::string("unknown key; one of ") + kKeys + " is expected");
     }
   }
+  if (once_apart) {
+    if (names_lifetime && p.once != *once_apart)
+      throw std::invalid_argument("connection policy '" + std::string(text) + "' and " +
+                                  (*once_apart ? "once" : "repeated") + " given beside it disagree");
+    p.once = *once_apart;
+  }
   return p;
 }
+
+ReaderPolicy parse_reader_policy(std::string_view text) { return parse_reader(text, text); }
 
 RTM::ConnPolicy to_idl(const ConnPolicy& p) {
   RTM::ConnPolicy out{};

@@ -397,14 +397,25 @@ ConnPolicy OutPortBase::resolve(const ConnPolicy& asked) const {
   return p;
 }
 
+bool OutPortBase::depth_allowed(const ConnPolicy& asked) {
+  if (asked.depth <= ConnPolicy::kMaxDepth) return true;
+  refuse(full_name() + ": depth " + std::to_string(asked.depth) + " is above " + std::to_string(ConnPolicy::kMaxDepth) +
+         " (ConnPolicy::kMaxDepth)");
+  return false;
+}
+
 bool OutPortBase::reader_matches(Subscription& sub, const InPortBase* local) {
   const ReaderPolicy& wanted = sub.policy.reader;
+  ReaderPolicy kept;  // any: untold, or a text this build cannot read (satisfies nothing asked)
   if (local != nullptr) {
-    sub.reader = to_string(local->reader());
+    kept = local->reader();
+    sub.reader = to_string(kept);
   } else if (!CORBA::is_nil(sub.port_ex)) {
     try {
-      CORBA::String_var kept = sub.port_ex->reader_policy();
-      sub.reader = kept.in();
+      CORBA::String_var told = sub.port_ex->reader_policy();
+      sub.reader = told.in();
+      kept = parse_reader_policy(sub.reader);
+    } catch (const std::invalid_argument&) {
     } catch (const CORBA::Exception& e) {
       // An InPortEx of an older build: it keeps something, but does not tell what.
       if (wanted.kind == ReaderPolicy::Kind::any) return true;
@@ -418,12 +429,6 @@ bool OutPortBase::reader_matches(Subscription& sub, const InPortBase* local) {
     refuse(full_name() + " -> " + sub.peer + ": a 2004 InPort does not tell what it keeps, and the connection asks reader=" +
            to_string(wanted));
     return false;
-  }
-  ReaderPolicy kept;
-  try {
-    kept = parse_conn_policy("reader=" + sub.reader).reader;
-  } catch (const std::invalid_argument&) {
-    kept.kind = ReaderPolicy::Kind::any;  // a text we cannot read satisfies nothing asked
   }
   if (kept.kind == ReaderPolicy::Kind::any || !satisfies(kept, wanted)) {
     refuse(full_name() + " -> " + sub.peer + ": the InPort keeps " + sub.reader + ", the connection asks reader=" +
@@ -497,7 +502,7 @@ RTM::SubscriptionInfoList* OutPortBase::subscriptions() {
     info.req_type = s.once() ? RTM::once : RTM::repeated;
     info.subscriber = RTM::InPort::_duplicate(s.port.in());
     info.peer = CORBA::string_dup(s.peer.c_str());
-    info.in_process = s.local.in() != nullptr;
+    info.in_process = s.kind == ConnKind::in_process;
     info.path = CORBA::string_dup(info.in_process                            ? "in-process"
                                   : s.kind == ConnKind::shared_memory ? "shared memory"
                                                                       : "CORBA");

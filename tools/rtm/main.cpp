@@ -208,11 +208,9 @@ int run_set(const Browser& browser, const Cli& c) {
 
 int run_connect(const Browser& browser, const Cli& c) {
   const PortAddress o = PortAddress::parse(c.conn_out), i = PortAddress::parse(c.conn_in);
-  bool policy_says = false;
-  rtm::ConnPolicy policy = rtm::parse_conn_policy(c.conn_policy, &policy_says);  // std::invalid_argument: usage
-  if (c.conn_once && policy_says && !policy.once)
-    throw std::invalid_argument("--once and --policy '" + c.conn_policy + "' disagree");
-  if (c.conn_once) policy.once = true;
+  // std::invalid_argument (a usage error) for a bad policy, or one that says repeated beside --once.
+  const rtm::ConnPolicy policy =
+      rtm::parse_conn_policy(c.conn_policy, c.conn_once ? std::optional<bool>(true) : std::nullopt);
   const bool connecting = c.connect->parsed();
   if (connecting) {
     browser.connect(o, i, policy);

@@ -504,13 +504,16 @@ struct WebServer::Impl {
     const json body = json::parse(req.body);
     const PortAddress from = addressed_port(body.at("from").get<std::string>());
     const PortAddress to = addressed_port(body.at("to").get<std::string>());
-    const std::string kind = body.value("type", "repeated");
-    if (kind != "once" && kind != "repeated") throw std::invalid_argument("type must be once or repeated");
-    // "policy": a whole connection policy (rtm/conn_policy.h's text); "type" sets once.
-    bool policy_says = false;
-    ConnPolicy policy = parse_conn_policy(body.value("policy", ""), &policy_says);
-    if (policy_says && policy.once != (kind == "once")) throw std::invalid_argument("type and policy disagree");
-    policy.once = kind == "once";
+    // "policy": a whole connection policy (rtm/conn_policy.h's text); "type", when given, sets
+    // once or repeated.
+    std::optional<bool> once;
+    if (body.contains("type")) {
+      const std::string type = body.at("type").get<std::string>();
+      if (type != "once" && type != "repeated") throw std::invalid_argument("type must be once or repeated");
+      once = type == "once";
+    }
+    const ConnPolicy policy = parse_conn_policy(body.value("policy", ""), once);
+    const char* kind = policy.once ? "once" : "repeated";
     if (connecting) {
       browser.connect(from, to, policy);
     } else {

@@ -78,22 +78,19 @@ SystemFile::Connection parse_connection(const SystemFile& f, const YAML::Node& c
   }
   Connection conn{scalar_field(f, c, "from", "a connection's 'from'"),
                   scalar_field(f, c, "to", "a connection's 'to'"), {}};
-  bool policy_says = false;
-  if (const YAML::Node p = c["policy"]) {
-    try {
-      conn.policy = parse_conn_policy(scalar(f, p, "a connection's 'policy'"), &policy_says);
-    } catch (const std::invalid_argument& e) {
-      fail(f, p, e.what());
-    }
-  }
+  std::optional<bool> once;
   if (const YAML::Node t = c["type"]) {
     const auto type = scalar(f, t, "a connection's 'type'");
     if (type != "once" && type != "repeated") {
       fail(f, t, fmt::format("connection type '{}' is neither 'once' nor 'repeated'", type));
     }
-    if (policy_says && (type == "once") != conn.policy.once)
-      fail(f, t, fmt::format("type '{}' and policy '{}' disagree", type, to_string(conn.policy)));
-    conn.policy.once = type == "once";
+    once = type == "once";
+  }
+  const YAML::Node p = c["policy"];
+  try {
+    conn.policy = parse_conn_policy(p ? scalar(f, p, "a connection's 'policy'") : "", once);
+  } catch (const std::invalid_argument& e) {
+    fail(f, p ? p : c, e.what());
   }
   for (const auto* end : {&conn.from, &conn.to}) {
     if (end->find('.') == std::string::npos) {

@@ -76,10 +76,13 @@ struct ConnPolicy {
 std::string to_string(const ConnPolicy& policy);
 // Parses the text form; std::invalid_argument naming the token that is wrong and what it may
 // be (an unknown key, a number out of range, a value twice). "" is the default policy.
-// names_lifetime, when given, tells whether the text said once or repeated.
-ConnPolicy parse_conn_policy(std::string_view text, bool* names_lifetime = nullptr);
+// once_apart: once/repeated given beside the text (a system file's `type:`, `--once`, the
+// API's "type"); it sets the lifetime, and contradicting the text is std::invalid_argument.
+ConnPolicy parse_conn_policy(std::string_view text, std::optional<bool> once_apart = std::nullopt);
 // "latest", "fifo:8", "callback" (what an InPort tells as its reader_policy).
 std::string to_string(const ReaderPolicy& reader);
+// The reverse of to_string(ReaderPolicy); std::invalid_argument for any other text.
+ReaderPolicy parse_reader_policy(std::string_view text);
 // Whether an InPort that keeps `kept` satisfies `wanted`.
 bool satisfies(const ReaderPolicy& kept, const ReaderPolicy& wanted);
 

@@ -241,6 +241,8 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void make_writer_references(Subscription& sub) const;
   // The asked policy with the port's defaults filled in.
   ConnPolicy resolve(const ConnPolicy& asked) const;
+  // subscribe()/connect(): false (refused, with the reason) for a depth above kMaxDepth.
+  bool depth_allowed(const ConnPolicy& asked);
   // subscribe(): false (refused, with the reason) when the InPort keeps another reader policy
   // than sub.policy asks; sets sub.reader. A remote InPort is asked (bounded).
   bool reader_matches(Subscription& sub, const InPortBase* local);

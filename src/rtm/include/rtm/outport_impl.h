@@ -210,11 +210,7 @@ void OutPort<T>::deliver_slot(Subscription& base, std::uint64_t seq,
 template <PortData T>
 bool OutPort<T>::connect(InPort<T>& in, const ConnPolicy& policy) {
   reap_retired();
-  if (policy.depth > ConnPolicy::kMaxDepth) {
-    refuse(full_name() + " -> " + in.full_name() + ": depth " + std::to_string(policy.depth) + " is above " +
-           std::to_string(ConnPolicy::kMaxDepth));
-    return false;
-  }
+  if (!depth_allowed(policy)) return false;
   auto sub = new_subscription(policy);
   in._add_ref();
   sub->local = &in;
@@ -335,11 +331,7 @@ bool OutPort<T>::subscribe_with(const ConnPolicy& policy, RTM::InPort_ptr i_port
     refuse(full_name() + ": nil InPort reference");
     return false;
   }
-  if (policy.depth > ConnPolicy::kMaxDepth) {
-    refuse(full_name() + ": depth " + std::to_string(policy.depth) + " is above " +
-           std::to_string(ConnPolicy::kMaxDepth) + " (ConnPolicy::kMaxDepth)");
-    return false;
-  }
+  if (!depth_allowed(policy)) return false;
   // A full port refuses before any remote call; add_subscription() checks again under its lock.
   if (subscription_count() >= options_.max_subscriptions) {
     refuse(full_name() + ": " + full_port_text());
