@@ -268,6 +268,19 @@ void ShmRingReader::interrupt() {
 
 std::uint64_t ShmRingReader::published() const { return header_->head.load(std::memory_order_acquire); }
 
+bool ShmRingReader::has_new() {
+  if (known_head_ > last_taken_) return true;
+  known_head_ = header_->head.load(std::memory_order_acquire);
+  return known_head_ > last_taken_;
+}
+
+std::uint64_t ShmRingReader::skip_older(std::uint64_t keep) {
+  if (known_head_ <= last_taken_ + keep) return 0;
+  const std::uint64_t skipped = known_head_ - keep - last_taken_;
+  last_taken_ = known_head_ - keep;
+  return skipped;
+}
+
 std::uint32_t ShmRingReader::waiting() const { return header_->waiters.load(std::memory_order_acquire); }
 
 bool ShmRingReader::write_in_progress() const {

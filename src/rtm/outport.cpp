@@ -122,6 +122,7 @@ void OutPortBase::close() {
     for (auto& s : retired_) all.push_back(std::move(s));
     subs_.clear();
     retired_.clear();
+    subs_changed_locked();
   }
   std::vector<std::unique_ptr<Subscription>> parked;
   for (auto& s : all) stop_and_join(std::move(s), parked);
@@ -163,6 +164,7 @@ bool OutPortBase::add_subscription(std::unique_ptr<Subscription> sub, bool start
   }
   Subscription* raw = sub.get();
   subs_.push_back(std::move(sub));
+  subs_changed_locked();
   if (start_thread) {
     raw->thread = std::thread(&OutPortBase::delivery_loop, this, raw);
     // Data pass a delivery thread on their way to the subscriber: with real-time priorities
@@ -187,6 +189,7 @@ bool OutPortBase::remove_matching(const std::function<bool(const Subscription&)>
         ++i;
       }
     }
+    subs_changed_locked();
   }
   std::vector<std::unique_ptr<Subscription>> parked;
   const bool removed = !victims.empty();
@@ -212,6 +215,14 @@ void OutPortBase::retire(Subscription* sub) {
 void OutPortBase::retire_locked(std::size_t index) {
   retired_.push_back(std::move(subs_[index]));
   subs_.erase(subs_.begin() + static_cast<std::ptrdiff_t>(index));
+  subs_changed_locked();
+}
+
+void OutPortBase::subs_changed_locked() {
+  const auto calling = std::count_if(subs_.begin(), subs_.end(), [](const auto& s) {
+    return s->kind != ConnKind::shared_memory && !s->direct;
+  });
+  calling_subscriptions_.store(static_cast<std::uint32_t>(calling), std::memory_order_relaxed);
 }
 
 bool OutPortBase::count_failure(Subscription& sub, const char* exception_name, bool dead_kind,

@@ -511,7 +511,7 @@ TEST_F(OutPortTest, AnIdleRemoteSubscriptionIsDeliveredByWriteItselfInOrder) {
   EXPECT_EQ(c.by_writer, 20u) << "nothing was in flight before any write: write() made every call";
   EXPECT_EQ(c.failed, 0u) << "not even the first call outlived write()'s bound: the reference was warmed";
   const rtm::WriteCost cost = out->write_cost();
-  EXPECT_EQ(cost.count, 20u) << "every write() is measured";
+  EXPECT_EQ(cost.count, 20u) << "every write() that may call is measured";
   EXPECT_GT(cost.max_ns, 0);
   EXPECT_LE(cost.p50_ns, cost.p99_ns);
   out->close();

@@ -112,6 +112,32 @@ TEST(ShmRing, AReaderMoreThanARingBehindIsToldHowManyItMissed) {
   EXPECT_EQ(missed, 17U);
 }
 
+// A reader that keeps at most `keep` data skips all but the newest `keep` of what it knows is
+// there: has_new() looks at the writer's head (once caught up) and skip_older() only uses the
+// head seen last, so a backlog taken datum by datum reads the writer's head line once.
+TEST(ShmRing, HasNewSeesANewDatumAndSkipOlderKeepsTheNewestOfTheHeadSeenLast) {
+  const ShmRingShape shape{16, 8, kType};
+  Memory m(shape);
+  ShmRingWriter writer(m.data.get(), m.bytes, shape);
+  ShmRingReader reader(m.data.get(), m.bytes, kType);
+  EXPECT_FALSE(reader.has_new());
+  for (std::uint64_t v = 1; v <= 10; ++v) writer.write(bytes_of(v));
+  EXPECT_EQ(reader.skip_older(3), 0U) << "no head seen since the writes: nothing is known to skip";
+  ASSERT_TRUE(reader.has_new());
+  EXPECT_EQ(reader.skip_older(3), 7U);
+  writer.write(bytes_of(std::uint64_t{11}));  // after the head was seen: taken too, at the end
+  std::uint64_t out = 0;
+  std::vector<std::uint64_t> got;
+  while (reader.has_new()) {
+    const auto r = reader.take_next(std::as_writable_bytes(std::span(&out, 1)));
+    ASSERT_EQ(r.status, ReadStatus::new_data);
+    EXPECT_EQ(r.missed, 0U);
+    got.push_back(out);
+  }
+  EXPECT_EQ(got, (std::vector<std::uint64_t>{8, 9, 10, 11}));
+  EXPECT_EQ(reader.skip_older(0), 0U) << "caught up: nothing left to skip";
+}
+
 TEST(ShmRing, DataOfAnySizeUpToTheSlotComeBackExactly) {
   const ShmRingShape shape{2, 13, kType};
   Memory m(shape);

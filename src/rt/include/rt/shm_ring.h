@@ -114,8 +114,19 @@ class ShmRingReader {
   // the flag first.
   void interrupt();
 
-  // Number of the newest datum published (0: none yet). One load.
+  // Number of the newest datum published (0: none yet). One load of the line the writer
+  // writes at every datum.
   std::uint64_t published() const;
+  // Whether a datum newer than the last one this reader took (or saw at construction) is
+  // there. A reader still behind the head its take_next() saw last answers from that and
+  // loads nothing shared: a reader polling a backlog does not pull the writer's head line
+  // away from it at every datum (which would cost the writer a cache miss per write).
+  bool has_new();
+  // Skips all but the newest `keep` of the data not taken yet, of those behind the head that
+  // take_next() or has_new() loaded last (it loads nothing); returns how many it skipped. A
+  // reader that keeps at most `keep` calls it before it takes a backlog, so that it is never
+  // more than that behind what it last saw.
+  std::uint64_t skip_older(std::uint64_t keep);
   // On-arrival readers in wait_for_data() now, in any process (a reader killed while waiting
   // stays counted).
   std::uint32_t waiting() const;

@@ -298,6 +298,15 @@ class InPort final : public InPortBase {
   // order: checked under the same lock as the store. Caller holds no lock. False when the
   // datum was dropped.
   bool store(const T& value, bool in_process, const SenderSeq* order = nullptr);
+  // A FIFO that drops its oldest, with nothing queued (caller holds mu_): takes up to
+  // out.size() data straight from the rings no thread waits on, oldest first, without
+  // copying them into the queue. Of a backlog longer than the queue's capacity only the
+  // newest `capacity` are taken, the rest counted as dropped, as keep() would drop them: a
+  // reader slower than its writer pays per datum it takes, not per datum written.
+  std::size_t take_straight_locked(std::span<T> out);
+  bool reads_rings_straight() const {
+    return policy_.kind() == InPortPolicy::Kind::Fifo && policy_.full_policy() == FullPolicy::DropOldest;
+  }
   std::size_t store_from_ring(AttachedRing& ring) override;
   // The policy's part of a store; false when the datum was dropped. lock holds mu_.
   bool keep(const T& value, std::unique_lock<std::mutex>& lock);

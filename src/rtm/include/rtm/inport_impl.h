@@ -118,8 +118,9 @@ void InPort<T>::take_from_ring_locked(AttachedRing& ring) {
     // keep() waits only under FullPolicy::Block, whose rings a waiter reads (store_from_ring).
     std::unique_lock<std::mutex> unused;
     const bool fifo = policy_.kind() == InPortPolicy::Kind::Fifo;
-    // Nothing new (the common case of a reader polling in its cycle): one load.
-    if (ring.reader.published() == ring.last_number) return;
+    // Nothing new (the common case of a reader polling in its cycle): one load. A FIFO reader
+    // still behind the head it saw last loads nothing the writer writes.
+    if (fifo ? !ring.reader.has_new() : ring.reader.published() == ring.last_number) return;
     std::uint64_t kept = 0, skipped = 0;
     for (;;) {
       const RingRead r = fifo ? ring.reader.take_next(bytes) : ring.reader.take_latest(bytes);
@@ -141,14 +142,50 @@ void InPort<T>::take_from_ring_locked(AttachedRing& ring) {
 }
 
 template <PortData T>
+std::size_t InPort<T>::take_straight_locked(std::span<T> out) {
+  std::size_t taken = 0;
+  if constexpr (std::is_trivially_copyable_v<T>) {
+    const std::uint64_t capacity = ring_.size();
+    std::uint64_t skipped = 0;
+    for (const auto& ring : rings_) {
+      if (ring->has_waiter) continue;
+      // has_new() and skip_older() load the writer's head only once this reader caught up
+      // with the head it saw last: taking a backlog costs the writer no cache miss per datum.
+      while (taken < out.size() && ring->reader.has_new()) {
+        skipped += ring->reader.skip_older(capacity);
+        const RingRead r = ring->reader.take_next(std::as_writable_bytes(out.subspan(taken, 1)));
+        if (r.status != ReadStatus::new_data || r.size != sizeof(T)) break;
+        skipped += r.missed;
+        ring->last_number = r.number;
+        ++taken;
+      }
+    }
+    if (skipped > 0) dropped_.fetch_add(skipped, std::memory_order_relaxed);
+    if (taken > 0) {
+      accepted_.fetch_add(taken, std::memory_order_relaxed);
+      shared_memory_.fetch_add(taken, std::memory_order_relaxed);
+    }
+  }
+  return taken;
+}
+
+template <PortData T>
 ReadResult InPort<T>::read(T& out) {
   std::unique_lock lock(mu_);
-  take_from_rings_locked();  // the same-host path: no system call
+  // The same-host path: no system call. A FIFO takes what it holds first (older than what
+  // the rings still hold: a put drains them before it stores), then the rings straight.
+  const bool straight = reads_rings_straight();
+  if (!straight) take_from_rings_locked();
   if (policy_.kind() != InPortPolicy::Kind::Fifo) {
     if (count_ == 0) return ReadResult::NoData;
     out = ring_[0];
     if (!unread_) return ReadResult::OldData;
     unread_ = false;
+    return ReadResult::NewData;
+  }
+  if (count_ == 0 && straight && take_straight_locked(std::span(&out, 1)) == 1) {
+    last_read_ = out;
+    ever_read_ = true;
     return ReadResult::NewData;
   }
   if (count_ == 0) {
@@ -171,20 +208,22 @@ template <PortData T>
 std::size_t InPort<T>::read_many(std::span<T> out) {
   if (out.empty()) return 0;
   std::unique_lock lock(mu_);
-  take_from_rings_locked();  // the same-host path: no system call
+  const bool straight = reads_rings_straight();  // as read()
+  if (!straight) take_from_rings_locked();
   if (policy_.kind() != InPortPolicy::Kind::Fifo) {
     if (count_ == 0 || !unread_) return 0;
     out[0] = ring_[0];
     unread_ = false;
     return 1;
   }
-  const std::size_t n = std::min(count_, out.size());
+  std::size_t n = std::min(count_, out.size());
   for (std::size_t i = 0; i < n; ++i) {
     out[i] = ring_[head_];
     head_ = (head_ + 1) % ring_.size();
   }
-  if (n == 0) return 0;
   count_ -= n;
+  if (count_ == 0 && straight) n += take_straight_locked(out.subspan(n));
+  if (n == 0) return 0;
   last_read_ = out[n - 1];
   ever_read_ = true;
   const bool wake_putter = policy_.full_policy() == FullPolicy::Block;

@@ -90,7 +90,11 @@ struct OutPortCounters {
   std::uint64_t by_writer = 0; // deliveries write() made itself (Delivery::writer_when_idle)
 };
 
-// How long write() held its caller (OutPortBase::write_cost()).
+// How long write() held its caller (OutPortBase::write_cost()). Every write() that has a
+// remote call to make or a datum to hand to a thread is measured; while the port has only
+// shared-memory and direct in-process subscribers (a write that copies and returns, ~0.1 us),
+// one write in kWriteCostSampling is, as two clock reads would cost it half as much again.
+inline constexpr std::uint64_t kWriteCostSampling = 16;
 struct WriteCost {
   std::uint64_t count = 0;  // write() calls measured
   std::int64_t p50_ns = 0, p99_ns = 0;  // upper edges of the 1 us buckets holding them
@@ -256,6 +260,8 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void retire(Subscription* sub);
   // Same, from write() (mu_ held): index into subs_.
   void retire_locked(std::size_t index);
+  // After subs_ changed (mu_ held): counts the subscriptions write() may call or queue for.
+  void subs_changed_locked();
   void reap_retired();  // joins parked threads; never from a delivery thread
   void refuse(const std::string& why);
   // "<owner>.<name>" of an InPort (asks it; RTM::InPort without owner: its name only).
@@ -283,6 +289,9 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   std::atomic<std::uint64_t> failed_{0};
   std::atomic<std::uint64_t> timed_out_{0};
   std::atomic<std::uint64_t> by_writer_{0};
+  // Subscriptions that are neither a ring nor filled directly: while there are none, write()
+  // times itself one call in kWriteCostSampling (WriteCost).
+  std::atomic<std::uint32_t> calling_subscriptions_{0};
   LatencyHistogram write_cost_;
   bool closed_ = false;
   std::atomic<bool> get_before_data_logged_{false};

@@ -51,14 +51,18 @@ bool OutPortBase::guarded_call(Subscription& sub, Call call, bool* dead) {
 
 template <PortData T>
 void OutPort<T>::write(const T& value) {
-  const std::int64_t start_ns = monotonic_ns();
+  // Timed always when it may call or queue, else one call in kWriteCostSampling (WriteCost).
+  // The counter is read before the lock: a subscription made meanwhile is seen below.
+  bool timed = calling_subscriptions_.load(std::memory_order_relaxed) != 0 ||
+               written_.load(std::memory_order_relaxed) % kWriteCostSampling == 0;
+  std::int64_t start_ns = timed ? monotonic_ns() : 0;
   // Subscriptions write() delivers to itself, after its lock is released (fixed capacity:
   // write() allocates nothing).
   struct Call {
     TypedSubscription* sub;
     std::uint64_t seq;
   };
-  std::array<Call, kMaxWriterCalls> calls{};
+  std::array<Call, kMaxWriterCalls> calls;
   std::size_t call_count = 0;
   const std::size_t call_limit = std::min<std::size_t>(options_.writer_calls, kMaxWriterCalls);
   {
@@ -90,6 +94,10 @@ void OutPort<T>::write(const T& value) {
       ++i;
     }
   }
+  if (call_count > 0 && !timed) {
+    timed = true;
+    start_ns = monotonic_ns();
+  }
   const std::int64_t budget_ns = std::int64_t{options_.writer_call_timeout_ms} * 1'000'000;
   for (std::size_t k = 0; k < call_count; ++k) {
     TypedSubscription& sub = *calls[k].sub;
@@ -102,7 +110,7 @@ void OutPort<T>::write(const T& value) {
     if (delivered) by_writer_.fetch_add(1, std::memory_order_relaxed);
     finish_writer_call(sub, delivered, dead);
   }
-  write_cost_.record(monotonic_ns() - start_ns);
+  if (timed) write_cost_.record(monotonic_ns() - start_ns);
 }
 
 // An in-process subscriber filled by write() itself; false when it must be retired.
