@@ -239,13 +239,17 @@ RingRead ShmRingReader::take_next(std::span<std::byte> buffer) {
 }
 
 bool ShmRingReader::wait_for_data(std::int64_t deadline_ns, const std::atomic<bool>* cancel) {
+  return wait_past(last_taken_, deadline_ns, cancel);
+}
+
+bool ShmRingReader::wait_past(std::uint64_t number, std::int64_t deadline_ns, const std::atomic<bool>* cancel) const {
   const timespec deadline{static_cast<time_t>(deadline_ns / 1'000'000'000), static_cast<long>(deadline_ns % 1'000'000'000)};
   const bool forever = deadline_ns == std::numeric_limits<std::int64_t>::max();
   header_->waiters.fetch_add(1, std::memory_order_seq_cst);
   bool ready = false;
   for (;;) {
     const std::uint32_t seen = header_->wake.load(std::memory_order_seq_cst);
-    if (header_->head.load(std::memory_order_seq_cst) > last_taken_) {
+    if (header_->head.load(std::memory_order_seq_cst) > number) {
       ready = true;
       break;
     }

@@ -184,9 +184,27 @@ void ComponentServant::expose_in_port(std::size_t index, RTM::InPort_ptr ref) {
   in_overrides_[index] = RTM::InPort::_duplicate(ref);
 }
 
+void ComponentServant::await_before_cycle(InPortBase& port, std::int64_t bound_ns) {
+  if (bound_ns <= 0) throw std::invalid_argument(component_->name() + ": an await bound must be above 0");
+  if (!std::holds_alternative<PeriodicOptions>(spec_))
+    throw std::invalid_argument(component_->name() + ": only a periodic cycle awaits a datum before it runs");
+  await_port_ = &port;
+  await_bound_ns_ = bound_ns;
+  const std::string where = " on " + port.port_name();
+  component_->add_counter("await.arrived", "cycles whose new datum" + where + " came while they waited for it", await_arrived_);
+  component_->add_counter("await.missed", "cycles whose new datum" + where + " did not come within the bound", await_missed_);
+}
+
 bool ComponentServant::run_cycle(const CycleContext& ctx) {
   const RTM::ComponentState state = state_.load();
   if (state != RTM::COMPONENT_ON) return state != RTM::COMPONENT_ERROR;
+  if (await_port_ != nullptr) {
+    switch (await_port_->wait_new_until(ctx.deadline_ns + await_bound_ns_)) {
+      case InPortBase::Awaited::there: break;
+      case InPortBase::Awaited::arrived: await_arrived_.fetch_add(1, std::memory_order_relaxed); break;
+      case InPortBase::Awaited::none: await_missed_.fetch_add(1, std::memory_order_relaxed); break;
+    }
+  }
   try {
     component_->on_cycle(ctx);
     return true;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/inport.h"
 
+#include "rt/clock.h"
 #include "rt/thread.h"
 
 #include "rtm/log.h"
@@ -142,7 +143,7 @@ CORBA::Boolean InPortBase::attach_ring(const char* segment, const char* host, CO
   };
   if (std::string(host) != shm_host_identity()) return refuse("the publisher runs on another host or network namespace");
   if (std::string type_why = ring_refusal(type_id); !type_why.empty()) return refuse(type_why);
-  std::unique_ptr<AttachedRing> ring;
+  std::shared_ptr<AttachedRing> ring;
   try {
     ShmSegment mapped = ShmSegment::open(segment);
     ShmRingReader reader(mapped.data(), mapped.size(), type_id);
@@ -150,7 +151,7 @@ CORBA::Boolean InPortBase::attach_ring(const char* segment, const char* host, CO
   } catch (const std::exception& e) {
     return refuse(e.what());
   }
-  std::vector<std::unique_ptr<AttachedRing>> gone;
+  std::vector<std::shared_ptr<AttachedRing>> gone;
   std::string reason;
   {
     std::lock_guard lock(mu_);
@@ -184,7 +185,7 @@ CORBA::Boolean InPortBase::attach_ring(const char* segment, const char* host, CO
 }
 
 CORBA::Boolean InPortBase::detach_ring(const char* segment) {
-  std::unique_ptr<AttachedRing> gone;
+  std::shared_ptr<AttachedRing> gone;
   {
     std::lock_guard lock(mu_);
     const auto it = std::find_if(rings_.begin(), rings_.end(), [&](const auto& r) { return r->name == segment; });
@@ -240,7 +241,7 @@ void InPortBase::stop_waiter(AttachedRing& ring, bool keep_rest) {
 }
 
 void InPortBase::stop_ring_waiters() {
-  std::vector<std::unique_ptr<AttachedRing>> gone;
+  std::vector<std::shared_ptr<AttachedRing>> gone;
   {
     std::lock_guard lock(mu_);
     for (auto it = rings_.begin(); it != rings_.end();) {
@@ -364,6 +365,50 @@ void InPortBase::reject(CORBA::TypeCode_ptr got) {
 
 void InPortBase::notify_arrival() {
   if (signal_) signal_->notify();
+  if (awaiting_ > 0) {
+    arrival_cv_.notify_all();
+    if (awaited_ring_ != nullptr) {  // it waits on the ring's word
+      await_cancel_.store(true, std::memory_order_seq_cst);
+      awaited_ring_->reader.interrupt();
+    }
+  }
+}
+
+std::size_t InPortBase::awaiting() const {
+  std::lock_guard lock(mu_);
+  return static_cast<std::size_t>(awaiting_);
+}
+
+InPortBase::Awaited InPortBase::wait_new_until(std::int64_t deadline_ns) {
+  std::unique_lock lock(mu_);
+  ++awaiting_;
+  bool ready = false, waited = false;
+  while (!(ready = has_unread_locked()) && monotonic_ns() < deadline_ns) {
+    // The sole publisher's ring, read in read(): wait on its futex word for its next datum.
+    if (rings_.size() == 1 && !rings_.front()->has_waiter) {
+      const std::shared_ptr<AttachedRing> ring = rings_.front();  // stays mapped if detached meanwhile
+      const std::uint64_t seen = ring->reader.last_taken();
+      awaited_ring_ = ring.get();
+      waited = true;
+      await_cancel_.store(false, std::memory_order_seq_cst);
+      lock.unlock();
+      const bool published = ring->reader.wait_past(seen, deadline_ns, &await_cancel_);
+      lock.lock();
+      if (awaited_ring_ == ring.get()) awaited_ring_ = nullptr;
+      // A head past every datum the slots hold (a ring someone wrote over by hand) would
+      // return at once, again and again: nothing new to take from it is nothing new.
+      if (published && !(ready = has_unread_locked())) break;
+      continue;
+    }
+    // Puts, in-process deliveries and rings with a waiter of their own notify the condition
+    // variable; with several rings read in read() it looks at them again every 50 us.
+    const std::int64_t until = rings_.empty() ? deadline_ns : std::min(deadline_ns, monotonic_ns() + 50'000);
+    waited = true;
+    arrival_cv_.wait_until(lock, std::chrono::steady_clock::time_point(std::chrono::nanoseconds(until)));
+  }
+  --awaiting_;
+  if (!ready) return Awaited::none;
+  return waited ? Awaited::arrived : Awaited::there;
 }
 
 void InPortBase::callback_failed(const char* what) {

@@ -18,6 +18,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <optional>
+#include <tuple>
+#include <utility>
 
 namespace rtm {
 
@@ -119,6 +121,20 @@ std::int64_t parse_period_ns(std::string_view text) {
   return std::llround(*ns);
 }
 
+std::pair<std::string, std::int64_t> parse_await(std::string_view text, std::int64_t period_ns) {
+  const std::size_t colon = text.find(':');
+  const std::string port(text.substr(0, colon));
+  if (port.empty()) throw std::invalid_argument(fmt::format("await '{}': want PORT[:BOUND], e.g. in0:0.2ms", text));
+  if (colon == std::string_view::npos) return {port, period_ns / 10};
+  const std::string_view bound_text = text.substr(colon + 1);
+  const std::optional<double> ns = parse_duration_ns(bound_text);
+  if (!ns || std::llround(*ns) <= 0 || std::llround(*ns) >= period_ns) {
+    throw std::invalid_argument(fmt::format("await '{}': want a bound above 0 and below the period ({} us), e.g. 0.2ms",
+                                            text, period_ns / 1000));
+  }
+  return {port, std::llround(*ns)};
+}
+
 std::int64_t parse_phase_ns(std::string_view text, std::int64_t period_ns) {
   const std::optional<double> ns = parse_duration_ns(text);
   if (!ns || *ns < 0 || std::llround(*ns) >= period_ns) {
@@ -213,6 +229,11 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
                  "the period, e.g. 0.5ms): components of one host with the same period and a phase share one "
                  "grid, so a reader can run just after its writer")
       ->default_str("none: the first cycle runs when the component is turned on");
+  std::string await_text;
+  app.add_option("--await", await_text,
+                 "PORT[:BOUND]: each cycle first waits for a new datum on this InPort (a name or in<k>), at most "
+                 "BOUND after the cycle was due (default a tenth of the period), so that on a phase just after its "
+                 "writer's a late writer costs that lateness, not a period");
   app.add_option("--rt-priority", settings.rt_priority, "SCHED_FIFO priority of the activity (1..99)")
       ->check(CLI::Range(0, 99));
   app.add_option("--cpu", settings.cpu,
@@ -250,6 +271,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
     app.parse(static_cast<int>(own_argv.size()), own_argv.data());
     settings.period_ns = parse_period_ns(period_text);
     if (!phase_text.empty()) settings.phase_ns = parse_phase_ns(phase_text, settings.period_ns);
+    if (!await_text.empty()) std::tie(settings.await_port, settings.await_bound_ns) = parse_await(await_text, settings.period_ns);
     settings.access = *parse_access_policy(access_text);
     check_name(settings.name);
     apply_port_options(port_texts, settings);
@@ -275,6 +297,18 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   return std::nullopt;
 }
 
+// An InPort of the component by name or as in<k>; std::invalid_argument listing them if none.
+InPortBase& find_in_port(Component& component, const std::string& which) {
+  const auto& ins = component.in_ports();
+  std::string names;
+  for (std::size_t i = 0; i < ins.size(); ++i) {
+    if (ins[i]->port_name() == which || "in" + std::to_string(i) == which) return *ins[i];
+    names += (names.empty() ? "" : ", ") + ins[i]->port_name();
+  }
+  throw std::invalid_argument("--await " + which + ": " + component.name() + " has no such InPort (" +
+                              (names.empty() ? std::string("it has none") : "it has " + names) + ")");
+}
+
 // Builds the component and its servant, activates it and binds its names; turns it on when
 // asked. Throws what the component's factory or the ORB throws; what was made by then is in
 // servant and bindings, for the caller's ordered shutdown.
@@ -292,7 +326,12 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   component->add_process_statistic();
   ActivitySpec activity =
       main.activity ? main.activity(settings, *component) : ActivitySpec{settings.periodic_options()};
+  const bool periodic = std::holds_alternative<PeriodicOptions>(activity);
   servant = new ComponentServant(std::move(component), std::move(activity));
+  if (!settings.await_port.empty()) {
+    if (!periodic) throw std::invalid_argument("--await: this component's cycle is not periodic");
+    servant->await_before_cycle(find_in_port(servant->component(), settings.await_port), settings.await_bound_ns);
+  }
   RTM::RtComponentEx_var reference = servant->activate(context.orb);
   std::vector<ExtraName> extra_names;
   if (main.on_activated) extra_names = main.on_activated(*servant, context);

@@ -1,7 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core_test_support.h"
 
+#include "rt/clock.h"
+
 #include <gtest/gtest.h>
+
+#include <atomic>
+#include <ctime>
+#include <string>
+#include <thread>
 
 namespace {
 
@@ -154,6 +161,48 @@ TEST_F(ComponentTest, OnArrivalComponentCyclesWhenDataIsPut) {
   ASSERT_TRUE(eventually([&] { return d.out.latest(out); }));
   EXPECT_FLOAT_EQ(out.val[0], 6.0f);
   ref->off();
+}
+
+double statistic(rtm::ComponentServant& servant, const std::string& name) {
+  RTM::StatisticList_var stats = servant.statistics();
+  for (CORBA::ULong i = 0; i < stats->length(); ++i)
+    if (name == stats[i].name.in()) return stats[i].value;
+  return -1;
+}
+
+// --await: each cycle first waits for its datum, bounded; a cycle whose datum came while it
+// waited, and one whose datum did not come, are counted.
+TEST_F(ComponentTest, ACycleAwaitingItsDatumCountsWhatCameWhileItWaitedAndWhatDidNot) {
+  auto logic = std::make_unique<Doubler>();
+  Doubler& d = *logic;
+  rtm::ComponentServant servant(std::move(logic), fast());
+  servant.await_before_cycle(d.in, 500'000);
+  EXPECT_EQ(statistic(servant, "await.missed"), 0.0);
+  servant.on();
+  ASSERT_TRUE(eventually([&] { return statistic(servant, "await.missed") >= 3; })) << "nothing is written";
+  EXPECT_EQ(statistic(servant, "await.arrived"), 0.0);
+  std::atomic<bool> stop{false};
+  std::thread feeder([&] {  // a datum every 0.3 ms: some come while a 1 ms cycle waits
+    std::int64_t next = rtm::monotonic_ns();
+    while (!stop.load()) {
+      next += 300'000;
+      const timespec t{static_cast<time_t>(next / 1'000'000'000), static_cast<long>(next % 1'000'000'000)};
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, nullptr);
+      d.in.deliver(float6(1.0f));
+    }
+  });
+  const bool arrived = eventually([&] { return statistic(servant, "await.arrived") >= 3; });
+  stop = true;
+  feeder.join();
+  servant.off();
+  EXPECT_TRUE(arrived);
+}
+
+TEST_F(ComponentTest, OnlyAPeriodicCycleAwaitsADatum) {
+  auto logic = std::make_unique<Doubler>();
+  Doubler& d = *logic;
+  rtm::ComponentServant servant(std::move(logic), rtm::OnArrival{0});
+  EXPECT_THROW(servant.await_before_cycle(d.in, 500'000), std::invalid_argument);
 }
 
 TEST_F(ComponentTest, OnArrivalNamingAMissingPortIsRefused) {

@@ -5,14 +5,18 @@
 // path off, as one of another process is (outport_test.cpp runs one in another process).
 #include "core_test_support.h"
 
+#include "rt/clock.h"
 #include "rtm/outport.h"
 
 #include <gtest/gtest.h>
 
 #include <array>
+#include <atomic>
+
 #include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace {
@@ -157,6 +161,59 @@ TEST_F(ShmPortTest, WriteTimesOneCallInSixteenWhileItOnlyFillsRings) {
   for (int i = 1; i <= 160; ++i) out->write(float6(static_cast<float>(i)));
   EXPECT_EQ(out->write_cost().count, 160u / rtm::kWriteCostSampling);
   EXPECT_EQ(out->counters_snapshot().written, 160u);
+  out->close();
+  in->deactivate();
+}
+
+// A periodic reader on a phase after its writer's waits for the datum at the start of its
+// cycle, bounded: the ring's next write wakes it (one futex wait), and so does a put.
+TEST_F(ShmPortTest, AReaderAwaitingANewDatumIsWokenByTheRingsNextWriteAndByAPut) {
+  using Awaited = rtm::InPortBase::Awaited;
+  auto out = make_out();
+  auto in = make_in(rtm::InPortPolicy::fifo(8));
+  RTM::InPortEx_var ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  for (const bool by_put : {false, true}) {
+    const std::int64_t deadline = rtm::monotonic_ns() + 60'000'000'000;
+    std::atomic<int> found{-1};
+    std::atomic<std::int64_t> returned_ns{0};
+    std::thread reader([&] {
+      found = static_cast<int>(in->wait_new_until(deadline));
+      returned_ns = rtm::monotonic_ns();
+    });
+    ASSERT_TRUE(eventually([&] { return in->awaiting() == 1; }));
+    if (by_put) {
+      CORBA::Any any;
+      any <<= float6(2.0f);
+      in->put(any);
+    } else {
+      out->write(float6(1.0f));
+    }
+    reader.join();
+    EXPECT_EQ(found.load(), static_cast<int>(Awaited::arrived)) << (by_put ? "put" : "ring");
+    EXPECT_LT(returned_ns.load(), deadline) << "woken by the datum, not by the deadline";
+    RTM::TimedFloat6 got{};
+    ASSERT_EQ(in->read(got), ReadResult::NewData);
+    EXPECT_FLOAT_EQ(got.val[0], by_put ? 2.0f : 1.0f);
+  }
+  EXPECT_EQ(in->awaiting(), 0u);
+  out->close();
+  in->deactivate();
+}
+
+TEST_F(ShmPortTest, AnAwaitFindsADatumAlreadyThereAtOnceAndEndsAtItsBoundWhenNoneComes) {
+  using Awaited = rtm::InPortBase::Awaited;
+  auto out = make_out();
+  auto in = make_in();
+  RTM::InPortEx_var ref = in->activate(orb());
+  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  out->write(float6(1.0f));
+  EXPECT_EQ(in->wait_new_until(rtm::monotonic_ns() + 60'000'000'000), Awaited::there);
+  RTM::TimedFloat6 got{};
+  ASSERT_EQ(in->read(got), ReadResult::NewData);
+  const std::int64_t deadline = rtm::monotonic_ns() + 20'000'000;
+  EXPECT_EQ(in->wait_new_until(deadline), Awaited::none) << "the datum already read is not new";
+  EXPECT_GE(rtm::monotonic_ns(), deadline);
   out->close();
   in->deactivate();
 }

@@ -49,6 +49,19 @@ TEST(ParsePhase, AcceptsZeroToLessThanThePeriodAndRefusesTheRestNamingIt) {
 }
 
 // With a phase, every start joins the grid k * period + phase; without, it starts at once.
+TEST(ParseAwait, TakesAPortWithABoundOrATenthOfThePeriodAndRefusesABoundOutsideIt) {
+  EXPECT_EQ(rtm::parse_await("wrench:0.2ms", 2'000'000), (std::pair<std::string, std::int64_t>{"wrench", 200'000}));
+  EXPECT_EQ(rtm::parse_await("in0", 2'000'000), (std::pair<std::string, std::int64_t>{"in0", 200'000}));
+  for (const char* bad : {":0.2ms", "in0:0", "in0:2ms", "in0:-1us", "in0:soon"}) {
+    try {
+      rtm::parse_await(bad, 2'000'000);
+      ADD_FAILURE() << bad << " was taken";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(RunSettings, APhasePutsTheFirstDeadlineOnTheGridOfThePeriod) {
   rtm::RunSettings settings;
   settings.period_ns = 2'000'000;

@@ -109,6 +109,10 @@ class ShmRingReader {
   // every wake-up: once true the wait ends (false) at the next interrupt() or write.
   static constexpr std::int64_t kNoDeadline = INT64_MAX;
   bool wait_for_data(std::int64_t deadline_ns, const std::atomic<bool>* cancel = nullptr);
+  // The same wait for a datum newer than `number`, touching nothing of this reader but the
+  // ring's own words: another thread may take from this reader meanwhile (under its owner's
+  // lock) while one waits here without it.
+  bool wait_past(std::uint64_t number, std::int64_t deadline_ns, const std::atomic<bool>* cancel = nullptr) const;
   // Wakes every reader of this ring waiting in wait_for_data(), in any process: each looks at
   // its cancel flag and its data again (one spurious wake-up for those with nothing new). Set
   // the flag first.
@@ -134,6 +138,8 @@ class ShmRingReader {
   // or died in one (then it stays true).
   bool write_in_progress() const;
   const ShmRingShape& shape() const { return shape_; }
+  // Number of the last datum this reader took (or skipped, or saw at construction).
+  std::uint64_t last_taken() const { return last_taken_; }
 
  private:
   // Copies datum `number` from its slot; false when the slot does not hold it whole

@@ -120,6 +120,7 @@ class Component {
   void add_parameter(Parameter parameter);
 
  private:
+  friend class ComponentServant;  // adds the statistics of what it does around the cycle
   const std::string name_;
   const std::string kind_;
   std::string description_;
@@ -168,6 +169,14 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   // Timing reported by timing() for an ExternalTick component (e.g. the composite's tick).
   void set_timing_source(const Activity* activity);
 
+  // A periodic component's cycle first waits for a new datum on port (one of its InPorts),
+  // at most until bound_ns after the cycle was due (InPortBase::wait_new_until): on a phase
+  // just after its writer's, a writer a little late then delays this cycle by that much
+  // instead of leaving it a period behind. Counted in the statistics await.arrived (the datum
+  // came while it waited) and await.missed (it did not come within the bound; the cycle runs
+  // with what the port holds). Before on(); bound_ns > 0.
+  void await_before_cycle(InPortBase& port, std::int64_t bound_ns);
+
   // A composite hands out another component's InPort as its own: in_ports()[index] becomes
   // ref (index == size appends). Throws std::out_of_range otherwise.
   void expose_in_port(std::size_t index, RTM::InPort_ptr ref);
@@ -203,6 +212,10 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   std::unique_ptr<Activity> activity_;
   std::atomic<const Activity*> timing_source_{nullptr};
   std::shared_ptr<ArrivalSignal> arrival_;
+  InPortBase* await_port_ = nullptr;  // await_before_cycle()
+  std::int64_t await_bound_ns_ = 0;
+  std::atomic<std::uint64_t> await_arrived_{0};
+  std::atomic<std::uint64_t> await_missed_{0};
   std::mutex control_mu_;  // serialises on/off/reset
   std::atomic<RTM::ComponentState> state_{RTM::COMPONENT_OFF};
   mutable std::mutex error_mu_;

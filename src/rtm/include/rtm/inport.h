@@ -147,6 +147,19 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   // Bumped after every stored datum (drives an OnArrivalActivity). May be null.
   void set_arrival_signal(std::shared_ptr<ArrivalSignal> signal);
 
+  // What wait_new_until() found: a datum read() has not given yet was there at once, came
+  // while it waited, or did not come before the deadline.
+  enum class Awaited { there, arrived, none };
+  // Waits, with no lock held, until there is a datum read() has not given yet, or until
+  // deadline_ns (CLOCK_MONOTONIC) passed. A periodic reader on a phase
+  // just after its writer's calls it at the start of its cycle with a bound inside the period
+  // (the runner's --await): a writer a little late then costs the chain that lateness, not a
+  // period. From the ring of a sole same-host publisher it is one futex wait, woken by that
+  // publisher's next write (which pays one futex wake only while someone waits); from a put
+  // or an in-process delivery, a condition variable. No allocation.
+  Awaited wait_new_until(std::int64_t deadline_ns);
+  std::size_t awaiting() const;  // threads in wait_new_until() now
+
   // True when storing a datum never waits nor runs user code (latest, FIFO drop-*): an
   // in-process publisher may then store straight from its writing thread.
   bool stores_without_waiting() const;
@@ -193,7 +206,9 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   InPortBase(std::string name, std::string owner, InPortPolicy policy);
   // Counts, logs once per distinct reason and remembers a refused put; then the caller throws.
   void reject(CORBA::TypeCode_ptr got);
-  void notify_arrival();  // caller holds mu_
+  void notify_arrival();  // caller holds mu_: the arrival signal, and wait_new_until()'s waiters
+  // Whether read() has something new to give (caller holds mu_; may take from the rings).
+  virtual bool has_unread_locked() = 0;
   void callback_failed(const char* what);  // counts; logs the first one
 
   // A publisher's ring this port reads (guarded by mu_).
@@ -237,7 +252,8 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   // Takes every ring with a waiter off and stops it (~InPort, deactivate): no callback runs
   // after either.
   void stop_ring_waiters();
-  std::vector<std::unique_ptr<AttachedRing>> rings_;  // guarded by mu_
+  // guarded by mu_; shared: wait_new_until() keeps the ring it waits on without the lock
+  std::vector<std::shared_ptr<AttachedRing>> rings_;
   std::atomic<std::uint64_t> shared_memory_{0};
 
   const std::string name_;
@@ -246,6 +262,12 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   PortInfo info_;
   mutable std::mutex mu_;  // guards the stored data, the signal and last_rejection_
   std::shared_ptr<ArrivalSignal> signal_;
+  // wait_new_until(): threads in it, the condition variable they wait on, and the ring one
+  // of them waits on (a put wakes it through the ring's word). Guarded by mu_.
+  int awaiting_ = 0;
+  std::condition_variable arrival_cv_;
+  AttachedRing* awaited_ring_ = nullptr;
+  std::atomic<bool> await_cancel_{false};  // set by a store while one waits on a ring
   std::string last_rejection_;
   std::atomic<std::uint64_t> accepted_{0};
   std::atomic<std::uint64_t> rejected_{0};
@@ -298,6 +320,7 @@ class InPort final : public InPortBase {
   // order: checked under the same lock as the store. Caller holds no lock. False when the
   // datum was dropped.
   bool store(const T& value, bool in_process, const SenderSeq* order = nullptr);
+  bool has_unread_locked() override;
   // A FIFO that drops its oldest, with nothing queued (caller holds mu_): takes up to
   // out.size() data straight from the rings no thread waits on, oldest first, without
   // copying them into the queue. Of a backlog longer than the queue's capacity only the

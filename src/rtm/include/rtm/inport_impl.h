@@ -170,6 +170,16 @@ std::size_t InPort<T>::take_straight_locked(std::span<T> out) {
 }
 
 template <PortData T>
+bool InPort<T>::has_unread_locked() {
+  if (!reads_rings_straight()) take_from_rings_locked();
+  if (policy_.kind() != InPortPolicy::Kind::Fifo) return count_ > 0 && unread_;
+  if (count_ > 0) return true;
+  for (const auto& ring : rings_)
+    if (!ring->has_waiter && ring->reader.has_new()) return true;
+  return false;
+}
+
+template <PortData T>
 ReadResult InPort<T>::read(T& out) {
   std::unique_lock lock(mu_);
   // The same-host path: no system call. A FIFO takes what it holds first (older than what

@@ -58,6 +58,7 @@
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "rtm/access.h"
@@ -71,6 +72,10 @@ struct RunSettings {
   std::int64_t period_ns = 2'000'000;
   // --phase: cycles at k * period_ns + phase_ns on CLOCK_MONOTONIC; unset: from the first on().
   std::optional<std::int64_t> phase_ns;
+  // --await PORT[:BOUND]: each cycle first waits for a new datum on that InPort, at most BOUND
+  // after it was due (ComponentServant::await_before_cycle). Empty: it does not wait.
+  std::string await_port;
+  std::int64_t await_bound_ns = 0;
   int rt_priority = 0;   // 0: SCHED_OTHER
   int cpu = -1;          // -1: no affinity
   bool lock_memory = false;
@@ -150,6 +155,9 @@ CLI::Option* add_array_option(CLI::App& app, const std::string& name, std::array
 std::int64_t parse_period_ns(std::string_view text);
 // "0.5ms" and the like, from 0 to less than period_ns; std::invalid_argument saying what is wanted.
 std::int64_t parse_phase_ns(std::string_view text, std::int64_t period_ns);
+// "--await PORT[:BOUND]": the port's name and the bound (above 0, below the period; a tenth
+// of the period when left out). Throws std::invalid_argument naming what is wrong.
+std::pair<std::string, std::int64_t> parse_await(std::string_view text, std::int64_t period_ns);
 
 // Splits -ORB<option> <value> pairs (omniORB's syntax) out of argv. The rest, argv[0] first,
 // stays in order for the command-line parser.
