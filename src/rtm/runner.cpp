@@ -181,6 +181,33 @@ void keep_real_time_for_the_activity(RunSettings& settings) {
 }
 
 // The options every OutPort of the component takes from the command line, as given.
+// --period, --phase, --await as given, checked once the command line is parsed.
+struct ScheduleTexts {
+  std::string period = "2ms";
+  std::string phase;
+  std::string await;
+};
+
+void add_schedule_options(CLI::App& app, ScheduleTexts& texts) {
+  app.add_option("--period", texts.period, "cycle period, 50us to 1h: 2ms, 500us, 0.002s")->capture_default_str();
+  app.add_option("--phase", texts.phase,
+                 "run each cycle this long after a multiple of the period on CLOCK_MONOTONIC (0 to less than "
+                 "the period, e.g. 0.5ms): components of one host with the same period and a phase share one "
+                 "grid, so a reader can run just after its writer")
+      ->default_str("none: the first cycle runs when the component is turned on");
+  app.add_option("--await", texts.await,
+                 "PORT[:BOUND]: each cycle first waits for a new datum on this InPort (a name or in<k>), at most "
+                 "BOUND after the cycle was due (default a tenth of the period), so that on a phase just after its "
+                 "writer's a late writer costs that lateness, not a period");
+}
+
+// Throws std::invalid_argument naming a bad value.
+void apply_schedule_texts(const ScheduleTexts& texts, RunSettings& settings) {
+  settings.period_ns = parse_period_ns(texts.period);
+  if (!texts.phase.empty()) settings.phase_ns = parse_phase_ns(texts.phase, settings.period_ns);
+  if (!texts.await.empty()) std::tie(settings.await_port, settings.await_bound_ns) = parse_await(texts.await, settings.period_ns);
+}
+
 struct PortTexts {
   std::string delivery;       // --delivery
   std::string shared_memory;  // --shared-memory
@@ -215,25 +242,14 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   settings.name = (main.kind.empty() ? std::string("component") : main.kind) + "0";
   settings.orb_args = std::move(split.orb);
   std::string naming_text;
-  std::string period_text = "2ms";
   CLI::App app(main.description.empty() ? "RTM component" : main.description, program);
   app.add_option("--name", settings.name, "component name, bound as <host>.host_cxt/<name>.rtc")
       ->capture_default_str();
   app.add_option("--naming", naming_text, "naming service host:port")
       ->default_str(NamingAddress::from_environment().to_string())
       ->envname("RTM_NAMING");
-  app.add_option("--period", period_text, "cycle period, 50us to 1h: 2ms, 500us, 0.002s")->capture_default_str();
-  std::string phase_text;
-  app.add_option("--phase", phase_text,
-                 "run each cycle this long after a multiple of the period on CLOCK_MONOTONIC (0 to less than "
-                 "the period, e.g. 0.5ms): components of one host with the same period and a phase share one "
-                 "grid, so a reader can run just after its writer")
-      ->default_str("none: the first cycle runs when the component is turned on");
-  std::string await_text;
-  app.add_option("--await", await_text,
-                 "PORT[:BOUND]: each cycle first waits for a new datum on this InPort (a name or in<k>), at most "
-                 "BOUND after the cycle was due (default a tenth of the period), so that on a phase just after its "
-                 "writer's a late writer costs that lateness, not a period");
+  ScheduleTexts schedule_texts;
+  add_schedule_options(app, schedule_texts);
   app.add_option("--rt-priority", settings.rt_priority, "SCHED_FIFO priority of the activity (1..99)")
       ->check(CLI::Range(0, 99));
   app.add_option("--cpu", settings.cpu,
@@ -269,9 +285,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   for (const auto& arg : split.own) own_argv.push_back(arg.c_str());
   try {
     app.parse(static_cast<int>(own_argv.size()), own_argv.data());
-    settings.period_ns = parse_period_ns(period_text);
-    if (!phase_text.empty()) settings.phase_ns = parse_phase_ns(phase_text, settings.period_ns);
-    if (!await_text.empty()) std::tie(settings.await_port, settings.await_bound_ns) = parse_await(await_text, settings.period_ns);
+    apply_schedule_texts(schedule_texts, settings);
     settings.access = *parse_access_policy(access_text);
     check_name(settings.name);
     apply_port_options(port_texts, settings);
