@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -72,10 +73,10 @@ class CsvLog {
     if (!writer_) return;
     Pa10Plant& plant = sim.plant();
     used_ = 0;
-    add("%.4f", static_cast<double>(sim.time_ns()) * 1e-9);
-    for (int j = 0; j < kJointCount; ++j) add(",%.6f", plant.joint_state(j).position_rad);
-    for (int j = 0; j < kJointCount; ++j) add(",%.6f", plant.joint_state(j).velocity_rad_s);
-    for (double p : plant.tool_position_m()) add(",%.6f", p);
+    add(static_cast<double>(sim.time_ns()) * 1e-9, 4, false);
+    for (int j = 0; j < kJointCount; ++j) add(plant.joint_state(j).position_rad, 6);
+    for (int j = 0; j < kJointCount; ++j) add(plant.joint_state(j).velocity_rad_s, 6);
+    for (double p : plant.tool_position_m()) add(p, 6);
     add_wrench(plant.wrist_wrench(), sim.wrist_sensor().offset());
     add_wrench(plant.joystick_wrench(), sim.joystick_sensor().offset());
     line_[used_++] = '\n';  // add() leaves room for it
@@ -85,16 +86,19 @@ class CsvLog {
   std::uint64_t dropped_rows() const { return writer_ ? writer_->dropped() : 0; }
 
  private:
-  // Appends one formatted number to the row (a fixed buffer: no allocation in the loop).
-  void add(const char* format, double value) {
-    const std::size_t room = sizeof line_ - 1 - used_;  // one byte kept for the newline
-    if (room <= 1) return;
-    const int n = std::snprintf(line_ + used_, room, format, value);
-    if (n > 0) used_ += std::min(room - 1, static_cast<std::size_t>(n));
+  // Appends one number with `decimals` digits after the point (as "%.<decimals>f"), after a
+  // comma unless it is the row's first, to the row: a fixed buffer, no allocation, and
+  // std::to_chars (a few times cheaper than snprintf; 30 numbers a row, 500 rows a second).
+  void add(double value, int decimals, bool comma = true) {
+    char* const end = line_ + sizeof line_ - 1;  // one byte kept for the newline
+    char* at = line_ + used_;
+    if (comma && at < end) *at++ = ',';
+    const auto [next, error] = std::to_chars(at, end, value, std::chars_format::fixed, decimals);
+    if (error == std::errc{}) used_ = static_cast<std::size_t>(next - line_);
   }
   void add_wrench(const Wrench& raw, const Wrench& offset) {
-    for (int i = 0; i < 3; ++i) add(",%.3f", raw.force_N[i] - offset.force_N[i]);
-    for (int i = 0; i < 3; ++i) add(",%.4f", raw.torque_Nm[i] - offset.torque_Nm[i]);
+    for (int i = 0; i < 3; ++i) add(raw.force_N[i] - offset.force_N[i], 3);
+    for (int i = 0; i < 3; ++i) add(raw.torque_Nm[i] - offset.torque_Nm[i], 4);
   }
 
   std::unique_ptr<BackgroundWriter> writer_;
