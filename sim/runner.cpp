@@ -13,7 +13,9 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string_view>
+#include <vector>
 
 #include "arm/can/bus.h"
 #include "arm/can/local_bus.h"
@@ -43,7 +45,9 @@ std::unique_ptr<rtm::can::Bus> open_or_host(const std::string& spec,
   } catch (const rtm::can::BusError&) {
     if (path.empty()) throw;
   }
-  hub = std::make_unique<rtm::can::LocalHub>(path);  // nobody listens there: host the bus
+  // Nobody listens there: host the bus. Its poll rounds run in the simulator's own loop
+  // (run_simulator), so a bus round wakes one thread here, not the hub's and then the loop.
+  hub = std::make_unique<rtm::can::LocalHub>(path, rtm::can::LocalHub::Driver::caller);
   return rtm::can::open_bus(spec);
 }
 
@@ -193,6 +197,55 @@ void print_summary(Pa10Simulator& sim, std::uint64_t dropped, const PeriodicSche
   std::fflush(stdout);
 }
 
+// The loop's one ppoll: over its bus endpoints, stdin and the sockets of the hubs it hosts
+// (LocalHub::Driver::caller). The hubs relay their round right after it; frames they hand to
+// this process's own endpoints are there then, and read in the same round, not after another
+// poll. The set is made again each round (endpoints come and go); its capacity once.
+class LoopPoll {
+ public:
+  LoopPoll(rtm::can::Bus& bus, rtm::can::Bus* sensor_bus, rtm::can::LocalHub* hub, rtm::can::LocalHub* sensor_hub,
+           const StdinWrench& in)
+      : bus_(bus), sensor_bus_(sensor_bus), hub_(hub), sensor_hub_(sensor_hub), in_(in) {
+    fds_.reserve(3 + 2 * (rtm::can::LocalHub::kMaxEndpoints + 1));
+  }
+
+  // Waits at most timeout for any of them, then relays the hubs' rounds. Throws RunError
+  // when ppoll fails.
+  void wait(const timespec& timeout) {
+    fds_.clear();
+    fds_.push_back({bus_.pollable_fd(), POLLIN, 0});
+    fds_.push_back({sensor_bus_ ? sensor_bus_->pollable_fd() : -1, POLLIN, 0});
+    fds_.push_back({in_.fd(), POLLIN, 0});
+    const std::size_t hub_at = fds_.size();
+    if (hub_) hub_->add_poll_fds(fds_);
+    const std::size_t sensor_hub_at = fds_.size();
+    if (sensor_hub_) sensor_hub_->add_poll_fds(fds_);
+    const int ready = ppoll(fds_.data(), fds_.size(), &timeout, nullptr);
+    if (ready < 0 && errno != EINTR)
+      throw RunError(std::string("pa10-sim: ppoll failed: ") + std::strerror(errno));
+    relayed_ = sensor_relayed_ = false;
+    if (ready <= 0) {
+      for (pollfd& p : fds_) p.revents = 0;
+      return;
+    }
+    const std::span<const pollfd> polled(fds_);
+    relayed_ = hub_ && hub_->relay(polled.subspan(hub_at, sensor_hub_at - hub_at)) > 0;
+    sensor_relayed_ = sensor_hub_ && sensor_hub_->relay(polled.subspan(sensor_hub_at)) > 0;
+  }
+  bool bus_ready() const { return fds_[0].revents != 0 || relayed_; }
+  bool sensor_bus_ready() const { return sensor_bus_ && (fds_[1].revents != 0 || sensor_relayed_); }
+  bool stdin_ready() const { return fds_[2].revents != 0; }
+
+ private:
+  rtm::can::Bus& bus_;
+  rtm::can::Bus* sensor_bus_;
+  rtm::can::LocalHub* hub_;
+  rtm::can::LocalHub* sensor_hub_;
+  const StdinWrench& in_;
+  std::vector<pollfd> fds_;
+  bool relayed_ = false, sensor_relayed_ = false;
+};
+
 }  // namespace
 
 void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
@@ -227,9 +280,7 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
   std::int64_t next_wall_beat_ns = monotonic_ns() + kWallHeartbeatPeriod_ns;
   std::uint64_t last_logged_sync = sim.drive(0).syncs_seen();
 
-  pollfd fds[3] = {{bus->pollable_fd(), POLLIN, 0},
-                   {sensor_bus ? sensor_bus->pollable_fd() : -1, POLLIN, 0},
-                   {stdin_wrench.fd(), POLLIN, 0}};
+  LoopPoll poll(*bus, sensor_bus.get(), hub.get(), sensor_hub.get(), stdin_wrench);
   can_frame frame{};
   while (!stop.load(std::memory_order_relaxed)) {
     // What the last round's frames and steps made the nodes send leaves now, in one batch.
@@ -239,18 +290,12 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
     const std::int64_t now_ns = monotonic_ns();
     const std::int64_t wake_ns = options.lock_step ? next_wall_beat_ns : schedule.deadline_ns();
     const timespec timeout = to_timespec(std::max<std::int64_t>(0, wake_ns - now_ns));
-    fds[2].fd = stdin_wrench.fd();
-    const int ready = ppoll(fds, 3, &timeout, nullptr);
-    if (ready < 0 && errno != EINTR)
-      throw RunError(std::string("pa10-sim: ppoll failed: ") + std::strerror(errno));
-    if (ready > 0) {
-      if (fds[0].revents != 0)
-        while (bus->receive(frame, 0)) sim.on_frame(frame, sink);
-      if (sensor_bus && fds[1].revents != 0)
-        while (sensor_bus->receive(frame, 0))
-          sim.on_sensor_bus_frame(frame);
-      if (fds[2].revents != 0) stdin_wrench.read_into(sim);
-    }
+    poll.wait(timeout);
+    if (poll.bus_ready())
+      while (bus->receive(frame, 0)) sim.on_frame(frame, sink);
+    if (poll.sensor_bus_ready())
+      while (sensor_bus->receive(frame, 0)) sim.on_sensor_bus_frame(frame);
+    if (poll.stdin_ready()) stdin_wrench.read_into(sim);
     if (sim.drive(0).syncs_seen() != last_logged_sync) {
       last_logged_sync = sim.drive(0).syncs_seen();
       log.row(sim);

@@ -60,7 +60,7 @@ constexpr int kEndpointSendBuffer_bytes = 1 << 20;
 
 }  // namespace
 
-LocalHub::LocalHub(std::string socket_path) : socket_path_(std::move(socket_path)) {
+LocalHub::LocalHub(std::string socket_path, Driver driver) : socket_path_(std::move(socket_path)) {
   const sockaddr_un address = unix_address(socket_path_);
   remove_stale_socket(socket_path_, address);
   listen_fd_ = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
@@ -83,7 +83,10 @@ LocalHub::LocalHub(std::string socket_path) : socket_path_(std::move(socket_path
     ::unlink(socket_path_.c_str());
     fail(socket_path_, "eventfd", error);
   }
-  thread_ = std::thread([this] { run(); });
+  relay_ = std::make_unique<Relay>();  // some 24 KiB of round buffers, made once
+  endpoints_.reserve(kMaxEndpoints);
+  closed_.reserve(kMaxEndpoints);
+  if (driver == Driver::own_thread) thread_ = std::thread([this] { run(); });
 }
 
 LocalHub::~LocalHub() { stop(); }
@@ -93,6 +96,12 @@ void LocalHub::stop() {
   const std::uint64_t one = 1;
   [[maybe_unused]] const ssize_t n = ::write(wake_fd_, &one, sizeof one);
   if (thread_.joinable()) thread_.join();
+  for (int fd : endpoints_) ::close(fd);  // they see the connection closed
+  endpoints_.clear();
+  {
+    std::lock_guard lock(counters_mutex_);
+    endpoint_count_ = 0;
+  }
   ::close(listen_fd_);
   ::close(wake_fd_);
   ::unlink(socket_path_.c_str());
@@ -129,6 +138,7 @@ class LocalHub::Relay {
   Relay& operator=(const Relay&) = delete;
 
   void clear() { count_ = 0; }
+  std::size_t size() const { return count_; }  // frames taken this round
   void forget(int endpoint) { filters_.erase(endpoint); }  // it closed
 
   // Takes what `from` has queued, up to the round's room; false when `from` closed (or its
@@ -231,73 +241,72 @@ class LocalHub::Relay {
   std::size_t count_ = 0;
 };
 
-void LocalHub::run() {
-  // pollfds[0] = wake, [1] = listen, [2..] = endpoints (parallel to `endpoints`).
-  std::vector<int> endpoints;
-  std::vector<pollfd> pollfds;
-  auto rebuild = [&] {
-    pollfds.clear();
-    pollfds.push_back({wake_fd_, POLLIN, 0});
-    pollfds.push_back({listen_fd_, POLLIN, 0});
-    for (int fd : endpoints) pollfds.push_back({fd, POLLIN, 0});
-    std::lock_guard lock(counters_mutex_);
-    endpoint_count_ = endpoints.size();
-  };
-  rebuild();
+void LocalHub::add_poll_fds(std::vector<pollfd>& fds) const {
+  fds.push_back({listen_fd_, POLLIN, 0});
+  for (int fd : endpoints_) fds.push_back({fd, POLLIN, 0});
+}
 
-  Counters local{};  // accumulated here, published after each poll round
-  std::vector<int> closed;
-  auto relay = std::make_unique<Relay>();  // some 24 KiB of round buffers, made once
+std::size_t LocalHub::relay(std::span<const pollfd> polled) {
+  bool changed = false;
+  closed_.clear();
+  relay_->clear();
+  for (const pollfd& p : polled) {
+    if (p.revents == 0) continue;
+    if (p.fd != listen_fd_) {
+      if (!relay_->take_from(p.fd, local_)) closed_.push_back(p.fd);
+      continue;
+    }
+    for (;;) {
+      const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
+      if (fd < 0) break;
+      if (endpoints_.size() >= kMaxEndpoints) {
+        // Every frame is copied to every endpoint: their number bounds the hub's work per
+        // frame (and the simulator's, on the same CPU). One more is closed at once.
+        ::close(fd);
+        ++local_.endpoints_refused;
+        continue;
+      }
+      ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &kEndpointSendBuffer_bytes, sizeof kEndpointSendBuffer_bytes);
+      endpoints_.push_back(fd);
+      ++local_.endpoints_connected;
+      changed = true;
+    }
+  }
+  const std::size_t relayed = relay_->size();
+  relay_->deliver(endpoints_, local_);
+  for (int fd : closed_) {
+    relay_->forget(fd);
+    ::close(fd);
+    endpoints_.erase(std::find(endpoints_.begin(), endpoints_.end(), fd));
+    ++local_.endpoints_closed;
+    changed = true;
+  }
+  publish_counters(changed);
+  return relayed;
+}
+
+void LocalHub::publish_counters(bool endpoints_changed) {
+  std::lock_guard lock(counters_mutex_);
+  counters_ = local_;
+  if (endpoints_changed) endpoint_count_ = endpoints_.size();
+}
+
+void LocalHub::run() {
+  // fds[0] = wake, then the hub's own (add_poll_fds), made again after each round.
+  std::vector<pollfd> fds;
+  fds.reserve(kMaxEndpoints + 2);
   while (!stopping_.load()) {
-    const int n = ::poll(pollfds.data(), pollfds.size(), -1);
+    fds.clear();
+    fds.push_back({wake_fd_, POLLIN, 0});
+    add_poll_fds(fds);
+    const int n = ::poll(fds.data(), fds.size(), -1);
     if (n < 0) {
       if (errno == EINTR) continue;
       break;  // poll on our own descriptors cannot fail otherwise
     }
-    if (pollfds[0].revents != 0) break;
-    bool changed = false;
-
-    if (pollfds[1].revents & POLLIN) {
-      for (;;) {
-        const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
-        if (fd < 0) break;
-        if (endpoints.size() >= kMaxEndpoints) {
-          // Every frame is copied to every endpoint: their number bounds the hub's work per
-          // frame (and the simulator's, on the same CPU). One more is closed at once.
-          ::close(fd);
-          ++local.endpoints_refused;
-          continue;
-        }
-        ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &kEndpointSendBuffer_bytes,
-                     sizeof kEndpointSendBuffer_bytes);
-        endpoints.push_back(fd);
-        ++local.endpoints_connected;
-        changed = true;
-      }
-    }
-
-    closed.clear();
-    relay->clear();
-    for (std::size_t i = 2; i < pollfds.size(); ++i) {
-      if (pollfds[i].revents == 0) continue;
-      const int from = pollfds[i].fd;
-      if (!relay->take_from(from, local)) closed.push_back(from);
-    }
-    relay->deliver(endpoints, local);
-    for (int fd : closed) {
-      relay->forget(fd);
-      ::close(fd);
-      endpoints.erase(std::find(endpoints.begin(), endpoints.end(), fd));
-      ++local.endpoints_closed;
-      changed = true;
-    }
-    if (changed) rebuild();
-    std::lock_guard lock(counters_mutex_);
-    counters_ = local;
+    if (fds[0].revents != 0) break;
+    relay(std::span<const pollfd>(fds).subspan(1));
   }
-  for (int fd : endpoints) ::close(fd);
-  std::lock_guard lock(counters_mutex_);
-  endpoint_count_ = 0;
 }
 
 }  // namespace rtm::can

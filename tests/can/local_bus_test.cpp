@@ -2,6 +2,7 @@
 // The user-space bus: delivery to every other endpoint and never back to the sender, robustness
 // against dying endpoints and malformed datagrams, filters, and the bus-spec errors.
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -226,6 +227,47 @@ TEST(CanLocalBus, SurvivesAnEndpointDying) {
   ASSERT_TRUE(c->receive(got, kArrives_ns));
   EXPECT_EQ(got.can_id, 0x321u);
   EXPECT_EQ(hub.counters().endpoints_closed, 1u);
+}
+
+// Driver::caller (pa10-sim hosts its hub so): no thread of the hub's own; the host's loop
+// polls the hub's descriptors and calls relay(), and nothing moves between its rounds.
+TEST(CanLocalBus, AHubDrivenByItsHostsLoopAcceptsRelaysAndLetsAClosedEndpointGoOnlyInItsRounds) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"), LocalHub::Driver::caller);
+  std::vector<pollfd> fds;
+  fds.reserve(LocalHub::kMaxEndpoints + 1);
+  std::size_t relayed = 0;
+  const auto rounds_until = [&](auto done) {
+    for (int i = 0; i < 200 && !done(); ++i) {
+      fds.clear();
+      hub.add_poll_fds(fds);
+      if (::poll(fds.data(), fds.size(), 25) > 0) relayed += hub.relay(fds);
+    }
+    return done();
+  };
+  auto a = open_bus("local:" + dir.file("bus"));
+  auto b = open_bus("local:" + dir.file("bus"));
+  EXPECT_EQ(hub.endpoint_count(), 0u) << "accepted only in a round";
+  ASSERT_TRUE(rounds_until([&] { return hub.endpoint_count() == 2; }));
+
+  ASSERT_TRUE(a->send(frame(0x181, 9)));
+  can_frame got{};
+  EXPECT_FALSE(b->receive(got, kAbsent_ns)) << "relayed without a round";
+  ASSERT_TRUE(rounds_until([&] { return relayed == 1; }));
+  ASSERT_TRUE(b->receive(got, 0)) << "there once relay() returned";
+  EXPECT_EQ(got.can_id, 0x181u);
+  EXPECT_EQ(got.data[0], 9);
+  EXPECT_FALSE(a->receive(got, 0)) << "not back to its sender";
+
+  a.reset();
+  ASSERT_TRUE(rounds_until([&] { return hub.endpoint_count() == 1; }));
+  const LocalHub::Counters c = hub.counters();
+  EXPECT_EQ(c.frames_forwarded, 1u);
+  EXPECT_EQ(c.deliveries, 1u);
+  EXPECT_EQ(c.endpoints_closed, 1u);
+  hub.stop();
+  EXPECT_EQ(hub.endpoint_count(), 0u);
+  EXPECT_THROW(b->receive(got, kArrives_ns), BusError) << "the endpoint sees the hub close";
 }
 
 TEST(CanLocalBus, ServesAtMostMaxEndpointsAndClosesMoreAtOnceSoAFloodOfConnectionsCannotStallIt) {

@@ -16,10 +16,14 @@
 // and the endpoint's own filtering still holds. open_local() sends its filters so.
 #pragma once
 
+#include <poll.h>
+
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -45,10 +49,15 @@ class LocalHub {
   // Endpoints the hub serves at once (a bus has a master, the nodes, a few listeners).
   static constexpr std::size_t kMaxEndpoints = 32;
 
+  // Who runs the hub's poll loop: a thread of its own, or the loop of the program that hosts
+  // it, which polls the hub's descriptors with its own and calls relay() (pa10-sim: a bus
+  // round then costs it no wake-up of a second thread).
+  enum class Driver { own_thread, caller };
+
   // Binds and listens at `socket_path` (an existing stale socket file there is replaced;
-  // anything else there is an error), then forwards on its own thread. Throws BusError with
-  // the path and the cause.
-  explicit LocalHub(std::string socket_path);
+  // anything else there is an error), then forwards on its own thread (Driver::own_thread) or
+  // when the caller says (Driver::caller). Throws BusError with the path and the cause.
+  explicit LocalHub(std::string socket_path, Driver driver = Driver::own_thread);
   ~LocalHub();  // stop()
   LocalHub(const LocalHub&) = delete;
   LocalHub& operator=(const LocalHub&) = delete;
@@ -61,9 +70,18 @@ class LocalHub {
   std::size_t endpoint_count() const;
   Counters counters() const;
 
+  // Driver::caller, from one thread. add_poll_fds() appends the hub's descriptors (POLLIN)
+  // to the caller's poll set; after the poll, relay() takes that part of the set, accepts new
+  // endpoints, relays every frame that came to every other endpoint and lets closed ones go,
+  // as the hub's own thread does in a round. Returns how many frames it relayed. Nothing is
+  // allocated once the set's capacity covers the hub's descriptors (kMaxEndpoints + 1).
+  void add_poll_fds(std::vector<pollfd>& fds) const;
+  std::size_t relay(std::span<const pollfd> polled);
+
  private:
   class Relay;  // one poll round's frames, taken and handed on in batches
   void run();
+  void publish_counters(bool endpoints_changed);
 
   std::string socket_path_;
   int listen_fd_ = -1;
@@ -72,6 +90,11 @@ class LocalHub {
   mutable std::mutex counters_mutex_;
   Counters counters_;
   std::size_t endpoint_count_ = 0;
+  // The poll loop's state, touched only by whoever runs it (the thread, or relay()'s caller).
+  std::vector<int> endpoints_;
+  std::vector<int> closed_;
+  std::unique_ptr<Relay> relay_;
+  Counters local_{};  // accumulated per round, then published to counters_
   std::thread thread_;
 };
 
