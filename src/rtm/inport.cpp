@@ -216,13 +216,13 @@ std::size_t InPortBase::ring_waiters() const {
 void InPortBase::start_waiter_locked(AttachedRing& ring) {
   ring.has_waiter = true;
   ring.waiter = std::thread(&InPortBase::waiter_loop, this, &ring);
+  pthread_setname_np(ring.waiter.native_handle(), "rtm-ring-wait");  // here: seen once attach_ring returns
   // Data pass this thread between the publisher and the port's reader: with real-time
   // priorities on it runs at the path's (rt/thread.h), as a delivery thread does.
   if (const int priority = path_thread_priority(); priority > 0) set_thread_fifo_priority(ring.waiter.native_handle(), priority);
 }
 
 void InPortBase::waiter_loop(AttachedRing* ring) {
-  pthread_setname_np(pthread_self(), "rtm-ring-wait");
   // One futex wait per datum (or per batch the writer got ahead by), no timer: a detach wakes
   // it through the ring's own word (ShmRingReader::interrupt).
   while (!ring->stop.load(std::memory_order_acquire)) {

@@ -167,6 +167,9 @@ bool OutPortBase::add_subscription(std::unique_ptr<Subscription> sub, bool start
   subs_changed_locked();
   if (start_thread) {
     raw->thread = std::thread(&OutPortBase::delivery_loop, this, raw);
+    // Named here, not by the thread itself: whoever lists the threads once subscribe() has
+    // returned sees the name, as it sees the priority set below.
+    pthread_setname_np(raw->thread.native_handle(), "rtm-deliver");
     // Data pass a delivery thread on their way to the subscriber: with real-time priorities
     // on it runs at the path's (rt/thread.h), as the thread of the put that receives them
     // does; set before subscribe() returns. A ring's probe thread carries no datum.
@@ -245,7 +248,6 @@ bool OutPortBase::count_failure(Subscription& sub, const char* exception_name, b
 }
 
 void OutPortBase::delivery_loop(Subscription* sub) {
-  pthread_setname_np(pthread_self(), "rtm-deliver");
   if (sub->kind == ConnKind::shared_memory) {
     probe_loop(sub);
     return;
