@@ -340,12 +340,9 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   component->add_process_statistic();
   ActivitySpec activity =
       main.activity ? main.activity(settings, *component) : ActivitySpec{settings.periodic_options()};
-  const bool periodic = std::holds_alternative<PeriodicOptions>(activity);
   servant = new ComponentServant(std::move(component), std::move(activity));
-  if (!settings.await_port.empty()) {
-    if (!periodic) throw std::invalid_argument("--await: this component's cycle is not periodic");
+  if (!settings.await_port.empty())  // refused there for a cycle that is not periodic
     servant->await_before_cycle(find_in_port(servant->component(), settings.await_port), settings.await_bound_ns);
-  }
   RTM::RtComponentEx_var reference = servant->activate(context.orb);
   std::vector<ExtraName> extra_names;
   if (main.on_activated) extra_names = main.on_activated(*servant, context);

@@ -172,7 +172,7 @@ std::size_t InPort<T>::take_straight_locked(std::span<T> out) {
 template <PortData T>
 bool InPort<T>::has_unread_locked() {
   if (!reads_rings_straight()) take_from_rings_locked();
-  if (policy_.kind() != InPortPolicy::Kind::Fifo) return count_ > 0 && unread_;
+  if (policy_.kind() != InPortPolicy::Kind::Fifo) return unread_;  // set only with a datum stored
   if (count_ > 0) return true;
   for (const auto& ring : rings_)
     if (!ring->has_waiter && ring->reader.has_new()) return true;
