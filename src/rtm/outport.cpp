@@ -18,6 +18,11 @@ namespace rtm {
 
 OutPortBase::OutPortBase(std::string name, std::string owner, OutPortOptions options)
     : name_(std::move(name)), owner_(std::move(owner)), options_(options), delivery_(options.delivery), shared_memory_(options.shared_memory) {
+  host_.name = full_name();
+  host_.max_failures = options_.max_failures;
+  host_.oneway = options_.oneway;
+  host_.writer_call_timeout_ms = options_.writer_call_timeout_ms;
+  host_.retire = [this](Connection* c) { retire(c); };
   if (name_.empty()) throw std::invalid_argument("OutPort: empty port name (owner '" + owner_ + "')");
   if (options_.max_failures == 0) throw std::invalid_argument("OutPort " + full_name() + ": max_failures must be >= 1");
   if (options_.max_subscriptions == 0)
@@ -32,11 +37,11 @@ OutPortCounters OutPortBase::counters_snapshot() const {
   OutPortCounters c;
   c.written = written_.load(std::memory_order_relaxed);
   c.refused = refused_.load(std::memory_order_relaxed);
-  c.dropped = dropped_.load(std::memory_order_relaxed);
-  c.pushed = pushed_.load(std::memory_order_relaxed) + ring_pushed_.load(std::memory_order_relaxed);
-  c.failed = failed_.load(std::memory_order_relaxed);
-  c.timed_out = timed_out_.load(std::memory_order_relaxed);
-  c.by_writer = by_writer_.load(std::memory_order_relaxed);
+  c.dropped = host_.dropped.load(std::memory_order_relaxed);
+  c.pushed = host_.pushed.load(std::memory_order_relaxed) + host_.ring_pushed.load(std::memory_order_relaxed);
+  c.failed = host_.failed.load(std::memory_order_relaxed);
+  c.timed_out = host_.timed_out.load(std::memory_order_relaxed);
+  c.by_writer = host_.by_writer.load(std::memory_order_relaxed);
   return c;
 }
 
@@ -61,7 +66,7 @@ std::string OutPortBase::full_port_text() const {
 
 std::size_t OutPortBase::subscription_count() const {
   std::lock_guard lock(mu_);
-  return subs_.size();
+  return conns_.size();
 }
 
 RTM::OutPortEx_ptr OutPortBase::activate(Orb& orb) {
@@ -92,122 +97,99 @@ RTM::OutPortEx_ptr OutPortBase::reference() const {
   return RTM::OutPortEx::_duplicate(ref_.in());
 }
 
-void OutPortBase::stop_and_join(std::unique_ptr<Subscription> sub,
-                                std::vector<std::unique_ptr<Subscription>>& parked) {
-  {
-    std::unique_lock slot_lock(sub->slot_mu);
-    sub->stop = true;
-    sub->slot_cv.notify_all();
-    // A call write() took on is made with no lock held: it must end before sub goes (the
-    // delivery thread's own call ends before the join below).
-    sub->slot_cv.wait(slot_lock, [&] { return !sub->writer_calling; });
-  }
-  if (sub->thread.joinable()) {
-    // A delivery thread that unsubscribes itself (e.g. from a callback) cannot join itself.
-    if (sub->thread.get_id() == std::this_thread::get_id()) {
-      parked.push_back(std::move(sub));
-      return;
-    }
-    sub->thread.join();
-  }
-  if (sub->kind == ConnKind::shared_memory) detach_quietly(sub->port_shm.in(), sub->segment);
+void OutPortBase::stop_and_join(std::unique_ptr<Connection> c, std::vector<std::unique_ptr<Connection>>& parked) {
+  // A delivery thread that unsubscribes itself (e.g. from a callback) cannot join itself.
+  if (!c->stop_and_join()) parked.push_back(std::move(c));
 }
 
 void OutPortBase::close() {
-  std::vector<std::unique_ptr<Subscription>> all;
+  std::vector<std::unique_ptr<Connection>> all;
   {
     std::lock_guard lock(mu_);
     closed_ = true;
-    for (auto& s : subs_) all.push_back(std::move(s));
-    for (auto& s : retired_) all.push_back(std::move(s));
-    subs_.clear();
+    for (auto& c : conns_) all.push_back(std::move(c));
+    for (auto& c : retired_) all.push_back(std::move(c));
+    conns_.clear();
     retired_.clear();
-    subs_changed_locked();
+    conns_changed_locked();
   }
-  std::vector<std::unique_ptr<Subscription>> parked;
-  for (auto& s : all) stop_and_join(std::move(s), parked);
-  for (auto& s : parked) s->thread.detach();
+  std::vector<std::unique_ptr<Connection>> parked;
+  for (auto& c : all) stop_and_join(std::move(c), parked);
+  for (auto& c : parked) c->detach_thread();
 }
 
 void OutPortBase::reap_retired() {
-  std::vector<std::unique_ptr<Subscription>> dead;
+  std::vector<std::unique_ptr<Connection>> dead;
   {
     std::lock_guard lock(mu_);
     dead.swap(retired_);
   }
-  std::vector<std::unique_ptr<Subscription>> parked;
-  for (auto& s : dead) stop_and_join(std::move(s), parked);
+  std::vector<std::unique_ptr<Connection>> parked;
+  for (auto& c : dead) stop_and_join(std::move(c), parked);
   if (!parked.empty()) {
     std::lock_guard lock(mu_);
-    for (auto& s : parked) retired_.push_back(std::move(s));
+    for (auto& c : parked) retired_.push_back(std::move(c));
   }
 }
 
-bool OutPortBase::add_subscription(std::unique_ptr<Subscription> sub, bool start_thread, std::string& why) {
-  std::lock_guard lock(mu_);
-  if (closed_) {
-    why = full_name() + " -> " + sub->peer + ": the OutPort is closed";
-    return false;
-  }
-  if (subs_.size() >= options_.max_subscriptions) {
-    why = full_name() + " -> " + sub->peer + ": " + full_port_text();
-    return false;
-  }
-  for (const auto& existing : subs_) {
-    const bool same_local = existing->local.in() && sub->local.in() && existing->local.in() == sub->local.in();
-    const bool same_ref = !CORBA::is_nil(existing->port) && !CORBA::is_nil(sub->port) &&
-                          existing->port->_is_equivalent(sub->port.in());
-    if (same_local || same_ref) {
-      why = full_name() + " -> " + sub->peer + ": already subscribed";
-      return false;
-    }
-  }
-  Subscription* raw = sub.get();
-  subs_.push_back(std::move(sub));
-  subs_changed_locked();
-  if (start_thread) {
-    raw->thread = std::thread(&OutPortBase::delivery_loop, this, raw);
-    // Named here, not by the thread itself: whoever lists the threads once subscribe() has
-    // returned sees the name, as it sees the priority set below.
-    pthread_setname_np(raw->thread.native_handle(), "rtm-deliver");
-    // Data pass a delivery thread on their way to the subscriber: with real-time priorities
-    // on it runs at the path's (rt/thread.h), as the thread of the put that receives them
-    // does; set before subscribe() returns. A ring's probe thread carries no datum.
-    if (const int priority = path_thread_priority(); priority > 0 && raw->kind != ConnKind::shared_memory)
-      set_thread_fifo_priority(raw->thread.native_handle(), priority);
-  }
-  return true;
-}
-
-bool OutPortBase::remove_matching(const std::function<bool(const Subscription&)>& match) {
-  reap_retired();
-  std::vector<std::unique_ptr<Subscription>> victims;
+bool OutPortBase::add_connection(std::unique_ptr<Connection> connection, std::string& why) {
   {
     std::lock_guard lock(mu_);
-    for (std::size_t i = 0; i < subs_.size();) {
-      if (match(*subs_[i])) {
-        victims.push_back(std::move(subs_[i]));
-        subs_.erase(subs_.begin() + static_cast<std::ptrdiff_t>(i));
+    const std::string& peer = connection->subscriber().peer;
+    if (closed_) {
+      why = full_name() + " -> " + peer + ": the OutPort is closed";
+    } else if (conns_.size() >= options_.max_subscriptions) {
+      why = full_name() + " -> " + peer + ": " + full_port_text();
+    } else if (std::any_of(conns_.begin(), conns_.end(), [&](const auto& c) { return c->same_subscriber(*connection); })) {
+      why = full_name() + " -> " + peer + ": already subscribed";
+    } else {
+      Connection* raw = connection.get();
+      conns_.push_back(std::move(connection));
+      conns_changed_locked();
+      raw->start();  // under mu_: a write() sees it only with its thread there
+      return true;
+    }
+  }
+  connection->stop_and_join();  // never started: a ring's subscriber is told to detach
+  return false;
+}
+
+bool OutPortBase::add_or_refuse(std::unique_ptr<Connection> connection) {
+  std::string why;
+  if (add_connection(std::move(connection), why)) return true;
+  refuse(why);
+  return false;
+}
+
+bool OutPortBase::remove_matching(const std::function<bool(const Connection&)>& match) {
+  reap_retired();
+  std::vector<std::unique_ptr<Connection>> victims;
+  {
+    std::lock_guard lock(mu_);
+    for (std::size_t i = 0; i < conns_.size();) {
+      if (match(*conns_[i])) {
+        victims.push_back(std::move(conns_[i]));
+        conns_.erase(conns_.begin() + static_cast<std::ptrdiff_t>(i));
       } else {
         ++i;
       }
     }
-    subs_changed_locked();
+    conns_changed_locked();
   }
-  std::vector<std::unique_ptr<Subscription>> parked;
+  std::vector<std::unique_ptr<Connection>> parked;
   const bool removed = !victims.empty();
   for (auto& v : victims) stop_and_join(std::move(v), parked);
   if (!parked.empty()) {
     std::lock_guard lock(mu_);
-    for (auto& s : parked) retired_.push_back(std::move(s));
+    for (auto& c : parked) retired_.push_back(std::move(c));
   }
   return removed;
 }
 
-void OutPortBase::retire(Subscription* sub) {
+void OutPortBase::retire(Connection* c) {
   std::lock_guard lock(mu_);
-  for (std::size_t i = 0; i < subs_.size(); ++i) {
-    if (subs_[i].get() == sub) {
+  for (std::size_t i = 0; i < conns_.size(); ++i) {
+    if (conns_[i].get() == c) {
       retire_locked(i);
       return;
     }
@@ -216,186 +198,27 @@ void OutPortBase::retire(Subscription* sub) {
 }
 
 void OutPortBase::retire_locked(std::size_t index) {
-  retired_.push_back(std::move(subs_[index]));
-  subs_.erase(subs_.begin() + static_cast<std::ptrdiff_t>(index));
-  subs_changed_locked();
+  retired_.push_back(std::move(conns_[index]));
+  conns_.erase(conns_.begin() + static_cast<std::ptrdiff_t>(index));
+  conns_changed_locked();
 }
 
-void OutPortBase::subs_changed_locked() {
-  const auto calling = std::count_if(subs_.begin(), subs_.end(), [](const auto& s) {
-    return s->kind != ConnKind::shared_memory && !s->direct;
-  });
-  calling_subscriptions_.store(static_cast<std::uint32_t>(calling), std::memory_order_relaxed);
+void OutPortBase::conns_changed_locked() {
+  const auto calling = std::count_if(conns_.begin(), conns_.end(), [](const auto& c) { return c->calls_or_queues(); });
+  calling_connections_.store(static_cast<std::uint32_t>(calling), std::memory_order_relaxed);
 }
 
-bool OutPortBase::count_failure(Subscription& sub, const char* exception_name, bool dead_kind,
-                                std::uint32_t refused_minor) {
-  failed_.fetch_add(1, std::memory_order_relaxed);
-  sub.failure_name.store(exception_name, std::memory_order_relaxed);
-  sub.refused_minor.store(refused_minor, std::memory_order_relaxed);
-  const std::uint32_t failures = sub.failures.fetch_add(1, std::memory_order_relaxed) + 1;
-  if (dead_kind && failures >= options_.max_failures) {
-    log().warn("{} -> {}: dropped after {} consecutive failed deliveries ({})", full_name(), sub.peer, failures,
-               exception_name);
-    return true;
-  }
-  if (!sub.failure_logged) {
-    sub.failure_logged = true;
-    log().warn("{} -> {}: delivery raised {} (further failures are only counted)", full_name(), sub.peer,
-               exception_name);
-  }
-  return false;
-}
-
-void OutPortBase::delivery_loop(Subscription* sub) {
-  if (sub->kind == ConnKind::shared_memory) {
-    probe_loop(sub);
-    return;
-  }
-  std::unique_lock lock(sub->slot_mu);
-  for (;;) {
-    // Not while write() makes a call for this subscription: data leave in order.
-    sub->slot_cv.wait(lock, [&] { return sub->stop || (sub->written_seq != sub->delivered_seq && !sub->in_flight); });
-    if (sub->stop) return;
-    // Oldest first; what the ring no longer holds was overwritten: count it as dropped.
-    const std::uint64_t behind = sub->written_seq - sub->delivered_seq;
-    const std::uint64_t capacity = ring_size(*sub);
-    if (behind > capacity) {
-      const std::uint64_t missed = behind - capacity;
-      sub->dropped.fetch_add(missed, std::memory_order_relaxed);
-      dropped_.fetch_add(missed, std::memory_order_relaxed);
-      sub->delivered_seq += missed;
-    }
-    const std::uint64_t seq = ++sub->delivered_seq;
-    sub->in_flight = true;
-    bool drop = false;
-    const bool delivered = guarded_call(*sub, [&] { deliver_slot(*sub, seq, lock); }, &drop);
-    sub->in_flight = false;
-    if (delivered) {
-      sub->writer_may_call = true;  // delivered: write() may call again
-      drop = sub->once();
-    }
-    if (drop) {
-      sub->done = true;
-      lock.unlock();  // lock order: mu_ before slot_mu
-      retire(sub);
-      return;
-    }
-  }
-}
-
-void OutPortBase::count_pushed(Subscription& sub) {
-  sub.failures.store(0, std::memory_order_relaxed);
-  sub.failure_name.store(nullptr, std::memory_order_relaxed);
-  sub.pushed.fetch_add(1, std::memory_order_relaxed);
-  pushed_.fetch_add(1, std::memory_order_relaxed);
-}
-
-void OutPortBase::finish_writer_call(Subscription& sub, bool delivered, bool dead) {
-  if (dead || (delivered && sub.once())) {
-    {
-      std::lock_guard slot_lock(sub.slot_mu);
-      sub.done = true;
-    }
-    retire(&sub);  // still calling: sub stays until the flag below is cleared
-  }
-  {
-    std::lock_guard slot_lock(sub.slot_mu);
-    sub.in_flight = false;
-    sub.writer_calling = false;
-    // After a failure the thread takes the next data (a slow subscriber then costs write() no
-    // more), until it has delivered again.
-    if (!delivered) sub.writer_may_call = false;
-    // Wake only whom this call held up: the delivery thread when data were queued meanwhile,
-    // a stop_and_join() (stop set) waiting for the call to end. A wake-up nobody needs is a
-    // context switch per datum (on a shared CPU, the price of a round trip). Notified before
-    // the lock is released: once it is, a stop_and_join() may free sub.
-    if (sub.stop || sub.written_seq != sub.delivered_seq) sub.slot_cv.notify_all();
-  }
-}
-
-bool OutPortBase::admitted(Subscription& sub) {
-  if (CORBA::is_nil(sub.port_ex)) return true;
+bool OutPortBase::admitted(const Subscriber& who) {
+  if (CORBA::is_nil(who.port_ex)) return true;
   try {
-    sub.port_ex->admit_writer();
+    who.port_ex->admit_writer();
   } catch (const CORBA::NO_PERMISSION& e) {
-    refuse(full_name() + " -> " + sub.peer + ": " + access_refusal_text(e.minor()));
+    refuse(full_name() + " -> " + who.peer + ": " + access_refusal_text(e.minor()));
     return false;
   } catch (const CORBA::Exception&) {
     // Not answering now is found out by the first write(), as for any subscriber.
   }
   return true;
-}
-
-void OutPortBase::detach_quietly(RTM::InPortShm_ptr reader, const std::string& ring) {
-  if (CORBA::is_nil(reader)) return;
-  try {
-    reader->detach_ring(ring.c_str());
-  } catch (const CORBA::Exception& e) {
-    log().debug("detach_ring({}) raised {}: the subscriber is gone or busy", ring, e._name());
-  }
-}
-
-void OutPortBase::probe_loop(Subscription* sub) {
-  std::unique_lock lock(sub->slot_mu);
-  for (;;) {
-    if (sub->slot_cv.wait_for(lock, std::chrono::seconds(1), [&] { return sub->stop; })) return;
-    lock.unlock();
-    bool gone = false;
-    const char* failure = nullptr;
-    try {
-      gone = sub->port->_non_existent();
-      if (gone) failure = "OBJECT_NOT_EXIST";
-    } catch (const CORBA::TIMEOUT& e) {
-      failure = e._name();  // busy, not gone: counted, never dropped for it
-    } catch (const CORBA::Exception& e) {
-      gone = true;
-      failure = e._name();
-    }
-    bool drop = false;
-    if (failure) {
-      drop = count_failure(*sub, failure, gone);
-    } else {
-      sub->failures.store(0, std::memory_order_relaxed);
-      sub->failure_name.store(nullptr, std::memory_order_relaxed);
-    }
-    lock.lock();
-    if (drop) {
-      sub->done = true;
-      lock.unlock();
-      retire(sub);
-      return;
-    }
-  }
-}
-
-void OutPortBase::make_writer_references(Subscription& sub) const {
-  Orb* orb = Orb::instance();
-  if (orb == nullptr) return;  // the thread delivers
-  // A reference of write()'s own, unmarshalled anew: omniORB keeps call timeouts per
-  // reference, so the delivery thread's longer bound stays on sub.port.
-  CORBA::String_var ior = orb->orb()->object_to_string(sub.port.in());
-  CORBA::Object_var copy = orb->orb()->string_to_object(ior.in());
-  // One round trip on it under the long bound first: the first call through a reference runs
-  // code and touches memory no later call does, and on a loaded machine outlived the short
-  // bound (the first datum then failed as TIMEOUT). A subscriber that does not answer here
-  // is found out by the first write() as before.
-  omniORB::setClientCallTimeout(copy.in(), sub.policy.call_timeout_ms);
-  try {
-    (void)copy->_non_existent();
-  } catch (const CORBA::Exception&) {
-  }
-  // A timeout of 0 is omniORB's "none" too.
-  if (options_.oneway && !CORBA::is_nil(sub.port_ex)) {
-    sub.writer_port_ex = RTM::InPortEx::_unchecked_narrow(copy.in());
-    omniORB::setClientCallTimeout(sub.writer_port_ex.in(), options_.writer_call_timeout_ms);
-  }
-  if (!CORBA::is_nil(sub.port_ordered)) {
-    sub.writer_port_ordered = RTM::InPortOrdered::_unchecked_narrow(copy.in());
-    omniORB::setClientCallTimeout(sub.writer_port_ordered.in(), options_.writer_call_timeout_ms);
-  }
-  sub.writer_port = RTM::InPort::_unchecked_narrow(copy.in());
-  omniORB::setClientCallTimeout(sub.writer_port.in(), options_.writer_call_timeout_ms);
 }
 
 ConnPolicy OutPortBase::resolve(const ConnPolicy& asked) const {
@@ -417,43 +240,39 @@ bool OutPortBase::depth_allowed(const ConnPolicy& asked) {
   return false;
 }
 
-bool OutPortBase::reader_matches(Subscription& sub, const InPortBase* local) {
-  const ReaderPolicy& wanted = sub.policy.reader;
+bool OutPortBase::reader_matches(Subscriber& who) {
+  const InPortBase* local = who.local.in();
+  const ReaderPolicy& wanted = who.policy.reader;
   ReaderPolicy kept;  // any: untold, or a text this build cannot read (satisfies nothing asked)
   if (local != nullptr) {
     kept = local->reader();
-    sub.reader = to_string(kept);
-  } else if (!CORBA::is_nil(sub.port_ex)) {
+    who.reader = to_string(kept);
+  } else if (!CORBA::is_nil(who.port_ex)) {
     try {
-      CORBA::String_var told = sub.port_ex->reader_policy();
-      sub.reader = told.in();
-      kept = parse_reader_policy(sub.reader);
+      CORBA::String_var told = who.port_ex->reader_policy();
+      who.reader = told.in();
+      kept = parse_reader_policy(who.reader);
     } catch (const std::invalid_argument&) {
     } catch (const CORBA::Exception& e) {
       // An InPortEx of an older build: it keeps something, but does not tell what.
       if (wanted.kind == ReaderPolicy::Kind::any) return true;
-      refuse(full_name() + " -> " + sub.peer + ": the InPort does not tell what it keeps (" + e._name() +
+      refuse(full_name() + " -> " + who.peer + ": the InPort does not tell what it keeps (" + e._name() +
              "), and the connection asks reader=" + to_string(wanted));
       return false;
     }
   }
   if (wanted.kind == ReaderPolicy::Kind::any) return true;
-  if (sub.reader.empty()) {
-    refuse(full_name() + " -> " + sub.peer + ": a 2004 InPort does not tell what it keeps, and the connection asks reader=" +
+  if (who.reader.empty()) {
+    refuse(full_name() + " -> " + who.peer + ": a 2004 InPort does not tell what it keeps, and the connection asks reader=" +
            to_string(wanted));
     return false;
   }
   if (kept.kind == ReaderPolicy::Kind::any || !satisfies(kept, wanted)) {
-    refuse(full_name() + " -> " + sub.peer + ": the InPort keeps " + sub.reader + ", the connection asks reader=" +
+    refuse(full_name() + " -> " + who.peer + ": the InPort keeps " + who.reader + ", the connection asks reader=" +
            to_string(wanted));
     return false;
   }
   return true;
-}
-
-std::uint64_t OutPortBase::random_sender() {
-  std::random_device random;
-  return (std::uint64_t{random()} << 32) ^ random();
 }
 
 void OutPortBase::refuse(const std::string& why) {
@@ -475,11 +294,7 @@ std::string OutPortBase::peer_name(RTM::InPort_ptr port, std::uint32_t call_time
 CORBA::Boolean OutPortBase::unsubscribe(RTM::ReqType r_type, RTM::InPort_ptr i_port) {
   if (CORBA::is_nil(i_port)) return false;
   PortableServer::Servant_var<InPortBase> local = InPortBase::find_local(i_port);
-  return remove_matching([&](const Subscription& s) {
-    if (s.once() != (r_type == RTM::once)) return false;
-    if (!CORBA::is_nil(s.port)) return static_cast<bool>(s.port->_is_equivalent(i_port));
-    return local.in() != nullptr && s.local.in() == local.in();
-  });
+  return remove_matching([&](const Connection& c) { return c.is(r_type == RTM::once, i_port, local.in()); });
 }
 
 char* OutPortBase::name() { return CORBA::string_dup(name_.c_str()); }
@@ -508,29 +323,8 @@ RTM::SubscriptionInfoList* OutPortBase::subscriptions() {
   reap_retired();
   auto* list = new RTM::SubscriptionInfoList;
   std::lock_guard lock(mu_);
-  list->length(static_cast<CORBA::ULong>(subs_.size()));
-  for (CORBA::ULong i = 0; i < subs_.size(); ++i) {
-    const Subscription& s = *subs_[i];
-    RTM::SubscriptionInfo& info = (*list)[i];
-    info.req_type = s.once() ? RTM::once : RTM::repeated;
-    info.subscriber = RTM::InPort::_duplicate(s.port.in());
-    info.peer = CORBA::string_dup(s.peer.c_str());
-    info.in_process = s.kind == ConnKind::in_process;
-    info.path = CORBA::string_dup(info.in_process                            ? "in-process"
-                                  : s.kind == ConnKind::shared_memory ? "shared memory"
-                                                                      : "CORBA");
-    info.kind = CORBA::string_dup(to_string(s.kind));
-    info.asked = to_idl(s.asked);
-    info.policy = to_idl(s.policy);
-    info.reader = CORBA::string_dup(s.reader.c_str());
-    info.pushed = s.pushed.load(std::memory_order_relaxed);
-    info.dropped = s.dropped.load(std::memory_order_relaxed);
-    info.failures = s.failures.load(std::memory_order_relaxed);
-    const char* failure = s.failure_name.load(std::memory_order_relaxed);
-    const std::uint32_t refused = s.refused_minor.load(std::memory_order_relaxed);
-    const std::string why = !failure ? "" : refused ? std::string(failure) + ": " + access_refusal_text(refused) : failure;
-    info.last_failure = CORBA::string_dup(why.c_str());
-  }
+  list->length(static_cast<CORBA::ULong>(conns_.size()));
+  for (CORBA::ULong i = 0; i < conns_.size(); ++i) conns_[i]->describe((*list)[i]);
   return list;
 }
 

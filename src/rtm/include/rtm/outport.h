@@ -4,6 +4,7 @@
 
 #include "RTMExt.hh"
 #include "rtm/conn_policy.h"
+#include "rtm/connection.h"
 #include "rtm/data.h"
 #include "rt/histogram.h"
 #include "rtm/inport.h"
@@ -103,15 +104,9 @@ struct WriteCost {
 
 // ============================ OutPortBase =============================
 
-// The type-independent part: subscriptions, delivery threads, counters, IDL attributes.
-//
-// Each subscription has a pre-allocated ring of options().queue_depth data not yet delivered.
-// To an idle remote subscription (Delivery::writer_when_idle) write() makes the call itself,
-// with no lock held; otherwise it copies into the ring and wakes the subscription's delivery
-// thread, which takes the data oldest first and calls put() with no lock held. A subscriber
-// that falls further behind than the ring loses the oldest data, counted as dropped: it only
-// ever misses stale data. In-process subscribers whose policy stores without waiting are
-// filled directly by write() (a copy under the InPort's lock, no thread hand-off).
+// The type-independent part: the list of connections (rtm/connection.h), counters, IDL
+// attributes. A subscribe or connect negotiates with the InPort and makes one connection of
+// the kind that fits (ConnKind); write() hands each datum to each.
 class OutPortBase : public virtual POA_RTM::OutPortEx {
  public:
   ~OutPortBase() override;
@@ -164,108 +159,37 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
  protected:
   OutPortBase(std::string name, std::string owner, OutPortOptions options);
 
-  // One subscription; the typed slot lives in the derived class.
-  struct Subscription {
-    virtual ~Subscription() = default;
-    bool once() const { return policy.once; }
-    ConnPolicy asked;   // as subscribe/connect was given it
-    ConnPolicy policy;  // what it is: asked, with the port's defaults filled in
-    ConnKind kind = ConnKind::remote_by_thread;
-    std::string reader;              // what the InPort keeps, as it tells ("" untold)
-    RTM::InPort_var port;            // nil for a C++ connect()
-    RTM::InPortEx_var port_ex;       // narrowed when the subscriber is an InPortEx
-    RTM::InPortOrdered_var port_ordered;  // ... and when it keeps each sender's order
-    std::uint64_t sender = 0;        // this subscription's number for InPortOrdered (random)
-    PortableServer::Servant_var<InPortBase> local;  // set for in-process delivery
-    // ConnKind::shared_memory: the subscriber reads the port's ring (no call per datum); the
-    // subscription's thread only asks, every second, whether the subscriber still exists.
-    RTM::InPortShm_var port_shm;
-    std::string segment;             // the ring's segment name, told again at detach
-    std::string peer;
-    bool direct = false;             // in_process, filled by write() itself (no thread)
-    bool check_active = true;        // subscribe(): a deactivated local InPort counts as dead
-    // Slot state, guarded by slot_mu.
-    std::mutex slot_mu;
-    std::condition_variable slot_cv;
-    std::uint64_t written_seq = 0;
-    std::uint64_t delivered_seq = 0;
-    bool stop = false;
-    bool done = false;               // once-subscription delivered, or dropped as dead
-    bool in_flight = false;          // a call for this subscription is being made (writer or thread)
-    bool writer_calling = false;     // ... by write(), with no lock held
-    bool writer_may_call = true;     // false after a writer's call failed, until the thread delivered
-    // Remote and Delivery::writer_when_idle: write()'s own reference (its own call timeout).
-    RTM::InPort_var writer_port;
-    RTM::InPortEx_var writer_port_ex;
-    RTM::InPortOrdered_var writer_port_ordered;
-    std::thread thread;
-    std::atomic<std::uint64_t> pushed{0};
-    std::atomic<std::uint64_t> dropped{0};
-    std::atomic<std::uint32_t> failures{0};  // consecutive
-    // The last failure's exception (a static name: nothing is allocated on the path), and its
-    // minor code when access control refused the datum; cleared by the next delivery.
-    std::atomic<const char*> failure_name{nullptr};
-    std::atomic<std::uint32_t> refused_minor{0};
-    bool failure_logged = false;
-  };
-
-  // Adds a subscription made by the derived class; refuses duplicates. Returns false + reason.
-  bool add_subscription(std::unique_ptr<Subscription> sub, bool start_thread, std::string& why);
-  // Delivery thread body: waits for data, delivers it with no lock held.
-  void delivery_loop(Subscription* sub);
-  // The thread of a shared-memory subscription: drops it once the subscriber is found dead
-  // (max_failures probes in a row, one a second), as failed deliveries would.
-  void probe_loop(Subscription* sub);
-
-  // Type-specific delivery of the slot's datum: copies it out under slot_lock, delivers with
-  // the lock released, and returns with it held again. Throws what the delivery raised.
-  virtual void deliver_slot(Subscription& sub, std::uint64_t seq,
-                            std::unique_lock<std::mutex>& slot_lock) = 0;
-  // How many data the subscription's ring holds (options().queue_depth, at least 1).
-  virtual std::uint64_t ring_size(const Subscription& sub) const = 0;
-  // Counts a failed delivery; true when sub must be dropped as dead. Logs the drop once.
-  // exception_name: static storage (a CORBA exception's _name()); refused_minor: the minor
-  // code of a NO_PERMISSION, else 0.
-  bool count_failure(Subscription& sub, const char* exception_name, bool dead_kind, std::uint32_t refused_minor = 0);
-  // Counts a datum delivered to sub.
-  void count_pushed(Subscription& sub);
-  // Runs call() (a delivery) and counts what came of it: true when it returned; *dead when
-  // sub must be dropped.
-  template <class Call>
-  bool guarded_call(Subscription& sub, Call call, bool* dead);
-  // write()'s part after its lock: the calls it took on (sub->in_flight set by write()).
-  void finish_writer_call(Subscription& sub, bool delivered, bool dead);
+  // Adds a connection made by the derived class and starts its thread; refuses a duplicate, a
+  // full or closed port (false, with the reason; the connection is stopped: a ring's
+  // subscriber detaches).
+  bool add_connection(std::unique_ptr<Connection> connection, std::string& why);
+  // Adds it, or refuses with the reason: what subscribe/connect return.
+  bool add_or_refuse(std::unique_ptr<Connection> connection);
   // subscribe(): false (refused, with the reason) when the InPort's access control would
   // refuse every datum of this port; a subscriber that does not answer now passes (the first
   // write() finds it out, as for any subscriber).
-  bool admitted(Subscription& sub);
-  // Tells a shared-memory subscriber to stop reading the ring; failures are only logged.
-  static void detach_quietly(RTM::InPortShm_ptr reader, const std::string& ring);
-  // subscribe(): write()'s own references to a remote subscriber, with their call timeout.
-  void make_writer_references(Subscription& sub) const;
+  bool admitted(const Subscriber& who);
   // The asked policy with the port's defaults filled in.
   ConnPolicy resolve(const ConnPolicy& asked) const;
   // subscribe()/connect(): false (refused, with the reason) for a depth above kMaxDepth.
   bool depth_allowed(const ConnPolicy& asked);
   // subscribe(): false (refused, with the reason) when the InPort keeps another reader policy
-  // than sub.policy asks; sets sub.reader. A remote InPort is asked (bounded).
-  bool reader_matches(Subscription& sub, const InPortBase* local);
-  // A subscription's sender number for InPortOrdered: random, so that two publishers (or
-  // two runs of one) do not share one.
-  static std::uint64_t random_sender();
-  // Removes the subscriptions matching (under mu_) and stops/joins them (without it).
-  bool remove_matching(const std::function<bool(const Subscription&)>& match);
-  static void stop_and_join(std::unique_ptr<Subscription> sub, std::vector<std::unique_ptr<Subscription>>& parked);
-  // Removes sub from the list (from its own thread) and parks it for joining later.
-  void retire(Subscription* sub);
-  // Same, from write() (mu_ held): index into subs_.
+  // than who.policy asks; sets who.reader. A remote InPort is asked (bounded).
+  bool reader_matches(Subscriber& who);
+  // Removes the connections matching (under mu_) and stops/joins them (without it).
+  bool remove_matching(const std::function<bool(const Connection&)>& match);
+  // Stops and joins c, or parks it when c's own thread is the caller.
+  static void stop_and_join(std::unique_ptr<Connection> c, std::vector<std::unique_ptr<Connection>>& parked);
+  // Takes c off the list (from its own thread) and parks it for joining later.
+  void retire(Connection* c);
+  // Same, from write() (mu_ held): index into conns_.
   void retire_locked(std::size_t index);
-  // After subs_ changed (mu_ held): counts the subscriptions write() may call or queue for.
-  void subs_changed_locked();
+  // After conns_ changed (mu_ held): counts the connections write() may call or queue for.
+  void conns_changed_locked();
   void reap_retired();  // joins parked threads; never from a delivery thread
   void refuse(const std::string& why);
-  // "<owner>.<name>" of an InPort (asks it; RTM::InPort without owner: its name only).
-  // "owner.name" of a subscriber, each call bounded by call_timeout_ms.
+  // "owner.name" of a subscriber, each call bounded by call_timeout_ms (RTM::InPort without
+  // owner: its name only).
   static std::string peer_name(RTM::InPort_ptr port, std::uint32_t call_timeout_ms);
   std::string full_port_text() const;  // why a subscribe to a full port is refused
 
@@ -275,23 +199,16 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   std::atomic<OutPortOptions::Delivery> delivery_;
   std::atomic<bool> shared_memory_;
   PortInfo info_;
-  mutable std::mutex mu_;  // guards subs_, retired_, the latest value (derived)
-  std::vector<std::unique_ptr<Subscription>> subs_;
-  std::vector<std::unique_ptr<Subscription>> retired_;
+  ConnectionHost host_;    // the counters the connections add to
+  mutable std::mutex mu_;  // guards conns_, retired_, the latest value (derived)
+  std::vector<std::unique_ptr<Connection>> conns_;
+  std::vector<std::unique_ptr<Connection>> retired_;
   std::string last_refusal_;
   std::atomic<std::uint64_t> written_{0};
   std::atomic<std::uint64_t> refused_{0};
-  std::atomic<std::uint64_t> dropped_{0};
-  std::atomic<std::uint64_t> pushed_{0};
-  // Of pushed: into the ring for shared-memory subscribers. Only write() changes it, under
-  // mu_, as it does written_: a plain store, not a locked add, per datum.
-  std::atomic<std::uint64_t> ring_pushed_{0};
-  std::atomic<std::uint64_t> failed_{0};
-  std::atomic<std::uint64_t> timed_out_{0};
-  std::atomic<std::uint64_t> by_writer_{0};
-  // Subscriptions that are neither a ring nor filled directly: while there are none, write()
-  // times itself one call in kWriteCostSampling (WriteCost).
-  std::atomic<std::uint32_t> calling_subscriptions_{0};
+  // Connections write() calls or queues for: while there are none, write() times itself one
+  // call in kWriteCostSampling (WriteCost).
+  std::atomic<std::uint32_t> calling_connections_{0};
   LatencyHistogram write_cost_;
   bool closed_ = false;
   std::atomic<bool> get_before_data_logged_{false};
@@ -341,24 +258,14 @@ class OutPort final : public OutPortBase {
   bool subscribe_with(const ConnPolicy& policy, RTM::InPort_ptr i_port);
 
  private:
-  struct TypedSubscription : Subscription {
-    // Datum number s (1-based) is ring[(s - 1) % ring.size()] (guarded by slot_mu).
-    std::vector<T> ring;
-    T sending{};  // the datum being delivered (delivery thread only)
-  };
   static constexpr std::size_t kMaxWriterCalls = 8;  // OutPortOptions::writer_calls is capped here
-  void deliver_slot(Subscription& sub, std::uint64_t seq, std::unique_lock<std::mutex>& slot_lock) override;
-  bool deliver_direct(TypedSubscription& sub, const T& value);
-  std::uint64_t queue_or_take(TypedSubscription& sub, const T& value, bool may_call);
-  void call_remote(TypedSubscription& sub, const T& value, bool by_writer, std::uint64_t seq);
-  void hand_to_thread(TypedSubscription& sub, const T& value);
-  std::uint64_t ring_size(const Subscription& sub) const override {
-    return static_cast<const TypedSubscription&>(sub).ring.size();
-  }
-  std::unique_ptr<TypedSubscription> new_subscription(const ConnPolicy& asked) const;
+  // subscribe(): what the InPort at i_port is and keeps (false: refused, with the reason).
+  bool negotiate(Subscriber& who, RTM::InPort_ptr i_port);
+  // The connection for who: in-process, the ring, or CORBA.
+  std::unique_ptr<Connection> make_connection(Subscriber who);
   // subscribe(): offers the port's ring (made at the first offer) to a subscriber of this
-  // host; true when it reads from it (sub.kind set to ConnKind::shared_memory).
-  bool offer_ring(TypedSubscription& sub);
+  // host; true when it reads from it (reader set, and the ring's segment name).
+  bool offer_ring(const Subscriber& who, RTM::InPortShm_var& reader, std::string& segment);
   // The ring, made at the first offer; written by write() under mu_.
   std::mutex ring_mu_;  // serialises making it
   std::optional<ShmSegment> ring_segment_;
