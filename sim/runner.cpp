@@ -224,10 +224,7 @@ class LoopPoll {
     if (ready < 0 && errno != EINTR)
       throw RunError(std::string("pa10-sim: ppoll failed: ") + std::strerror(errno));
     relayed_ = sensor_relayed_ = false;
-    if (ready <= 0) {
-      for (pollfd& p : fds_) p.revents = 0;
-      return;
-    }
+    if (ready <= 0) return;  // revents: still the 0 they were made with
     const std::span<const pollfd> polled(fds_);
     relayed_ = hub_ && hub_->relay(polled.subspan(hub_at, sensor_hub_at - hub_at)) > 0;
     sensor_relayed_ = sensor_hub_ && sensor_hub_->relay(polled.subspan(sensor_hub_at)) > 0;

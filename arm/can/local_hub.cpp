@@ -247,6 +247,8 @@ void LocalHub::add_poll_fds(std::vector<pollfd>& fds) const {
 }
 
 std::size_t LocalHub::relay(std::span<const pollfd> polled) {
+  // A round of the host's poll that none of the hub's descriptors woke: nothing to do.
+  if (std::none_of(polled.begin(), polled.end(), [](const pollfd& p) { return p.revents != 0; })) return 0;
   bool changed = false;
   closed_.clear();
   relay_->clear();

@@ -1,17 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/outport.h"
 
-#include "rt/thread.h"
-
 #include "rtm/access.h"
-
 #include "rtm/log.h"
 #include "rtm/orb.h"
 
-#include <pthread.h>
-
-#include <chrono>
-#include <random>
+#include <algorithm>
 #include <stdexcept>
 
 namespace rtm {
@@ -132,7 +126,8 @@ void OutPortBase::reap_retired() {
   }
 }
 
-bool OutPortBase::add_connection(std::unique_ptr<Connection> connection, std::string& why) {
+bool OutPortBase::add_connection(std::unique_ptr<Connection> connection) {
+  std::string why;
   {
     std::lock_guard lock(mu_);
     const std::string& peer = connection->subscriber().peer;
@@ -151,12 +146,6 @@ bool OutPortBase::add_connection(std::unique_ptr<Connection> connection, std::st
     }
   }
   connection->stop_and_join();  // never started: a ring's subscriber is told to detach
-  return false;
-}
-
-bool OutPortBase::add_or_refuse(std::unique_ptr<Connection> connection) {
-  std::string why;
-  if (add_connection(std::move(connection), why)) return true;
   refuse(why);
   return false;
 }

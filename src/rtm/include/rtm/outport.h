@@ -159,12 +159,10 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
  protected:
   OutPortBase(std::string name, std::string owner, OutPortOptions options);
 
-  // Adds a connection made by the derived class and starts its thread; refuses a duplicate, a
-  // full or closed port (false, with the reason; the connection is stopped: a ring's
-  // subscriber detaches).
-  bool add_connection(std::unique_ptr<Connection> connection, std::string& why);
-  // Adds it, or refuses with the reason: what subscribe/connect return.
-  bool add_or_refuse(std::unique_ptr<Connection> connection);
+  // Adds a connection made by the derived class and starts its thread: what subscribe/connect
+  // return. A duplicate, a full or a closed port is refused with the reason (refuse()), and
+  // the connection stopped (a ring's subscriber detaches).
+  bool add_connection(std::unique_ptr<Connection> connection);
   // subscribe(): false (refused, with the reason) when the InPort's access control would
   // refuse every datum of this port; a subscriber that does not answer now passes (the first
   // write() finds it out, as for any subscriber).

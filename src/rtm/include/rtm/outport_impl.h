@@ -91,7 +91,7 @@ bool OutPort<T>::connect(InPort<T>& in, const ConnPolicy& policy) {
   who.peer = in.full_name();
   who.check_active = false;
   if (!reader_matches(who)) return false;
-  return add_or_refuse(make_connection(std::move(who)));
+  return add_connection(make_connection(std::move(who)));
 }
 
 template <PortData T>
@@ -207,7 +207,7 @@ bool OutPort<T>::subscribe_with(const ConnPolicy& policy, RTM::InPort_ptr i_port
   who.policy = resolve(policy);
   who.port = RTM::InPort::_duplicate(i_port);
   if (!negotiate(who, i_port)) return false;
-  return add_or_refuse(make_connection(std::move(who)));
+  return add_connection(make_connection(std::move(who)));
 }
 
 template <PortData T>
