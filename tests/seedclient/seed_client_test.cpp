@@ -104,6 +104,11 @@ class SeedClient : public ::testing::Test {
   std::unique_ptr<rtm_test::ChildProcess> component_process_;
 };
 
+// A put that left before the unsubscribe (write()'s own call that timed out, say) can still be
+// in the POA when the test deactivates the servant: it lives on the heap, reference counted, and
+// the POA lets it go after its last upcall, not the test's scope.
+PortableServer::Servant_var<SeedInPort> make_seed_in_port() { return new SeedInPort; }
+
 std::vector<RTM::TimedFloat6> wait_for_data(const SeedInPort& port, std::size_t count,
                                              std::chrono::seconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
@@ -134,13 +139,13 @@ TEST_F(SeedClient, SubscribedSeedInPortReceivesRisingTimedFloat6Stream) {
   auto out = first_out_port(component);
   ASSERT_FALSE(CORBA::is_nil(out));
 
-  SeedInPort servant;
-  PortableServer::ObjectId_var id = poa_->activate_object(&servant);
+  auto servant = make_seed_in_port();
+  PortableServer::ObjectId_var id = poa_->activate_object(servant.in());
   CORBA::Object_var object = poa_->id_to_reference(id);
   RTM::InPort_var in = RTM::InPort::_narrow(object);
 
   ASSERT_TRUE(out->subscribe(RTM::repeated, in));
-  const auto data = wait_for_data(servant, 20, 10s);
+  const auto data = wait_for_data(*servant, 20, 10s);
   EXPECT_TRUE(out->unsubscribe(RTM::repeated, in));
   poa_->deactivate_object(id);
 
@@ -155,17 +160,17 @@ TEST_F(SeedClient, SubscribedSeedInPortReceivesRisingTimedFloat6Stream) {
 
 TEST_F(SeedClient, OnceSubscriptionDeliversExactlyOneDatum) {
   auto out = first_out_port(find_component("seedpeer0"));
-  SeedInPort servant;
-  PortableServer::ObjectId_var id = poa_->activate_object(&servant);
+  auto servant = make_seed_in_port();
+  PortableServer::ObjectId_var id = poa_->activate_object(servant.in());
   CORBA::Object_var object = poa_->id_to_reference(id);
   RTM::InPort_var in = RTM::InPort::_narrow(object);
 
   ASSERT_TRUE(out->subscribe(RTM::once, in));
-  wait_for_data(servant, 1, 10s);
+  wait_for_data(*servant, 1, 10s);
   // Many periods later there is still exactly one.
   std::this_thread::sleep_for(200ms);
   poa_->deactivate_object(id);
-  EXPECT_EQ(servant.received().size(), 1u);
+  EXPECT_EQ(servant->received().size(), 1u);
 }
 
 TEST_F(SeedClient, GetReturnsTimedFloat6InAny) {
@@ -195,14 +200,14 @@ TEST_F(SeedClient, RunByTheComponentsOwnUserItsChangesAreTakenWithoutAnyKeyByACo
   auto component = find_component("owned0");
   RTM::OutPortList_var outs = component->out_ports();
   ASSERT_GT(outs->length(), 0u);
-  SeedInPort servant;
-  PortableServer::ObjectId_var id = poa_->activate_object(&servant);
+  auto servant = make_seed_in_port();
+  PortableServer::ObjectId_var id = poa_->activate_object(servant.in());
   CORBA::Object_var object = poa_->id_to_reference(id);
   RTM::InPort_var in = RTM::InPort::_narrow(object);
   EXPECT_TRUE(outs[0]->subscribe(RTM::repeated, in));
   const auto deadline = std::chrono::steady_clock::now() + 10s;
-  while (servant.received().empty() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(10ms);
-  EXPECT_FALSE(servant.received().empty()) << "no datum reached the 2004 client's InPort";
+  while (servant->received().empty() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(10ms);
+  EXPECT_FALSE(servant->received().empty()) << "no datum reached the 2004 client's InPort";
   EXPECT_TRUE(outs[0]->unsubscribe(RTM::repeated, in));
   EXPECT_NO_THROW(component->off());
   RTM::InPortList_var ins = component->in_ports();
