@@ -66,15 +66,15 @@ bool wait_writable(int fd, std::chrono::steady_clock::time_point deadline) {
   return true;
 }
 
-// Sending on a socket that carries one frame per datagram (CAN_RAW; the hub's SOCK_SEQPACKET).
-// A full transmit queue is waited on for kSendPatience, then the frame counts as dropped
-// (false); any other error goes to fail_with(errno, call), which throws.
+// Sending one datagram (a frame on CAN_RAW; 1 to kMaxFramesPerDatagram frames on the hub's
+// SOCK_SEQPACKET). A full transmit queue is waited on for kSendPatience, then the datagram counts
+// as dropped (false); any other error goes to fail_with(errno, call), which throws.
 template <class Fail>
-bool send_frame(int fd, const can_frame& frame, int flags, const Fail& fail_with) {
+bool send_datagram(int fd, const void* data, std::size_t length, int flags, const Fail& fail_with) {
   const auto deadline = std::chrono::steady_clock::now() + kSendPatience;
   for (;;) {
-    const ssize_t n = ::send(fd, &frame, sizeof frame, flags | MSG_DONTWAIT);
-    if (n == static_cast<ssize_t>(sizeof frame)) return true;
+    const ssize_t n = ::send(fd, data, length, flags | MSG_DONTWAIT);
+    if (n == static_cast<ssize_t>(length)) return true;
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 && (errno == ENOBUFS || errno == EAGAIN)) {
       if (wait_writable(fd, deadline)) continue;
@@ -82,6 +82,11 @@ bool send_frame(int fd, const can_frame& frame, int flags, const Fail& fail_with
     }
     fail_with(n < 0 ? errno : EIO, "send");
   }
+}
+
+template <class Fail>
+bool send_frame(int fd, const can_frame& frame, int flags, const Fail& fail_with) {
+  return send_datagram(fd, &frame, sizeof frame, flags, fail_with);
 }
 
 // The same for several frames: sendmmsg, up to kBatchChunk per call, and what a full queue
@@ -240,13 +245,21 @@ class LocalBus final : public Bus {
   LocalBus& operator=(const LocalBus&) = delete;
 
   bool send(const can_frame& frame) override { return send_frame(fd_.get(), frame, MSG_NOSIGNAL, failure()); }
+  // A batch leaves as datagrams of up to kMaxFramesPerDatagram frames (one for a cycle's): the
+  // hub is woken once, where a datagram per frame woke it once per frame.
   std::size_t send_batch(std::span<const can_frame> frames) override {
-    return send_frames(fd_.get(), frames, MSG_NOSIGNAL, failure());
+    std::size_t sent = 0;
+    while (sent < frames.size()) {
+      const std::size_t count = std::min(kMaxFramesPerDatagram, frames.size() - sent);
+      if (!send_datagram(fd_.get(), frames.data() + sent, count * sizeof(can_frame), MSG_NOSIGNAL, failure())) break;
+      sent += count;
+    }
+    return sent;
   }
 
-  // Frames the hub queued for this endpoint are taken up to kBatch at a time (one recvmmsg for
-  // a cycle's frames, where a recv each once cost a system call per frame) and handed out one
-  // by one; a frame that does not pass the filters costs no system call of its own.
+  // The datagrams the hub queued for this endpoint are taken up to kBatch at a time (one
+  // recvmmsg for a cycle's) and their frames handed out one by one; a frame that does not pass
+  // the filters costs no system call of its own.
   bool receive(can_frame& frame, std::int64_t timeout_ns) override {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
     for (;;) {
@@ -301,8 +314,8 @@ class LocalBus final : public Bus {
       fail(name_, "send (filters to the hub)", errno);
   }
 
-  // Fills batch_ with the frames queued now (whole, well-formed ones); false when none was
-  // queued. Throws BusError when the hub closed the connection.
+  // Fills batch_ with the frames queued now (of whole, well-formed datagrams); false when none
+  // was queued. Throws BusError when the hub closed the connection.
   bool take_batch() {
     next_ = taken_ = 0;
     int n = -1;
@@ -320,21 +333,23 @@ class LocalBus final : public Bus {
         if (taken_ > 0) return true;  // these first; the next take finds the close again
         throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
       }
-      if (length != sizeof(can_frame) || (messages_[i].msg_hdr.msg_flags & MSG_TRUNC) != 0) continue;  // not a frame
-      can_frame& f = batch_[taken_];
-      std::memcpy(&f, buffers_[i].data(), sizeof f);
-      if (f.can_dlc <= CAN_MAX_DLEN) ++taken_;
+      if (length % sizeof(can_frame) != 0 || (messages_[i].msg_hdr.msg_flags & MSG_TRUNC) != 0) continue;  // not frames
+      const std::size_t frames = length / sizeof(can_frame);
+      std::memcpy(&batch_[taken_], buffers_[i].data(), length);
+      bool well_formed = true;
+      for (std::size_t k = taken_; k < taken_ + frames; ++k) well_formed = well_formed && batch_[k].can_dlc <= CAN_MAX_DLEN;
+      if (well_formed) taken_ += frames;  // else the whole datagram is dropped, as the hub does
     }
     return true;
   }
 
-  static constexpr std::size_t kBatch = 32;
+  static constexpr std::size_t kBatch = 8;  // datagrams per recvmmsg, each up to kMaxFramesPerDatagram frames
   std::string name_;
   std::vector<FrameFilter> filters_;
   FdOwner fd_;
-  std::array<can_frame, kBatch> batch_{};
-  // recvmmsg's datagrams, one byte more than a frame each: MSG_TRUNC shows a longer one.
-  std::array<std::array<unsigned char, sizeof(can_frame) + 1>, kBatch> buffers_{};
+  std::array<can_frame, kBatch * kMaxFramesPerDatagram> batch_{};
+  // recvmmsg's datagrams, one byte more than the largest each: MSG_TRUNC shows a longer one.
+  std::array<std::array<unsigned char, kMaxFramesPerDatagram * sizeof(can_frame) + 1>, kBatch> buffers_{};
   std::array<iovec, kBatch> iov_{};
   std::array<mmsghdr, kBatch> messages_{};
   std::size_t next_ = 0;   // the next frame of batch_ to hand out

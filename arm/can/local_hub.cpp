@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <cstddef>
 #include <cstring>
 #include <memory>
 #include <span>
@@ -83,7 +84,7 @@ LocalHub::LocalHub(std::string socket_path, Driver driver) : socket_path_(std::m
     ::unlink(socket_path_.c_str());
     fail(socket_path_, "eventfd", error);
   }
-  relay_ = std::make_unique<Relay>();  // some 24 KiB of round buffers, made once
+  relay_ = std::make_unique<Relay>();  // some 80 KiB of round buffers, made once
   endpoints_.reserve(kMaxEndpoints);
   closed_.reserve(kMaxEndpoints);
   if (driver == Driver::own_thread) thread_ = std::thread([this] { run(); });
@@ -117,21 +118,21 @@ LocalHub::Counters LocalHub::counters() const {
   return counters_;
 }
 
-// One poll round's frames: taken from every endpoint that has some in one recvmmsg per 32,
-// then handed to each other endpoint in one sendmmsg per 32. A cycle's frames arrive together
-// (a sender queues them with one sendmmsg), so a round costs a few system calls where a frame
-// per endpoint once cost one each: the hub's work was most of the simulator's CPU.
+// One poll round's frames: taken from every endpoint that has some in one recvmmsg per 32
+// datagrams, then handed to each other endpoint as datagrams of up to kMaxFramesPerDatagram
+// frames (gathered from the round, not copied), in one sendmmsg. A cycle's frames come as one
+// datagram (a sender's batch) and leave as one, so each receiver is woken once per round, where
+// a datagram per frame woke it (and cost its sender the wake-up) once per frame.
 class LocalHub::Relay {
  public:
-  static constexpr std::size_t kChunk = 32;         // datagrams per recvmmsg / sendmmsg
-  static constexpr std::size_t kRoundFrames = 256;  // per round; the rest wait for the next poll
+  static constexpr std::size_t kChunk = 32;          // datagrams per recvmmsg / sendmmsg
+  static constexpr std::size_t kRoundFrames = 1024;  // per round; the rest wait for the next poll
 
   Relay() {  // the kernel writes only msg_len and msg_flags: the headers are set up once
     for (std::size_t i = 0; i < kChunk; ++i) {
       in_iov_[i] = {in_buffers_[i].data(), in_buffers_[i].size()};
       in_[i].msg_hdr.msg_iov = &in_iov_[i];
       in_[i].msg_hdr.msg_iovlen = 1;
-      out_[i].msg_hdr.msg_iovlen = 1;
     }
   }
   Relay(const Relay&) = delete;
@@ -145,7 +146,8 @@ class LocalHub::Relay {
   // connection broke).
   bool take_from(int from, Counters& counters) {
     for (;;) {
-      const std::size_t room = std::min(kChunk, kRoundFrames - count_);
+      // Datagrams that surely fit, each being up to kMaxFramesPerDatagram frames.
+      const std::size_t room = std::min(kChunk, (kRoundFrames - count_) / kMaxFramesPerDatagram);
       if (room == 0) return true;  // poll is level-triggered: the rest come next round
       const int n = ::recvmmsg(from, in_.data(), static_cast<unsigned>(room), MSG_DONTWAIT, nullptr);
       if (n < 0 && errno == EINTR) continue;
@@ -155,29 +157,27 @@ class LocalHub::Relay {
         const unsigned length = in_[i].msg_len;
         if (length == 0) return false;  // orderly close (no endpoint sends an empty datagram)
         if (take_filters(from, in_buffers_[i].data(), length, in_[i].msg_hdr.msg_flags, counters)) continue;
-        can_frame frame{};
-        if (length != sizeof frame) {
+        const std::size_t frames = frame_count(in_buffers_[i].data(), length, in_[i].msg_hdr.msg_flags);
+        if (frames == 0) {  // not whole frames, too many, or one with can_dlc > 8: dropped whole
           ++counters.datagrams_malformed;
           continue;
         }
-        std::memcpy(&frame, in_buffers_[i].data(), sizeof frame);
-        if (frame.can_dlc > CAN_MAX_DLEN) {
-          ++counters.datagrams_malformed;
-          continue;
+        std::memcpy(&frames_[count_], in_buffers_[i].data(), frames * sizeof(can_frame));
+        for (std::size_t k = count_; k < count_ + frames; ++k) {
+          sources_[k] = from;
+          out_iov_[k] = {&frames_[k], sizeof(can_frame)};
         }
-        frames_[count_] = frame;
-        sources_[count_] = from;
-        out_iov_[count_] = {&frames_[count_], sizeof(can_frame)};
-        ++count_;
-        ++counters.frames_forwarded;
+        count_ += frames;
+        counters.frames_forwarded += frames;
       }
       if (static_cast<std::size_t>(n) < room) return true;  // drained
     }
   }
 
-  // Gives every frame of the round to every endpoint but its sender, in the round's order. A
-  // receiver whose socket buffer is full loses the rest of the round (counted); a broken one
-  // shows up as POLLHUP/POLLERR on its own descriptor.
+  // Gives every frame of the round to every endpoint but its sender, in the round's order, as
+  // datagrams of up to kMaxFramesPerDatagram frames. A receiver whose socket buffer is full
+  // loses the rest of the round (counted); a broken one shows up as POLLHUP/POLLERR on its own
+  // descriptor.
   void deliver(const std::vector<int>& endpoints, Counters& counters) {
     for (int to : endpoints) {
       const auto wanted = filters_.find(to);
@@ -190,21 +190,25 @@ class LocalHub::Relay {
           ++counters.frames_filtered;  // neither copied nor woken for
           continue;
         }
-        for_endpoint_[mine++] = i;
+        gather_[mine++] = out_iov_[i];
       }
-      std::size_t done = 0;
-      while (done < mine) {
-        const std::size_t k = std::min(kChunk, mine - done);
-        for (std::size_t j = 0; j < k; ++j) out_[j].msg_hdr.msg_iov = &out_iov_[for_endpoint_[done + j]];
-        const int n = ::sendmmsg(to, out_.data(), static_cast<unsigned>(k), MSG_DONTWAIT | MSG_NOSIGNAL);
+      // Datagram d is frames [d * kMaxFramesPerDatagram, ...) of this endpoint's.
+      const std::size_t datagrams = (mine + kMaxFramesPerDatagram - 1) / kMaxFramesPerDatagram;
+      for (std::size_t d = 0; d < datagrams; ++d) {
+        out_[d].msg_hdr.msg_iov = &gather_[d * kMaxFramesPerDatagram];
+        out_[d].msg_hdr.msg_iovlen = std::min(kMaxFramesPerDatagram, mine - d * kMaxFramesPerDatagram);
+      }
+      std::size_t done = 0;  // datagrams
+      while (done < datagrams) {
+        const int n = ::sendmmsg(to, &out_[done], static_cast<unsigned>(datagrams - done), MSG_DONTWAIT | MSG_NOSIGNAL);
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) {
-          if (errno == EAGAIN || errno == ENOBUFS) counters.deliveries_dropped += mine - done;
+          if (errno == EAGAIN || errno == ENOBUFS) counters.deliveries_dropped += mine - done * kMaxFramesPerDatagram;
           break;
         }
-        counters.deliveries += static_cast<std::uint64_t>(n);
         done += static_cast<std::size_t>(n);
       }
+      counters.deliveries += std::min(mine, done * kMaxFramesPerDatagram);
     }
   }
 
@@ -227,11 +231,24 @@ class LocalHub::Relay {
     return true;
   }
 
-  static constexpr std::size_t kLargestDatagram = kFilterMagic.size() + 8 * kMaxFilters;
+  // Frames in a datagram of `length` bytes: 0 when it is not 1 to kMaxFramesPerDatagram whole
+  // frames, each with can_dlc <= 8.
+  static std::size_t frame_count(const unsigned char* data, unsigned length, int flags) {
+    if ((flags & MSG_TRUNC) != 0 || length == 0 || length % sizeof(can_frame) != 0) return 0;
+    const std::size_t frames = length / sizeof(can_frame);
+    if (frames > kMaxFramesPerDatagram) return 0;
+    for (std::size_t k = 0; k < frames; ++k)
+      if (data[k * sizeof(can_frame) + offsetof(can_frame, can_dlc)] > CAN_MAX_DLEN) return 0;
+    return frames;
+  }
+
+  static constexpr std::size_t kLargestDatagram =
+      std::max(kFilterMagic.size() + 8 * kMaxFilters, kMaxFramesPerDatagram * sizeof(can_frame));
+  static_assert(kRoundFrames / kMaxFramesPerDatagram <= kChunk, "a full round fits out_");
   std::array<can_frame, kRoundFrames> frames_{};
   std::array<int, kRoundFrames> sources_{};
   std::array<iovec, kRoundFrames> out_iov_{};
-  std::array<std::size_t, kRoundFrames> for_endpoint_{};
+  std::array<iovec, kRoundFrames> gather_{};  // one endpoint's frames, in order
   std::array<mmsghdr, kChunk> out_{};
   // One byte more than the largest datagram: a longer one shows as MSG_TRUNC.
   std::array<std::array<unsigned char, kLargestDatagram + 1>, kChunk> in_buffers_{};

@@ -19,6 +19,7 @@
 #include <sched.h>
 #include <cstring>
 #include <memory>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -97,7 +98,7 @@ TEST(CanLocalBus, ABatchArrivesWholeAndInOrderAcrossSeveralSystemCalls) {
   auto a = open_local(dir.file("bus"));
   auto b = open_local(dir.file("bus"));
   ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 2; }));
-  // 40 frames: more than one sendmmsg chunk (16).
+  // 40 frames: more than one datagram (kMaxFramesPerDatagram, 32).
   std::vector<can_frame> batch;
   for (int i = 0; i < 40; ++i) batch.push_back(frame(static_cast<canid_t>(0x200 + i), static_cast<std::uint8_t>(i)));
   EXPECT_EQ(a->send_batch(batch), batch.size());
@@ -112,7 +113,125 @@ TEST(CanLocalBus, ABatchArrivesWholeAndInOrderAcrossSeveralSystemCalls) {
   EXPECT_FALSE(a->receive(got, kAbsent_ns)) << "the sender heard its own batch";
 }
 
-// The hub takes what its endpoints queued in rounds of at most 256 frames, and hands each
+sockaddr_un unix_address(const std::string& path) {
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::strncpy(address.sun_path, path.c_str(), sizeof address.sun_path - 1);
+  return address;
+}
+
+// A raw peer of the bus protocol: connects to a hub at `path` and writes or reads whatever it
+// likes (-1 when it cannot).
+int connect_raw(const std::string& path) {
+  const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+  const sockaddr_un address = unix_address(path);
+  if (fd >= 0 && ::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0) return fd;
+  if (fd >= 0) ::close(fd);
+  return -1;
+}
+
+// A hub that is a raw peer of the protocol: one endpoint of ours connected to it, and the
+// peer's end of that connection, to write or read whatever it likes.
+struct RawHub {
+  explicit RawHub(const std::string& path) {
+    listener = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+    const sockaddr_un address = unix_address(path);
+    if (listener < 0 || ::bind(listener, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 ||
+        ::listen(listener, 1) != 0)
+      throw std::runtime_error("cannot listen at " + path);
+    endpoint = open_local(path);
+    peer = ::accept(listener, nullptr, nullptr);
+  }
+  ~RawHub() {
+    if (peer >= 0) ::close(peer);
+    ::close(listener);
+  }
+  RawHub(const RawHub&) = delete;
+  RawHub& operator=(const RawHub&) = delete;
+  int listener = -1;
+  std::unique_ptr<Bus> endpoint;
+  int peer = -1;
+};
+
+// The frames of one datagram `fd` receives within kArrives_ns (none: an empty vector).
+std::vector<can_frame> receive_datagram(int fd) {
+  pollfd p{fd, POLLIN, 0};
+  std::vector<can_frame> frames(kMaxFramesPerDatagram + 1);
+  if (::poll(&p, 1, static_cast<int>(kArrives_ns / 1'000'000)) != 1) return {};
+  const ssize_t n = ::recv(fd, frames.data(), frames.size() * sizeof(can_frame), 0);
+  frames.resize(n > 0 ? static_cast<std::size_t>(n) / sizeof(can_frame) : 0);
+  return frames;
+}
+
+// A cycle's batch is one datagram each way: the endpoint sends it as one (the hub is woken
+// once, not once per frame), and the hub hands it on to each other endpoint as one.
+TEST(CanLocalBus, ABatchIsOneDatagramToTheHubAndOneFromItToEachOtherEndpoint) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto sender = open_local(dir.file("bus"));
+  const int listener = connect_raw(dir.file("bus"));
+  ASSERT_GE(listener, 0);
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 2; }));
+  std::vector<can_frame> cycle;
+  for (int i = 0; i < 8; ++i) cycle.push_back(frame(static_cast<canid_t>(0x201 + i), static_cast<std::uint8_t>(i)));
+  ASSERT_EQ(sender->send_batch(cycle), cycle.size());
+  const std::vector<can_frame> got = receive_datagram(listener);
+  ASSERT_EQ(got.size(), cycle.size()) << "the hub handed the batch on in more than one datagram";
+  for (std::size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i].can_id, cycle[i].can_id) << "frame " << i;
+  EXPECT_EQ(hub.counters().frames_forwarded, cycle.size());
+
+  // And what the endpoint sent was one datagram: a hub that is a raw peer reads it so.
+  RawHub raw(dir.file("peer"));
+  ASSERT_GE(raw.peer, 0);
+  std::vector<can_frame> longer(kMaxFramesPerDatagram + 8, frame(0x300, 1));
+  ASSERT_EQ(raw.endpoint->send_batch(longer), longer.size());
+  EXPECT_EQ(receive_datagram(raw.peer).size(), kMaxFramesPerDatagram) << "the first datagram: as many frames as one holds";
+  EXPECT_EQ(receive_datagram(raw.peer).size(), 8u) << "the second: the rest";
+  ::close(listener);
+}
+
+// A datagram is whole frames or nothing: one with a bad frame among good ones, or with more
+// frames than a datagram may hold, is dropped whole and counted, by the hub and by an endpoint.
+TEST(CanLocalBus, ADatagramWithABadFrameOrTooManyIsDroppedWholeByTheHubAndByAnEndpoint) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto receiver = open_local(dir.file("bus"));
+  const int raw = connect_raw(dir.file("bus"));
+  ASSERT_GE(raw, 0);
+  can_frame bad_dlc = frame(0x111, 0);
+  bad_dlc.can_dlc = 12;
+  const can_frame good_then_bad[2] = {frame(0x101, 1), bad_dlc};
+  const std::vector<can_frame> too_many(kMaxFramesPerDatagram + 1, frame(0x102, 2));
+  const can_frame three[3] = {frame(0x103, 3), frame(0x104, 4), frame(0x105, 5)};
+  ASSERT_EQ(::send(raw, good_then_bad, sizeof good_then_bad, 0), static_cast<ssize_t>(sizeof good_then_bad));
+  ASSERT_EQ(::send(raw, too_many.data(), too_many.size() * sizeof(can_frame), 0),
+            static_cast<ssize_t>(too_many.size() * sizeof(can_frame)));
+  ASSERT_EQ(::send(raw, three, sizeof three, 0), static_cast<ssize_t>(sizeof three));
+  can_frame got{};
+  for (canid_t id : {0x103u, 0x104u, 0x105u}) {
+    ASSERT_TRUE(receiver->receive(got, kArrives_ns));
+    EXPECT_EQ(got.can_id, id) << "a frame of a dropped datagram came through, or the order changed";
+  }
+  EXPECT_FALSE(receiver->receive(got, kAbsent_ns));
+  EXPECT_TRUE(eventually([&] { return hub.counters().datagrams_malformed == 2; })) << hub.counters().datagrams_malformed;
+  EXPECT_EQ(hub.counters().frames_forwarded, 3u);
+  ::close(raw);
+
+  // An endpoint whose hub (a raw peer here) sends the same keeps only the whole, good datagram.
+  RawHub peer(dir.file("peer"));
+  ASSERT_GE(peer.peer, 0);
+  ASSERT_EQ(::send(peer.peer, good_then_bad, sizeof good_then_bad, 0), static_cast<ssize_t>(sizeof good_then_bad));
+  ASSERT_EQ(::send(peer.peer, too_many.data(), too_many.size() * sizeof(can_frame), 0),
+            static_cast<ssize_t>(too_many.size() * sizeof(can_frame)));
+  ASSERT_EQ(::send(peer.peer, three, sizeof three, 0), static_cast<ssize_t>(sizeof three));
+  for (canid_t id : {0x103u, 0x104u, 0x105u}) {
+    ASSERT_TRUE(peer.endpoint->receive(got, kArrives_ns));
+    EXPECT_EQ(got.can_id, id) << "the endpoint kept a frame of a dropped datagram";
+  }
+  EXPECT_FALSE(peer.endpoint->receive(got, kAbsent_ns));
+}
+
+// The hub takes what its endpoints queued in rounds of at most 1024 frames, and hands each
 // round on in batches: several senders' batches, larger than a round together, still reach
 // every other endpoint whole, each sender's frames in its order.
 TEST(CanLocalBus, SeveralSendersBatchesLargerThanARoundArriveWholeAndEachInItsOrder) {

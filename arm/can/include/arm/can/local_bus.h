@@ -2,11 +2,15 @@
 // The user-space CAN bus: a hub that forwards every frame to every other endpoint.
 //
 // For hosts without SocketCAN (this project's CI kernels) and for tests. The hub listens on a
-// Unix SOCK_SEQPACKET socket; each connection is one endpoint; each datagram is exactly one
-// `struct can_frame` (16 bytes). A datagram of another size or with can_dlc > 8 is dropped and
-// counted. An endpoint that cannot keep up loses frames (counted), like a CAN controller whose
-// receive FIFO overflows: the hub never blocks on a slow endpoint. Endpoints connect with
-// `open_bus("local:<path>")`; the `rtm-canhub <path>` executable runs a hub as a process.
+// Unix SOCK_SEQPACKET socket; each connection is one endpoint; each datagram is 1 to
+// kMaxFramesPerDatagram whole `struct can_frame`s (16 bytes each), in bus order: a sender's batch
+// (a cycle's RPDOs and SYNC) goes as one datagram, and the hub hands each endpoint a round's
+// frames as one, so a cycle wakes each receiver once rather than once per frame. A datagram that
+// is not whole frames, holds more than kMaxFramesPerDatagram, or has a frame with can_dlc > 8 is
+// dropped whole and counted. An endpoint that cannot keep up loses frames (counted), like a CAN
+// controller whose receive FIFO overflows: the hub never blocks on a slow endpoint. Endpoints
+// connect with `open_bus("local:<path>")`; the `rtm-canhub <path>` executable runs a hub as a
+// process.
 //
 // An endpoint may tell the hub which frames it wants, as a SocketCAN socket tells the kernel
 // (CAN_RAW_FILTER): one datagram of kFilterMagic (8 bytes) and then up to kMaxFilters pairs of
@@ -32,14 +36,15 @@ namespace rtm::can {
 
 inline constexpr std::array<unsigned char, 8> kFilterMagic{'R', 'T', 'M', 'C', 'A', 'N', 'F', '1'};
 inline constexpr std::size_t kMaxFilters = 32;
+inline constexpr std::size_t kMaxFramesPerDatagram = 32;
 
 class LocalHub {
  public:
   struct Counters {
-    std::uint64_t frames_forwarded = 0;     // datagrams accepted from an endpoint
+    std::uint64_t frames_forwarded = 0;     // frames accepted from endpoints
     std::uint64_t deliveries = 0;           // frame copies written to other endpoints
     std::uint64_t deliveries_dropped = 0;   // receiver's socket buffer was full
-    std::uint64_t datagrams_malformed = 0;  // wrong size or can_dlc > 8: dropped
+    std::uint64_t datagrams_malformed = 0;  // not whole frames, too many, or can_dlc > 8: dropped
     std::uint64_t endpoints_connected = 0;  // total connections accepted
     std::uint64_t endpoints_closed = 0;     // total connections that went away
     std::uint64_t endpoints_refused = 0;    // connections closed at once: kMaxEndpoints reached
