@@ -33,9 +33,12 @@ class SeedInPort : public POA_RTM::InPort {
   void put(const CORBA::Any& value) override {
     const RTM::TimedFloat6* datum = nullptr;
     if (!(value >>= datum)) throw CORBA::BAD_PARAM();
+    // A slow subscriber, once: the first put takes this long before it keeps its datum.
+    if (const int ms = first_put_ms.exchange(0); ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(ms));
     std::lock_guard lock(mutex_);
     received_.push_back(*datum);
   }
+  std::atomic<int> first_put_ms{0};
   char* name() override { return CORBA::string_dup("seed_client.in"); }
   CORBA::TypeCode_ptr port_type() override { return CORBA::TypeCode::_duplicate(RTM::_tc_TimedFloat6); }
 
@@ -156,6 +159,29 @@ TEST_F(SeedClient, SubscribedSeedInPortReceivesRisingTimedFloat6Stream) {
     const auto stamp = [](const RTM::Time& t) { return std::uint64_t{t.sec} * 1'000'000'000u + t.nsec; };
     EXPECT_GE(stamp(data[i].tm), stamp(data[i - 1].tm)) << "datum " << i;
   }
+}
+
+// A 2004 client has no way to put data in order (no InPortOrdered): a call to it that timed
+// out but still arrived after the next datum would be kept as the newer. Its first put here
+// takes 30 ms, far over the 2 ms bound on a write()'s own call: the data still come in order.
+TEST_F(SeedClient, ASlowPutIsNotOvertakenByTheDataAfterIt) {
+  auto out = first_out_port(find_component("seedpeer0"));
+  ASSERT_FALSE(CORBA::is_nil(out));
+  auto servant = make_seed_in_port();
+  servant->first_put_ms = 30;
+  PortableServer::ObjectId_var id = poa_->activate_object(servant.in());
+  CORBA::Object_var object = poa_->id_to_reference(id);
+  RTM::InPort_var in = RTM::InPort::_narrow(object);
+
+  ASSERT_TRUE(out->subscribe(RTM::repeated, in));
+  const auto data = wait_for_data(*servant, 20, 10s);
+  EXPECT_TRUE(out->unsubscribe(RTM::repeated, in));
+  poa_->deactivate_object(id);
+
+  ASSERT_GE(data.size(), 20u);
+  EXPECT_EQ(servant->first_put_ms.load(), 0) << "the slow put was made";
+  for (std::size_t i = 1; i < data.size(); ++i)
+    EXPECT_GT(data[i].val[0], data[i - 1].val[0]) << "datum " << i << " came after a newer one";
 }
 
 TEST_F(SeedClient, OnceSubscriptionDeliversExactlyOneDatum) {
