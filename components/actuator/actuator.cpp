@@ -16,7 +16,7 @@ namespace rtm::comp {
 
 void ActuatorParams::add_options(CLI::App& app) {
   rtm::add_array_option(app, "--limit", limit, "6 limits: vx vy vz in m/s, wx wy wz in rad/s");
-  app.add_option("--watchdog-periods", watchdog_periods, "cycles without a new command before zero velocity")
+  app.add_option("--watchdog-periods", watchdog_periods, "cycles without a new command before the drives brake")
       ->check(CLI::Range(1u, kMaxWatchdogPeriods))
       ->capture_default_str();
   app.add_option("--sensor-recovery-periods", sensor_recovery_periods,

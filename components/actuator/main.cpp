@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // rtm-actuator: the PA10 driven by Cartesian velocity commands (paper Fig. 7). Owns the CAN
 // master (NMT, SYNC every period); in0 = velocity twist (base frame), clamped to ±limit,
-// watchdog and NaN/inf give zero velocity.
+// the watchdog and NaN/inf give a CiA 402 quick stop (the drives brake).
 #include "components/actuator/actuator.h"
 
 #include "rtm/runner.h"

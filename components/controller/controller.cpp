@@ -24,7 +24,8 @@ void ControllerParams::add_options(CLI::App& app) {
   app.add_option("--contact-force", contact_force_N,
                  "|force| [N] from which the tool is in contact (left after 10 cycles below half of it)")
       ->capture_default_str();
-  app.add_option("--stale-periods", stale_periods, "cycles without a new input datum before the command is zero")
+  app.add_option("--stale-periods", stale_periods,
+                 "cycles without a new input datum before the command is withheld (the actuator brakes)")
       ->capture_default_str();
 }
 
@@ -111,7 +112,8 @@ void Controller::describe_self() {
                                   contact_force_live_, [](const std::vector<double>& v) {
                                     if (!(v[0] > 0)) throw std::invalid_argument("contact_force must be above 0");
                                   }));
-  add_parameter(rtm::cycles_when_off("stale_periods", "cycles without a new input datum before the command is zero",
+  add_parameter(rtm::cycles_when_off("stale_periods",
+                                     "cycles without a new input datum before the command is withheld (the actuator brakes)",
                                      params_.stale_periods, 1, 1'000'000));
 }
 

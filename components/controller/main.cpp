@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // rtm-controller: the proportional force controller (paper Fig. 6):
-// out0 = gain * (in1 reference + in0 sensor), zero when an input is stale or not finite.
+// out0 = gain * (in1 reference + in0 sensor); no command while an input is stale or not
+// finite (the actuator's watchdog then brakes).
 #include "components/controller/controller.h"
 
 #include "rtm/runner.h"
