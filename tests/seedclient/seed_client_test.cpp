@@ -121,6 +121,24 @@ std::vector<RTM::TimedFloat6> wait_for_data(const SeedInPort& port, std::size_t 
   return port.received();
 }
 
+// As the paper's browser did: activates `servant`, subscribes it (repeated) to `out`, waits
+// for `count` data, then unsubscribes and deactivates it. What it received.
+std::vector<RTM::TimedFloat6> receive_stream(PortableServer::POA_ptr poa, RTM::OutPort_ptr out, SeedInPort* servant,
+                                             std::size_t count) {
+  PortableServer::ObjectId_var id = poa->activate_object(servant);
+  CORBA::Object_var object = poa->id_to_reference(id);
+  RTM::InPort_var in = RTM::InPort::_narrow(object);
+  std::vector<RTM::TimedFloat6> data;
+  if (out->subscribe(RTM::repeated, in)) {
+    data = wait_for_data(*servant, count, 10s);
+    EXPECT_TRUE(out->unsubscribe(RTM::repeated, in));
+  } else {
+    ADD_FAILURE() << "subscribe refused";
+  }
+  poa->deactivate_object(id);
+  return data;
+}
+
 TEST_F(SeedClient, FindsComponentInNamingServiceAndListsItsPorts) {
   auto component = find_component("seedpeer0");
   ASSERT_FALSE(CORBA::is_nil(component));
@@ -143,15 +161,7 @@ TEST_F(SeedClient, SubscribedSeedInPortReceivesRisingTimedFloat6Stream) {
   ASSERT_FALSE(CORBA::is_nil(out));
 
   auto servant = make_seed_in_port();
-  PortableServer::ObjectId_var id = poa_->activate_object(servant.in());
-  CORBA::Object_var object = poa_->id_to_reference(id);
-  RTM::InPort_var in = RTM::InPort::_narrow(object);
-
-  ASSERT_TRUE(out->subscribe(RTM::repeated, in));
-  const auto data = wait_for_data(*servant, 20, 10s);
-  EXPECT_TRUE(out->unsubscribe(RTM::repeated, in));
-  poa_->deactivate_object(id);
-
+  const auto data = receive_stream(poa_, out, servant.in(), 20);
   ASSERT_GE(data.size(), 20u);
   // The test component writes a ramp: val[0] grows by one per cycle; stamps never go back.
   for (std::size_t i = 1; i < data.size(); ++i) {
@@ -169,15 +179,7 @@ TEST_F(SeedClient, ASlowPutIsNotOvertakenByTheDataAfterIt) {
   ASSERT_FALSE(CORBA::is_nil(out));
   auto servant = make_seed_in_port();
   servant->first_put_ms = 30;
-  PortableServer::ObjectId_var id = poa_->activate_object(servant.in());
-  CORBA::Object_var object = poa_->id_to_reference(id);
-  RTM::InPort_var in = RTM::InPort::_narrow(object);
-
-  ASSERT_TRUE(out->subscribe(RTM::repeated, in));
-  const auto data = wait_for_data(*servant, 20, 10s);
-  EXPECT_TRUE(out->unsubscribe(RTM::repeated, in));
-  poa_->deactivate_object(id);
-
+  const auto data = receive_stream(poa_, out, servant.in(), 20);
   ASSERT_GE(data.size(), 20u);
   EXPECT_EQ(servant->first_put_ms.load(), 0) << "the slow put was made";
   for (std::size_t i = 1; i < data.size(); ++i)
