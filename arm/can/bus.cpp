@@ -333,12 +333,10 @@ class LocalBus final : public Bus {
         if (taken_ > 0) return true;  // these first; the next take finds the close again
         throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
       }
-      if (length % sizeof(can_frame) != 0 || (messages_[i].msg_hdr.msg_flags & MSG_TRUNC) != 0) continue;  // not frames
-      const std::size_t frames = length / sizeof(can_frame);
-      std::memcpy(&batch_[taken_], buffers_[i].data(), length);
-      bool well_formed = true;
-      for (std::size_t k = taken_; k < taken_ + frames; ++k) well_formed = well_formed && batch_[k].can_dlc <= CAN_MAX_DLEN;
-      if (well_formed) taken_ += frames;  // else the whole datagram is dropped, as the hub does
+      // A malformed datagram is dropped whole, as the hub drops one.
+      const std::size_t frames = frames_in_datagram(buffers_[i].data(), length, messages_[i].msg_hdr.msg_flags);
+      std::memcpy(&batch_[taken_], buffers_[i].data(), frames * sizeof(can_frame));
+      taken_ += frames;
     }
     return true;
   }

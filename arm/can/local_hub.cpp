@@ -157,7 +157,7 @@ class LocalHub::Relay {
         const unsigned length = in_[i].msg_len;
         if (length == 0) return false;  // orderly close (no endpoint sends an empty datagram)
         if (take_filters(from, in_buffers_[i].data(), length, in_[i].msg_hdr.msg_flags, counters)) continue;
-        const std::size_t frames = frame_count(in_buffers_[i].data(), length, in_[i].msg_hdr.msg_flags);
+        const std::size_t frames = frames_in_datagram(in_buffers_[i].data(), length, in_[i].msg_hdr.msg_flags);
         if (frames == 0) {  // not whole frames, too many, or one with can_dlc > 8: dropped whole
           ++counters.datagrams_malformed;
           continue;
@@ -231,17 +231,6 @@ class LocalHub::Relay {
     return true;
   }
 
-  // Frames in a datagram of `length` bytes: 0 when it is not 1 to kMaxFramesPerDatagram whole
-  // frames, each with can_dlc <= 8.
-  static std::size_t frame_count(const unsigned char* data, unsigned length, int flags) {
-    if ((flags & MSG_TRUNC) != 0 || length == 0 || length % sizeof(can_frame) != 0) return 0;
-    const std::size_t frames = length / sizeof(can_frame);
-    if (frames > kMaxFramesPerDatagram) return 0;
-    for (std::size_t k = 0; k < frames; ++k)
-      if (data[k * sizeof(can_frame) + offsetof(can_frame, can_dlc)] > CAN_MAX_DLEN) return 0;
-    return frames;
-  }
-
   static constexpr std::size_t kLargestDatagram =
       std::max(kFilterMagic.size() + 8 * kMaxFilters, kMaxFramesPerDatagram * sizeof(can_frame));
   static_assert(kRoundFrames / kMaxFramesPerDatagram <= kChunk, "a full round fits out_");
@@ -257,6 +246,15 @@ class LocalHub::Relay {
   std::array<mmsghdr, kChunk> in_{};
   std::size_t count_ = 0;
 };
+
+std::size_t frames_in_datagram(const unsigned char* data, std::size_t length, int msg_flags) noexcept {
+  if ((msg_flags & MSG_TRUNC) != 0 || length == 0 || length % sizeof(can_frame) != 0) return 0;
+  const std::size_t frames = length / sizeof(can_frame);
+  if (frames > kMaxFramesPerDatagram) return 0;
+  for (std::size_t k = 0; k < frames; ++k)
+    if (data[k * sizeof(can_frame) + offsetof(can_frame, can_dlc)] > CAN_MAX_DLEN) return 0;
+  return frames;
+}
 
 void LocalHub::add_poll_fds(std::vector<pollfd>& fds) const {
   fds.push_back({listen_fd_, POLLIN, 0});

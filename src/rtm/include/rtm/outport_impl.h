@@ -259,10 +259,8 @@ std::unique_ptr<Connection> OutPort<T>::make_connection(Subscriber who) {
   // A subscriber that cannot put data in order (no InPortOrdered: a 2004 client) is called by
   // the subscription's thread alone, one call after another under the long bound: write()'s
   // own call, bounded short, may time out and still arrive after the next datum, which such a
-  // subscriber would keep as the newer. (A once-subscription carries one datum: nothing to
-  // reorder.)
-  if (who.policy.delivery == ConnPolicy::Delivery::writer_when_idle && CORBA::is_nil(who.port_ordered) &&
-      !who.policy.once)
+  // subscriber would keep as the newer.
+  if (who.policy.delivery == ConnPolicy::Delivery::writer_when_idle && CORBA::is_nil(who.port_ordered))
     who.policy.delivery = ConnPolicy::Delivery::thread;
   const bool by_writer = who.policy.delivery == ConnPolicy::Delivery::writer_when_idle;
   return std::make_unique<RemoteConnection<T>>(host_, std::move(who), by_writer);

@@ -38,6 +38,11 @@ inline constexpr std::array<unsigned char, 8> kFilterMagic{'R', 'T', 'M', 'C', '
 inline constexpr std::size_t kMaxFilters = 32;
 inline constexpr std::size_t kMaxFramesPerDatagram = 32;
 
+// The frames a received datagram of this bus carries: 1 to kMaxFramesPerDatagram whole frames,
+// not truncated (`msg_flags` from recvmsg without MSG_TRUNC) and each with can_dlc <= 8; 0 for
+// any other (malformed: dropped whole, by the hub and by an endpoint alike).
+std::size_t frames_in_datagram(const unsigned char* data, std::size_t length, int msg_flags) noexcept;
+
 class LocalHub {
  public:
   struct Counters {
