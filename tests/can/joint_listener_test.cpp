@@ -15,6 +15,7 @@
 #include "arm/can/local_bus.h"
 #include "arm/can/master.h"
 #include "master_rig.h"
+#include "rtm_test/eventually.h"
 
 namespace rtm::can::testing {
 namespace {
@@ -22,15 +23,7 @@ namespace {
 using namespace std::chrono_literals;
 using ::testing::HasSubstr;
 
-template <class Predicate>
-bool eventually(Predicate p, std::chrono::steady_clock::duration timeout = 5s) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!p()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(1ms);
-  }
-  return true;
-}
+using rtm_test::eventually;
 
 void expect_same_joints(const JointState& heard, const JointState& master) {
   EXPECT_EQ(heard.sync_counter, master.sync_counter);

@@ -27,6 +27,7 @@
 #include "arm/can/local_bus.h"
 #include "arm/can/receive_thread.h"
 #include "rt/thread.h"
+#include "rtm_test/eventually.h"
 #include "test_paths.h"
 
 namespace rtm::can {
@@ -49,15 +50,7 @@ can_frame frame(canid_t id, std::uint8_t first_byte) {
   return f;
 }
 
-template <class Predicate>
-bool eventually(Predicate p) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(kArrives_ns);
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (p()) return true;
-    std::this_thread::sleep_for(1ms);
-  }
-  return p();
-}
+using rtm_test::eventually;
 
 TEST(CanLocalBus, DeliversToEveryOtherEndpointAndNotBackToTheSender) {
   TempDir dir;

@@ -14,6 +14,7 @@
 namespace {
 
 using rtm::test::eventually;
+using namespace std::chrono_literals;
 
 rtm::PeriodicOptions fast(std::int64_t period_ns = 1'000'000) {
   rtm::PeriodicOptions o;
@@ -233,7 +234,7 @@ TEST(OnArrivalActivity, AnArrivalRightAfterStartIsNotLostToASlowThreadStart) {
   for (long round = 1; round <= 50; ++round) {
     activity.start();
     signal->notify();  // at once: the thread has most likely not run yet
-    ASSERT_TRUE(eventually([&] { return cycles.load() == round; }, 5.0)) << "round " << round;
+    ASSERT_TRUE(eventually([&] { return cycles.load() == round; }, 5s)) << "round " << round;
     activity.stop();
   }
 }

@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "rtm_test/eventually.h"
+
 #include <atomic>
 #include <chrono>
 #include <functional>
@@ -17,16 +19,7 @@
 
 namespace rtm::test {
 
-// Polls pred until true or timeout_s passes. A bound against hanging, not a timing check: the
-// tests only ever assert that the condition became true.
-inline bool eventually(const std::function<bool()>& pred, double timeout_s = 20.0) {
-  const auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!pred()) {
-    if (std::chrono::steady_clock::now() > give_up) return false;
-    std::this_thread::sleep_for(std::chrono::microseconds(500));
-  }
-  return true;
-}
+using rtm_test::eventually;
 
 // A real ORB for the tests of one suite (no naming service needed).
 class OrbTest : public ::testing::Test {

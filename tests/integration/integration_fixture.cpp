@@ -28,15 +28,6 @@ OrbEnvironment* const environment =
 
 rtm::Orb& test_orb() { return environment->get(); }
 
-bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  for (;;) {
-    if (condition()) return true;
-    if (std::chrono::steady_clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(10ms);
-  }
-}
-
 rtm_test::ChildProcess& IntegrationTest::start_component(const std::string& name, std::vector<std::string> extra_args) {
   std::vector<std::string> argv{RTM_TEST_COMPONENT, "--name", name, "--naming", names_.address(), "--period", "2ms"};
   argv.insert(argv.end(), extra_args.begin(), extra_args.end());

@@ -6,6 +6,7 @@
 #include "rtm/naming.h"
 #include "rtm/orb.h"
 #include "rtm_test/child_process.h"
+#include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
 
 #include <RTMExt.hh>
@@ -25,8 +26,7 @@ using namespace std::chrono_literals;
 // omniORB has one ORB per process: made once, destroyed after the last test.
 rtm::Orb& test_orb();
 
-// Polls condition every 10 ms until it holds or timeout passes; returns whether it held.
-bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout = 10s);
+using rtm_test::eventually;
 
 class IntegrationTest : public ::testing::Test {
  protected:
