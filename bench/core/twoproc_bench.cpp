@@ -14,10 +14,10 @@
 // cycle, without the cycle); its floor is the bare ring (rt/shm_ring.h) between the same two
 // processes, read by the same thread with nothing of the ports in between.
 //
-// --access-cost 1: instead, what access control's check costs a put (rtm/access.h): the bare
+// --access-cost 1: instead, what access control's check costs a put (host/access.h): the bare
 // put with the receiver owner-only and open to all, alternating.
 //
-// both: tcp and unix; all: those and ssl (giop:ssl: with client certificates, rtm/tls.h,
+// both: tcp and unix; all: those and ssl (giop:ssl: with client certificates, host/tls.h,
 // from a throwaway authority this run makes).
 //
 // One-way latency is measured in this process, from the stamp the publisher puts in the datum
@@ -37,7 +37,7 @@
 #include "bench_stats.h"
 
 #include "rt/activity.h"
-#include "rtm/access.h"
+#include "host/access.h"
 #include "rtm/inport.h"
 #include "rtm/log.h"
 #include "rtm/orb.h"
@@ -45,7 +45,7 @@
 #include "rtm/ring_types.h"
 #include "rt/shm_ring.h"
 #include "rt/shm_segment.h"
-#include "rtm/tls.h"
+#include "host/tls.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -644,7 +644,7 @@ struct Rows {
                 tag.c_str(), per_s[0] / bare, per_s[1] / bare, per_s[3] / bare);
   }
 
-  // What access control's check costs a change request (rtm/access.h): the same bare put with
+  // What access control's check costs a change request (host/access.h): the same bare put with
   // the receiver owner-only (the caller's user, found when the connection was accepted, looked
   // up for each put) and open to all (no lookup), in alternating slices of one run; each slice
   // is a new publisher process, so each includes a new connection and its accept.
@@ -861,7 +861,7 @@ int run_receiver(const char* self, const Args& args) {
     rtm::configure_tls(rtm::check_tls_folder(tls_folder));
     endpoints.insert(endpoints.end(), {"-ORBendPoint", "giop:ssl:127.0.0.1:"});
   }
-  // Over plain TCP nobody can tell who calls (rtm/access.h): the receiver lets anyone put, as
+  // Over plain TCP nobody can tell who calls (host/access.h): the receiver lets anyone put, as
   // a component started with --access open does. What the owner-only check costs over
   // giop:unix: is measured by --access-cost.
   rtm::configure_access(rtm::AccessPolicy::open);

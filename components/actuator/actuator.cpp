@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "components/actuator/actuator.h"
 
+#include "host/runner.h"
 #include "rtm/data.h"
 #include "rtm/log.h"
-#include "rtm/runner.h"
 
 #include <fmt/format.h>
 #include <spdlog/logger.h>

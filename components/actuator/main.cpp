@@ -4,7 +4,7 @@
 // the watchdog and NaN/inf give a CiA 402 quick stop (the drives brake).
 #include "components/actuator/actuator.h"
 
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 namespace {
 // With --phase: the bus cycle runs this long after the actuator's cycle (its wake-up lateness

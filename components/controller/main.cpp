@@ -4,7 +4,7 @@
 // finite (the actuator's watchdog then brakes).
 #include "components/controller/controller.h"
 
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 int main(int argc, char** argv) {
   rtm::comp::ControllerParams params;

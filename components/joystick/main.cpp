@@ -3,7 +3,7 @@
 // bus; writes the operator's force (base-aligned frame) to out0 each cycle.
 #include "components/joystick/joystick.h"
 
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 int main(int argc, char** argv) {
   std::string bus = "local:/tmp/rtm-pa10.bus";

@@ -5,7 +5,7 @@
 // loss of the sensor node is waited out for --recovery-timeout-periods cycles, writing nothing.
 #include "components/sensor/sensor.h"
 
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 int main(int argc, char** argv) {
   std::string bus = "local:/tmp/rtm-pa10.bus";

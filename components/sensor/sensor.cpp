@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "components/sensor/sensor.h"
 
+#include "host/runner.h"
 #include "rtm/data.h"
 #include "rtm/log.h"
-#include "rtm/runner.h"
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>

@@ -13,7 +13,7 @@
 
 #include "rtm/naming.h"
 #include "rtm/orb.h"
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 #include <CLI/CLI.hpp>
 

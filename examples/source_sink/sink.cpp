@@ -5,7 +5,7 @@
 // I/O: at most one line per --print-every, with how many data arrived since the last line
 // and how old the newest one was.
 #include "rtm/data.h"
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 #include <cstdio>
 

@@ -2,7 +2,7 @@
 // rtm-example-source: writes a TimedFloat6 ramp on OutPort "out0" every period while on.
 // val[i] = (cycle + i) * step, so each datum can be told from the one before.
 #include "rtm/data.h"
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 namespace {
 

@@ -83,16 +83,6 @@ void Component::add_parameter(Parameter parameter) {
 ComponentServant::ComponentServant(std::unique_ptr<Component> component, ActivitySpec activity)
     : component_(std::move(component)), spec_(std::move(activity)) {
   if (!component_) throw std::invalid_argument("ComponentServant: no component");
-  leases_ = std::make_unique<Leases>([this](const std::string& holder, std::uint32_t lease_ms) {
-    log().warn("{}: {} stopped renewing its hold ({} ms lease): turning off", component_->name(), holder, lease_ms);
-    try {
-      off();
-    } catch (const std::exception& e) {
-      log().warn("{}: off() after the hold ended failed: {}", component_->name(), e.what());
-    } catch (const CORBA::Exception& e) {
-      log().warn("{}: off() after the hold ended raised {}", component_->name(), e._name());
-    }
-  });
   CycleFunction cycle = [this](const CycleContext& ctx) { return run_cycle(ctx); };
   if (auto* periodic = std::get_if<PeriodicOptions>(&spec_)) {
     PeriodicOptions options = *periodic;
@@ -111,7 +101,7 @@ ComponentServant::ComponentServant(std::unique_ptr<Component> component, Activit
 }
 
 ComponentServant::~ComponentServant() {
-  leases_.reset();
+  holds_.reset();
   off();
   deactivate();
   if (arrival_)
@@ -120,15 +110,19 @@ ComponentServant::~ComponentServant() {
 }
 
 void ComponentServant::hold(const char* holder, CORBA::ULong lease_ms) {
+  if (!holds_) throw CORBA::NO_IMPLEMENT(0, CORBA::COMPLETED_NO);
   try {
-    leases_->hold(holder, lease_ms);
+    holds_->hold(holder, lease_ms);
   } catch (const std::invalid_argument& e) {
     log().warn("{}: hold by {} refused: {}", component_->name(), holder, e.what());
     throw CORBA::BAD_PARAM(0, CORBA::COMPLETED_NO);
   }
 }
 
-void ComponentServant::release(const char* holder) { leases_->release(holder); }
+void ComponentServant::release(const char* holder) {
+  if (!holds_) throw CORBA::NO_IMPLEMENT(0, CORBA::COMPLETED_NO);
+  holds_->release(holder);
+}
 
 RTM::RtComponentEx_ptr ComponentServant::activate(Orb& orb) {
   for (auto* port : component_->in_ports()) CORBA::release(port->activate(orb));

@@ -2,7 +2,7 @@
 #include "rtm/connection.h"
 
 #include "rt/thread.h"
-#include "rtm/access.h"
+#include "rtm/data.h"
 #include "rtm/log.h"
 #include "rtm/orb.h"
 

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/data.h"
 
+#include <pwd.h>
 #include <time.h>
+#include <unistd.h>
 
 namespace rtm {
 
@@ -89,5 +91,15 @@ bool has_non_finite(const RTM::TimedFloat6& d) { return any_non_finite(d.val, 6)
 bool has_non_finite(const RTM::TimedFloat3& d) { return any_non_finite(d.val, 3); }
 bool has_non_finite(const RTM::TimedFloatSeq& d) { return any_non_finite(d.data, d.data.length()); }
 bool has_non_finite(const RTM::TimedDoubleSeq& d) { return any_non_finite(d.data, d.data.length()); }
+
+std::string access_refusal_text(std::uint32_t minor) {
+  if (minor == kCallerUnknownMinor)
+    return "not allowed: only the user who started it may change it, and over plain TCP from another host it "
+           "cannot tell who calls (from another host: --tls with a certificate of its system; docs/safety.md)";
+  const passwd* pw = ::getpwuid(::geteuid());
+  const std::string user = pw && pw->pw_name ? pw->pw_name : "uid " + std::to_string(::geteuid());
+  return "not allowed: only the user who started it may change it (this process runs as " + user +
+         "; docs/safety.md)";
+}
 
 }  // namespace rtm

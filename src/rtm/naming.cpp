@@ -3,7 +3,7 @@
 
 #include <fmt/format.h>
 #include "rtm/log.h"
-#include "rtm/tls.h"
+#include "rtm/orb.h"
 #include <unistd.h>
 
 #include <algorithm>
@@ -339,21 +339,15 @@ RTM::RtComponent_var NamingClient::resolve_component(std::string_view host_slash
     throw NamingError(fmt::format("{} in naming service at {} is not an RTM::RtComponent",
                                   path.to_string(), address_.to_string()));
   }
-  if (tls_configured()) check_member(path, component.in());
+  if (process_hooks().membership_problem) check_member(path, component.in());
   if (found) *found = path;
   return component;
 }
 
 void NamingClient::check_member(const ComponentPath& path, CORBA::Object_ptr object) const {
-  std::string problem;
-  try {
-    problem = system_membership_problem(object, path.host);
-  } catch (const CORBA::TRANSIENT&) {
-    problem = tls_handshake_problem(object);
-    if (!problem.empty()) problem = "no TLS connection: " + problem;
-  } catch (const CORBA::SystemException&) {
-    // Gone or hung: the caller's own call finds that out and says so.
-  }
+  const auto& membership_problem = process_hooks().membership_problem;
+  if (!membership_problem) return;
+  const std::string problem = membership_problem(object, path.host);
   if (!problem.empty())
     throw NotAMember(fmt::format("{} in naming service at {} is not this system's: {}", path.to_string(),
                                  address_.to_string(), problem));

@@ -1,9 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/orb.h"
 
-#include "rtm/access.h"
 #include "rtm/log.h"
-#include "rtm/tls.h"
 
 #include <omniORB4/omniPolicy.h>
 
@@ -51,7 +49,7 @@ void remove_stale_unix_sockets() {
 }
 
 // omniORB's SSL transport is linked into every program; a process without certificates
-// (rtm/tls.h) would see its warning "SSL transport disabled" at every start. It is the only
+// (host/tls.h) would see its warning "SSL transport disabled" at every start. It is the only
 // trace-level-1 message ORB_init gives for a usable setup, so that level is lowered for the
 // call unless the user chose a level.
 bool user_chose_trace_level(const std::vector<std::string>& args) {
@@ -67,6 +65,11 @@ std::string describe(const CORBA::Exception& e) {
 }
 }  // namespace
 
+ProcessHooks& process_hooks() {
+  static ProcessHooks hooks;
+  return hooks;
+}
+
 Orb::Orb(const std::vector<std::string>& args) {
   // ORB_init wants a mutable argv; the storage must live through the call only.
   std::vector<std::string> storage;
@@ -75,7 +78,7 @@ Orb::Orb(const std::vector<std::string>& args) {
   for (const auto& a : args) storage.push_back(a);
   const auto given = [&](const char* option) { return std::find(args.begin(), args.end(), option) != args.end(); };
   // Callers on this host come over giop:unix:, where the kernel tells a servant who calls
-  // (rtm/access.h); TCP on loopback only, unless the caller names its endpoints.
+  // (host/access.h); TCP on loopback only, unless the caller names its endpoints.
   if (!given("-ORBendPoint")) storage.insert(storage.end(), {"-ORBendPoint", "giop:tcp:127.0.0.1:", "-ORBendPoint", "giop:unix:"});
   // Only this user (and root) may connect to the giop:unix: socket; omniORB's default is 0777.
   if (!given("-ORBunixTransportPermission")) storage.insert(storage.end(), {"-ORBunixTransportPermission", "0600"});
@@ -83,13 +86,15 @@ Orb::Orb(const std::vector<std::string>& args) {
   for (auto& s : storage) argv.push_back(s.data());
   int argc = static_cast<int>(argv.size());
   remove_stale_unix_sockets();
-  const bool quiet_ssl = !tls_configured() && !user_chose_trace_level(args);
+  const ProcessHooks& hooks = process_hooks();
+  const bool quiet_ssl = !hooks.certificates && !user_chose_trace_level(args);
   const CORBA::ULong trace_level = omniORB::traceLevel;
   try {
     if (quiet_ssl) omniORB::traceLevel = 0;
     orb_ = CORBA::ORB_init(argc, argv.data());
     if (quiet_ssl) omniORB::traceLevel = trace_level;
-    register_access_interceptors();
+    screened_ = static_cast<bool>(hooks.after_orb_init);
+    if (screened_) hooks.after_orb_init();
     CORBA::Object_var root_obj = orb_->resolve_initial_references("RootPOA");
     PortableServer::POA_var root = PortableServer::POA::_narrow(root_obj);
     PortableServer::POAManager_var manager = root->the_POAManager();
@@ -130,6 +135,9 @@ Orb::~Orb() {
 }
 
 CORBA::Object_var Orb::activate(PortableServer::ServantBase* servant) {
+  if (!screened_ && !told_unscreened_.exchange(true))
+    log().warn("rtm::Orb: this process serves without the access screen: any local user may change its servants "
+               "over TCP (host/access.h: configure_access() before the Orb; the runner does)");
   PortableServer::ObjectId_var id = poa_->activate_object(servant);
   return poa_->id_to_reference(id);
 }

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/outport.h"
 
-#include "rtm/access.h"
+#include "rtm/data.h"
 #include "rtm/log.h"
 #include "rtm/orb.h"
 

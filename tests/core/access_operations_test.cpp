@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
-// The access screen (rtm/access.h) must know every operation of our IDL: one it does not list
+// The access screen (host/access.h) must know every operation of our IDL: one it does not list
 // as a change is served to anyone, so an operation added without its line is a hole. Reads
 // are listed here by hand; every other operation the IDL files declare must be a change.
-#include "rtm/access.h"
+#include "host/access.h"
 
 #include <gtest/gtest.h>
 

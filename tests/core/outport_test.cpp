@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "core_test_support.h"
 
-#include "rtm/access.h"
 #include "rtm/outport.h"
 
 #include <gtest/gtest.h>

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// TLS folders (rtm/tls.h): what `rtm tls` makes, and every way a folder can be wrong getting a
+// TLS folders (host/tls.h): what `rtm tls` makes, and every way a folder can be wrong getting a
 // sentence that names the file, before omniORB would answer with a bare INITIALIZE.
-#include "rtm/tls.h"
+#include "host/tls.h"
 
 #include <gtest/gtest.h>
 

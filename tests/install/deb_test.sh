@@ -22,7 +22,7 @@ echo "package: $(basename "$deb"), $(du -k "$deb" | cut -f1) kB, installed $(dpk
 
 listing=$(dpkg-deb -c "$deb" | awk '{print $6}')
 for f in ./usr/bin/rtm ./usr/bin/rtm-servo ./usr/bin/rtm-controller ./usr/bin/pa10-sim ./usr/lib/librtm_core.a \
-         ./usr/lib/cmake/RTM/RTMConfig.cmake ./usr/lib/cmake/RTM/RtmIdl.cmake ./usr/include/rtm/rtm/runner.h \
+         ./usr/lib/cmake/RTM/RTMConfig.cmake ./usr/lib/cmake/RTM/RtmIdl.cmake ./usr/include/rtm/host/runner.h \
          ./usr/include/rtm/idl/RTM.hh ./usr/share/rtm/idl/RTM.idl ./usr/share/rtm/models/pa10_scene.xml \
          ./usr/share/doc/rtm/copyright ./usr/share/doc/rtm/NOTICE ./usr/share/doc/rtm/changelog.gz \
          ./usr/share/bash-completion/completions/rtm; do

@@ -12,7 +12,7 @@ class OrbEnvironment : public ::testing::Environment {
   void TearDown() override { orb_.reset(); }
   rtm::Orb& get() {
     // rtm::Orb's own endpoints: TCP on loopback and giop:unix:, over which components' puts
-    // into the tests' InPorts are let through (rtm/access.h).
+    // into the tests' InPorts are let through (host/access.h).
     if (!orb_) orb_ = std::make_unique<rtm::Orb>();
     return *orb_;
   }

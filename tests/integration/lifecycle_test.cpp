@@ -62,7 +62,7 @@ TEST_F(IntegrationTest, ComponentNameKindAndPortsAreVisibleRemotely) {
 }
 
 // omniORB makes giop:unix: sockets 0777 unless told: a component's is its user's only, so other
-// users come over TCP, where the access key decides (rtm/access.h).
+// users come over TCP, where the access key decides (host/access.h).
 TEST_F(IntegrationTest, AComponentsUnixSocketIsReadableAndWritableByItsUserOnly) {
   auto& process = start_component("private0");
   const std::string folder = "/tmp/omni-" + std::string(::getpwuid(::geteuid())->pw_name);

@@ -3,7 +3,6 @@
 // put, a subscriber that dies mid-stream, and in-process detection across processes.
 #include "integration_fixture.h"
 
-#include "rtm/access.h"
 #include "rtm/data.h"
 #include "rtm/inport.h"
 #include "rtm/outport.h"

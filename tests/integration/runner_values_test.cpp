@@ -2,7 +2,7 @@
 // The runner's and the naming API's value parsing: periods, -ORB pass-through, naming
 // addresses and component paths. No ORB, no processes.
 #include "rtm/naming.h"
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 #include <gtest/gtest.h>
 

@@ -9,7 +9,7 @@
 // --also-bind NAME (repeatable): the runner's on_activated hook binds the component under NAME
 // too; a NAME equal to --name is refused by its validate hook.
 #include "rtm/data.h"
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 #include <stdexcept>
 #include <string>

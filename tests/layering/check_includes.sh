@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # The project's layering, checked on its #include lines (see docs/architecture.md):
-#   src/         the framework core: no robot code (arm/, sim/, components/) and no tools/
+#   src/         the framework core: no robot code (arm/, sim/, components/), no tools/, and
+#                nothing of host/ (it keeps hooks that host/ fills)
+#   host/        the runner, access screen, TLS and leases: no robot code, no tools/
 #   src/rt/      the real-time base under everything: no CORBA (nor the core), no robot code
 #   arm/         the arm and CAN library: no CORBA (omniORB, the IDL stubs, the core rtm/),
 #                no simulator, no component
@@ -30,13 +32,15 @@ forbid() { # folder, extended regex of the included path, what the rule says
 robot='arm/|sim/|components/'
 corba='omniORB4/|omnithread|omniORB|RTM\.hh|RTMExt\.hh|RTMData\.hh|rtm/'
 forbid src "$robot|tools/" "the core knows nothing of robots or tools"
+forbid src "host/" "the core knows nothing of the host library (runner, access, TLS, leases)"
+forbid host "$robot|tools/" "the host library knows nothing of robots or tools"
 forbid src/rt "$corba" "the real-time base knows nothing of CORBA or the core"
 forbid arm "$corba" "the arm/CAN library knows nothing of CORBA"
 forbid arm "sim/|components/" "the arm/CAN library includes no simulator or component"
 forbid sim "$corba" "the simulator knows nothing of CORBA"
 forbid sim "components/" "the simulator includes no component"
 forbid tools "$robot" "tools include no robot code"
-for folder in bench examples scripts src arm sim tools; do
+for folder in bench examples scripts src host arm sim tools; do
   forbid "$folder" "components/" "nothing outside components/ and tests/ includes a component"
 done
 

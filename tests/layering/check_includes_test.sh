@@ -8,7 +8,7 @@ check=$1
 source "$(dirname "$0")/expect.sh"
 tree=$scratch
 
-mkdir -p "$tree"/{src/rtm,src/rt,arm/can,sim,tools/rtm,components/controller,components/servo,tests/components}
+mkdir -p "$tree"/{src/rtm,src/rt,host,arm/can,sim,tools/rtm,components/controller,components/servo,tests/components}
 echo '#include "rtm/component.h"' >"$tree/components/controller/controller.h"
 echo '#include "components/controller/controller.h"' >"$tree/components/servo/servo.h"
 echo '#include "components/controller/controller.h"' >"$tree/tests/components/controller_test.cpp"
@@ -16,6 +16,7 @@ echo '#include "arm/can/bus.h"' >"$tree/sim/drive.cpp"
 echo '#include "rt/activity.h"' >"$tree/sim/runner.cpp"
 echo '#include "rt/schedule.h"' >"$tree/src/rtm/component.h"
 printf '#include <vector>\n#include "rtm/orb.h"\n' >"$tree/tools/rtm/main.cpp"
+printf '#include "rtm/component.h"\n#include "host/access.h"\n' >"$tree/host/runner.cpp"
 run_check "$check" "$tree"
 expect "a tree that keeps the rules passes" test $status -eq 0
 
@@ -25,6 +26,8 @@ echo '#include "RTMExt.hh"' >"$tree/sim/runner.h"
 echo '#include "components/actuator/velocity_arm.h"' >"$tree/tools/rtm/units.cpp"
 echo '#include "sim/wrench.h"' >"$tree/arm/can/sensor.h"
 echo '#include "rtm/log.h"' >"$tree/src/rt/thread.cpp"
+echo '#include "host/tls.h"' >"$tree/src/rtm/naming.cpp"
+echo '#include "tools/rtm/browser.h"' >"$tree/host/launch.cpp"
 run_check "$check" "$tree"
 expect "violations fail the check" test $status -eq 1
 expect "the core including robot code is named with its line" grep -q "^src/rtm/runner.cpp:2: the core knows nothing of robots" <<<"$output"
@@ -33,6 +36,8 @@ expect "the simulator including the IDL stubs is found" grep -q "^sim/runner.h:1
 expect "tools including a component is found twice (robot code, a component)" test "$(grep -c '^tools/rtm/units.cpp:1:' <<<"$output")" -eq 2
 expect "the CAN library including the simulator is found" grep -q "^arm/can/sensor.h:1: the arm/CAN library includes no simulator" <<<"$output"
 expect "the real-time base including the core is found" grep -q "^src/rt/thread.cpp:1: the real-time base knows nothing of CORBA" <<<"$output"
-expect "the count is given" grep -q "^7 layering violation(s)" <<<"$output"
+expect "the core including the host library is found" grep -q "^src/rtm/naming.cpp:1: the core knows nothing of the host library" <<<"$output"
+expect "the host library including tools is found" grep -q "^host/launch.cpp:1: the host library knows nothing of robots or tools" <<<"$output"
+expect "the count is given" grep -q "^9 layering violation(s)" <<<"$output"
 
 finish

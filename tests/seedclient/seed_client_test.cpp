@@ -2,7 +2,7 @@
 // A client of 2004: it knows only the paper's RTM.idl and the CORBA naming service. It finds
 // an RTM component, lists its ports, subscribes an InPort servant of its own and receives
 // TimedFloat6 data, as the paper's component browser did. It carries no credential of any
-// kind (rtm/access.h): run by the component's own user on its host, its changes are taken as
+// kind (host/access.h): run by the component's own user on its host, its changes are taken as
 // that user's; another user's only by a component started with --access open, as the
 // fixture's is.
 #include <RTM.hh>

@@ -14,7 +14,7 @@
 #include "rtm/data.h"
 #include "rtm/naming.h"
 #include "rtm/orb.h"
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 #include <memory>
 #include <mutex>

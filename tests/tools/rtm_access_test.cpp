@@ -6,7 +6,7 @@
 // `rtm up` and a name bound to an impostor. The real rtm, real components, real omniNames.
 #include "run_command.h"
 
-#include "rtm/access.h"
+#include "host/access.h"
 #include "rtm/naming.h"
 #include "rtm/orb.h"
 #include "rtm_test/child_process.h"

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Components across hosts: giop:ssl: endpoints with client certificates (rtm/tls.h), driven as
+// Components across hosts: giop:ssl: endpoints with client certificates (host/tls.h), driven as
 // a user drives them: `rtm tls` makes the folders, real component processes serve only
 // giop:ssl: on loopback, and the real `rtm` reaches them with one folder or another.
 #include "run_command.h"

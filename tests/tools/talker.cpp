@@ -9,7 +9,7 @@
 // calls time out, while the component answers everything else).
 #include "rt/live_value.h"
 #include "rtm/data.h"
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 #include <atomic>
 #include <memory>

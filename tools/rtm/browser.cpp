@@ -3,7 +3,7 @@
 #include "report.h"
 
 #include "rtm/data.h"
-#include "rtm/tls.h"
+#include "host/tls.h"
 
 #include <fmt/format.h>
 

@@ -69,7 +69,7 @@ struct PortInfo {
 
 // out_of_reach: it answers on no endpoint this process can use (it serves giop:ssl: only and
 // this process has no --tls): maybe alive, never cleaned. not_member: with --tls, the name
-// leads to something that is not a member of this system on the name's host (rtm/tls.h;
+// leads to something that is not a member of this system on the name's host (host/tls.h;
 // dead_reason says why): never called, never cleaned.
 enum class Liveness { alive, dead, out_of_reach, not_member };
 inline constexpr std::string_view kOutOfReach = "no usable endpoint";

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "launcher.h"
 
-#include "rtm/access.h"
-#include "rtm/socket_peer.h"
+#include "host/access.h"
+#include "host/socket_peer.h"
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -218,7 +218,7 @@ SystemState SystemState::load(const std::string& system) {
 
 // The name must be bound to the process we started, not to another system's component of the
 // same name nor to an object someone else bound there. Which process serves it is what the
-// kernel says of its giop:unix: socket (SO_PEERCRED, rtm/access.h), never what the object
+// kernel says of its giop:unix: socket (SO_PEERCRED, host/access.h), never what the object
 // says of itself.
 void check_bound_to(const Browser& browser, const std::string& host, const LaunchedProcess& p) {
   RTM::RtComponent_var component = browser.component(host + "/" + p.name);

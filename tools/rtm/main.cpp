@@ -28,11 +28,11 @@
 #include "values.h"
 #include "watch.h"
 
-#include "rtm/access.h"
+#include "host/access.h"
 #include "rtm/data.h"
 #include "rtm/log.h"
 #include "rtm/orb.h"
-#include "rtm/tls.h"
+#include "host/tls.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -358,7 +358,7 @@ rtm::NamingAddress naming_address(const Cli& c, const std::optional<SystemFile>&
 
 std::vector<std::string> orb_arguments(const Cli& c, const rtm::NamingAddress& naming) {
   // rtm's own servants (rtm watch's InPort) take data over giop:unix: from this host's
-  // components (rtm/access.h); with a naming service elsewhere also from other hosts: over TCP
+  // components (host/access.h); with a naming service elsewhere also from other hosts: over TCP
   // (a component opened with --access open), or over giop:ssl: with --tls.
   std::vector<std::string> args;
   if (naming.host != "127.0.0.1" && naming.host != "localhost" && naming.host != "::1") {
@@ -390,6 +390,7 @@ int run(const Cli& c) {
   std::optional<SystemFile> system;
   if (c.up->parsed()) system = SystemFile::load(c.up_file);
   const rtm::NamingAddress naming = naming_address(c, system);
+  rtm::configure_access(rtm::AccessPolicy::owner);  // rtm watch's InPorts: this user's data only
   rtm::Orb orb(orb_arguments(c, naming));
   const Browser browser(orb.orb(), naming, std::chrono::milliseconds(c.timeout_ms));
   std::signal(SIGINT, on_interrupt);

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "report.h"
 
-#include "rtm/access.h"
+#include "host/access.h"
 
 #include <fmt/format.h>
 

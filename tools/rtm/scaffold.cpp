@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "scaffold.h"
 
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 #include <fmt/format.h>
 
@@ -272,7 +272,8 @@ if(CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
   add_compile_options(-Wall -Wextra)
 endif()
 
-# RTM::core brings the framework, its IDL stubs (RTM.hh, RTMData.hh) and omniORB.
+# RTM::core brings the framework, its IDL stubs (RTM.hh, RTMData.hh) and omniORB; RTM::host
+# the runner, the main() of a component executable (with its access screen and TLS).
 find_package(RTM 0.1 REQUIRED)
 
 # The component: its class and its logic, step(), which the test calls without an ORB.
@@ -282,7 +283,7 @@ target_link_libraries(@NAME@_logic PUBLIC RTM::core)
 
 # The executable @NAME@.yaml starts: bin/rtm-@NAME@ in the build folder.
 add_executable(rtm-@NAME@ src/main.cpp)
-target_link_libraries(rtm-@NAME@ PRIVATE @NAME@_logic RTM::core)
+target_link_libraries(rtm-@NAME@ PRIVATE @NAME@_logic RTM::host)
 set_target_properties(rtm-@NAME@ PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin)
 
 enable_testing()
@@ -352,7 +353,7 @@ constexpr std::string_view kMain = R"(
 // --period, --on, --rt-priority, ...) `--help` lists.
 #include "@NAME@/@NAME@.h"
 
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 #include <memory>
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "serve_gate.h"
 
-#include "rtm/socket_peer.h"
+#include "host/socket_peer.h"
 
 #include <arpa/inet.h>
 #include <fcntl.h>

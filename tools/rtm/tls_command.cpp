@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "tls_command.h"
 
-#include "rtm/tls.h"
+#include "host/tls.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// rtm tls init|issue: a system's certificate authority and the TLS folders of its hosts (rtm/tls.h).
+// rtm tls init|issue: a system's certificate authority and the TLS folders of its hosts (host/tls.h).
 #pragma once
 
 #include <CLI/App.hpp>

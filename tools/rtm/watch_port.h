@@ -41,7 +41,7 @@ class WatchPort final : public virtual POA_RTM::InPortShm {
   RTM::PortCounters counters() override;
   char* last_error() override;
   RTM::PortDescription* describe() override;  // "rtm watch display", no elements
-  void admit_writer() override {}              // the access screen (rtm/access.h) answers
+  void admit_writer() override {}              // the access screen (host/access.h) answers
   char* reader_policy() override;               // "fifo:<capacity>": every datum, in order
   // RTM::InPortShm: reads the publisher's ring from now on (false with why: another host or
   // network namespace, a type this tool has no plain layout of, a segment it cannot map).

@@ -4,7 +4,7 @@
 #include <TimedPose.hh>
 
 #include "rtm/data.h"
-#include "rtm/runner.h"
+#include "host/runner.h"
 
 RTM_DATA_TYPE(My, TimedPose, 7);
 

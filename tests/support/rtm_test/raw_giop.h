@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // A GIOP 1.2 peer written from the specification, for requests an ORB will not send: a request
 // built byte by byte goes to an object's IIOP endpoint over TCP and its reply is read back. What
-// the tests of the request screen (rtm/access.h) send as a hostile client would.
+// the tests of the request screen (host/access.h) send as a hostile client would.
 #pragma once
 
 #include <cstdint>

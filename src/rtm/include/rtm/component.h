@@ -6,7 +6,6 @@
 #include "RTMExt.hh"
 #include "rt/activity.h"
 #include "rt/histogram.h"
-#include "rtm/lease.h"
 #include "rtm/describe.h"
 #include "rtm/inport.h"
 #include "rtm/outport.h"
@@ -141,6 +140,16 @@ struct OnArrival {
 struct ExternalTick {};  // driven by someone else's SharedTick through cycle_function()
 using ActivitySpec = std::variant<PeriodicOptions, OnArrival, ExternalTick>;
 
+// Keeps the holds of composites on a component (RtComponentEx::hold/release): the host's
+// (host/lease.h: each hold renewed within its lease, else the component turns itself off).
+class HoldKeeper {
+ public:
+  virtual ~HoldKeeper() = default;
+  // Starts or renews holder's hold; std::invalid_argument for a lease it does not take.
+  virtual void hold(const std::string& holder, std::uint32_t lease_ms) = 0;
+  virtual void release(const std::string& holder) = 0;
+};
+
 // An RT component: the RtComponentEx servant around a Component, owning its activity.
 //
 // on() (COMPONENT_OFF -> COMPONENT_ON) calls on_start() and starts the activity; off() stops
@@ -177,6 +186,9 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   // with what the port holds). Before on(); bound_ns > 0.
   void await_before_cycle(InPortBase& port, std::int64_t bound_ns);
 
+  // Who keeps composites' holds; before activate(). Without one, hold() raises NO_IMPLEMENT.
+  void keep_holds(std::unique_ptr<HoldKeeper> keeper) { holds_ = std::move(keeper); }
+
   // A composite hands out another component's InPort as its own: in_ports()[index] becomes
   // ref (index == size appends). Throws std::out_of_range otherwise.
   void expose_in_port(std::size_t index, RTM::InPort_ptr ref);
@@ -198,8 +210,8 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   // Refuses (RTM::ParameterRefused, nothing changed) an unknown name, a fixed parameter, a
   // when-off parameter while ON, and a value the parameter's set() rejects. Logs each change.
   void set_parameter(const char* name, const char* value) override;
-  // A composite's hold (RTMExt.idl): renewed within lease_ms, else the component turns itself
-  // off. BAD_PARAM for a lease outside 50..60000 ms.
+  // A composite's hold (RTMExt.idl), kept by keep_holds()'s keeper: BAD_PARAM for a lease it
+  // does not take, NO_IMPLEMENT when there is none.
   void hold(const char* holder, CORBA::ULong lease_ms) override;
   void release(const char* holder) override;
 
@@ -224,7 +236,7 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   mutable std::mutex refs_mu_;  // guards ref_, in_overrides_
   RTM::RtComponentEx_var ref_;
   std::vector<RTM::InPort_var> in_overrides_;  // non-nil: handed out instead of our own port
-  std::unique_ptr<Leases> leases_;  // reset first in the destructor: no off() from it after
+  std::unique_ptr<HoldKeeper> holds_;  // reset first in the destructor: no off() from it after
 };
 
 }  // namespace rtm

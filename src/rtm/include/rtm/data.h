@@ -95,5 +95,12 @@ bool has_non_finite(const RTM::TimedDoubleSeq& d);
 inline constexpr CORBA::ULong kMinorWrongDataType = 0x52544d01;  // BAD_PARAM: put of wrong type
 inline constexpr CORBA::ULong kMinorNoDataYet = 0x52544d02;  // BAD_INV_ORDER: get before first write
 inline constexpr CORBA::ULong kMinorComponentError = 0x52544d03;  // BAD_INV_ORDER: on() in COMPONENT_ERROR
+// The access screen's (host/access.h), raised before a request's arguments are read:
+inline constexpr CORBA::ULong kAccessRefusedMinor = 0x52544d01;  // NO_PERMISSION: a change by another user
+inline constexpr CORBA::ULong kCallerUnknownMinor = 0x52544d03;  // NO_PERMISSION: over plain TCP from elsewhere
+inline constexpr CORBA::ULong kNotPlainDataMinor = 0x52544d02;   // BAD_PARAM: a put of no data type (an any of an any)
+// What a refused change means, for the minor code of its NO_PERMISSION: the sentence `rtm`
+// prints and an OutPort's refused subscribe keeps, naming this process's user.
+std::string access_refusal_text(std::uint32_t minor);
 
 }  // namespace rtm

@@ -181,7 +181,7 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   void push(const CORBA::Any& value) override;  // put() that swallows the BAD_PARAM
   void push_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override;
   RTM::PortDescription* describe() override;
-  void admit_writer() override {}  // the access screen (rtm/access.h) is the whole answer
+  void admit_writer() override {}  // the access screen (host/access.h) is the whole answer
   char* reader_policy() override;  // to_string(reader())
   ReaderPolicy reader() const;     // what policy() keeps, as a connection policy names it
   // The same-host path (RTMExt.idl's InPortShm): maps a publisher's ring and takes data from

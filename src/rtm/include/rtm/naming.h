@@ -47,7 +47,7 @@ class NameTaken : public NamingError {
   using NamingError::NamingError;
 };
 
-// resolve_component with certificates configured (rtm/tls.h): the name leads to an object that
+// resolve_component with certificates configured (host/tls.h): the name leads to an object that
 // is not a member of this system on the name's host (another authority's or another host's
 // certificate, another user's process, plain TCP), or no TLS connection to it can be made.
 class NotAMember : public NamingError {
@@ -133,7 +133,7 @@ class NamingClient {
   // Resolves "host/name", or "name" searched in every host context, to an RtComponent, and
   // stores where it was found in *found when given. Throws NamingError when nothing matches,
   // or when "name" matches on more than one host (the message lists them). With certificates
-  // configured (rtm/tls.h) it first checks that the component is a member of this system on
+  // configured (host/tls.h) it first checks that the component is a member of this system on
   // that host, and throws NotAMember with the reason when it is not: a name re-bound by
   // someone else leads nowhere.
   RTM::RtComponent_var resolve_component(std::string_view host_slash_name, ComponentPath* found = nullptr) const;

@@ -5,10 +5,25 @@
 #include <omniORB4/CORBA.h>
 
 #include <atomic>
+#include <functional>
 #include <string>
 #include <vector>
 
 namespace rtm {
+
+// What a process adds around the core, process-wide: the host library (host/access.h,
+// host/tls.h: the runner and `rtm` link it) sets these before the first Orb. The core calls
+// them and knows nothing more of either. A process that sets none serves without the access
+// screen, and its Orb says so (a warning) when it activates its first servant: any local user
+// may then change its servants over TCP.
+struct ProcessHooks {
+  std::function<void()> after_orb_init;  // right after ORB_init, before any servant: the screen
+  bool certificates = false;             // omniORB's SSL transport has certificates
+  // NamingClient: "" when object, bound at a name of host, is a member of this system, else
+  // why not. Throws NotAMember itself never; set only with certificates.
+  std::function<std::string(CORBA::Object_ptr object, const std::string& host)> membership_problem;
+};
+ProcessHooks& process_hooks();
 
 // Owns the process's ORB and the POA every RTM servant is activated in.
 //
@@ -50,6 +65,8 @@ class Orb {
   CORBA::ORB_var orb_;
   PortableServer::POA_var poa_;
   std::atomic<bool> shut_down_{false};
+  bool screened_ = false;  // ProcessHooks::after_orb_init ran
+  std::atomic<bool> told_unscreened_{false};
 };
 
 }  // namespace rtm

@@ -3,7 +3,7 @@
 #pragma once
 
 #include "rt/clock.h"
-#include "rtm/access.h"
+#include "rtm/data.h"
 #include "rtm/log.h"
 
 #include <algorithm>

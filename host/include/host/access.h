@@ -2,12 +2,12 @@
 // Access control: by default only the user who started a component may change it.
 //
 // No secret crosses the wire. A component asks the kernel who is calling, once per connection
-// when it accepts it (rtm/socket_peer.h): over its giop:unix: socket the peer credentials
+// when it accepts it (host/socket_peer.h): over its giop:unix: socket the peer credentials
 // (SO_PEERCRED) name the caller's user; over TCP from this host the caller's socket in
 // /proc/net/tcp does. A change (on, off, reset, set_parameter, subscribe, unsubscribe, put and
 // its variants, hold, release, admit_writer) is let through when that user is the component's
 // own (or root, who may do anything to the process anyway), or when it arrives over a giop:ssl:
-// connection whose peer presented a certificate of this process's authority (rtm/tls.h: the
+// connection whose peer presented a certificate of this process's authority (host/tls.h: the
 // credential across hosts). Otherwise it is refused with CORBA::NO_PERMISSION before its
 // arguments are read: minor kAccessRefusedMinor when the caller is another user,
 // kCallerUnknownMinor when it came over plain TCP from another host, where nobody can tell who
@@ -17,6 +17,8 @@
 // A client that knows only the 2004 IDL (idl/RTM.idl) and reaches the component over TCP is
 // let change it when the owner starts the component with --access open (AccessPolicy::open).
 #pragma once
+
+#include "rtm/data.h"
 
 #include <omniORB4/CORBA.h>
 
@@ -56,7 +58,7 @@ struct Peer {
   std::string address;            // omniORB's connection address, e.g. "giop:ssl:10.0.0.2:4711"
   std::optional<uid_t> uid;       // unix socket, TCP on this host: the user of the process at the other end
   std::optional<pid_t> pid;       // unix socket: that process
-  std::optional<ino_t> socket_inode;  // TCP on this host: its socket (rtm/socket_peer.h)
+  std::optional<ino_t> socket_inode;  // TCP on this host: its socket (host/socket_peer.h)
   std::string identity;           // tls: the verified certificate's common name, e.g. "op@hostb"
 };
 
@@ -65,19 +67,11 @@ struct Peer {
 // Throws the call's CORBA::SystemException (TRANSIENT for a dead or unreachable object).
 std::optional<Peer> peer_of(CORBA::Object_ptr object);
 
-// What a refused change means, for the minor code of its NO_PERMISSION: the sentence `rtm`
-// prints and an OutPort's refused subscribe keeps, naming this process's user.
-std::string access_refusal_text(std::uint32_t minor);
-
 // The same screen refuses every put before its argument is read when the datum's type is no
 // data type (an any holding an any, whose unmarshalling omniORB 4.2 does in time doubling per
 // level; an object reference, a value, a TypeCode): CORBA::BAD_PARAM (minor
 // kNotPlainDataMinor), whatever the access policy. Refusals of either kind are counted and
-// logged (the first three, then every thousandth).
-inline constexpr std::uint32_t kNotPlainDataMinor = 0x52544d02;  // "RTM" 2
-
-// The minor codes of the NO_PERMISSION a refused change raises.
-inline constexpr std::uint32_t kAccessRefusedMinor = 0x52544d01;  // "RTM" 1: another user
-inline constexpr std::uint32_t kCallerUnknownMinor = 0x52544d03;  // "RTM" 3: TCP from elsewhere, unknown
+// logged (the first three, then every thousandth). The minor codes, and the sentence a refused
+// change gets (access_refusal_text), are the core's (rtm/data.h): ports report refusals too.
 
 }  // namespace rtm

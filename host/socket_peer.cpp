@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "rtm/socket_peer.h"
+#include "host/socket_peer.h"
 
 #include <arpa/inet.h>
 #include <linux/inet_diag.h>

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "rtm/access.h"
+#include "host/access.h"
 
 #include <pthread.h>
 #include <pwd.h>
@@ -32,9 +32,10 @@
 #include <string>
 #include <unordered_map>
 
+#include "host/socket_peer.h"
 #include "rt/thread.h"
 #include "rtm/log.h"
-#include "rtm/socket_peer.h"
+#include "rtm/orb.h"
 
 namespace rtm {
 
@@ -294,7 +295,10 @@ std::optional<AccessPolicy> parse_access_policy(std::string_view text) {
   return std::nullopt;
 }
 
-void configure_access(AccessPolicy policy) { g_access.policy.store(policy, std::memory_order_relaxed); }
+void configure_access(AccessPolicy policy) {
+  g_access.policy.store(policy, std::memory_order_relaxed);
+  process_hooks().after_orb_init = register_access_interceptors;
+}
 
 void register_access_interceptors() {
   if (g_access.registered.exchange(true)) return;
@@ -311,16 +315,6 @@ bool is_change_operation(std::string_view name) {
   for (std::string_view change : kChanges)
     if (name == change) return true;
   return false;
-}
-
-std::string access_refusal_text(std::uint32_t minor) {
-  if (minor == kCallerUnknownMinor)
-    return "not allowed: only the user who started it may change it, and over plain TCP from another host it "
-           "cannot tell who calls (from another host: --tls with a certificate of its system; docs/safety.md)";
-  const passwd* pw = ::getpwuid(::geteuid());
-  const std::string user = pw && pw->pw_name ? pw->pw_name : "uid " + std::to_string(::geteuid());
-  return "not allowed: only the user who started it may change it (this process runs as " + user +
-         "; docs/safety.md)";
 }
 
 bool is_owner_uid(uid_t uid) { return uid == ::geteuid() || uid == 0; }

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "rtm/lease.h"
+#include "host/lease.h"
 
 #include <stdexcept>
 #include <vector>

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Who is at the other end of a connected socket of this host, as the kernel says: what access
-// control (rtm/access.h) and `rtm up` (which process serves a name) trust, since a process can
+// control (host/access.h) and `rtm up` (which process serves a name) trust, since a process can
 // lie about itself but not about this. No CORBA here.
 #pragma once
 

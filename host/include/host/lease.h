@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 // Holds on a component by composites (RtComponentEx::hold/release): each holder renews its
 // hold within its lease; a hold not renewed in time ends, and `expired` is called (the
-// component turns itself off). A thread of its own runs only while there are holds.
+// component turns itself off). A thread of its own runs only while there are holds. The
+// runner gives one to each component it hosts (ComponentServant::keep_holds).
 #pragma once
+
+#include "rtm/component.h"
 
 #include <chrono>
 #include <condition_variable>
@@ -15,19 +18,19 @@
 
 namespace rtm {
 
-class Leases {
+class Leases final : public HoldKeeper {
  public:
   // expired(holder, lease_ms): called on the leases' thread, no lock held.
   explicit Leases(std::function<void(const std::string&, std::uint32_t)> expired);
-  ~Leases();  // ends every hold without calling expired
+  ~Leases() override;  // ends every hold without calling expired
   Leases(const Leases&) = delete;
   Leases& operator=(const Leases&) = delete;
 
   static constexpr std::uint32_t kMinLeaseMs = 50;
   static constexpr std::uint32_t kMaxLeaseMs = 60'000;
   // Starts or renews holder's hold for lease_ms. std::invalid_argument outside 50..60000 ms.
-  void hold(const std::string& holder, std::uint32_t lease_ms);
-  void release(const std::string& holder);
+  void hold(const std::string& holder, std::uint32_t lease_ms) override;
+  void release(const std::string& holder) override;
 
  private:
   struct Hold {

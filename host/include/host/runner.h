@@ -44,6 +44,7 @@
 // line; the component keeps running and binds when the service appears.
 #pragma once
 
+#include "host/access.h"
 #include "rtm/component.h"
 #include "rtm/naming.h"
 
@@ -60,8 +61,6 @@
 #include <string_view>
 #include <utility>
 #include <vector>
-
-#include "rtm/access.h"
 
 namespace rtm {
 
@@ -86,8 +85,8 @@ struct RunSettings {
   // --shared-memory: likewise for OutPortOptions::shared_memory.
   std::optional<bool> shared_memory;
   std::vector<std::string> endpoints;  // omniORB endpoints, e.g. giop:tcp:127.0.0.1:
-  AccessPolicy access = AccessPolicy::owner;  // --access: who may change it (rtm/access.h)
-  std::string tls_folder;  // --tls / $RTM_TLS: certificates for giop:ssl: endpoints (rtm/tls.h)
+  AccessPolicy access = AccessPolicy::owner;  // --access: who may change it (host/access.h)
+  std::string tls_folder;  // --tls / $RTM_TLS: certificates for giop:ssl: endpoints (host/tls.h)
   std::vector<std::string> orb_args;   // -ORB... options, passed through
 
   // The periodic activity these settings describe (thread named after the component).

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "rtm/tls.h"
+#include "host/tls.h"
 
-#include "rtm/access.h"
+#include "host/access.h"
 #include "rtm/naming.h"
+#include "rtm/orb.h"
 
 #include <netdb.h>
 #include <poll.h>
@@ -293,6 +294,17 @@ void configure_tls(const TlsFolder& folder) {
   sslContext::key_file_password = "";
   sslContext::verify_mode = SSL_VERIFY_PEER | SSL_VERIFY_FAIL_IF_NO_PEER_CERT;
   g_tls.configured.store(true);
+  process_hooks().certificates = true;
+  process_hooks().membership_problem = [](CORBA::Object_ptr object, const std::string& host) -> std::string {
+    try {
+      return system_membership_problem(object, host);
+    } catch (const CORBA::TRANSIENT&) {
+      const std::string problem = tls_handshake_problem(object);
+      return problem.empty() ? "" : "no TLS connection: " + problem;
+    } catch (const CORBA::SystemException&) {
+      return "";  // gone or hung: the caller's own call finds that out and says so
+    }
+  };
 }
 
 bool tls_configured() { return g_tls.configured.load(); }

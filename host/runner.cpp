@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "rtm/runner.h"
+#include "host/runner.h"
 
+#include "host/lease.h"
+#include "host/tls.h"
 #include "rtm/log.h"
 #include "rtm/orb.h"
-#include "rtm/tls.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -164,7 +165,7 @@ namespace {
 // (unless --rt-priority says otherwise), and so does every thread a datum passes on its way
 // (set_path_thread_priority): the CAN listeners' receive threads, the OutPorts' delivery
 // threads, and an ORB thread while it serves a put from a caller the access screen knows
-// (rtm/access.cpp). Every other request is served at SCHED_OTHER, so that one that costs much
+// (host/access.cpp). Every other request is served at SCHED_OTHER, so that one that costs much
 // CPU cannot starve the loops or the machine. The main thread is switched back before any
 // other thread exists.
 void keep_real_time_for_the_activity(RunSettings& settings) {
@@ -341,6 +342,16 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   ActivitySpec activity =
       main.activity ? main.activity(settings, *component) : ActivitySpec{settings.periodic_options()};
   servant = new ComponentServant(std::move(component), std::move(activity));
+  servant->keep_holds(std::make_unique<Leases>([s = servant.in()](const std::string& holder, std::uint32_t lease_ms) {
+    log().warn("{}: {} stopped renewing its hold ({} ms lease): turning off", s->component().name(), holder, lease_ms);
+    try {
+      s->off();
+    } catch (const std::exception& e) {
+      log().warn("{}: off() after the hold ended failed: {}", s->component().name(), e.what());
+    } catch (const CORBA::Exception& e) {
+      log().warn("{}: off() after the hold ended raised {}", s->component().name(), e._name());
+    }
+  }));
   if (!settings.await_port.empty())  // refused there for a cycle that is not periodic
     servant->await_before_cycle(find_in_port(servant->component(), settings.await_port), settings.await_bound_ns);
   RTM::RtComponentEx_var reference = servant->activate(context.orb);

@@ -14,7 +14,7 @@
 // giop:ssl: endpoints. omniORB's SSL transport then requires a certificate from every peer and
 // checks it against ca.pem in the handshake: a peer without one, or with one from another
 // authority, gets no connection at all. A request that arrives over such a verified connection
-// may change the component (rtm/access.h) without the owner's access key: the certificate is
+// may change the component (host/access.h) without the owner's access key: the certificate is
 // the credential across hosts. Host names are not checked: the authority is the trust.
 #pragma once
 
