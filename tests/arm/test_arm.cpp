@@ -10,6 +10,7 @@
 #include "arm/can/master.h"
 #include "arm/can/protocol.h"
 #include "rtm_test/allocation_counter.h"
+#include "rtm_test/eventually.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -399,10 +400,8 @@ TEST(Pa10Arm, WorksWithTheMastersOwnPeriodicThread) {
   Rig rig;
   rig.master.start();
   rig.master.run_periodic();
+  rtm_test::eventually([&] { return rig.arm.joint_positions() != JointVector::Zero(); });  // the first feedback
   const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (rig.arm.joint_positions() == JointVector::Zero() &&
-         std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(2ms);  // wait for the first feedback
   const Eigen::Isometry3d start = rig.arm.tool_pose();
   const std::array<float, 6> twist{0.0f, 0.03f, -0.02f, 0.0f, 0.0f, 0.0f};
   const double wanted_m = 0.003;

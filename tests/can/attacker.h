@@ -15,6 +15,7 @@
 
 #include "arm/can/bus.h"
 #include "arm/can/protocol.h"
+#include "rtm_test/eventually.h"
 
 namespace rtm::can::testing {
 
@@ -41,10 +42,8 @@ class Attacker {
   }
   // Waits until the master latched a quick stop and took drive 1 out of operational, or 10 s.
   bool wait_for_stop() {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (!(quick_stop_after_ >= 0 && pre_operational_seen_) && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    return quick_stop_after_ >= 0 && pre_operational_seen_;
+    return rtm_test::eventually([this] { return quick_stop_after_ >= 0 && pre_operational_seen_; },
+                                std::chrono::seconds(10));
   }
   // The master's SYNCs on the bus from the first attack frame to (and with) the one that
   // latched the quick stop.

@@ -23,12 +23,14 @@
 #include "arm/can/master.h"
 #include "attacker.h"
 #include "master_rig.h"
+#include "rtm_test/eventually.h"
 
 namespace rtm::can {
 namespace {
 
 using namespace std::chrono_literals;
 using ::testing::HasSubstr;
+using rtm_test::eventually;
 using testing::Attacker;
 using testing::Rig;
 using testing::test_config;
@@ -95,14 +97,12 @@ void expect_every_drive_stopped_and_still(Rig& rig, std::chrono::milliseconds se
   // The NMT command seen on the bus may not have been handled by every node yet: a frame the
   // attacker sent just before it can still step the plant. Wait until every drive is out of
   // operational, then nothing may move.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
   auto all_pre_operational = [&] {
     for (int j = 0; j < kDriveCount; ++j)
       if (rig.nodes->nmt_state(drive_node(j)) != NmtState::pre_operational) return false;
     return true;
   };
-  while (!all_pre_operational() && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  eventually(all_pre_operational);  // checked for each drive below
   std::this_thread::sleep_for(std::chrono::milliseconds(5));  // frames already queued to the nodes
   std::array<double, kDriveCount> before{};
   for (int j = 0; j < kDriveCount; ++j) before[static_cast<std::size_t>(j)] = rig.nodes->position_rad(drive_node(j));
@@ -133,10 +133,7 @@ void expect_next_step_stops_every_drive(Rig& rig, const std::vector<can_frame>& 
     EXPECT_EQ(rig.nodes->drive_state(drive_node(j)), DriveState::quick_stop_active) << joint_name(j);
     // NMT pre-operational follows the SYNC; step() returns once the SYNC is answered, so the
     // nodes may still be handling it: it must arrive, not necessarily before step() returned.
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
-    while (rig.nodes->nmt_state(drive_node(j)) != NmtState::pre_operational &&
-           std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    eventually([&] { return rig.nodes->nmt_state(drive_node(j)) == NmtState::pre_operational; });
     EXPECT_EQ(rig.nodes->nmt_state(drive_node(j)), NmtState::pre_operational) << joint_name(j);
   }
 }

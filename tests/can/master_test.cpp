@@ -22,6 +22,7 @@
 #include "arm/can/sensor_listener.h"
 #include "arm/can/supervisor.h"
 #include "rtm_test/allocation_counter.h"
+#include "rtm_test/eventually.h"
 #include "master_rig.h"
 
 namespace rtm::can {
@@ -29,6 +30,7 @@ namespace {
 
 using namespace std::chrono_literals;
 using ::testing::HasSubstr;
+using rtm_test::eventually;
 using testing::EmulatedPa10;
 using testing::Rig;
 using testing::TempDir;
@@ -287,11 +289,11 @@ TEST(Pa10Master, AFaultResetThatDoesNotTakeRaisesTheFaultAgain) {
   ASSERT_TRUE(step_until(*rig.master, [&] { return rig.master->fault().active(); }));
   rig.master->fault_reset();
   rig.master->step();  // the master takes the reset up
-  const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (!rig.master->fault().active() && std::chrono::steady_clock::now() < deadline) {
+  ASSERT_TRUE(eventually([&] {
+    if (rig.master->fault().active()) return true;
     rig.master->step();
-    std::this_thread::sleep_for(1ms);
-  }
+    return false;
+  }));
   const MasterFault f = rig.master->fault();
   EXPECT_EQ(f.kind, FaultKind::drive_fault);
   EXPECT_THAT(f.reason, HasSubstr("fault reset failed: drive 3 (S3) still fault"));
@@ -546,10 +548,7 @@ TEST(Pa10Master, PeriodicThreadCyclesAndFollowsTargets) {
   const double start_rad = rig.nodes->position_rad(drive_node(0));
   rig.master->run_periodic();
   EXPECT_TRUE(rig.master->running());
-  const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (rig.master->counters().cycles < 100 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(5ms);
-  }
+  ASSERT_TRUE(eventually([&] { return rig.master->counters().cycles >= 100; }));
   rig.master->stop();
   EXPECT_FALSE(rig.master->running());
   EXPECT_GE(rig.master->counters().cycles, 100u);
@@ -624,9 +623,7 @@ TEST(Pa10Master, PeriodicGridDeadlinesAreWholePeriodsApartAndZeroWhenStopped) {
   rig.master->run_periodic();
   const auto wait_cycles = [&](std::uint64_t n) {
     const std::uint64_t start = rig.master->counters().cycles;
-    const auto deadline = std::chrono::steady_clock::now() + 20s;
-    while (rig.master->counters().cycles < start + n && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(1ms);
+    eventually([&] { return rig.master->counters().cycles >= start + n; });
   };
   wait_cycles(2);
   const std::int64_t first_ns = rig.master->next_cycle_deadline_ns();
@@ -696,9 +693,7 @@ TEST(Pa10MasterTakeOver, CycleHalvesWithoutTakeOverAreALogicErrorAndStepIsRefuse
 // Waits until the periodic thread has sent n more SYNCs.
 void wait_cycles(Pa10Master& m, std::uint64_t n) {
   const std::uint64_t start = m.counters().cycles;
-  const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (m.counters().cycles < start + n && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(1ms);
+  eventually([&] { return m.counters().cycles >= start + n; });
 }
 
 // These tests pause the owner on purpose: the take-back of a silent owner is off.
@@ -738,9 +733,8 @@ TEST(Pa10MasterTakeOver, ThePeriodicThreadIdlesWhileTakenOverAndResumesOnTheDead
   EXPECT_FALSE(rig.master->cycles_taken_over());
   EXPECT_EQ(rig.master->next_cycle_deadline_ns(), back_ns);
   wait_cycles(*rig.master, 5);
-  const auto deadline = std::chrono::steady_clock::now() + 5s;  // the last SYNC may be in transit
-  while (rig.nodes->syncs_seen() < syncs + 3 + 5 && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(1ms);
+  // The last SYNC may be in transit.
+  ASSERT_TRUE(eventually([&] { return rig.nodes->syncs_seen() >= syncs + 3 + 5; }));
   EXPECT_GE(rig.nodes->syncs_seen(), syncs + 3 + 5);
   EXPECT_EQ((rig.master->next_cycle_deadline_ns() - back_ns) % period_ns, 0) << "on the grid handed back";
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
@@ -774,8 +768,7 @@ TEST(Pa10MasterTakeOver, ASilentOwnerLosesTheCyclesToTheMastersThreadWithAFaultA
   }
   ASSERT_DOUBLE_EQ(rig.nodes->latched_velocity_rad_s(drive_node(0)), 0.3);
   // The owner stops: no more receive/transmit. The idle thread must notice and take over.
-  const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (!rig.master->fault().active() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
+  ASSERT_TRUE(eventually([&] { return rig.master->fault().active(); }));
   const MasterFault f = rig.master->fault();
   EXPECT_EQ(f.kind, FaultKind::cycle_owner_lost) << f.reason;
   EXPECT_THAT(f.reason, HasSubstr("took them back"));
@@ -800,8 +793,7 @@ TEST(Pa10MasterTakeOver, AnOwnerThatLostTheCyclesTakesThemAgainAndAFaultResetMov
   wait_cycles(*rig.master, 2);
   const std::int64_t handover_ns = rig.master->take_over_cycles();
   ASSERT_TRUE(external_cycle(*rig.master, *rig.nodes, [&] { rig.master->set_target_velocities({0.3, 0, 0, 0, 0, 0, 0}); }));
-  const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (!rig.master->fault().active() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
+  ASSERT_TRUE(eventually([&] { return rig.master->fault().active(); }));
   ASSERT_EQ(rig.master->fault().kind, FaultKind::cycle_owner_lost) << rig.master->fault().reason;
   ASSERT_FALSE(rig.master->receive_cycle()) << "the cycles are the master's thread's now";
   const std::int64_t again_ns = rig.master->take_over_cycles();
@@ -872,10 +864,7 @@ TEST(Pa10Master, PeriodicThreadCountsOverrunsWhenCyclesOutlastThePeriod) {
   rig.master->start();
   // A 1 µs period: every cycle (8 frames out, a drain in) ends after its next deadline.
   rig.master->run_periodic(1'000);
-  const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (rig.master->counters().cycles < 50 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(1ms);
-  }
+  ASSERT_TRUE(eventually([&] { return rig.master->counters().cycles >= 50; }));
   rig.master->stop();
   const MasterCounters c = rig.master->counters();
   EXPECT_GE(c.cycles, 50u);
@@ -898,8 +887,7 @@ TEST(Pa10Master, DestructionLeavesDrivesSwitchedOffAndPreOperational) {
     return nodes.nmt_state(kWristSensorNode) == NmtState::pre_operational &&
            nodes.nmt_state(kJoystickSensorNode) == NmtState::pre_operational;
   };
-  const auto deadline = std::chrono::steady_clock::now() + 5s;
-  while (!all_pre_operational() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
+  ASSERT_TRUE(eventually(all_pre_operational));
   EXPECT_TRUE(all_pre_operational());
   for (int j = 0; j < kDriveCount; ++j)
     EXPECT_EQ(nodes.drive_state(drive_node(j)), DriveState::ready_to_switch_on) << joint_name(j);
@@ -940,10 +928,7 @@ TEST(CanSensorListener, ReadsTheWrenchAndItsSyncCounterPassively) {
   EXPECT_LE(w->sync_counter, 240);
   // Wait for the last SYNC's wrench: then both sides name the same SYNC.
   const std::uint8_t master_counter = rig.master->wrench(ForceSensor::joystick).sync_counter;
-  const auto deadline = std::chrono::steady_clock::now() + 5s;
-  while (listener.latest().sync_counter != master_counter && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(1ms);
-  }
+  ASSERT_TRUE(eventually([&] { return listener.latest().sync_counter == master_counter; }));
   EXPECT_EQ(listener.latest().sync_counter, master_counter);
   EXPECT_EQ(listener.fault(), "");
   listener.stop();
@@ -988,7 +973,8 @@ TEST(CanSensorListener, ASilentHeartbeatIsReportedAsAFaultUntilTheNextHeartbeat)
   EXPECT_FALSE(listener.poll(200'000'000));  // no wrench, but the heartbeat was read
   EXPECT_EQ(listener.counters().syncs, 1u);
   EXPECT_EQ(listener.counters().heartbeats, 1u);
-  std::this_thread::sleep_for(100ms);  // longer than the 50 ms heartbeat timeout
+  // Once the 50 ms heartbeat timeout has passed.
+  ASSERT_TRUE(eventually([&] { return listener.fault_kind() == FaultKind::heartbeat_lost; }));
   EXPECT_THAT(listener.fault(), HasSubstr("joystick sensor 0x11: no heartbeat"));
   EXPECT_EQ(listener.fault_kind(), FaultKind::heartbeat_lost);
   const SensorListener::Fault both = listener.fault_with_kind();

@@ -20,6 +20,7 @@
 #include "rtm/naming.h"
 #include "rtm/orb.h"
 #include "rtm_test/child_process.h"
+#include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
 
 #include <RTMExt.hh>
@@ -43,6 +44,7 @@
 namespace {
 
 using namespace std::chrono_literals;
+using rtm_test::eventually;
 namespace pc = rtm::can;
 
 constexpr double kStopped_rad_s = 1e-3;
@@ -78,6 +80,8 @@ class BusRecorder {
     std::lock_guard lock(mutex_);
     return frames_;
   }
+  // SYNCs recorded so far: a cheap look, where frames() copies the whole recording.
+  std::size_t syncs() const { return syncs_.load(); }
 
  private:
   void run() {
@@ -106,6 +110,7 @@ class BusRecorder {
       if (!seen) continue;
       std::lock_guard lock(mutex_);
       frames_.push_back(*seen);
+      if (seen->kind == Seen::Kind::sync) ++syncs_;
     }
   }
 
@@ -114,6 +119,7 @@ class BusRecorder {
   std::thread thread_;
   mutable std::mutex mutex_;
   std::vector<Seen> frames_;
+  std::atomic<std::size_t> syncs_{0};
 };
 
 // Index of the last SYNC with this counter at or before `before`, or -1.
@@ -339,12 +345,12 @@ void check_loop_member_kill(Victim victim) {
   const auto frames_before_kill = static_cast<long>(recorder.frames().size());
   (victim == Victim::controller ? system.controller : victim == Victim::sensor ? system.sensor : system.joystick)
       ->kill_now();
-  const auto event_deadline = std::chrono::steady_clock::now() + 30s;
-  while (actuator.count_lines(kWatchdog) == events_before && std::chrono::steady_clock::now() < event_deadline)
-    std::this_thread::sleep_for(10ms);
+  eventually([&] { return actuator.count_lines(kWatchdog) != events_before; }, 30s);
   const std::string event = nth_line_with(actuator.output(), kWatchdog, events_before + 1);
   ASSERT_FALSE(event.empty()) << "no watchdog event after the kill\n" << actuator.output();
-  std::this_thread::sleep_for(200ms);  // the halt and some more SYNCs reach the recorder
+  // The halt and some more SYNCs reach the recorder: 100 SYNCs, 200 ms of the 2 ms period.
+  const std::size_t syncs_at_event = recorder.syncs();
+  eventually([&] { return recorder.syncs() >= syncs_at_event + 100; });
   const std::vector<Seen> frames = recorder.frames();
   if (victim != Victim::joystick) joystick_ref->off();
   servo_ref->off();
@@ -423,8 +429,7 @@ TEST(CompositeKill, KillingTheServoTurnsItsMembersOffWithinItsLease) {
   system.servo->kill_now();
   const auto killed = std::chrono::steady_clock::now();
   for (auto& m : members) {
-    while (m->state() == RTM::COMPONENT_ON && std::chrono::steady_clock::now() - killed < 10s)
-      std::this_thread::sleep_for(10ms);
+    eventually([&] { return m->state() != RTM::COMPONENT_ON; });
     EXPECT_EQ(m->state(), RTM::COMPONENT_OFF) << m->name() << " still runs after its composite died";
   }
   std::fprintf(stderr, "composite kill: every member off %lld ms after the kill (the servo's lease: 500 ms)\n",

@@ -15,6 +15,7 @@
 #include "component_test_support.h"
 #include "emulated_pa10.h"
 #include "master_rig.h"
+#include "rtm_test/eventually.h"
 #include "test_paths.h"
 
 #include <CLI/CLI.hpp>
@@ -22,7 +23,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -32,18 +32,11 @@ namespace {
 using namespace std::chrono_literals;
 namespace pc = rtm::can;
 using rtm::comp::WristFaultKind;
+using rtm_test::eventually;
 
-// Generous: a loaded 2-core VM may stall the nodes' thread for a long time.
+// eventually()'s bound here. Generous: a loaded 2-core VM may stall the nodes' thread for a
+// long time.
 constexpr auto kDeadline = 30s;
-
-bool wait_until(const std::function<bool()>& condition) {
-  const auto deadline = std::chrono::steady_clock::now() + kDeadline;
-  while (!condition()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(1ms);
-  }
-  return true;
-}
 
 double force_magnitude(const RTM::TimedFloat6& d) {
   return std::sqrt(double(d.val[0]) * d.val[0] + double(d.val[1]) * d.val[1] + double(d.val[2]) * d.val[2]);
@@ -87,14 +80,16 @@ struct SensorOnTheBus {
   bool sync_and_wait_for_wrench() {
     const std::uint64_t before = source->latest().sequence;
     sync();
-    return wait_until([&] {
-      const auto s = source->latest();
-      return s.valid && s.sequence > before;
-    });
+    return eventually(
+        [&] {
+          const auto s = source->latest();
+          return s.valid && s.sequence > before;
+        },
+        kDeadline);
   }
   // Until the nodes have taken every SYNC sent so far (drive 1 has seen the last one).
   bool wait_until_the_nodes_caught_up() {
-    return wait_until([&] { return nodes->last_sync_counter() == sync_counter; });
+    return eventually([&] { return nodes->last_sync_counter() == sync_counter; }, kDeadline);
   }
   void cycle() { sensor->on_cycle(comp_test::cycle(n++)); }
   RTM::TimedFloat6 last_datum() {
@@ -118,13 +113,15 @@ struct SensorOnTheBus {
   void pull_the_cable() {
     const std::uint64_t written = sensor->samples_written();
     nodes->set_connected(pc::kWristSensorNode, false);
-    const bool lost = wait_until([&] {
-      sync();
-      std::this_thread::sleep_for(1ms);
-      cycle();
-      EXPECT_EQ(sensor->samples_written(), written) << "a datum was written while the node was silent";
-      return sensor->counters().heartbeat_losses > 0;
-    });
+    const bool lost = eventually(
+        [&] {
+          sync();
+          std::this_thread::sleep_for(1ms);
+          cycle();
+          EXPECT_EQ(sensor->samples_written(), written) << "a datum was written while the node was silent";
+          return sensor->counters().heartbeat_losses > 0;
+        },
+        kDeadline);
     ASSERT_TRUE(lost) << "the heartbeat loss was never seen";
     ASSERT_TRUE(sensor->in_heartbeat_loss());
   }
@@ -167,7 +164,7 @@ TEST(SensorRecovery, HeartbeatBackResumesWritingWithAWrenchNewerThanTheLoss) {
   t.nodes->set_connected(pc::kWristSensorNode, true);
   // Its heartbeat comes back (every 100 ms); no cycle runs meanwhile, so none counts
   // against the budget however slow the machine is.
-  ASSERT_TRUE(wait_until([&] { return t.source->fault_kind() == WristFaultKind::none; }))
+  ASSERT_TRUE(eventually([&] { return t.source->fault_kind() == WristFaultKind::none; }, kDeadline))
       << t.source->fault().text;
   // Heartbeat back, but no new wrench yet: nothing to write.
   t.cycle();
@@ -226,7 +223,7 @@ TEST(SensorRecovery, AnEmcyOfTheSensorIsAnErrorAtOnceNotAHeartbeatLoss) {
   t.nodes->set_wrench(pc::ForceSensor::wrist, {0, 0, -1000, 0, 0, 0});
   ASSERT_TRUE(t.sync_and_wait_for_wrench());
   t.cycle();  // that SYNC's (saturated) wrench
-  ASSERT_TRUE(wait_until([&] { return t.source->fault_kind() == WristFaultKind::sensor_fault; }))
+  ASSERT_TRUE(eventually([&] { return t.source->fault_kind() == WristFaultKind::sensor_fault; }, kDeadline))
       << "the EMCY was never heard";
   // The very next cycle without a new wrench fails; the heartbeat is fine all along.
   try {
@@ -265,30 +262,38 @@ TEST(SensorRecoverySharedTick, TheMastersWristHeartbeatLossIsTheSensorsAndClears
   ASSERT_GT(written, 0u);
 
   rig.nodes->set_connected(pc::kWristSensorNode, false);
-  ASSERT_TRUE(wait_until([&] {
-    step();
-    return sensor.counters().heartbeat_losses > 0;
-  }));
+  ASSERT_TRUE(eventually(
+      [&] {
+        step();
+        return sensor.counters().heartbeat_losses > 0;
+      },
+      kDeadline));
   const pc::MasterFault fault = rig.master->fault();
   EXPECT_EQ(fault.kind, pc::FaultKind::heartbeat_lost) << "the master holds it: the actuator goes to error";
   EXPECT_EQ(fault.node, pc::kWristSensorNode);
 
   rig.nodes->set_connected(pc::kWristSensorNode, true);
-  ASSERT_TRUE(wait_until([&] {
-    const std::uint64_t before = rig.master->wrench(pc::ForceSensor::wrist).sequence;
-    step();
-    return rig.master->wrench(pc::ForceSensor::wrist).sequence > before;
-  })) << "the master never heard the wrist node again";
+  ASSERT_TRUE(eventually(
+      [&] {
+        const std::uint64_t before = rig.master->wrench(pc::ForceSensor::wrist).sequence;
+        step();
+        return rig.master->wrench(pc::ForceSensor::wrist).sequence > before;
+      },
+      kDeadline))
+      << "the master never heard the wrist node again";
   // Wrenches again, but the master still holds the fault: nothing written.
   for (int i = 0; i < 5; ++i) step();
   EXPECT_EQ(sensor.samples_written(), written);
   EXPECT_EQ(sensor.counters().heartbeat_recoveries, 0u);
 
   rig.master->fault_reset();
-  ASSERT_TRUE(wait_until([&] {
-    step();
-    return sensor.counters().heartbeat_recoveries > 0;
-  })) << rig.master->fault().reason;
+  ASSERT_TRUE(eventually(
+      [&] {
+        step();
+        return sensor.counters().heartbeat_recoveries > 0;
+      },
+      kDeadline))
+      << rig.master->fault().reason;
   EXPECT_EQ(sensor.samples_written(), written + 1);
   EXPECT_EQ(sensor.counters().heartbeat_losses, 1u);
 }

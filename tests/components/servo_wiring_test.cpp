@@ -8,6 +8,7 @@
 #include "component_test_support.h"
 #include "rtm/naming.h"
 #include "rtm/orb.h"
+#include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
 
 #include <gtest/gtest.h>
@@ -369,9 +370,7 @@ struct ServoInTick {
 };
 
 void wait_for_transmits(BusLog& log, int n) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (log.transmits.load() < n && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  rtm_test::eventually([&] { return log.transmits.load() >= n; });
 }
 
 TEST(SharedTickBusCycle, EachTickReceivesThenCommandsThenTransmitsFromTheDeadlineTakenOver) {
@@ -412,10 +411,9 @@ TEST(SharedTickBusCycle, AFailingActuatorPutsTheServoInErrorAndHandsTheBusBackAf
   rtm::comp::SharedTickServo* shared = in_tick.shared;
   rtm::ComponentServant* servo = in_tick.servo.in();
   servo->on();
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while ((servo->current_state() != RTM::COMPONENT_ERROR || shared->tick().running()) &&
-         std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  // Each half is checked below.
+  rtm_test::eventually(
+      [&] { return servo->current_state() == RTM::COMPONENT_ERROR && !shared->tick().running(); });
   ASSERT_EQ(servo->current_state(), RTM::COMPONENT_ERROR) << "the servo must not stay on with a failed member";
   EXPECT_NE(servo->error_text().find("servo_fail_actuator failed"), std::string::npos) << servo->error_text();
   EXPECT_FALSE(shared->tick().running());
@@ -447,9 +445,7 @@ TEST(SharedTickBusCycle, CyclesTakenBackByTheBusMasterAreTakenAgainFromTheDeadli
   servo->on();
   wait_for_transmits(log, 3);
   log.bus_lost.store(true);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (log.take_overs.load() < 2 && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ASSERT_TRUE(rtm_test::eventually([&] { return log.take_overs.load() >= 2; }));
   ASSERT_EQ(log.take_overs.load(), 2) << "the cycles were not taken again";
   // The fake's next cycle is 20 ms after the retake: the transmits counted from here on come
   // after it.

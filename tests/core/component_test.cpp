@@ -107,6 +107,8 @@ TEST_F(ComponentTest, ThrowingCycleMovesToErrorUntilReset) {
   ASSERT_TRUE(eventually([&] { return ref->state() == RTM::COMPONENT_ERROR; }));
   CORBA::String_var why = ref->last_error();
   EXPECT_NE(std::string(why.in()).find("injected failure in cycle 3"), std::string::npos) << why.in();
+  // on_stop() follows the error; then no cycle more for a while.
+  ASSERT_TRUE(eventually([&] { return d.stops.load() >= 1; }));
   std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_EQ(d.cycles.load(), 3);  // the activity stopped with the failing cycle
   EXPECT_EQ(d.stops.load(), 1);   // and the component was told to stop acting

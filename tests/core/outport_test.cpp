@@ -404,10 +404,7 @@ class PeerProcess {
   ~PeerProcess() {
     close(stdin_fd_);  // the peer exits on EOF
     close(stdout_fd_);
-    for (int i = 0; i < 200; ++i) {
-      if (waitpid(pid_, nullptr, WNOHANG) == pid_) return;
-      std::this_thread::sleep_for(std::chrono::milliseconds(25));
-    }
+    if (eventually([&] { return waitpid(pid_, nullptr, WNOHANG) == pid_; }, std::chrono::seconds(5))) return;
     kill(pid_, SIGKILL);
     waitpid(pid_, nullptr, 0);
   }
@@ -415,14 +412,13 @@ class PeerProcess {
   void pause() {
     kill(pid_, SIGSTOP);
     const std::string stat = "/proc/" + std::to_string(pid_) + "/stat";
-    for (int i = 0; i < 2000; ++i) {
+    const auto stopped = [&] {
       std::ifstream in(stat);
       std::string pid, comm, state;
       in >> pid >> comm >> state;
-      if (state == "T") return;
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
-    throw std::runtime_error("the peer did not stop");
+      return state == "T";
+    };
+    if (!eventually(stopped)) throw std::runtime_error("the peer did not stop");
   }
   void resume() { kill(pid_, SIGCONT); }
   // The IOR the peer printed (empty if it printed nothing within 20 s).

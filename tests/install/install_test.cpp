@@ -5,6 +5,7 @@
 #include "run_command.h"
 
 #include "rtm_test/child_process.h"
+#include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
 
 #include <gtest/gtest.h>
@@ -24,6 +25,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using rtm_test::ChildProcess;
 using rtm_test::CommandResult;
+using rtm_test::eventually;
 using namespace std::chrono_literals;
 
 const fs::path kSource = RTM_SOURCE_DIR;
@@ -87,10 +89,7 @@ class Installed : public ::testing::Test {
   }
   std::uint64_t wait_for_data(const std::string& component, const std::string& port) {
     std::uint64_t n = 0;
-    for (int i = 0; i < 100 && n == 0; ++i) {
-      std::this_thread::sleep_for(20ms);
-      n = accepted(component, port);
-    }
+    eventually([&] { return (n = accepted(component, port)) != 0; });
     return n;
   }
 
@@ -174,13 +173,12 @@ TEST_F(Installed, ACustomIdlTypeRoundTripsThroughTheInstalledRtmPutGetAndWatch) 
   CommandResult r = rtm({"put", "r.in0", "0.25", "-1.5", "2", "0.5", "0.5", "0.5", "0.5"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   json got;
-  for (int i = 0; i < 50; ++i) {
-    std::this_thread::sleep_for(20ms);
+  eventually([&] {
     r = rtm({"--json", "get", "r.out0"});
-    if (r.exit_code != 0) continue;
+    if (r.exit_code != 0) return false;
     got = json::parse(r.out);
-    if (got["fields"]["p"]["x"] == 0.25) break;
-  }
+    return got["fields"]["p"]["x"] == 0.25;
+  });
   EXPECT_EQ(got["type"], "My::TimedPose") << got.dump();
   EXPECT_EQ(got["fields"]["p"]["y"], -1.5) << got.dump();
   EXPECT_EQ(got["values"], json::parse("[0.25, -1.5, 2.0, 0.5, 0.5, 0.5, 0.5]")) << got.dump();
@@ -227,7 +225,11 @@ TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   r = rtm({"put", "gripper_ctl0.wrench", "1", "2", "3", "4", "5", "6"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  std::this_thread::sleep_for(100ms);
+  // Until the scaffold's logic has passed the input on (checked below, before `rtm down`).
+  eventually([&] {
+    const CommandResult twist = rtm({"get", "gripper_ctl0.twist"});
+    return twist.exit_code == 0 && twist.out.find("1.000") != std::string::npos;
+  });
   r = rtm({"get", "gripper_ctl0.twist"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("1.000"), std::string::npos) << "the scaffold's logic passes its input on: " << r.out;

@@ -102,7 +102,12 @@ TEST_F(IntegrationTest, StartedUnderChrtOnlyTheActivityKeepsRealTimePriorityOrbT
   rtm_test::ChildProcess process({"chrt", "-f", "5", RTM_TEST_COMPONENT, "--name", "chrt0", "--naming",
                                   names_.address(), "--on"});
   process.wait_until_bound();
-  std::this_thread::sleep_for(100ms);  // a few cycles: the activity has set its priority
+  // A few cycles: the activity has set its priority.
+  ASSERT_TRUE(eventually([&] {
+    for (const auto& [name, policy] : thread_policies(process.pid()))
+      if (name == "chrt0" && policy == SCHED_FIFO) return true;
+    return false;
+  })) << "the activity never ran at SCHED_FIFO";
   int real_time = 0, others = 0;
   for (const auto& [name, policy] : thread_policies(process.pid())) {
     if (policy == SCHED_FIFO) {

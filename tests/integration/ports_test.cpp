@@ -50,14 +50,21 @@ RTM::TimedFloat6 from_any(const CORBA::Any& any) {
   return *d;
 }
 
+// val[0] of the latest datum `out` holds: on rtm-test-component's out0, the cycle that wrote it.
+float latest_ramp(RTM::OutPort_ptr out) {
+  CORBA::Any_var value = out->get();
+  return from_any(value.in()).val[0];
+}
+
 TEST_F(IntegrationTest, OnceSubscriptionDeliversExactlyOneDatumThenEnds) {
   start_component("pub0", {"--on"});
   auto out = out_port("pub0", "out0");
   Probe probe;
   ASSERT_TRUE(out->subscribe(RTM::once, probe.ref));
   ASSERT_TRUE(eventually([&] { return probe.accepted() >= 1; }));
-  // 100 periods later: still one, and the subscription is gone.
-  std::this_thread::sleep_for(200ms);
+  // 100 periods later (the ramp moved on by 100): still one, and the subscription is gone.
+  const float then = latest_ramp(out);
+  ASSERT_TRUE(eventually([&] { return latest_ramp(out) >= then + 100.0f; })) << "the component kept running";
   EXPECT_EQ(probe.accepted(), 1u);
   RTM::SubscriptionInfoList_var subs = out->subscriptions();
   EXPECT_EQ(subs->length(), 0u);
@@ -71,7 +78,9 @@ TEST_F(IntegrationTest, RepeatedSubscriptionDeliversTheRampInOrderUntilUnsubscri
   ASSERT_TRUE(eventually([&] { return probe.accepted() >= 50; }));
   ASSERT_TRUE(out->unsubscribe(RTM::repeated, probe.ref));
   const auto after_unsubscribe = probe.accepted();
-  std::this_thread::sleep_for(200ms);
+  // 100 periods later (the ramp moved on by 100) nothing more came.
+  const float then = latest_ramp(out);
+  ASSERT_TRUE(eventually([&] { return latest_ramp(out) >= then + 100.0f; })) << "the component kept running";
   EXPECT_EQ(probe.accepted(), after_unsubscribe);
   EXPECT_FALSE(out->unsubscribe(RTM::repeated, probe.ref)) << "a second unsubscribe found something";
 
@@ -127,7 +136,9 @@ TEST_F(IntegrationTest, SubscribeOfAnInPortOfAnotherTypeIsRefusedNamingBothTypes
   RTM::SubscriptionInfoList_var subs = out->subscriptions();
   EXPECT_EQ(subs->length(), 0u);
   EXPECT_EQ(out->counters().rejected, 1u);
-  std::this_thread::sleep_for(100ms);
+  // 50 periods later (the ramp moved on by 50) nothing came.
+  const float then = latest_ramp(out);
+  ASSERT_TRUE(eventually([&] { return latest_ramp(out) >= then + 50.0f; })) << "the component kept running";
   EXPECT_EQ(float3_in->counters().accepted, 0u);
 }
 
@@ -156,7 +167,9 @@ TEST_F(IntegrationTest, PutOfTheWrongTypeIsRejectedAndTheInPortKeepsItsDatum) {
   EXPECT_NE(std::string(why.in()).find("TimedFloat3"), std::string::npos) << why.in();
 
   // Many cycles later the component has seen nothing new: the echo is still the good datum.
-  std::this_thread::sleep_for(100ms);
+  const auto sub = component("sub0");
+  const auto cycles = sub->timing().cycles;
+  ASSERT_TRUE(eventually([&] { return sub->timing().cycles >= cycles + 50; })) << "the component kept running";
   EXPECT_EQ(echo->counters().accepted, 1u);
   CORBA::Any_var echoed = echo->get();
   EXPECT_EQ(from_any(echoed.in()).val[0], 42.0f);

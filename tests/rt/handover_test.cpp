@@ -12,6 +12,7 @@
 
 #include "rt/activity.h"
 #include "rt/clock.h"
+#include "rtm_test/eventually.h"
 
 namespace {
 
@@ -34,8 +35,7 @@ struct DeadlineLog {
 };
 
 void wait_for_cycles(DeadlineLog& log, std::size_t n) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (log.size() < n && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  rtm_test::eventually([&] { return log.size() >= n; });
 }
 
 TEST(PeriodicHandover, NextDeadlineIsKnownAsSoonAsStartReturns) {

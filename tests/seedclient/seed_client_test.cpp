@@ -21,11 +21,13 @@
 #include <vector>
 
 #include "rtm_test/child_process.h"
+#include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
 
 namespace {
 
 using namespace std::chrono_literals;
+using rtm_test::eventually;
 
 // The client's own InPort, written against the seed skeleton only.
 class SeedInPort : public POA_RTM::InPort {
@@ -112,13 +114,16 @@ class SeedClient : public ::testing::Test {
 // the POA lets it go after its last upcall, not the test's scope.
 PortableServer::Servant_var<SeedInPort> make_seed_in_port() { return new SeedInPort; }
 
-std::vector<RTM::TimedFloat6> wait_for_data(const SeedInPort& port, std::size_t count,
-                                             std::chrono::seconds timeout) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (port.received().size() < count && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(10ms);
-  }
+std::vector<RTM::TimedFloat6> wait_for_data(const SeedInPort& port, std::size_t count) {
+  eventually([&] { return port.received().size() >= count; });
   return port.received();
+}
+
+// val[0] of the latest datum `out` holds (the test component's ramp: the cycle that wrote it).
+float latest_ramp(RTM::OutPort_ptr out) {
+  CORBA::Any_var value = out->get();
+  const RTM::TimedFloat6* datum = nullptr;
+  return (value.in() >>= datum) ? datum->val[0] : -1.0f;
 }
 
 // As the paper's browser did: activates `servant`, subscribes it (repeated) to `out`, waits
@@ -130,7 +135,7 @@ std::vector<RTM::TimedFloat6> receive_stream(PortableServer::POA_ptr poa, RTM::O
   RTM::InPort_var in = RTM::InPort::_narrow(object);
   std::vector<RTM::TimedFloat6> data;
   if (out->subscribe(RTM::repeated, in)) {
-    data = wait_for_data(*servant, count, 10s);
+    data = wait_for_data(*servant, count);
     EXPECT_TRUE(out->unsubscribe(RTM::repeated, in));
   } else {
     ADD_FAILURE() << "subscribe refused";
@@ -194,9 +199,10 @@ TEST_F(SeedClient, OnceSubscriptionDeliversExactlyOneDatum) {
   RTM::InPort_var in = RTM::InPort::_narrow(object);
 
   ASSERT_TRUE(out->subscribe(RTM::once, in));
-  wait_for_data(*servant, 1, 10s);
-  // Many periods later there is still exactly one.
-  std::this_thread::sleep_for(200ms);
+  const auto first = wait_for_data(*servant, 1);
+  // Many periods later there is still exactly one: the component wrote 100 data after it.
+  ASSERT_FALSE(first.empty());
+  ASSERT_TRUE(eventually([&] { return latest_ramp(out) >= first.front().val[0] + 100.0f; })) << "the component kept running";
   poa_->deactivate_object(id);
   EXPECT_EQ(servant->received().size(), 1u);
 }
@@ -205,16 +211,14 @@ TEST_F(SeedClient, GetReturnsTimedFloat6InAny) {
   auto out = first_out_port(find_component("seedpeer0"));
   // The component is on: wait for its first write.
   CORBA::Any_var value;
-  const auto deadline = std::chrono::steady_clock::now() + 10s;
-  for (;;) {
+  ASSERT_TRUE(eventually([&] {
     try {
       value = out->get();
-      break;
+      return true;
     } catch (const CORBA::BAD_INV_ORDER&) {
-      ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "no datum written within 10 s";
-      std::this_thread::sleep_for(10ms);
+      return false;
     }
-  }
+  })) << "no datum written";
   const RTM::TimedFloat6* datum = nullptr;
   ASSERT_TRUE(value.in() >>= datum);
   EXPECT_GE(datum->val[0], 0.0f);
@@ -233,8 +237,7 @@ TEST_F(SeedClient, RunByTheComponentsOwnUserItsChangesAreTakenWithoutAnyKeyByACo
   CORBA::Object_var object = poa_->id_to_reference(id);
   RTM::InPort_var in = RTM::InPort::_narrow(object);
   EXPECT_TRUE(outs[0]->subscribe(RTM::repeated, in));
-  const auto deadline = std::chrono::steady_clock::now() + 10s;
-  while (servant->received().empty() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(10ms);
+  eventually([&] { return !servant->received().empty(); });
   EXPECT_FALSE(servant->received().empty()) << "no datum reached the 2004 client's InPort";
   EXPECT_TRUE(outs[0]->unsubscribe(RTM::repeated, in));
   EXPECT_NO_THROW(component->off());

@@ -18,6 +18,7 @@
 #include "arm/can/protocol.h"
 #include "arm/pa10/arm.h"
 #include "rtm_test/child_process.h"
+#include "rtm_test/eventually.h"
 
 namespace pc = rtm::can;
 using namespace std::chrono_literals;
@@ -187,9 +188,7 @@ class ArmOnRealTimeSimTest : public ArmOnSimTest {
 TEST_F(ArmOnRealTimeSimTest, PeriodicMasterMovesTheToolForwardWithoutFault) {
   master_->run_periodic();
   // The arm reports not_enabled until the periodic thread has published its first cycles.
-  const auto ready_by = std::chrono::steady_clock::now() + 5s;
-  while (arm_->order_velocity({}) != rtm::can::FaultKind::none && std::chrono::steady_clock::now() < ready_by)
-    std::this_thread::sleep_for(2ms);
+  rtm_test::eventually([&] { return arm_->order_velocity({}) == rtm::can::FaultKind::none; });
   ASSERT_EQ(arm_->order_velocity({}), rtm::can::FaultKind::none) << to_string(arm_->fault()) << " " << arm_->fault_reason();
   const Eigen::Vector3d start = arm_->tool_pose().translation();
   // A cycle the master misses on a loaded host shows as a transient not_enabled (not latched);

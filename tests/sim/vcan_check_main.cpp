@@ -13,6 +13,7 @@
 #include "arm/can/master.h"
 #include "arm/pa10/arm.h"
 #include "rtm_test/child_process.h"
+#include "rtm_test/eventually.h"
 
 using namespace std::chrono_literals;
 
@@ -48,17 +49,23 @@ int main(int argc, char** argv) {
       moved_rad = (arm.joint_positions() - q0).norm();
     }
     sim.stop();
-    std::this_thread::sleep_for(200ms);  // candump prints what it has read
-    candump.stop();
-    if (!(moved_rad > 1e-3)) throw std::runtime_error("the arm did not move over vcan0");
     struct Expected {
       const char* text;
       const char* what;
     };
-    for (const Expected& e : {Expected{" 080#", "SYNC"}, Expected{" 201#", "drive 1 RPDO1"},
-                              Expected{" 187#", "drive 7 TPDO1"}, Expected{" 190#", "wrist force TPDO1"},
-                              Expected{" 291#", "joystick torque TPDO2"},
-                              Expected{" 701#", "drive 1 heartbeat"}}) {
+    const Expected expected[] = {Expected{" 080#", "SYNC"}, Expected{" 201#", "drive 1 RPDO1"},
+                                 Expected{" 187#", "drive 7 TPDO1"}, Expected{" 190#", "wrist force TPDO1"},
+                                 Expected{" 291#", "joystick torque TPDO2"},
+                                 Expected{" 701#", "drive 1 heartbeat"}};
+    // candump prints what it has read: each kind below, or what it has by the bound.
+    rtm_test::eventually([&] {
+      for (const Expected& e : expected)
+        if (candump.count_lines(e.text) == 0) return false;
+      return true;
+    });
+    candump.stop();
+    if (!(moved_rad > 1e-3)) throw std::runtime_error("the arm did not move over vcan0");
+    for (const Expected& e : expected) {
       const std::size_t seen = candump.count_lines(e.text);
       std::printf("candump saw %zu %s frames\n", seen, e.what);
       if (seen == 0) throw std::runtime_error(std::string("candump saw no ") + e.what);

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm_test/omni_names.h"
 
+#include "rtm_test/eventually.h"
 #include "rtm_test/free_port.h"
 
 #include <fmt/format.h>
@@ -63,10 +64,7 @@ void OmniNames::start(Data data) {
     auto process = std::make_unique<ChildProcess>(argv, ChildProcess::Options{{}, std::chrono::milliseconds(3000), false});
     try {
       process->wait_for_line("Root context is", std::chrono::seconds(10));
-      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-      while (!loopback_port_accepts(port_) && std::chrono::steady_clock::now() < deadline) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(5));
-      }
+      eventually([&] { return loopback_port_accepts(port_); }, std::chrono::seconds(5));
       if (loopback_port_accepts(port_) && process->running()) {
         process_ = std::move(process);
         return;

@@ -4,6 +4,7 @@
 #include "run_command.h"
 
 #include "rtm_test/child_process.h"
+#include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
 
 #include <gtest/gtest.h>
@@ -23,6 +24,7 @@ namespace {
 using nlohmann::json;
 using rtm_test::ChildProcess;
 using rtm_test::CommandResult;
+using rtm_test::eventually;
 using rtm_test::OmniNames;
 using namespace std::chrono_literals;
 
@@ -37,6 +39,19 @@ class RtmCli : public ::testing::Test {
     auto r = rtm(args);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return json::parse(r.out);
+  }
+  // Whether `rtm --json args` succeeds with output that `holds`: a condition to wait for.
+  bool rtm_json_holds(std::vector<std::string> args, const std::function<bool(const json&)>& holds) {
+    args.insert(args.begin(), "--json");
+    const auto r = rtm(args);
+    if (r.exit_code != 0) return false;
+    const json out = json::parse(r.out, nullptr, false);
+    if (out.is_discarded()) return false;
+    try {
+      return holds(out);
+    } catch (const json::exception&) {
+      return false;  // not there yet
+    }
   }
   ChildProcess& talker(const std::string& name, std::vector<std::string> extra = {}) {
     std::vector<std::string> argv{TALKER_PATH, "--name", name, "--naming", names_.address()};
@@ -81,7 +96,11 @@ TEST_F(RtmCli, LsListsComponentsWithStateKindPeriodAndPorts) {
 
 TEST_F(RtmCli, LsLongAddsLatenessAndOverruns) {
   talker("alpha", {"--on"});
-  std::this_thread::sleep_for(100ms);
+  ASSERT_TRUE(eventually([&] {
+    return rtm_json_holds({"ls", "-l"}, [](const json& list) {
+      return find(list, "alpha").at("timing").at("cycles").get<unsigned long long>() > 0;
+    });
+  }));
   auto list = rtm_json({"ls", "-l"});
   json a = find(list, "alpha");
   ASSERT_TRUE(a.contains("timing")) << a.dump();
@@ -115,7 +134,12 @@ TEST_F(RtmCli, ConnectDeliversDataAndCatShowsTheSubscriptionAndCounters) {
   talker("dst");
   auto r = rtm({"connect", "src.force", "dst.in0"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  std::this_thread::sleep_for(200ms);
+  ASSERT_TRUE(eventually([&] {
+    return rtm_json_holds({"cat", "dst"}, [](const json& dst) {
+      const json* in0 = port(dst, "in0");
+      return in0 != nullptr && in0->at("counters").at("accepted").get<unsigned long long>() > 0;
+    });
+  }));
   auto src = rtm_json({"cat", "src"});
   const json* force = port(src, "force");
   ASSERT_NE(force, nullptr);
@@ -224,11 +248,10 @@ TEST_F(RtmCli, OnAndOffChangeTheState) {
 TEST_F(RtmCli, ComponentInErrorRefusesOnUntilReset) {
   talker("t", {"--fail-after", "5", "--on"});
   json t;
-  for (int i = 0; i < 200; ++i) {  // the 5th cycle throws: wait for the state to say so
+  eventually([&] {  // the 5th cycle throws: wait for the state to say so
     t = rtm_json({"cat", "t"});
-    if (t["state"] == "error") break;
-    std::this_thread::sleep_for(10ms);
-  }
+    return t["state"] == "error";
+  });
   ASSERT_EQ(t["state"], "error");
   EXPECT_NE(t["last_error"].get<std::string>().find("failed on purpose"), std::string::npos) << t.dump();
   auto on = rtm({"on", "t"});
@@ -246,7 +269,7 @@ TEST_F(RtmCli, GetSaysNoDataBeforeTheFirstDatumAndValuesAfter) {
   EXPECT_EQ(before.exit_code, 1);
   EXPECT_NE(before.err.find("t.force has no data yet"), std::string::npos) << before.err;
   ASSERT_EQ(rtm({"on", "t"}).exit_code, 0);
-  std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(eventually([&] { return rtm({"get", "t.force"}).exit_code == 0; }));
   auto after = rtm_json({"get", "t.force"});
   EXPECT_EQ(after["type"], "RTM::TimedFloat6");
   ASSERT_EQ(after["values"].size(), 6u);
@@ -259,7 +282,11 @@ TEST_F(RtmCli, GetSaysNoDataBeforeTheFirstDatumAndValuesAfter) {
 
 TEST_F(RtmCli, CatShowsWhatAComponentSaysOfItselfPortsWithUnitsStatisticsAndParameters) {
   talker("t", {"--on"});
-  std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(eventually([&] {
+    return rtm_json_holds({"cat", "t"}, [](const json& t) {
+      return t.at("statistics").at("cycles").at("value").get<double>() > 0.0;
+    });
+  }));
   auto text = rtm({"cat", "t"});
   ASSERT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("test component with TimedFloat6 and TimedFloat3 ports"), std::string::npos) << text.out;
@@ -290,7 +317,10 @@ TEST_F(RtmCli, SetChangesALiveParameterThatTheNextCyclesUse) {
   auto r = rtm({"set", "t", "offset", "1000000"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("t.offset = 1000000"), std::string::npos) << r.out;
-  std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(eventually([&] {
+    return rtm_json_holds({"get", "t.force"},
+                          [](const json& datum) { return datum.at("values").at(0).get<double>() > 1e6; });
+  }));
   auto datum = rtm_json({"get", "t.force"});
   EXPECT_GT(datum["values"][0].get<double>(), 1e6) << datum.dump();
   EXPECT_EQ(rtm_json({"cat", "t"})["parameters"]["offset"]["value"], "1000000");

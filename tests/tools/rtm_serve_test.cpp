@@ -4,6 +4,7 @@
 #include "run_command.h"
 
 #include "rtm_test/child_process.h"
+#include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
 
 #include <gtest/gtest.h>
@@ -33,6 +34,7 @@ namespace {
 
 using nlohmann::json;
 using rtm_test::ChildProcess;
+using rtm_test::eventually;
 using namespace std::chrono_literals;
 
 // A TCP connection to 127.0.0.1:port, or -1.
@@ -197,14 +199,12 @@ TEST_F(RtmServe, OnOffAndResetChangeTheComponentsState) {
 
 TEST_F(RtmServe, APortsLatestDatumComesAsRtmGetShowsIt) {
   json datum;
-  for (int i = 0; i < 50; ++i) {
+  eventually([&] {
     auto r = client().Get("/api/ports/src.force", with_token());
-    if (r && r->status == 200) {
-      datum = json::parse(r->body);
-      break;
-    }
-    std::this_thread::sleep_for(20ms);
-  }
+    if (!r || r->status != 200) return false;
+    datum = json::parse(r->body);
+    return true;
+  });
   EXPECT_EQ(datum["type"], "RTM::TimedFloat6") << datum.dump();
   EXPECT_EQ(datum["values"].size(), 6u);
   const auto in = client().Get("/api/ports/dst.in0", with_token());
@@ -249,7 +249,7 @@ TEST_F(RtmServe, TwentyFourPagesOpenAtOnceEachGetTheSystemAndThePlotsStillAnswer
         return !close.load();  // open until the test ends; a keep-alive comes every second
       });
     });
-  for (int i = 0; i < 600 && fed.load() < kPages; ++i) std::this_thread::sleep_for(50ms);
+  eventually([&] { return fed.load() >= kPages; }, 30s);
   const int fed_pages = fed.load();
   auto r = client().Get("/api/values?ports=src.force", with_token());
   close = true;
@@ -496,11 +496,10 @@ class Starver {
   }
   // Until as many streams have been admitted or refused as it keeps open (bounded).
   void settle() const {
-    for (int i = 0; i < 200; ++i) {
+    eventually([&] {
       const Counts c = counts();
-      if (static_cast<std::size_t>(c.streams_admitted + c.streams_refused) >= streams_.size()) return;
-      std::this_thread::sleep_for(50ms);
-    }
+      return static_cast<std::size_t>(c.streams_admitted + c.streams_refused) >= streams_.size();
+    });
   }
 
  private:
