@@ -33,11 +33,11 @@ int main(int argc, char** argv) {
   rtm::sim::RunOptions options;
   options.scene_path = default_scene();
   CLI::App app{"pa10-sim: the simulated PA10-7C arm (MuJoCo) behind a CAN bus"};
-  app.add_option("--bus", options.bus_spec,
-                 "CAN bus: local:<path> (hub created here if none listens) or socketcan:<if>")
+  options.buses.bus.clear();  // no default: the simulator serves the bus it is told to
+  options.buses.add_options(app);
+  app.get_option("--bus")
+      ->description("CAN bus: local:<path> (hub created here if none listens) or socketcan:<if>")
       ->required();
-  app.add_option("--sensor-bus", options.sensor_bus_spec,
-                 "separate bus for the two force sensors (default: the same bus)");
   app.add_option("--model", options.scene_path, "MJCF scene")->capture_default_str();
   app.add_flag("--lockstep", options.lock_step,
                "advance one SYNC period (2 ms) per SYNC received, then answer; for tests");

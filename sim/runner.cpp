@@ -252,12 +252,12 @@ void run_simulator(const RunOptions& options, const std::atomic<bool>& stop) {
 
   std::unique_ptr<rtm::can::LocalHub> hub;
   std::unique_ptr<rtm::can::LocalHub> sensor_hub;
-  auto bus = open_or_host(options.bus_spec, hub);
+  auto bus = open_or_host(options.buses.bus, hub);
   BusSink sink(*bus);
   std::unique_ptr<rtm::can::Bus> sensor_bus;
   std::unique_ptr<BusSink> sensor_sink;
-  if (!options.sensor_bus_spec.empty() && options.sensor_bus_spec != options.bus_spec) {
-    sensor_bus = open_or_host(options.sensor_bus_spec, sensor_hub);
+  if (options.buses.sensors() != options.buses.bus) {
+    sensor_bus = open_or_host(options.buses.sensor_bus, sensor_hub);
     sensor_sink = std::make_unique<BusSink>(*sensor_bus);
     sim.set_sensor_sink(sensor_sink.get());
   }

@@ -25,8 +25,7 @@ const CLI::Validator kFinite(
 }  // namespace
 
 void ArmHardware::Options::add_options(CLI::App& app) {
-  app.add_option("--bus", bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
-  app.add_option("--sensor-bus", sensor_bus, "separate bus of the force sensors (default: --bus)");
+  BusOptions::add_options(app);
   app.add_option("--urdf", urdf, "arm model URDF for the velocity IK (default: the built-in PA10 model)");
   app.add_option("--following-velocity-window", following_velocity_window_rad_s,
                  "rad/s a drive's velocity may differ from its command (0: off)")

@@ -5,11 +5,11 @@
 // loss of the sensor node is waited out for --recovery-timeout-periods cycles, writing nothing.
 #include "components/sensor/sensor.h"
 
+#include "arm/can/bus_options.h"
 #include "host/runner.h"
 
 int main(int argc, char** argv) {
-  std::string bus = "local:/tmp/rtm-pa10.bus";
-  std::string sensor_bus;
+  rtm::can::BusOptions buses;
   std::string urdf;  // "" = the arm library's built-in PA10 model
   rtm::comp::SensorParams params;
   return rtm::run_component(argc, argv, {
@@ -19,8 +19,7 @@ int main(int argc, char** argv) {
           "(Fx Fy Fz N, Tx Ty Tz N·m; pressing on the table reads +Fz)",
       .add_options =
           [&](CLI::App& app) {
-            app.add_option("--bus", bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
-            app.add_option("--sensor-bus", sensor_bus, "separate bus of the force sensors (default: --bus)");
+            buses.add_options(app);
             app.add_option("--urdf", urdf, "arm model URDF, for the sensor frame's orientation (default: the built-in PA10 model)");
             params.add_options(app);
           },
@@ -28,7 +27,7 @@ int main(int argc, char** argv) {
       .create =
           [&](const rtm::RunSettings& settings) {
             return std::make_unique<rtm::comp::Sensor>(
-                settings.name, std::make_unique<rtm::comp::BusWristSource>(bus, sensor_bus),
+                settings.name, std::make_unique<rtm::comp::BusWristSource>(buses.bus, buses.sensor_bus),
                 rtm::pa10::Kinematics::pa10(urdf), params);
           },
   });

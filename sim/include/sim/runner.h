@@ -15,14 +15,14 @@
 #include <stdexcept>
 #include <string>
 
+#include "arm/can/bus_options.h"
 #include "sim/pa10_plant.h"
 
 namespace rtm::sim {
 
 struct RunOptions {
   std::string scene_path;            // MJCF
-  std::string bus_spec;              // "local:<path>" or "socketcan:<ifname>"
-  std::string sensor_bus_spec;       // empty: the sensors share bus_spec
+  rtm::can::BusOptions buses;        // the arm's bus and the sensors' (the same when not set)
   bool lock_step = false;
   std::string profile_path;          // empty: zero operator wrench (unless stdin_wrench)
   bool stdin_wrench = false;         // read "fx fy fz [tx ty tz]" lines from stdin

@@ -4,6 +4,7 @@
 // tests put a recording fake behind the same interface.
 #pragma once
 
+#include "arm/can/bus_options.h"
 #include "arm/can/master.h"
 #include "arm/pa10/arm.h"
 
@@ -80,9 +81,7 @@ class VelocityArm {
 // time out); without it a lock-step caller calls master().step() after each cycle.
 class ArmHardware final : public VelocityArm {
  public:
-  struct Options {
-    std::string bus = "local:/tmp/rtm-pa10.bus";  // local:<path> or socketcan:<if>
-    std::string sensor_bus;                       // "" = the same bus
+  struct Options : rtm::can::BusOptions {
     std::string urdf;                             // arm model URDF; "" = the arm library's built-in PA10
     std::int64_t period_ns = 2'000'000;           // SYNC period
     bool run_master_thread = true;
@@ -97,8 +96,8 @@ class ArmHardware final : public VelocityArm {
     int following_error_periods = rtm::can::MasterConfig{}.following_error_periods;
     int missed_feedback_limit = rtm::can::MasterConfig{}.missed_feedback_limit;
 
-    // Registers --bus, --sensor-bus, --urdf and the following-error windows on app, bound to
-    // these fields, each with its range.
+    // Registers --bus, --sensor-bus (BusOptions), --urdf and the following-error windows on
+    // app, bound to these fields, each with its range.
     void add_options(CLI::App& app);
   };
 
