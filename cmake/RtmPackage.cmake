@@ -2,8 +2,10 @@
 # The RTM CMake package: what `cmake --install` puts where, and RTMConfig.cmake for projects
 # built on RTM (find_package(RTM)), from an install prefix or from this build tree.
 #
-#   RTM::core   the framework (ports, components, runner, naming); brings RTM::rt, RTM::idl
+#   RTM::core   the framework (ports, components, naming); brings RTM::rt, RTM::idl
 #               (the stubs of idl/*.idl) and omniORB
+#   RTM::host   the runner (a component executable's main()) with the access screen, TLS and
+#               leases; brings RTM::core
 #   RTM::rt     the real-time base (activities, clocks), no CORBA
 #   RTM::can    CAN transports and the CANopen master, RTM::pa10 the PA10 arm (for hardware
 #               components)
