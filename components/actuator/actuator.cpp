@@ -54,24 +54,7 @@ Actuator::Actuator(std::string name, std::unique_ptr<VelocityArm> arm, ActuatorP
 
 void Actuator::describe_self() {
   set_description("PA10 Cartesian-velocity actuator with limiter and command watchdog");
-  add_counter("cycles", "cycles run", cycles_);
-  add_counter("commands", "new finite commands applied", commands_);
-  add_counter("clamped", "commands the limiter changed", clamped_);
-  add_counter("watchdog_events", "commands stopped arriving (quick stop)", watchdog_events_);
-  add_counter("non_finite_events", "commands started holding NaN/inf (quick stop)", non_finite_events_);
-  add_counter("command_loss_recoveries", "drive RPDO timeouts reset and resumed from", command_loss_recoveries_);
-  add_counter("cycle_owner_recoveries", "bus cycles the master took back from a late tick, reset and resumed from",
-              cycle_owner_recoveries_);
-  add_counter("feedback_gap_recoveries",
-              "drives silent for a few SYNCs with their heartbeat on, reset and resumed from",
-              feedback_gap_recoveries_);
-  add_counter("not_ready_cycles", "cycles the arm was not enabled (zero velocity)", not_ready_cycles_);
-  add_counter("sensor_heartbeat_losses", "a force sensor node fell silent (drives stopped, retried)",
-              sensor_heartbeat_losses_);
-  add_counter("sensor_heartbeat_recoveries", "a silent force sensor node heard again within the budget",
-              sensor_heartbeat_recoveries_);
-  add_counter("sensor_reset_attempts", "fault resets tried while a force sensor node was silent",
-              sensor_reset_attempts_);
+  add_counters(counters_);
   add_percentile_statistics("latency", "sensor sample to drive command leaving for the bus", latency_);
   add_statistic("latency_samples", "", "commands seen leaving for the bus",
                 [this] { return static_cast<double>(latency_.count()); });
@@ -104,7 +87,7 @@ void Actuator::retry_sensor_loss(bool faulted) {
   if (!in_sensor_loss_) {
     in_sensor_loss_ = true;
     sensor_loss_cycles_ = 0;
-    const std::uint64_t event = sensor_heartbeat_losses_.fetch_add(1, std::memory_order_relaxed) + 1;
+    const std::uint64_t event = counters_.sensor_heartbeat_losses.add();
     log().warn("{}: {}: drives stopped, retrying for up to {} cycles (event {})", name(), arm_->fault_reason(),
                params_.sensor_recovery_periods, event);
     command_freshness_.reset();
@@ -115,7 +98,7 @@ void Actuator::retry_sensor_loss(bool faulted) {
     throw std::runtime_error(fmt::format("arm fault: {}: not heard again within {} cycles", arm_->fault_reason(),
                                          params_.sensor_recovery_periods));
   if (faulted && sensor_loss_cycles_ % ActuatorParams::kSensorRetryPeriods == 0) {
-    sensor_reset_attempts_.fetch_add(1, std::memory_order_relaxed);
+    counters_.sensor_reset_attempts.add();
     arm_->reset();
   }
 }
@@ -148,8 +131,8 @@ void Actuator::record_sent_latency() {
   pending_sequence_ = 0;
 }
 
-void Actuator::resume_after(std::atomic<std::uint64_t>& events) {
-  const std::uint64_t event = events.fetch_add(1, std::memory_order_relaxed) + 1;
+void Actuator::resume_after(rtm::Counter& events) {
+  const std::uint64_t event = events.add();
   log().warn("{}: {}: resetting the drives, moving again on the next command (recovery {})", name(),
              arm_->fault_reason(), event);
   arm_->reset();
@@ -159,25 +142,25 @@ void Actuator::resume_after(std::atomic<std::uint64_t>& events) {
 }
 
 void Actuator::recover_feedback_gap() {
-  const std::uint64_t now = cycles_.load(std::memory_order_relaxed);
+  const std::uint64_t now = counters_.cycles.value();
   if (feedback_gaps_in_window_ > 0 && now - last_feedback_gap_cycle_ > kFeedbackGapWindowCycles)
     feedback_gaps_in_window_ = 0;
   last_feedback_gap_cycle_ = now;
   if (++feedback_gaps_in_window_ > kMaxFeedbackGaps)
     throw std::runtime_error(fmt::format("arm fault: {} ({} times within {} cycles of each other)",
                                          arm_->fault_reason(), feedback_gaps_in_window_, kFeedbackGapWindowCycles));
-  resume_after(feedback_gap_recoveries_);
+  resume_after(counters_.feedback_gap_recoveries);
 }
 
 // What the arm said of this cycle's order: recover from what is recoverable, throw otherwise.
 void Actuator::handle_arm_status(FaultKind status) {
   if (status == FaultKind::command_loss) {
     // The drives faulted only because commands came late.
-    resume_after(command_loss_recoveries_);
+    resume_after(counters_.command_loss_recoveries);
   } else if (status == FaultKind::cycle_owner_lost) {
     // The master took its cycles back from a shared tick that sent no SYNC for a while (a
     // stall): the drives are held at zero and the tick takes the cycles again.
-    resume_after(cycle_owner_recoveries_);
+    resume_after(counters_.cycle_owner_recoveries);
   } else if (status == FaultKind::missing_feedback) {
     recover_feedback_gap();
   } else if (status == FaultKind::heartbeat_lost && rtm::can::is_sensor_node(arm_->fault_node())) {
@@ -195,7 +178,7 @@ void Actuator::handle_arm_status(FaultKind status) {
     // A fault reset held through the re-enabling: the node is heard again. Move on the next
     // new command only.
     in_sensor_loss_ = false;
-    const std::uint64_t event = sensor_heartbeat_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
+    const std::uint64_t event = counters_.sensor_heartbeat_recoveries.add();
     log().warn("{}: the force sensor is heard again after {} cycles: moving on the next command (recovery {})",
                name(), sensor_loss_cycles_, event);
     command_freshness_.reset();
@@ -205,7 +188,7 @@ void Actuator::handle_arm_status(FaultKind status) {
 }
 
 void Actuator::on_cycle(const rtm::CycleContext&) {
-  cycles_.fetch_add(1, std::memory_order_relaxed);
+  counters_.cycles.add();
   // The bus master sends on its own cycle: the command of an earlier cycle has left by now.
   record_sent_latency();
   bool fresh_command = false;
@@ -216,8 +199,8 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
     const bool bad = rtm::has_non_finite(command_);
     if (bad) {
       if (!command_bad_) {
-        non_finite_events_.fetch_add(1, std::memory_order_relaxed);
-        log().warn("{}: command holds NaN/inf: quick stop (event {})", name(), non_finite_events_.load());
+        counters_.non_finite_events.add();
+        log().warn("{}: command holds NaN/inf: quick stop (event {})", name(), counters_.non_finite_events.value());
       }
       twist_ = {};
     } else {
@@ -225,11 +208,11 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
       twist_ = clamp_twist(limit_, command_.val);
       for (CORBA::ULong i = 0; i < 6; ++i) {
         if (twist_[i] != command_.val[i]) {
-          clamped_.fetch_add(1, std::memory_order_relaxed);
+          counters_.clamped.add();
           break;
         }
       }
-      commands_.fetch_add(1, std::memory_order_relaxed);
+      counters_.commands.add();
       fresh_command = true;
     }
     command_bad_ = bad;
@@ -238,7 +221,7 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
   } else if (went_stale) {
     watchdog_fired = true;
     twist_ = {};
-    watchdog_events_.fetch_add(1, std::memory_order_relaxed);
+    counters_.watchdog_events.add();
   }
   // Otherwise the last command (or the brake after the watchdog) is repeated.
 
@@ -253,10 +236,10 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
     log().warn("{}: watchdog: no new command for {} periods since bus cycle {} (SYNC counter {}): quick stop "
                "after bus cycle {} (SYNC counter {}) (event {})",
                name(), params_.watchdog_periods, last_command_bus_.cycle, last_command_bus_.sync_counter, bus.cycle,
-               bus.sync_counter, watchdog_events_.load());
+               bus.sync_counter, counters_.watchdog_events.value());
   }
   handle_arm_status(status);
-  if (status == FaultKind::not_enabled) not_ready_cycles_.fetch_add(1, std::memory_order_relaxed);
+  if (status == FaultKind::not_enabled) counters_.not_ready_cycles.add();
   if (fresh_command && status == FaultKind::none) {
     const std::int64_t stamp_ns = rtm::to_ns(command_.tm);
     handover_latency_.record(rtm::to_ns(rtm::now()) - stamp_ns);
@@ -272,31 +255,20 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
 void Actuator::on_stop() {
   arm_->stop();
   for (auto& v : last_twist_) v.store(0.0f, std::memory_order_relaxed);
-  const ActuatorCounters c = counters();
+  const ActuatorCounters& c = counters_;
+  const ActuatorLatency l = latency();
   log().info(
       "{}: off, zero velocity. cycles {}, commands {}, clamped {}, watchdog events {}, non-finite events {}, "
       "command-loss recoveries {}, cycle-owner recoveries {}, feedback-gap recoveries {}, not-ready cycles {}, "
       "sample-to-master handover p50 {} us p99 {} us max {} us, "
       "sample-to-drive latency p50 {} us p99 {} us max {} us ({} commands seen leaving for the bus)",
       name(), c.cycles, c.commands, c.clamped, c.watchdog_events, c.non_finite_events, c.command_loss_recoveries,
-      c.cycle_owner_recoveries, c.feedback_gap_recoveries, c.not_ready_cycles, c.handover_p50_ns / 1000,
-      c.handover_p99_ns / 1000, c.handover_max_ns / 1000, c.latency_p50_ns / 1000, c.latency_p99_ns / 1000, c.latency_max_ns / 1000, c.latency_samples);
+      c.cycle_owner_recoveries, c.feedback_gap_recoveries, c.not_ready_cycles, l.handover_p50_ns / 1000,
+      l.handover_p99_ns / 1000, l.handover_max_ns / 1000, l.latency_p50_ns / 1000, l.latency_p99_ns / 1000, l.latency_max_ns / 1000, l.latency_samples);
 }
 
-ActuatorCounters Actuator::counters() const {
-  ActuatorCounters c;
-  c.cycles = cycles_.load();
-  c.commands = commands_.load();
-  c.clamped = clamped_.load();
-  c.watchdog_events = watchdog_events_.load();
-  c.non_finite_events = non_finite_events_.load();
-  c.not_ready_cycles = not_ready_cycles_.load();
-  c.command_loss_recoveries = command_loss_recoveries_.load();
-  c.cycle_owner_recoveries = cycle_owner_recoveries_.load();
-  c.feedback_gap_recoveries = feedback_gap_recoveries_.load();
-  c.sensor_heartbeat_losses = sensor_heartbeat_losses_.load();
-  c.sensor_heartbeat_recoveries = sensor_heartbeat_recoveries_.load();
-  c.sensor_reset_attempts = sensor_reset_attempts_.load();
+ActuatorLatency Actuator::latency() const {
+  ActuatorLatency c;
   c.latency_p50_ns = latency_.percentile_ns(0.5);
   c.latency_p99_ns = latency_.percentile_ns(0.99);
   c.latency_max_ns = latency_.max_ns();

@@ -91,15 +91,7 @@ void Controller::describe_self() {
   set_description(
       "proportional force controller: twist = gain*(reference + wrench); in free space free_gain, at most "
       "approach_speed (0: the paper's P everywhere)");
-  add_counter("cycles", "cycles run", cycles_);
-  add_counter("commands", "proportional commands written", commands_);
-  add_counter("withheld_commands", "cycles without a command (stale, missing or bad input): the actuator brakes",
-              withheld_commands_);
-  add_counter("stale_events", "an input went stale after having been fresh", stale_events_);
-  add_counter("non_finite_events", "an input started holding NaN/inf", non_finite_events_);
-  add_counter("touch_downs", "free space -> contact (|force| reached contact_force)", touch_downs_);
-  add_counter("lift_offs", "contact -> free space (|force| below half of contact_force for 10 cycles)", lift_offs_);
-  add_counter("approach_limited", "free-space commands slowed to approach_speed", approach_limited_);
+  add_counters(counters_);
   add_parameter(rtm::live_numbers("gain", "(m/s)/N, (rad/s)/(N·m)", "6 gains: x y z, then rx ry rz (in contact)",
                                   gain_live_));
   add_parameter(rtm::live_numbers("free_gain", "(m/s)/N, (rad/s)/(N·m)",
@@ -143,14 +135,14 @@ rtm::Freshness::Change Controller::update(rtm::InPort<RTM::TimedFloat6>& port, I
 // Fresh and finite; counts and logs (once per event) an input going stale or bad.
 bool Controller::usable(Input& input, rtm::Freshness::Change change, const char* what) {
   if (change == rtm::Freshness::Change::went_stale) {
-    stale_events_.fetch_add(1, std::memory_order_relaxed);
+    counters_.stale_events.add();
     log().warn("{}: {} input stale (no new datum for {} periods): command withheld, the actuator brakes", name(), what,
                params_.stale_periods);
   }
   if (!input.freshness.fresh()) return false;
   const bool bad = rtm::has_non_finite(input.datum);
   if (bad && !input.was_bad) {
-    non_finite_events_.fetch_add(1, std::memory_order_relaxed);
+    counters_.non_finite_events.add();
     log().warn("{}: {} input holds NaN/inf: command withheld, the actuator brakes", name(), what);
   }
   input.was_bad = bad;
@@ -158,7 +150,7 @@ bool Controller::usable(Input& input, rtm::Freshness::Change change, const char*
 }
 
 void Controller::on_cycle(const rtm::CycleContext&) {
-  cycles_.fetch_add(1, std::memory_order_relaxed);
+  counters_.cycles.add();
   const auto sensor_change = update(sensor_in_, sensor_);
   const auto reference_change = update(reference_in_, reference_);
   const bool sensor_ok = usable(sensor_, sensor_change, "sensor (wrench)");
@@ -168,17 +160,17 @@ void Controller::on_cycle(const rtm::CycleContext&) {
     // No command at all, not a zero one: the actuator's watchdog then brakes the drives (quick
     // stop), as fast as when the controller itself is lost; a zero command would let them
     // coast down through their velocity loops.
-    withheld_commands_.fetch_add(1, std::memory_order_relaxed);
+    counters_.withheld_commands.add();
     return;
   }
   const bool was_in_contact = contact_.in_contact();
   const bool contact = contact_.update(sensor_.datum.val, cycle_params_.contact_force_N);
-  if (contact != was_in_contact) (contact ? touch_downs_ : lift_offs_).fetch_add(1, std::memory_order_relaxed);
+  if (contact != was_in_contact) (contact ? counters_.touch_downs : counters_.lift_offs).add();
   const auto [out, slowed] = guarded_command(cycle_params_, contact, reference_.datum.val, sensor_.datum.val);
-  if (slowed) approach_limited_.fetch_add(1, std::memory_order_relaxed);
+  if (slowed) counters_.approach_limited.add();
   for (CORBA::ULong i = 0; i < 6; ++i) command_.val[i] = out[i];
   command_.tm = sensor_.datum.tm;
-  commands_.fetch_add(1, std::memory_order_relaxed);
+  counters_.commands.add();
   command_out_.write(command_);
 }
 
@@ -188,11 +180,6 @@ void Controller::take_live_parameters() {
   std::array<float, 1> one{};
   if (approach_speed_live_.take(one)) cycle_params_.approach_speed_m_s = one[0];
   if (contact_force_live_.take(one)) cycle_params_.contact_force_N = one[0];
-}
-
-ControllerCounters Controller::counters() const {
-  return {cycles_.load(),        commands_.load(),  withheld_commands_.load(), stale_events_.load(),
-          non_finite_events_.load(), touch_downs_.load(), lift_offs_.load(),        approach_limited_.load()};
 }
 
 }  // namespace rtm::comp

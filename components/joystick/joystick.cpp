@@ -31,12 +31,7 @@ Joystick::Joystick(std::string name, std::unique_ptr<JoystickSource> source)
     : Component(std::move(name), "joystick"), source_(std::move(source)) {
   if (!source_) throw std::invalid_argument("Joystick " + this->name() + ": no joystick source");
   set_description("force-sensor joystick: the operator's force is the reference wrench");
-  add_statistic("samples", "", "reference wrenches written",
-                [this] { return static_cast<double>(written_.load(std::memory_order_relaxed)); });
-  add_counter("heartbeat_losses", "the joystick node's heartbeat went silent (nothing written meanwhile)",
-              heartbeat_losses_);
-  add_counter("heartbeat_recoveries", "... and it was heard again with a new wrench within the budget",
-              heartbeat_recoveries_);
+  add_counters(counters_);
 }
 
 void Joystick::on_start() {
@@ -51,7 +46,7 @@ void Joystick::check_fault(const JoystickReading& reading) {
   lost_ = true;
   lost_cycles_ = 0;
   loss_sequence_ = reading.sequence;  // wrenches up to this one may be from before the loss
-  const std::uint64_t event = heartbeat_losses_.fetch_add(1, std::memory_order_relaxed) + 1;
+  const std::uint64_t event = counters_.heartbeat_losses.add();
   log().warn("{}: {}: writing nothing until it is heard again with a new wrench, for at most {} cycles "
              "(heartbeat loss {})",
              name(), why, kHeartbeatRecoveryPeriods, event);
@@ -60,7 +55,7 @@ void Joystick::check_fault(const JoystickReading& reading) {
 bool Joystick::back_from_loss(const JoystickReading& reading, bool fresh) {
   if (fresh && reading.sequence > loss_sequence_ && !source_->heartbeat_lost()) {
     lost_ = false;
-    const std::uint64_t event = heartbeat_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
+    const std::uint64_t event = counters_.heartbeat_recoveries.add();
     log().info("{}: the joystick node is heard again after {} cycles: writing again (recovery {})", name(),
                lost_cycles_, event);
     return true;
@@ -88,7 +83,7 @@ void Joystick::on_cycle(const rtm::CycleContext&) {
   for (CORBA::ULong i = 0; i < 6; ++i) datum_.val[i] = static_cast<float>(reading.wrench[i]);
   datum_.tm = rtm::now();
   out_.write(datum_);
-  written_.fetch_add(1, std::memory_order_relaxed);
+  counters_.samples.add();
 }
 
 }  // namespace rtm::comp

@@ -42,22 +42,10 @@ Sensor::Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm:
   if (!source_) throw std::invalid_argument("Sensor " + this->name() + ": no wrist sample source");
   params_.validate();
   set_description("wrist force/torque sensor: the wrench on the tool in the arm's base frame");
-  add_counter("samples", "wrenches written", written_);
-  add_counter("heartbeat_losses", "the F/T node's heartbeat went silent (nothing written meanwhile)",
-              heartbeat_losses_);
-  add_counter("heartbeat_recoveries", "the F/T node came back with fresh wrenches in time, writing resumed",
-              heartbeat_recoveries_);
+  add_counters(counters_);
   add_parameter(rtm::cycles_when_off("recovery_timeout_periods",
                                      "cycles a heartbeat loss of the F/T node may last before COMPONENT_ERROR",
                                      params_.recovery_timeout_periods, 1, SensorParams::kMaxRecoveryTimeoutPeriods));
-}
-
-SensorCounters Sensor::counters() const {
-  SensorCounters c;
-  c.samples = written_.load(std::memory_order_relaxed);
-  c.heartbeat_losses = heartbeat_losses_.load(std::memory_order_relaxed);
-  c.heartbeat_recoveries = heartbeat_recoveries_.load(std::memory_order_relaxed);
-  return c;
 }
 
 void Sensor::on_start() {
@@ -77,7 +65,7 @@ void Sensor::write(const WristSample& sample) {
   for (CORBA::ULong i = 0; i < 6; ++i) datum_.val[i] = static_cast<float>(wrench_base[i]);
   datum_.tm = rtm::now();
   out_.write(datum_);
-  written_.fetch_add(1, std::memory_order_relaxed);
+  counters_.samples.add();
 }
 
 namespace {
@@ -97,7 +85,7 @@ void Sensor::begin_loss(const WristFault& fault, std::int64_t period_ns) {
   // Wrenches up to this one may be from before the loss: writing resumes only after it.
   loss_sequence_ = source_->latest().sequence;
   loss_reason_ = fault.text;
-  const std::uint64_t event = heartbeat_losses_.fetch_add(1, std::memory_order_relaxed) + 1;
+  const std::uint64_t event = counters_.heartbeat_losses.add();
   log().warn("{}: {}: writing nothing until it is back with a new wrench, for at most {} (heartbeat loss {})",
              name(), loss_reason_, cycles_text(recovery_budget_, period_ns), event);
 }
@@ -143,7 +131,7 @@ void Sensor::on_cycle(const rtm::CycleContext& ctx) {
   if (kind == WristFaultKind::none && sample.valid && sample.sequence > loss_sequence_) {
     lost_ = false;
     lost_flag_.store(false, std::memory_order_relaxed);
-    const std::uint64_t event = heartbeat_recoveries_.fetch_add(1, std::memory_order_relaxed) + 1;
+    const std::uint64_t event = counters_.heartbeat_recoveries.add();
     log().info("{}: heartbeat and a new wrench back after {} of loss ({}): writing again (recovery {})", name(),
                cycles_text(lost_cycles_, ctx.period_ns), loss_reason_, event);
     write(sample);

@@ -251,8 +251,7 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
     };
   };
   if (bus_.set()) {
-    add_counter("bus_retakes", "bus cycles taken again after the master took them back from a late tick",
-                bus_retakes_);
+    add_counters(counters_);
     tick_.add([this](const rtm::CycleContext& ctx) {
       if (bus_cycle_is_mine(ctx) && !bus_.receive()) bus_lost_.store(true);
       return true;
@@ -383,7 +382,7 @@ void SharedTickServo::retake_bus() {
   const std::int64_t resume_ns = bus_.take_over();
   bus_resume_ns_.store(resume_ns, std::memory_order_relaxed);
   bus_lost_.store(false);
-  const std::uint64_t event = bus_retakes_.fetch_add(1, std::memory_order_relaxed) + 1;
+  const std::uint64_t event = counters_.bus_retakes.add();
   log().warn("servo {}: the bus master had taken its cycles back (this tick sent no SYNC for too long): running "
              "them again from the next deadline, the actuator resumes on the next command (retake {})",
              name(), event);

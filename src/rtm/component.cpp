@@ -39,9 +39,9 @@ void Component::add_statistic(std::string stat_name, std::string unit, std::stri
   statistics_.push_back({std::move(stat_name), std::move(unit), std::move(text), std::move(read)});
 }
 
-void Component::add_counter(std::string stat_name, std::string text, const std::atomic<std::uint64_t>& count) {
-  add_statistic(std::move(stat_name), "", std::move(text),
-                [&count] { return static_cast<double>(count.load(std::memory_order_relaxed)); });
+void Component::add_counters(const CounterSet& set) {
+  for (const Counter* counter : set.all())
+    add_statistic(counter->name(), "", counter->description(), [counter] { return static_cast<double>(counter->value()); });
 }
 
 void Component::add_percentile_statistics(const std::string& stat, const std::string& span,
@@ -184,9 +184,7 @@ void ComponentServant::await_before_cycle(InPortBase& port, std::int64_t bound_n
     throw std::invalid_argument(component_->name() + ": only a periodic cycle awaits a datum before it runs");
   await_port_ = &port;
   await_bound_ns_ = bound_ns;
-  const std::string where = " on " + port.port_name();
-  component_->add_counter("await.arrived", "cycles whose new datum" + where + " came while they waited for it", await_arrived_);
-  component_->add_counter("await.missed", "cycles whose new datum" + where + " did not come within the bound", await_missed_);
+  component_->add_counters(await_counters_);
 }
 
 bool ComponentServant::run_cycle(const CycleContext& ctx) {
@@ -195,8 +193,8 @@ bool ComponentServant::run_cycle(const CycleContext& ctx) {
   if (await_port_ != nullptr) {
     switch (await_port_->wait_new_until(ctx.deadline_ns + await_bound_ns_)) {
       case InPortBase::Awaited::there: break;
-      case InPortBase::Awaited::arrived: await_arrived_.fetch_add(1, std::memory_order_relaxed); break;
-      case InPortBase::Awaited::none: await_missed_.fetch_add(1, std::memory_order_relaxed); break;
+      case InPortBase::Awaited::arrived: await_counters_.arrived.add(); break;
+      case InPortBase::Awaited::none: await_counters_.missed.add(); break;
     }
   }
   try {

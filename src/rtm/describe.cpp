@@ -5,6 +5,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <ostream>
 #include <stdexcept>
 
 namespace rtm {
@@ -84,5 +85,7 @@ Parameter cycles_when_off(std::string name, std::string description, std::uint32
 
 std::string format_numbers(std::span<const float> values) { return format_all(values); }
 std::string format_numbers(std::span<const double> values) { return format_all(values); }
+
+std::ostream& operator<<(std::ostream& out, const Counter& counter) { return out << counter.value(); }
 
 }  // namespace rtm

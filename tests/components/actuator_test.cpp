@@ -305,21 +305,21 @@ TEST(ActuatorLatency, SampleToDriveIsTheBusSendTimeOfThatCommandMinusItsStamp) {
   t.step();
   const std::uint64_t handed = t.arm->sequence;
   ASSERT_GT(handed, 0u);
-  EXPECT_EQ(t.actuator->counters().latency_samples, 0u) << "not sent yet: nothing to record";
-  EXPECT_GT(t.actuator->counters().handover_max_ns, 0) << "the hand-over is recorded at once";
+  EXPECT_EQ(t.actuator->latency().latency_samples, 0u) << "not sent yet: nothing to record";
+  EXPECT_GT(t.actuator->latency().handover_max_ns, 0) << "the hand-over is recorded at once";
 
   t.arm->sent = {handed - 1, stamp_ns + 100'000};  // an older command left: not this one
   t.step();
-  EXPECT_EQ(t.actuator->counters().latency_samples, 0u);
+  EXPECT_EQ(t.actuator->latency().latency_samples, 0u);
 
   t.arm->sent = {handed, stamp_ns + 450'000};  // this command's RPDOs were written 450 us on
   t.step();
-  const rtm::comp::ActuatorCounters c = t.actuator->counters();
+  const rtm::comp::ActuatorLatency c = t.actuator->latency();
   EXPECT_EQ(c.latency_samples, 1u);
   EXPECT_EQ(c.latency_max_ns, 450'000);
   EXPECT_EQ(c.latency_p99_ns, 450'000);
   t.step();
-  EXPECT_EQ(t.actuator->counters().latency_samples, 1u) << "each command is recorded once";
+  EXPECT_EQ(t.actuator->latency().latency_samples, 1u) << "each command is recorded once";
 }
 
 TEST(ActuatorLatency, ACommandOvertakenByALaterOneStillCountsWhenTheLaterLeaves) {
@@ -331,7 +331,7 @@ TEST(ActuatorLatency, ACommandOvertakenByALaterOneStillCountsWhenTheLaterLeaves)
   t.step();
   t.arm->sent = {t.arm->sequence, stamp_ns + 2'300'000};
   t.step();
-  const rtm::comp::ActuatorCounters c = t.actuator->counters();
+  const rtm::comp::ActuatorLatency c = t.actuator->latency();
   EXPECT_EQ(c.latency_samples, 1u) << "only the newest command is followed";
   EXPECT_EQ(c.latency_max_ns, 300'000) << "measured from the newest command's stamp";
 }
@@ -342,7 +342,7 @@ TEST(ActuatorLatency, AnArmThatCannotTellRecordsNoBusLatency) {
   t.step({0.01f, 0, 0, 0, 0, 0});
   t.arm->sent = {5, 1};
   t.step();
-  EXPECT_EQ(t.actuator->counters().latency_samples, 0u);
+  EXPECT_EQ(t.actuator->latency().latency_samples, 0u);
 }
 
 TEST(LatencyHistogram, BucketsAre1usBelow1ms100usTo10msThen1ms) {

@@ -151,7 +151,7 @@ TEST_F(ClosedLoopTest, TouchDownAtTheApproachSpeedOvershootsTheReferenceByAtMost
   }
   EXPECT_LE(peak_N, 12.0f) << "touch-down overshoot above 20 % of 10 N";
   EXPECT_NEAR(measured()[2], 10.0f, 0.5f);
-  const auto counters = controller_->counters();
+  const auto& counters = controller_->counters();
   EXPECT_EQ(counters.touch_downs, 1u) << "one touch-down, no bounce";
   EXPECT_EQ(counters.lift_offs, 0u);
   EXPECT_GT(counters.approach_limited, 0u) << "the descent was slowed to the approach speed";

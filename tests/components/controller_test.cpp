@@ -182,7 +182,7 @@ TEST(Controller, TheCommandCarriesTheSensorSamplesStamp) {
 TEST(Controller, NoDataAtAllWithholdsTheCommand) {
   ControllerUnderTest t;
   EXPECT_EQ(t.step(), kWithheld);
-  EXPECT_EQ(t.controller.counters().withheld, 1u);
+  EXPECT_EQ(t.controller.counters().withheld_commands, 1u);
 }
 
 TEST(Controller, StaleSensorWithholdsTheCommandNotRepeatingTheLastAndRecovers) {

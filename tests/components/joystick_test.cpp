@@ -50,14 +50,14 @@ TEST(Joystick, WritesOnlyNewReadings) {
   JoystickUnderTest t;
   t.joystick->on_start();
   t.joystick->on_cycle(cycle(0));
-  EXPECT_EQ(t.joystick->samples_written(), 0u) << "nothing read yet";
+  EXPECT_EQ(t.joystick->counters().samples, 0u) << "nothing read yet";
   t.push({1, 0, 0, 0, 0, 0});
   t.joystick->on_cycle(cycle(1));
   t.joystick->on_cycle(cycle(2));
-  EXPECT_EQ(t.joystick->samples_written(), 1u);
+  EXPECT_EQ(t.joystick->counters().samples, 1u);
   t.push({2, 0, 0, 0, 0, 0});
   t.joystick->on_cycle(cycle(3));
-  EXPECT_EQ(t.joystick->samples_written(), 2u);
+  EXPECT_EQ(t.joystick->counters().samples, 2u);
 }
 
 TEST(Joystick, SourceFaultThrowsTheReason) {
@@ -75,19 +75,19 @@ TEST(Joystick, AHeartbeatGapIsWaitedOutAndTheJoystickWritesAgainWhenHeard) {
   t.joystick->on_start();
   t.push({1, 0, 0, 0, 0, 0});
   t.joystick->on_cycle(cycle(0));
-  ASSERT_EQ(t.joystick->samples_written(), 1u);
+  ASSERT_EQ(t.joystick->counters().samples, 1u);
   t.source->why = "joystick sensor 0x11: no heartbeat for 301 ms";
   t.source->silent = true;
   for (int i = 1; i < 50; ++i) EXPECT_NO_THROW(t.joystick->on_cycle(cycle(i))) << i;
-  EXPECT_EQ(t.joystick->heartbeat_losses(), 1u);
+  EXPECT_EQ(t.joystick->counters().heartbeat_losses, 1u);
   t.source->why.clear();
   t.source->silent = false;
   t.joystick->on_cycle(cycle(50));
-  EXPECT_EQ(t.joystick->samples_written(), 1u) << "heard again, but no new wrench yet";
+  EXPECT_EQ(t.joystick->counters().samples, 1u) << "heard again, but no new wrench yet";
   t.push({-2, 0, 0, 0, 0, 0});
   t.joystick->on_cycle(cycle(51));
-  EXPECT_EQ(t.joystick->samples_written(), 2u);
-  EXPECT_EQ(t.joystick->heartbeat_recoveries(), 1u);
+  EXPECT_EQ(t.joystick->counters().samples, 2u);
+  EXPECT_EQ(t.joystick->counters().heartbeat_recoveries, 1u);
   RTM::TimedFloat6 out{};
   ASSERT_TRUE(t.joystick->out().latest(out));
   EXPECT_EQ(out.val[0], -2.0f);

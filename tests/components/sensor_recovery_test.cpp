@@ -104,21 +104,21 @@ struct SensorOnTheBus {
       ASSERT_TRUE(sync_and_wait_for_wrench()) << "no wrench from the wrist sensor node";
       cycle();
     }
-    ASSERT_EQ(sensor->samples_written(), 3u);
+    ASSERT_EQ(sensor->counters().samples, 3u);
     ASSERT_NEAR(force_magnitude(last_datum()), 10.0, 0.02);
   }
 
   // Cuts the wrist node off and steps (a SYNC each cycle, the drives still answering) until
   // the sensor has seen the heartbeat loss. Nothing may be written meanwhile.
   void pull_the_cable() {
-    const std::uint64_t written = sensor->samples_written();
+    const std::uint64_t written = sensor->counters().samples;
     nodes->set_connected(pc::kWristSensorNode, false);
     const bool lost = eventually(
         [&] {
           sync();
           std::this_thread::sleep_for(1ms);
           cycle();
-          EXPECT_EQ(sensor->samples_written(), written) << "a datum was written while the node was silent";
+          EXPECT_EQ(sensor->counters().samples, written) << "a datum was written while the node was silent";
           return sensor->counters().heartbeat_losses > 0;
         },
         kDeadline);
@@ -137,7 +137,7 @@ TEST(SensorRecovery, HeartbeatLossOfTheWristNodeWritesNothingAndIsCountedOnce) {
     t.sync();
     t.cycle();
   }
-  EXPECT_EQ(t.sensor->samples_written(), 3u);
+  EXPECT_EQ(t.sensor->counters().samples, 3u);
   const RTM::TimedFloat6 after = t.last_datum();
   EXPECT_EQ(rtm::to_ns(after.tm), rtm::to_ns(before.tm)) << "the out port holds a datum written during the loss";
   EXPECT_EQ(t.sensor->counters().heartbeat_losses, 1u);
@@ -168,13 +168,13 @@ TEST(SensorRecovery, HeartbeatBackResumesWritingWithAWrenchNewerThanTheLoss) {
       << t.source->fault().text;
   // Heartbeat back, but no new wrench yet: nothing to write.
   t.cycle();
-  EXPECT_EQ(t.sensor->samples_written(), 3u);
+  EXPECT_EQ(t.sensor->counters().samples, 3u);
   EXPECT_EQ(t.sensor->counters().heartbeat_recoveries, 0u);
   EXPECT_TRUE(t.sensor->in_heartbeat_loss());
   // The next SYNC's wrench is written.
   ASSERT_TRUE(t.sync_and_wait_for_wrench());
   t.cycle();
-  EXPECT_EQ(t.sensor->samples_written(), 4u);
+  EXPECT_EQ(t.sensor->counters().samples, 4u);
   EXPECT_EQ(t.sensor->counters().heartbeat_recoveries, 1u);
   EXPECT_FALSE(t.sensor->in_heartbeat_loss());
   const RTM::TimedFloat6 first = t.last_datum();
@@ -185,7 +185,7 @@ TEST(SensorRecovery, HeartbeatBackResumesWritingWithAWrenchNewerThanTheLoss) {
     ASSERT_TRUE(t.sync_and_wait_for_wrench());
     t.cycle();
   }
-  EXPECT_EQ(t.sensor->samples_written(), 9u);
+  EXPECT_EQ(t.sensor->counters().samples, 9u);
   EXPECT_EQ(t.sensor->counters().heartbeat_losses, 1u);
   EXPECT_EQ(comp_test::statistic(*t.sensor, "heartbeat_recoveries"), 1.0);
 }
@@ -211,7 +211,7 @@ TEST(SensorRecovery, SilenceBeyondTheRecoveryBudgetIsAnErrorNamingTheNodeAndTheS
   EXPECT_NE(reason.find("wrist sensor 0x10"), std::string::npos) << reason;
   EXPECT_NE(reason.find("no heartbeat for"), std::string::npos) << reason;
   EXPECT_NE(reason.find("recovery budget of 5 cycles (10 ms)"), std::string::npos) << reason;
-  EXPECT_EQ(t.sensor->samples_written(), 3u);
+  EXPECT_EQ(t.sensor->counters().samples, 3u);
   EXPECT_EQ(t.sensor->counters().heartbeat_recoveries, 0u);
 }
 
@@ -258,7 +258,7 @@ TEST(SensorRecoverySharedTick, TheMastersWristHeartbeatLossIsTheSensorsAndClears
     sensor.on_cycle(comp_test::cycle(n++));
   };
   for (int i = 0; i < 5; ++i) step();
-  const std::uint64_t written = sensor.samples_written();
+  const std::uint64_t written = sensor.counters().samples;
   ASSERT_GT(written, 0u);
 
   rig.nodes->set_connected(pc::kWristSensorNode, false);
@@ -283,7 +283,7 @@ TEST(SensorRecoverySharedTick, TheMastersWristHeartbeatLossIsTheSensorsAndClears
       << "the master never heard the wrist node again";
   // Wrenches again, but the master still holds the fault: nothing written.
   for (int i = 0; i < 5; ++i) step();
-  EXPECT_EQ(sensor.samples_written(), written);
+  EXPECT_EQ(sensor.counters().samples, written);
   EXPECT_EQ(sensor.counters().heartbeat_recoveries, 0u);
 
   rig.master->fault_reset();
@@ -294,7 +294,7 @@ TEST(SensorRecoverySharedTick, TheMastersWristHeartbeatLossIsTheSensorsAndClears
       },
       kDeadline))
       << rig.master->fault().reason;
-  EXPECT_EQ(sensor.samples_written(), written + 1);
+  EXPECT_EQ(sensor.counters().samples, written + 1);
   EXPECT_EQ(sensor.counters().heartbeat_losses, 1u);
 }
 

@@ -85,25 +85,25 @@ TEST(Sensor, WritesEachNewWrenchOnceWithTheTimeItWasRead) {
   t.sensor->on_cycle(cycle(0));
   const std::int64_t after_ns = rtm::to_ns(rtm::now());
   t.sensor->on_cycle(cycle(1));  // same wrench: nothing new to write
-  EXPECT_EQ(t.sensor->samples_written(), 1u);
+  EXPECT_EQ(t.sensor->counters().samples, 1u);
   RTM::TimedFloat6 out{};
   ASSERT_TRUE(t.sensor->out().latest(out));
   EXPECT_GE(rtm::to_ns(out.tm), before_ns);
   EXPECT_LE(rtm::to_ns(out.tm), after_ns);
   t.new_wrench({4, 5, 6, 0, 0, 0});
   t.sensor->on_cycle(cycle(2));
-  EXPECT_EQ(t.sensor->samples_written(), 2u);
+  EXPECT_EQ(t.sensor->counters().samples, 2u);
 }
 
 TEST(Sensor, WritesNothingBeforeAValidSampleOrForOneSeenBeforeOn) {
   SensorUnderTest t;
   t.sensor->on_start();
   t.sensor->on_cycle(cycle(0));
-  EXPECT_EQ(t.sensor->samples_written(), 0u) << "no valid sample yet";
+  EXPECT_EQ(t.sensor->counters().samples, 0u) << "no valid sample yet";
   t.new_wrench({1, 0, 0, 0, 0, 0});
   t.sensor->on_start();  // the sample existed before on(): not fresh
   t.sensor->on_cycle(cycle(1));
-  EXPECT_EQ(t.sensor->samples_written(), 0u);
+  EXPECT_EQ(t.sensor->counters().samples, 0u);
 }
 
 TEST(Sensor, SensorFaultWhileNothingNewArrivesThrowsTheReason) {
@@ -127,7 +127,7 @@ TEST(Sensor, AfterAHeartbeatLossOnlyAWrenchNewerThanTheLossIsWritten) {
   t.sensor->on_start();
   t.new_wrench({0, 0, -1, 0, 0, 0});
   t.sensor->on_cycle(cycle(0));
-  ASSERT_EQ(t.sensor->samples_written(), 1u);
+  ASSERT_EQ(t.sensor->counters().samples, 1u);
   t.source->why = {rtm::comp::WristFaultKind::heartbeat_lost, "wrist sensor 0x10: no heartbeat for 301 ms"};
   t.source->when_fault_asked = [&] { t.new_wrench({0, 0, -2, 0, 0, 0}); };
   t.sensor->on_cycle(cycle(1));
@@ -135,11 +135,11 @@ TEST(Sensor, AfterAHeartbeatLossOnlyAWrenchNewerThanTheLossIsWritten) {
   t.source->when_fault_asked = nullptr;
   t.source->why = {};  // the heartbeat is back; the newest wrench is still the one from before
   t.sensor->on_cycle(cycle(2));
-  EXPECT_EQ(t.sensor->samples_written(), 1u) << "a wrench from before the loss was written";
+  EXPECT_EQ(t.sensor->counters().samples, 1u) << "a wrench from before the loss was written";
   EXPECT_EQ(t.sensor->counters().heartbeat_recoveries, 0u);
   t.new_wrench({0, 0, -3, 0, 0, 0});
   t.sensor->on_cycle(cycle(3));
-  EXPECT_EQ(t.sensor->samples_written(), 2u);
+  EXPECT_EQ(t.sensor->counters().samples, 2u);
   EXPECT_EQ(t.sensor->counters().heartbeat_recoveries, 1u);
   RTM::TimedFloat6 out{};
   ASSERT_TRUE(t.sensor->out().latest(out));

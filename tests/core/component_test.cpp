@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <ctime>
 #include <string>
@@ -170,6 +171,42 @@ double statistic(rtm::ComponentServant& servant, const std::string& name) {
   for (CORBA::ULong i = 0; i < stats->length(); ++i)
     if (name == stats[i].name.in()) return stats[i].value;
   return -1;
+}
+
+// A counter declared once is the field the component counts, the statistic `rtm cat` reads
+// (by its name, with its description) and the value a test reads.
+struct Counting final : rtm::Component {
+  struct Counters : rtm::CounterSet {
+    rtm::Counter seen{*this, "seen", "data seen"};
+    rtm::Counter dropped{*this, "dropped", "data dropped"};
+  } counters;
+  Counting() : Component("counting0", "controller") { add_counters(counters); }
+  void on_cycle(const rtm::CycleContext&) override {}
+};
+
+TEST_F(ComponentTest, ACounterSetIsTheComponentsStatisticsInTheOrderDeclared) {
+  auto* component = new Counting;
+  auto& counters = component->counters;
+  PortableServer::Servant_var<rtm::ComponentServant> servant =
+      new rtm::ComponentServant(std::unique_ptr<rtm::Component>(component), fast());
+  EXPECT_EQ(counters.seen.add(), 1u) << "add() returns the count after it";
+  EXPECT_EQ(counters.seen.add(2), 3u);
+  counters.dropped.add();
+  EXPECT_EQ(counters.seen, 3u);
+  EXPECT_EQ(statistic(*servant, "seen"), 3.0);
+  EXPECT_EQ(statistic(*servant, "dropped"), 1.0);
+  RTM::StatisticList_var stats = servant->statistics();
+  std::vector<std::string> names, descriptions;
+  for (CORBA::ULong i = 0; i < stats->length(); ++i) {
+    names.emplace_back(stats[i].name.in());
+    descriptions.emplace_back(stats[i].description.in());
+  }
+  const auto seen = std::find(names.begin(), names.end(), "seen");
+  ASSERT_NE(seen, names.end());
+  ASSERT_NE(seen + 1, names.end());
+  EXPECT_EQ(*(seen + 1), "dropped");
+  EXPECT_EQ(descriptions[seen - names.begin()], "data seen");
+  EXPECT_EQ(std::count(names.begin(), names.end(), "seen"), 1);
 }
 
 // --await: each cycle first waits for its datum, bounded; a cycle whose datum came while it

@@ -31,16 +31,21 @@ class Orb;
 //   class Gain final : public rtm::Component {
 //    public:
 //     Gain() : Component("gain0", "controller") {
-//       add_statistic("scaled", "", "data scaled", [this] { return double(scaled_.load()); });
+//       add_counters(counters_);
 //     }
 //     void on_cycle(const rtm::CycleContext&) override {
-//       if (in_.read(datum_) == rtm::ReadResult::NewData) out_.write(scaled(datum_));
+//       if (in_.read(datum_) == rtm::ReadResult::NewData) {
+//         out_.write(scaled(datum_));
+//         counters_.scaled.add();
+//       }
 //     }
 //    private:
 //     rtm::InPort<RTM::TimedFloat6>& in_ = add_in_port<RTM::TimedFloat6>("wrench", {"wrench to scale", {}});
 //     rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("scaled", {"the wrench scaled", {}});
 //     RTM::TimedFloat6 datum_{};
-//     std::atomic<std::uint64_t> scaled_{0};
+//     struct Counters : rtm::CounterSet {
+//       rtm::Counter scaled{*this, "scaled", "data scaled"};
+//     } counters_;
 //   };
 class Component {
  public:
@@ -109,8 +114,9 @@ class Component {
   // read() is called from ORB threads while the component runs. Throws std::invalid_argument
   // for an empty or repeated name or a missing read().
   void add_statistic(std::string stat_name, std::string unit, std::string text, std::function<double()> read);
-  // A count the component keeps in an atomic (read relaxed): a statistic without a unit.
-  void add_counter(std::string stat_name, std::string text, const std::atomic<std::uint64_t>& count);
+  // Each counter of set (rtm/describe.h) as a statistic without a unit; set must outlive the
+  // component's servant.
+  void add_counters(const CounterSet& set);
   // <stat>_p50, <stat>_p99 and <stat>_max of h, in us, described as "<span>, median" etc. h
   // must outlive the component's servant.
   void add_percentile_statistics(const std::string& stat, const std::string& span, const LatencyHistogram& h);
@@ -226,8 +232,10 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   std::shared_ptr<ArrivalSignal> arrival_;
   InPortBase* await_port_ = nullptr;  // await_before_cycle()
   std::int64_t await_bound_ns_ = 0;
-  std::atomic<std::uint64_t> await_arrived_{0};
-  std::atomic<std::uint64_t> await_missed_{0};
+  struct AwaitCounters : CounterSet {
+    Counter arrived{*this, "await.arrived", "cycles whose awaited datum came while they waited for it"};
+    Counter missed{*this, "await.missed", "cycles whose awaited datum did not come within the bound"};
+  } await_counters_;
   std::mutex control_mu_;  // serialises on/off/reset
   std::atomic<RTM::ComponentState> state_{RTM::COMPONENT_OFF};
   mutable std::mutex error_mu_;

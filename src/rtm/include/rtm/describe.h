@@ -15,9 +15,11 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <iosfwd>
 #include <span>
 #include <string>
 #include <string_view>
@@ -48,6 +50,55 @@ struct PortInfo {
   std::string description;         // one line
   std::vector<Element> elements;   // one per value of the datum, or none
 };
+
+// A count a component keeps, declared once: its field, the name of its statistic and what it
+// means are one line of a CounterSet, which the component hands to Component::add_counters():
+//
+//   struct GainCounters : rtm::CounterSet {
+//     rtm::Counter scaled{*this, "scaled", "data scaled"};
+//   };
+//
+// Tests read the field (counters().scaled == 3u), `rtm cat` the statistic "scaled", with the
+// description as its help. Counted and read relaxed from any thread; counting allocates nothing.
+class CounterSet;
+class Counter {
+ public:
+  Counter(CounterSet& set, std::string name, std::string description);
+  Counter(const Counter&) = delete;
+  Counter& operator=(const Counter&) = delete;
+
+  // Counts n; returns the count after it (the event's number, for a log line).
+  std::uint64_t add(std::uint64_t n = 1) { return value_.fetch_add(n, std::memory_order_relaxed) + n; }
+  std::uint64_t value() const { return value_.load(std::memory_order_relaxed); }
+  operator std::uint64_t() const { return value(); }  // reads as the count it is
+  const std::string& name() const { return name_; }
+  const std::string& description() const { return description_; }
+
+ private:
+  std::string name_;
+  std::string description_;
+  std::atomic<std::uint64_t> value_{0};
+};
+std::ostream& operator<<(std::ostream& out, const Counter& counter);  // the count
+
+// The counters of one component, in the order they are declared. Not copyable: each Counter
+// is known by its address.
+class CounterSet {
+ public:
+  CounterSet() = default;
+  CounterSet(const CounterSet&) = delete;
+  CounterSet& operator=(const CounterSet&) = delete;
+  const std::vector<const Counter*>& all() const { return counters_; }
+
+ private:
+  friend class Counter;
+  std::vector<const Counter*> counters_;
+};
+
+inline Counter::Counter(CounterSet& set, std::string name, std::string description)
+    : name_(std::move(name)), description_(std::move(description)) {
+  set.counters_.push_back(this);
+}
 
 // A named figure, read from any thread while the component runs (read() must be safe there:
 // atomics, or a snapshot under a lock the cycle does not hold).

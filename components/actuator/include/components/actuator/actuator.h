@@ -4,7 +4,7 @@
 //   InPort 0 "twist" (alias in0)  velocity command (TimedFloat6, BASE frame: vx vy vz m/s, wx wy wz rad/s)
 //
 // Parameters: limit (live: the next cycle uses it), watchdog_periods (while off). Statistics:
-// the ActuatorCounters, by name (latencies in µs).
+// the ActuatorCounters and ActuatorLatency, by name (latencies in µs).
 //
 // Each cycle: take the newest command, clamp each component to ±limit[i] (Fig. 7), hand it to
 // the arm (order_velocity). Safety beyond the paper:
@@ -70,28 +70,38 @@ struct ActuatorParams {
 // Fig. 7: each component clamped to [-limit[i], +limit[i]].
 std::array<float, 6> clamp_twist(const std::array<float, 6>& limit, const RTM::Float6& command);
 
-struct ActuatorCounters {
-  std::uint64_t cycles = 0;
-  std::uint64_t commands = 0;           // new finite commands applied
-  std::uint64_t clamped = 0;            // of those, commands the limiter changed
-  std::uint64_t watchdog_events = 0;    // commands stopped arriving (quick stop)
-  std::uint64_t non_finite_events = 0;  // commands started holding NaN/inf (quick stop)
-  std::uint64_t command_loss_recoveries = 0;  // drive RPDO timeouts reset and resumed from
-  std::uint64_t cycle_owner_recoveries = 0;   // bus cycles the master took back from a late tick, resumed from
-  std::uint64_t feedback_gap_recoveries = 0;  // drives silent for a few SYNCs (heartbeat still on), resumed from
-  std::uint64_t not_ready_cycles = 0;   // the arm was not enabled (zero velocity)
-  std::uint64_t sensor_heartbeat_losses = 0;      // a force sensor node fell silent
-  std::uint64_t sensor_heartbeat_recoveries = 0;  // ... and was heard again within the budget
-  std::uint64_t sensor_reset_attempts = 0;        // fault resets tried meanwhile
-  // Sample-to-drive latency, CLOCK_REALTIME, from the command stamp (the sensor sample's stamp,
-  // see the controller) to the moment the bus master wrote the RPDOs carrying that command
-  // (VelocityArm::last_sent); 0 when the arm cannot tell.
+// What the actuator counts: each field is also the statistic of its name (`rtm cat`).
+struct ActuatorCounters : rtm::CounterSet {
+  rtm::Counter cycles{*this, "cycles", "cycles run"};
+  rtm::Counter commands{*this, "commands", "new finite commands applied"};
+  rtm::Counter clamped{*this, "clamped", "commands the limiter changed"};
+  rtm::Counter watchdog_events{*this, "watchdog_events", "commands stopped arriving (quick stop)"};
+  rtm::Counter non_finite_events{*this, "non_finite_events", "commands started holding NaN/inf (quick stop)"};
+  rtm::Counter command_loss_recoveries{*this, "command_loss_recoveries", "drive RPDO timeouts reset and resumed from"};
+  rtm::Counter cycle_owner_recoveries{*this, "cycle_owner_recoveries",
+                                      "bus cycles the master took back from a late tick, reset and resumed from"};
+  rtm::Counter feedback_gap_recoveries{*this, "feedback_gap_recoveries",
+                                       "drives silent for a few SYNCs with their heartbeat on, reset and resumed from"};
+  rtm::Counter not_ready_cycles{*this, "not_ready_cycles", "cycles the arm was not enabled (zero velocity)"};
+  rtm::Counter sensor_heartbeat_losses{*this, "sensor_heartbeat_losses",
+                                       "a force sensor node fell silent (drives stopped, retried)"};
+  rtm::Counter sensor_heartbeat_recoveries{*this, "sensor_heartbeat_recoveries",
+                                           "a silent force sensor node heard again within the budget"};
+  rtm::Counter sensor_reset_attempts{*this, "sensor_reset_attempts",
+                                     "fault resets tried while a force sensor node was silent"};
+};
+
+// Sample-to-drive latency, CLOCK_REALTIME, from the command stamp (the sensor sample's stamp,
+// see the controller) to the moment the bus master wrote the RPDOs carrying that command
+// (VelocityArm::last_sent); 0 when the arm cannot tell. The statistics latency_p50 / _p99 /
+// _max (us) and latency_samples.
+struct ActuatorLatency {
   std::int64_t latency_p50_ns = 0;
   std::int64_t latency_p99_ns = 0;
   std::int64_t latency_max_ns = 0;
   std::uint64_t latency_samples = 0;
   // The earlier, shorter span: stamp to the twist handed to the arm (order_velocity returned);
-  // the bus master sends it on its own cycle after that.
+  // the bus master sends it on its own cycle after that. The statistics handover_p50 / ...
   std::int64_t handover_p50_ns = 0;
   std::int64_t handover_p99_ns = 0;
   std::int64_t handover_max_ns = 0;
@@ -114,7 +124,8 @@ class Actuator final : public rtm::Component {
   VelocityArm& arm() { return *arm_; }
   // The parameters now (limit as last set, which the next cycle uses).
   ActuatorParams params() const;
-  ActuatorCounters counters() const;
+  const ActuatorCounters& counters() const { return counters_; }
+  ActuatorLatency latency() const;
   // The twist handed to the arm in the last cycle.
   std::array<float, 6> last_twist() const;
 
@@ -144,7 +155,7 @@ class Actuator final : public rtm::Component {
   void handle_arm_status(FaultKind status);
   // Resets the arm and moves again on the next new command only (command loss, a lost cycle
   // owner, a feedback gap), counting the event in `events`.
-  void resume_after(std::atomic<std::uint64_t>& events);
+  void resume_after(rtm::Counter& events);
   // A drive's TPDOs stopped for the master's missed-feedback limit while its heartbeat went on
   // (a dead drive's heartbeat stops too: heartbeat_lost, an error): on the simulator a stall of
   // its process does that. Resumed from up to kMaxFeedbackGaps times within
@@ -156,9 +167,7 @@ class Actuator final : public rtm::Component {
   std::uint32_t sensor_loss_cycles_ = 0;
   std::uint32_t sensor_clear_cycles_ = 0;  // fault-free cycles in a row since the last retry
   static constexpr std::uint32_t kSensorClearCycles = 10;
-  std::atomic<std::uint64_t> cycles_{0}, commands_{0}, clamped_{0}, watchdog_events_{0}, non_finite_events_{0},
-      not_ready_cycles_{0}, command_loss_recoveries_{0}, cycle_owner_recoveries_{0}, feedback_gap_recoveries_{0},
-      sensor_heartbeat_losses_{0}, sensor_heartbeat_recoveries_{0}, sensor_reset_attempts_{0};
+  ActuatorCounters counters_;
   rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>(
       "twist", {"velocity command for the tool, base frame; clamped to ±limit",
                 rtm::twist_elements()});

@@ -95,15 +95,17 @@ struct GuardedCommand {
 GuardedCommand guarded_command(const ControllerParams& params, bool contact, const RTM::Float6& reference,
                                const RTM::Float6& sensor);
 
-struct ControllerCounters {
-  std::uint64_t cycles = 0;
-  std::uint64_t commands = 0;         // proportional commands written
-  std::uint64_t withheld = 0;         // cycles without a command (stale, missing or bad input)
-  std::uint64_t stale_events = 0;     // an input went stale after having been fresh
-  std::uint64_t non_finite_events = 0;  // an input started holding NaN/inf
-  std::uint64_t touch_downs = 0;        // free space -> contact
-  std::uint64_t lift_offs = 0;          // contact -> free space
-  std::uint64_t approach_limited = 0;   // free-space commands slowed to approach_speed
+// What the controller counts: each field is also the statistic of its name (`rtm cat`).
+struct ControllerCounters : rtm::CounterSet {
+  rtm::Counter cycles{*this, "cycles", "cycles run"};
+  rtm::Counter commands{*this, "commands", "proportional commands written"};
+  rtm::Counter withheld_commands{*this, "withheld_commands",
+                                 "cycles without a command (stale, missing or bad input): the actuator brakes"};
+  rtm::Counter stale_events{*this, "stale_events", "an input went stale after having been fresh"};
+  rtm::Counter non_finite_events{*this, "non_finite_events", "an input started holding NaN/inf"};
+  rtm::Counter touch_downs{*this, "touch_downs", "free space -> contact (|force| reached contact_force)"};
+  rtm::Counter lift_offs{*this, "lift_offs", "contact -> free space (|force| below half of contact_force for 10 cycles)"};
+  rtm::Counter approach_limited{*this, "approach_limited", "free-space commands slowed to approach_speed"};
 };
 
 class Controller final : public rtm::Component {
@@ -118,7 +120,7 @@ class Controller final : public rtm::Component {
   rtm::OutPort<RTM::TimedFloat6>& command_out() { return command_out_; }
   // The parameters now (gain as last set, which the next cycle uses).
   ControllerParams params() const;
-  ControllerCounters counters() const;
+  const ControllerCounters& counters() const { return counters_; }
 
  private:
   // One input's newest datum; fresh for stale_periods cycles after it came.
@@ -144,8 +146,7 @@ class Controller final : public rtm::Component {
   Input sensor_{params_.stale_periods};
   Input reference_{params_.stale_periods};
   RTM::TimedFloat6 command_{};
-  std::atomic<std::uint64_t> cycles_{0}, commands_{0}, withheld_commands_{0}, stale_events_{0}, non_finite_events_{0},
-      touch_downs_{0}, lift_offs_{0}, approach_limited_{0};
+  ControllerCounters counters_;
   rtm::InPort<RTM::TimedFloat6>& sensor_in_ = add_in_port<RTM::TimedFloat6>(
       "wrench", {"wrench the sensor measures, base frame", rtm::wrench_elements()});
   rtm::InPort<RTM::TimedFloat6>& reference_in_ = add_in_port<RTM::TimedFloat6>(

@@ -65,6 +65,15 @@ class BusJoystickSource final : public JoystickSource {
   rtm::can::SensorListener listener_;
 };
 
+// What the joystick counts: each field is also the statistic of its name (`rtm cat`).
+struct JoystickCounters : rtm::CounterSet {
+  rtm::Counter samples{*this, "samples", "reference wrenches written"};
+  rtm::Counter heartbeat_losses{*this, "heartbeat_losses",
+                                "the joystick node's heartbeat went silent (nothing written meanwhile)"};
+  rtm::Counter heartbeat_recoveries{*this, "heartbeat_recoveries",
+                                    "... and it was heard again with a new wrench within the budget"};
+};
+
 class Joystick final : public rtm::Component {
  public:
   // A silent joystick node (a host stall of the simulator, a loose cable) is waited out this
@@ -79,9 +88,7 @@ class Joystick final : public rtm::Component {
   void on_cycle(const rtm::CycleContext& ctx) override;
 
   rtm::OutPort<RTM::TimedFloat6>& out() { return out_; }
-  std::uint64_t samples_written() const { return written_.load(std::memory_order_relaxed); }
-  std::uint64_t heartbeat_losses() const { return heartbeat_losses_.load(std::memory_order_relaxed); }
-  std::uint64_t heartbeat_recoveries() const { return heartbeat_recoveries_.load(std::memory_order_relaxed); }
+  const JoystickCounters& counters() const { return counters_; }
 
  private:
   // Nothing new came: the source's fault, if any, starts a heartbeat loss or is thrown.
@@ -94,9 +101,8 @@ class Joystick final : public rtm::Component {
   bool lost_ = false;
   std::uint32_t lost_cycles_ = 0;
   std::uint64_t loss_sequence_ = 0;
-  std::atomic<std::uint64_t> heartbeat_losses_{0}, heartbeat_recoveries_{0};
   RTM::TimedFloat6 datum_{};
-  std::atomic<std::uint64_t> written_{0};
+  JoystickCounters counters_;
   rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>(
       "reference", {"reference wrench: the operator's force, base frame",
                     rtm::wrench_elements()});

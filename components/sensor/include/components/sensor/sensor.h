@@ -59,10 +59,12 @@ struct SensorParams {
   void add_options(CLI::App& app);
 };
 
-struct SensorCounters {
-  std::uint64_t samples = 0;               // wrenches written
-  std::uint64_t heartbeat_losses = 0;      // the F/T node's heartbeat went silent
-  std::uint64_t heartbeat_recoveries = 0;  // ... and came back with fresh wrenches in time
+// What the sensor counts: each field is also the statistic of its name (`rtm cat`).
+struct SensorCounters : rtm::CounterSet {
+  rtm::Counter samples{*this, "samples", "wrenches written"};
+  rtm::Counter heartbeat_losses{*this, "heartbeat_losses", "the F/T node's heartbeat went silent (nothing written meanwhile)"};
+  rtm::Counter heartbeat_recoveries{*this, "heartbeat_recoveries",
+                                    "the F/T node came back with fresh wrenches in time, writing resumed"};
 };
 
 // wrench_sensor (Fx Fy Fz Tx Ty Tz, sensor frame) rotated into the base frame, given the
@@ -84,8 +86,7 @@ class Sensor final : public rtm::Component {
   void on_start() override;
 
   rtm::OutPort<RTM::TimedFloat6>& out() { return out_; }
-  std::uint64_t samples_written() const { return written_.load(std::memory_order_relaxed); }
-  SensorCounters counters() const;
+  const SensorCounters& counters() const { return counters_; }
   SensorParams params() const { return params_; }
   // In a heartbeat loss now (nothing is written).
   bool in_heartbeat_loss() const { return lost_flag_.load(std::memory_order_relaxed); }
@@ -109,7 +110,7 @@ class Sensor final : public rtm::Component {
   std::uint64_t loss_sequence_ = 0;
   std::string loss_reason_;
   std::atomic<bool> lost_flag_{false};
-  std::atomic<std::uint64_t> written_{0}, heartbeat_losses_{0}, heartbeat_recoveries_{0};
+  SensorCounters counters_;
   rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>(
       "wrench", {"wrench the world exerts on the tool, base frame",
                  rtm::wrench_elements()});

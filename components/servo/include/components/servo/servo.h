@@ -176,7 +176,10 @@ class SharedTickServo final : public rtm::Component {
   std::atomic<bool> bus_taken_{false};
   std::atomic<bool> bus_lost_{false};  // the bus master took its cycles back from the tick
   std::atomic<std::int64_t> bus_resume_ns_{0};  // after a retake: the first deadline whose cycle is the tick's
-  std::atomic<std::uint64_t> bus_retakes_{0};
+  struct Counters : rtm::CounterSet {
+    rtm::Counter bus_retakes{*this, "bus_retakes",
+                             "bus cycles taken again after the master took them back from a late tick"};
+  } counters_;
   std::atomic<std::int64_t> last_transmit_deadline_ns_{0};
 
   // A stage after the bus transmit that stops the tick gives the bus cycles back first, due
