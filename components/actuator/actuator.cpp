@@ -59,16 +59,16 @@ void Actuator::describe_self() {
   add_statistic("latency_samples", "", "commands seen leaving for the bus",
                 [this] { return static_cast<double>(latency_.count()); });
   add_statistic("bus_foreign_frames", "", "frames of another master on the arm's bus (a fault once started)",
-                [this] { return static_cast<double>(arm_->bus_health().foreign_frames); });
+                [this] { return static_cast<double>(arm_->diagnostics().bus_health().foreign_frames); });
   add_statistic("bus_unsolicited_frames", "", "TPDOs beyond what a node was asked for (spoofed: a fault)",
-                [this] { return static_cast<double>(arm_->bus_health().unsolicited_frames); });
+                [this] { return static_cast<double>(arm_->diagnostics().bus_health().unsolicited_frames); });
   add_statistic("following_velocity_peak", "rad/s", "largest |actual - commanded| joint velocity seen",
-                [this] { return arm_->bus_health().peak_velocity_error_rad_s; });
+                [this] { return arm_->diagnostics().bus_health().peak_velocity_error_rad_s; });
   add_statistic("following_position_peak", "rad", "largest |actual - integrated command| joint position seen",
-                [this] { return arm_->bus_health().peak_position_error_rad; });
+                [this] { return arm_->diagnostics().bus_health().peak_position_error_rad; });
   add_statistic("bus_target_expiries", "",
                 "twists the bus master dropped for not being renewed within its expiry (zero sent)",
-                [this] { return static_cast<double>(arm_->bus_health().target_expiries); });
+                [this] { return static_cast<double>(arm_->diagnostics().bus_health().target_expiries); });
   add_percentile_statistics("handover", "sensor sample to twist handed to the arm", handover_latency_);
   add_parameter(rtm::live_numbers("limit", "m/s, rad/s", "6 limits |v|: vx vy vz, then wx wy wz", limit_live_,
                                   [](const std::vector<double>& v) {
@@ -88,14 +88,14 @@ void Actuator::retry_sensor_loss(bool faulted) {
     in_sensor_loss_ = true;
     sensor_loss_cycles_ = 0;
     const std::uint64_t event = counters_.sensor_heartbeat_losses.add();
-    log().warn("{}: {}: drives stopped, retrying for up to {} cycles (event {})", name(), arm_->fault_reason(),
+    log().warn("{}: {}: drives stopped, retrying for up to {} cycles (event {})", name(), arm_->fault().reason,
                params_.sensor_recovery_periods, event);
     command_freshness_.reset();
     command_bad_ = false;
     twist_ = {};
   }
   if (++sensor_loss_cycles_ > params_.sensor_recovery_periods)
-    throw std::runtime_error(fmt::format("arm fault: {}: not heard again within {} cycles", arm_->fault_reason(),
+    throw std::runtime_error(fmt::format("arm fault: {}: not heard again within {} cycles", arm_->fault().reason,
                                          params_.sensor_recovery_periods));
   if (faulted && sensor_loss_cycles_ % ActuatorParams::kSensorRetryPeriods == 0) {
     counters_.sensor_reset_attempts.add();
@@ -110,8 +110,8 @@ ActuatorParams Actuator::params() const {
 }
 
 void Actuator::on_start() {
-  if (arm_->in_fault()) {
-    log().info("{}: resetting the arm ({})", name(), arm_->fault_reason());
+  if (const rtm::pa10::ArmFault fault = arm_->fault(); fault.latched()) {
+    log().info("{}: resetting the arm ({})", name(), fault.reason);
     arm_->reset();
   }
   // A command that arrived while off is not one to act on.
@@ -125,7 +125,7 @@ void Actuator::on_start() {
 
 void Actuator::record_sent_latency() {
   if (pending_sequence_ == 0) return;
-  const VelocityArm::SentCommand sent = arm_->last_sent();
+  const rtm::pa10::ArmDiagnostics::SentCommand sent = arm_->diagnostics().last_sent();
   if (sent.sequence < pending_sequence_) return;
   latency_.record(sent.sent_realtime_ns - pending_stamp_ns_);
   pending_sequence_ = 0;
@@ -134,7 +134,7 @@ void Actuator::record_sent_latency() {
 void Actuator::resume_after(rtm::Counter& events) {
   const std::uint64_t event = events.add();
   log().warn("{}: {}: resetting the drives, moving again on the next command (recovery {})", name(),
-             arm_->fault_reason(), event);
+             arm_->fault().reason, event);
   arm_->reset();
   command_freshness_.reset();  // never on a command from before
   command_bad_ = false;
@@ -148,27 +148,31 @@ void Actuator::recover_feedback_gap() {
   last_feedback_gap_cycle_ = now;
   if (++feedback_gaps_in_window_ > kMaxFeedbackGaps)
     throw std::runtime_error(fmt::format("arm fault: {} ({} times within {} cycles of each other)",
-                                         arm_->fault_reason(), feedback_gaps_in_window_, kFeedbackGapWindowCycles));
+                                         arm_->fault().reason, feedback_gaps_in_window_, kFeedbackGapWindowCycles));
   resume_after(counters_.feedback_gap_recoveries);
 }
 
 // What the arm said of this cycle's order: recover from what is recoverable, throw otherwise.
 void Actuator::handle_arm_status(FaultKind status) {
-  if (status == FaultKind::command_loss) {
-    // The drives faulted only because commands came late.
-    resume_after(counters_.command_loss_recoveries);
-  } else if (status == FaultKind::cycle_owner_lost) {
-    // The master took its cycles back from a shared tick that sent no SYNC for a while (a
-    // stall): the drives are held at zero and the tick takes the cycles again.
-    resume_after(counters_.cycle_owner_recoveries);
-  } else if (status == FaultKind::missing_feedback) {
-    recover_feedback_gap();
-  } else if (status == FaultKind::heartbeat_lost && rtm::can::is_sensor_node(arm_->fault_node())) {
-    retry_sensor_loss(true);
-  } else if (rtm::can::latched(status)) {
-    throw std::runtime_error("arm fault: " + arm_->fault_reason());
-  } else if (in_sensor_loss_ && status == FaultKind::not_enabled) {
-    retry_sensor_loss(false);  // re-enabling after a reset: the node may still be silent
+  using rtm::pa10::Recovery;
+  // Which faults are recoverable is the arm library's to say; how often, and for how long,
+  // the actuator's parameters.
+  const std::uint8_t node = status == FaultKind::heartbeat_lost ? arm_->fault().node : 0;  // which node fell silent
+  switch (rtm::can::recovery(status, node)) {
+    case Recovery::reset:
+      // command_loss: the drives faulted only because commands came late. cycle_owner_lost:
+      // the master took its cycles back from a shared tick that sent no SYNC for a while (a
+      // stall); the drives are held at zero and the tick takes the cycles again.
+      resume_after(status == FaultKind::command_loss ? counters_.command_loss_recoveries
+                                                     : counters_.cycle_owner_recoveries);
+      break;
+    case Recovery::reset_a_few: recover_feedback_gap(); break;
+    case Recovery::wait_for_node: retry_sensor_loss(true); break;
+    case Recovery::stop: throw std::runtime_error("arm fault: " + arm_->fault().reason);
+    case Recovery::none:
+      if (in_sensor_loss_ && status == FaultKind::not_enabled)
+        retry_sensor_loss(false);  // re-enabling after a reset: the node may still be silent
+      break;
   }
   // A reset can look good for a cycle before the master's heartbeat check latches the silence
   // again: the node counts as heard once the arm has stayed fault-free for a while.
@@ -229,7 +233,8 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
   const bool brake = in_sensor_loss_ || (command_freshness_.seen() && (!command_freshness_.fresh() || command_bad_));
   // Where the bus is when the arm is told, for the event report (read before, so the brake
   // leaves with the next SYNC after this position at the latest).
-  const VelocityArm::BusPosition bus = fresh_command || watchdog_fired ? arm_->bus_position() : VelocityArm::BusPosition{};
+  const rtm::pa10::ArmDiagnostics::BusPosition bus =
+      fresh_command || watchdog_fired ? arm_->diagnostics().bus_position() : rtm::pa10::ArmDiagnostics::BusPosition{};
   const FaultKind status = brake ? arm_->quick_stop() : arm_->order_velocity(twist_);
   if (fresh_command) last_command_bus_ = bus;
   if (watchdog_fired) {
@@ -243,7 +248,7 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
   if (fresh_command && status == FaultKind::none) {
     const std::int64_t stamp_ns = rtm::to_ns(command_.tm);
     handover_latency_.record(rtm::to_ns(rtm::now()) - stamp_ns);
-    pending_sequence_ = arm_->command_sequence();
+    pending_sequence_ = arm_->diagnostics().command_sequence();
     pending_stamp_ns_ = stamp_ns;
   } else if (brake || status != FaultKind::none) {
     pending_sequence_ = 0;  // that command will not leave as such

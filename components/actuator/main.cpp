@@ -13,7 +13,7 @@ constexpr std::int64_t kMasterLeadNs = 150'000;
 }  // namespace
 
 int main(int argc, char** argv) {
-  rtm::comp::ArmHardware::Options hardware;
+  rtm::pa10::ArmHardware::Options hardware;
   rtm::comp::ActuatorParams params;
   return rtm::run_component(argc, argv, {
       .kind = "actuator",
@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
               hardware.master_first_deadline_ns =
                   settings.period_ns + (*settings.phase_ns + kMasterLeadNs) % settings.period_ns;
             return std::make_unique<rtm::comp::Actuator>(
-                settings.name, std::make_unique<rtm::comp::ArmHardware>(hardware), params);
+                settings.name, std::make_unique<rtm::pa10::ArmHardware>(hardware), params);
           },
   });
 }

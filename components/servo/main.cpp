@@ -35,7 +35,7 @@ struct ServoOptions {
   std::string bus_cycle = "tick";
   double tick_lead_us = 100;  // > the tick's lateness p99 (40-60 us) + its cycle (~25 us)
   CLI::Option* tick_lead_option = nullptr;
-  rtm::comp::ArmHardware::Options hardware;
+  rtm::pa10::ArmHardware::Options hardware;
   rtm::comp::ControllerParams controller_params;
   rtm::comp::ActuatorParams actuator_params;
 
@@ -106,7 +106,7 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions&
   o.hardware.period_ns = settings.period_ns;
   o.hardware.rt_priority = settings.rt_priority;
   o.hardware.cpu = settings.cpu;
-  auto arm = std::make_unique<rtm::comp::ArmHardware>(o.hardware);
+  auto arm = std::make_unique<rtm::pa10::ArmHardware>(o.hardware);
   rtm::can::Pa10Master* master = &arm->master();  // owned by the actuator, outlives the tick
   rtm::comp::TickPhase phase;
   rtm::comp::TickBusCycle bus;

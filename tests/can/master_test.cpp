@@ -59,6 +59,22 @@ TEST(FaultKind, EachKindHasItsOwnNameAndOnlyNoneAndNotEnabledAreNotLatched) {
   }
 }
 
+TEST(FaultKind, OnlyCommunicationFaultsAndASilentForceSensorAreForTheLayerAboveToRecoverFrom) {
+  EXPECT_EQ(recovery(FaultKind::none, 0), Recovery::none);
+  EXPECT_EQ(recovery(FaultKind::not_enabled, 0), Recovery::none);
+  EXPECT_EQ(recovery(FaultKind::command_loss, drive_node(3)), Recovery::reset);
+  EXPECT_EQ(recovery(FaultKind::cycle_owner_lost, 0), Recovery::reset);
+  EXPECT_EQ(recovery(FaultKind::missing_feedback, drive_node(0)), Recovery::reset_a_few);
+  EXPECT_EQ(recovery(FaultKind::heartbeat_lost, kWristSensorNode), Recovery::wait_for_node);
+  EXPECT_EQ(recovery(FaultKind::heartbeat_lost, kJoystickSensorNode), Recovery::wait_for_node);
+  EXPECT_EQ(recovery(FaultKind::heartbeat_lost, drive_node(1)), Recovery::stop) << "a silent drive is no sensor";
+  EXPECT_EQ(recovery(FaultKind::heartbeat_lost, 0), Recovery::stop) << "a node the arm cannot name";
+  for (FaultKind kind : {FaultKind::drive_fault, FaultKind::drive_disabled, FaultKind::emergency, FaultKind::bus_error,
+                         FaultKind::node_not_operational, FaultKind::foreign_master, FaultKind::spoofed_frame,
+                         FaultKind::following_error, FaultKind::ik_failed})
+    EXPECT_EQ(recovery(kind, kWristSensorNode), Recovery::stop) << to_string(kind);
+}
+
 TEST(Pa10Master, StartupSetsCyclicSyncVelocityModeAndEnablesEveryDrive) {
   Rig rig;
   rig.master->start();

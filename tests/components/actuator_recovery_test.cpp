@@ -28,18 +28,18 @@ struct LockStepActuator {
   pc::testing::TempDir dir;
   pc::LocalHub hub{dir.file("bus")};
   std::unique_ptr<pc::testing::EmulatedPa10> nodes;
-  rtm::comp::ArmHardware* hardware = nullptr;
+  rtm::pa10::ArmHardware* hardware = nullptr;
   std::unique_ptr<rtm::comp::Actuator> actuator;
   std::uint64_t n = 0;
 
   explicit LockStepActuator(rtm::comp::ActuatorParams params = {}, std::int64_t step_timeout_ns = 2'000'000'000) {
-    rtm::comp::ArmHardware::Options options;
+    rtm::pa10::ArmHardware::Options options;
     options.bus = "local:" + dir.file("bus");
     options.run_master_thread = false;
     options.step_timeout_ns = step_timeout_ns;
     // The master finds the nodes by their heartbeats, so the nodes may be up first.
     nodes = std::make_unique<pc::testing::EmulatedPa10>(options.bus);
-    auto arm = std::make_unique<rtm::comp::ArmHardware>(options);
+    auto arm = std::make_unique<rtm::pa10::ArmHardware>(options);
     hardware = arm.get();
     actuator = std::make_unique<rtm::comp::Actuator>("actuator0", std::move(arm), params);
     actuator->on_start();

@@ -4,6 +4,7 @@
 #include "components/actuator/actuator.h"
 
 #include "component_test_support.h"
+#include "rtm_test/recording_arm.h"
 
 #include <gtest/gtest.h>
 
@@ -19,44 +20,7 @@ using comp_test::float6;
 
 constexpr std::array<float, 6> kZero{};
 
-class RecordingArm final : public rtm::comp::VelocityArm {
- public:
-  // One entry per cycle: the twist ordered, or zero with braked set for a quick stop.
-  std::vector<std::array<float, 6>> ordered;
-  std::vector<bool> braked;
-  int stops = 0;
-  int resets = 0;
-  rtm::comp::FaultKind status = rtm::comp::FaultKind::none;
-  std::string reason;
-
-  rtm::comp::FaultKind order_velocity(const std::array<float, 6>& twist) override {
-    if (status == rtm::comp::FaultKind::none) ++sequence;
-    ordered.push_back(twist);
-    braked.push_back(false);
-    return status;
-  }
-  rtm::comp::FaultKind quick_stop() override {
-    ordered.push_back({});
-    braked.push_back(true);
-    return status;
-  }
-  void stop() override { ++stops; }
-  std::string fault_reason() const override { return reason; }
-  bool in_fault() const override {
-    return rtm::can::latched(status);
-  }
-  void reset() override {
-    ++resets;
-    status = rtm::comp::FaultKind::none;
-  }
-  BusPosition bus_position() const override { return {}; }
-  // A bus master in miniature: each ready order is target sequence n; the test says when the
-  // bus "sent" which one.
-  std::uint64_t sequence = 0;
-  SentCommand sent{};
-  std::uint64_t command_sequence() const override { return sequence; }
-  SentCommand last_sent() const override { return sent; }
-};
+using rtm_test::RecordingArm;
 
 struct ActuatorUnderTest {
   RecordingArm* arm = nullptr;

@@ -43,10 +43,10 @@ class ClosedLoopTest : public ::testing::Test {
         PA10_SIM_EXE, "--bus", bus_spec_, "--lockstep", "--profile", profile_path_.string()});
     sim_->wait_for_line("pa10-sim: ready", 30s);
 
-    rtm::comp::ArmHardware::Options options;
+    rtm::pa10::ArmHardware::Options options;
     options.bus = bus_spec_;
     options.run_master_thread = false;
-    auto hardware = std::make_unique<rtm::comp::ArmHardware>(options);
+    auto hardware = std::make_unique<rtm::pa10::ArmHardware>(options);
     hardware_ = hardware.get();
     joystick_ = std::make_unique<rtm::comp::Joystick>(
         "joystick0", std::make_unique<rtm::comp::MasterJoystickSource>(hardware_->master()));
@@ -107,7 +107,7 @@ class ClosedLoopTest : public ::testing::Test {
   std::filesystem::path profile_path_;
   std::string bus_spec_;
   std::unique_ptr<rtm_test::ChildProcess> sim_;
-  rtm::comp::ArmHardware* hardware_ = nullptr;
+  rtm::pa10::ArmHardware* hardware_ = nullptr;
   std::unique_ptr<rtm::comp::Joystick> joystick_;
   std::unique_ptr<rtm::comp::Sensor> sensor_;
   std::unique_ptr<rtm::comp::Controller> controller_;

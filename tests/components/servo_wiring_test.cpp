@@ -10,6 +10,7 @@
 #include "rtm/orb.h"
 #include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
+#include "rtm_test/recording_arm.h"
 
 #include <gtest/gtest.h>
 
@@ -39,23 +40,7 @@ class FakeWristSource final : public rtm::comp::WristSampleSource {
   rtm::comp::WristFault fault() const override { return {}; }
 };
 
-class RecordingArm final : public rtm::comp::VelocityArm {
- public:
-  std::vector<std::array<float, 6>> ordered;
-  rtm::comp::FaultKind order_velocity(const std::array<float, 6>& twist) override {
-    ordered.push_back(twist);
-    return rtm::comp::FaultKind::none;
-  }
-  void stop() override {}
-  rtm::comp::FaultKind quick_stop() override {
-    ordered.push_back({});
-    return rtm::comp::FaultKind::none;
-  }
-  std::string fault_reason() const override { return ""; }
-  bool in_fault() const override { return false; }
-  void reset() override {}
-  BusPosition bus_position() const override { return {}; }
-};
+using rtm_test::RecordingArm;
 
 class ServoWiringTest : public ::testing::Test {
  protected:
@@ -281,24 +266,15 @@ struct BusLog {
   std::vector<std::int64_t> transmit_ns;          // when each transmit the bus took ran
 };
 
-class LoggingArm final : public rtm::comp::VelocityArm {
- public:
-  explicit LoggingArm(BusLog& log) : log_(log) {}
-  rtm::comp::FaultKind order_velocity(const std::array<float, 6>&) override {
-    if (log_.orders++ == log_.fail_on_order) throw std::runtime_error("drive bus gone");
-    log_.events.push_back("order");
-    return rtm::comp::FaultKind::none;
-  }
-  void stop() override {}
-  rtm::comp::FaultKind quick_stop() override { return order_velocity({}); }
-  std::string fault_reason() const override { return ""; }
-  bool in_fault() const override { return false; }
-  void reset() override {}
-  BusPosition bus_position() const override { return {}; }
-
- private:
-  BusLog& log_;
-};
+// The arm of a servo under test: each order is logged, and one of them throws (the drives' bus gone).
+std::unique_ptr<RecordingArm> logging_arm(BusLog& log) {
+  auto arm = std::make_unique<RecordingArm>();
+  arm->on_order = [&log] {
+    if (log.orders++ == log.fail_on_order) throw std::runtime_error("drive bus gone");
+    log.events.push_back("order");
+  };
+  return arm;
+}
 
 std::int64_t monotonic_ns() {
   timespec t{};
@@ -348,7 +324,7 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_servo(const std::string&
       std::make_unique<rtm::comp::Sensor>(name + "_sensor", std::move(source),
                                           rtm::pa10::Kinematics::pa10()),
       std::make_unique<rtm::comp::Controller>(name + "_controller", gains),
-      std::make_unique<rtm::comp::Actuator>(name + "_actuator", std::make_unique<LoggingArm>(log), limits),
+      std::make_unique<rtm::comp::Actuator>(name + "_actuator", logging_arm(log), limits),
       rtm::PeriodicOptions{}, std::move(phase), std::move(bus));
 }
 

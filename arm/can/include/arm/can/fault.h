@@ -7,6 +7,8 @@
 // thing wherever it is read. It lives at the bottom (arm/can) so every layer above can name it.
 #pragma once
 
+#include "arm/can/protocol.h"
+
 #include <cstdint>
 #include <string_view>
 
@@ -47,6 +49,33 @@ constexpr bool latched(FaultKind kind) { return kind != FaultKind::none && kind 
 // trusted, or a drive moves on something other than our command.
 constexpr bool takes_drives_down(FaultKind kind) {
   return kind == FaultKind::foreign_master || kind == FaultKind::spoofed_frame || kind == FaultKind::following_error;
+}
+
+// What the layer above may do about a fault, by its kind and the node it concerns: the arm
+// library's knowledge, so that no component decides which faults are the hardware's.
+enum class Recovery : std::uint8_t {
+  none,           // nothing latched (none, not_enabled): go on
+  reset,          // a communication fault, nothing broken (command_loss: commands came late;
+                  // cycle_owner_lost: a late tick lost the bus cycles): reset, move again on the
+                  // next new command
+  reset_a_few,    // missing_feedback: drives silent for a few SYNCs with their heartbeat on (a
+                  // stall of the process that runs them); reset, but a drive that keeps doing it
+                  // answers no SYNC: the caller bounds how often
+  wait_for_node,  // heartbeat_lost of a force sensor node: the drives are stopped; reset now and
+                  // then while the caller's budget for its silence lasts
+  stop,           // anything else: the drives or the bus are not to be trusted; stay stopped
+};
+
+constexpr Recovery recovery(FaultKind kind, std::uint8_t node) {
+  switch (kind) {
+    case FaultKind::none:
+    case FaultKind::not_enabled: return Recovery::none;
+    case FaultKind::command_loss:
+    case FaultKind::cycle_owner_lost: return Recovery::reset;
+    case FaultKind::missing_feedback: return Recovery::reset_a_few;
+    case FaultKind::heartbeat_lost: return is_sensor_node(node) ? Recovery::wait_for_node : Recovery::stop;
+    default: return Recovery::stop;
+  }
 }
 
 }  // namespace rtm::can

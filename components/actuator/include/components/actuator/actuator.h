@@ -30,7 +30,7 @@
 //     reset() asks the arm to reset too.
 #pragma once
 
-#include "components/actuator/velocity_arm.h"
+#include "arm/pa10/velocity_arm.h"
 
 #include "rt/activity.h"
 #include "rtm/component.h"
@@ -45,6 +45,9 @@
 #include <string>
 
 namespace rtm::comp {
+
+using rtm::pa10::FaultKind;
+using rtm::pa10::VelocityArm;
 
 struct ActuatorParams {
   // |component| limits: m/s for vx vy vz, rad/s for wx wy wz.
@@ -93,7 +96,7 @@ struct ActuatorCounters : rtm::CounterSet {
 
 // Sample-to-drive latency, CLOCK_REALTIME, from the command stamp (the sensor sample's stamp,
 // see the controller) to the moment the bus master wrote the RPDOs carrying that command
-// (VelocityArm::last_sent); 0 when the arm cannot tell. The statistics latency_p50 / _p99 /
+// (ArmDiagnostics::last_sent); 0 when the arm cannot tell. The statistics latency_p50 / _p99 /
 // _max (us) and latency_samples.
 struct ActuatorLatency {
   std::int64_t latency_p50_ns = 0;
@@ -140,7 +143,7 @@ class Actuator final : public rtm::Component {
   std::array<float, 6> twist_{};
   rtm::Freshness command_freshness_{params_.watchdog_periods};  // the watchdog; seen(): a command since on()
   bool command_bad_ = false;
-  VelocityArm::BusPosition last_command_bus_{};  // when the newest command was handed over
+  rtm::pa10::ArmDiagnostics::BusPosition last_command_bus_{};  // when the newest command was handed over
   std::array<std::atomic<float>, 6> last_twist_{};
   rtm::LatencyHistogram latency_;           // stamp -> RPDOs written
   rtm::LatencyHistogram handover_latency_;  // stamp -> handed to the arm
@@ -152,7 +155,7 @@ class Actuator final : public rtm::Component {
   // re-enabling after a reset): retry every kSensorRetryPeriods, give up after the budget
   // (throws).
   void retry_sensor_loss(bool faulted);
-  void handle_arm_status(FaultKind status);
+  void handle_arm_status(rtm::pa10::FaultKind status);
   // Resets the arm and moves again on the next new command only (command loss, a lost cycle
   // owner, a feedback gap), counting the event in `events`.
   void resume_after(rtm::Counter& events);

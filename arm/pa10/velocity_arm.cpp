@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "components/actuator/velocity_arm.h"
+#include "arm/pa10/velocity_arm.h"
 
 #include <CLI/CLI.hpp>
 
@@ -10,7 +10,7 @@
 
 #include "rt/clock.h"
 
-namespace rtm::comp {
+namespace rtm::pa10 {
 
 namespace {
 
@@ -54,7 +54,7 @@ void ArmHardware::Options::add_options(CLI::App& app) {
 
 namespace pc = rtm::can;
 
-ArmHardware::ArmHardware(const Options& options) : options_(options) {
+ArmHardware::ArmHardware(const Options& options) : VelocityArm(diagnostics_), options_(options) {
   pc::MasterConfig config;
   config.period_ns = options.period_ns;
   config.realtime_priority = options.rt_priority;
@@ -68,9 +68,9 @@ ArmHardware::ArmHardware(const Options& options) : options_(options) {
   config.missed_feedback_limit = options.missed_feedback_limit;
   master_ = std::make_unique<pc::Pa10Master>(options.bus, options.sensor_bus, config);
   master_->start();
-  rtm::pa10::ArmOptions arm_options;
+  ArmOptions arm_options;
   arm_options.period_s = static_cast<double>(options.period_ns) * 1e-9;
-  arm_ = std::make_unique<rtm::pa10::Pa10Arm>(options.urdf, *master_, arm_options);
+  arm_ = std::make_unique<Pa10Arm>(options.urdf, *master_, arm_options);
   if (options.run_master_thread) master_->run_periodic();
 }
 
@@ -81,25 +81,34 @@ ArmHardware::~ArmHardware() {
   master_.reset();  // one last zero-velocity cycle, then NMT pre-operational
 }
 
-bool ArmHardware::in_fault() const {
-  // While the component is off nobody orders velocities, so the arm has not looked at the
-  // master since: a fault the master latched meanwhile is found here.
-  return rtm::can::latched(arm_->check_faults());
+const ArmDiagnostics& ArmDiagnostics::none() {
+  static const ArmDiagnostics nothing;
+  return nothing;
 }
 
-VelocityArm::BusPosition ArmHardware::bus_position() const {
-  const pc::JointState state = master_->joint_state();
+ArmFault ArmHardware::fault() const {
+  // While the component is off nobody orders velocities, so the arm has not looked at the
+  // master since: a fault the master latched meanwhile is found here.
+  const FaultKind kind = arm_->check_faults();
+  if (!rtm::can::latched(kind)) return {kind, 0, ""};
+  return {kind, master_->fault().node, arm_->fault_reason()};
+}
+
+ArmDiagnostics::BusPosition ArmHardware::Diagnostics::bus_position() const {
+  const pc::JointState state = arm_.master_->joint_state();
   return {state.cycle, state.sync_counter};
 }
 
-VelocityArm::BusHealth ArmHardware::bus_health() const {
-  const pc::MasterCounters c = master_->counters();
+std::uint64_t ArmHardware::Diagnostics::command_sequence() const { return arm_.master_->target_sequence(); }
+
+ArmDiagnostics::BusHealth ArmHardware::Diagnostics::bus_health() const {
+  const pc::MasterCounters c = arm_.master_->counters();
   return {c.foreign_frames, c.unsolicited_frames, c.peak_velocity_error_rad_s, c.peak_position_error_rad,
           c.target_expiries};
 }
 
-VelocityArm::SentCommand ArmHardware::last_sent() const {
-  const pc::Pa10Master::SentTarget sent = master_->last_sent();
+ArmDiagnostics::SentCommand ArmHardware::Diagnostics::last_sent() const {
+  const pc::Pa10Master::SentTarget sent = arm_.master_->last_sent();
   return {sent.sequence, sent.sent_realtime_ns};
 }
 
@@ -115,4 +124,4 @@ void ArmHardware::stop() {
     std::this_thread::sleep_for(std::chrono::nanoseconds(options_.period_ns / 4));
 }
 
-}  // namespace rtm::comp
+}  // namespace rtm::pa10
