@@ -5,23 +5,16 @@
 #include "rtm/outport.h"
 #include "rtm/ring_types.h"
 
-#include <array>
 #include <cstring>
 #include <stdexcept>
+#include <vector>
 
 namespace rtm {
 
-#define RTM_INSTANTIATE_PORTS(Type) \
-  template class InPort<RTM::Type>; \
+#define RTM_INSTANTIATE_PORTS(Type, Shape, Member, Elements, ElementType) \
+  template class InPort<RTM::Type>;                                  \
   template class OutPort<RTM::Type>;
-RTM_INSTANTIATE_PORTS(TimedFloat6)
-RTM_INSTANTIATE_PORTS(TimedFloat)
-RTM_INSTANTIATE_PORTS(TimedDouble)
-RTM_INSTANTIATE_PORTS(TimedLong)
-RTM_INSTANTIATE_PORTS(TimedBoolean)
-RTM_INSTANTIATE_PORTS(TimedFloat3)
-RTM_INSTANTIATE_PORTS(TimedFloatSeq)
-RTM_INSTANTIATE_PORTS(TimedDoubleSeq)
+RTM_BUILTIN_DATA_TYPES(RTM_INSTANTIATE_PORTS)
 #undef RTM_INSTANTIATE_PORTS
 
 namespace {
@@ -45,9 +38,14 @@ RingDataType ring_data_type() {
 }  // namespace
 
 const RingDataType* find_ring_data_type(CORBA::TypeCode_ptr type) {
-  static const std::array<RingDataType, 6> types{
-      ring_data_type<RTM::TimedFloat6>(), ring_data_type<RTM::TimedFloat>(),   ring_data_type<RTM::TimedDouble>(),
-      ring_data_type<RTM::TimedLong>(),   ring_data_type<RTM::TimedBoolean>(), ring_data_type<RTM::TimedFloat3>()};
+  // Every built-in type of plain memory (no sequence).
+  static const std::vector<RingDataType> types = [] {
+    std::vector<RingDataType> plain;
+    for_each_builtin_type([&]<class T>() {
+      if constexpr (DataTraits<T>::fixed_size) plain.push_back(ring_data_type<T>());
+    });
+    return plain;
+  }();
   if (CORBA::is_nil(type)) return nullptr;
   for (const RingDataType& t : types) {
     if (type->equivalent(t.type_code())) return &t;

@@ -2,6 +2,7 @@
 #include "scaffold.h"
 
 #include "host/runner.h"
+#include "rtm/data.h"
 
 #include <fmt/format.h>
 
@@ -21,7 +22,7 @@ namespace fs = std::filesystem;
 // ============================ port types ==============================
 
 // How a timed type holds its values, which is all the generated step() and test need to know.
-enum class Shape { array, scalar, sequence };
+using Shape = rtm::DataShape;
 
 struct TypeInfo {
   std::string_view name;     // in module RTM
@@ -31,17 +32,11 @@ struct TypeInfo {
   std::string_view element;  // C++ type of one value
 };
 
-// The types rtm/data.h gives DataTraits to (RTM.idl's TimedFloat6, then RTMData.idl's).
-constexpr TypeInfo kTypes[] = {
-    {"TimedFloat6", Shape::array, "val", 6, "float"},
-    {"TimedFloat", Shape::scalar, "data", 1, "float"},
-    {"TimedDouble", Shape::scalar, "data", 1, "double"},
-    {"TimedLong", Shape::scalar, "data", 1, "CORBA::Long"},
-    {"TimedBoolean", Shape::scalar, "data", 1, "CORBA::Boolean"},
-    {"TimedFloat3", Shape::array, "val", 3, "float"},
-    {"TimedFloatSeq", Shape::sequence, "data", 0, "float"},
-    {"TimedDoubleSeq", Shape::sequence, "data", 0, "double"},
-};
+// The built-in types, from their one list (rtm/data.h).
+#define RTM_TYPE_INFO(Type, Shape_, Member, Elements, ElementType) \
+  {#Type, Shape::Shape_, #Member, Elements, #ElementType},
+constexpr TypeInfo kTypes[] = {RTM_BUILTIN_DATA_TYPES(RTM_TYPE_INFO)};
+#undef RTM_TYPE_INFO
 
 std::string full_name(const TypeInfo& t) { return fmt::format("RTM::{}", t.name); }
 

@@ -27,42 +27,33 @@ std::string format_time(const RTM::Time& t) {
   return fmt::format("{}.{:09}Z", date, static_cast<unsigned long>(t.nsec));
 }
 
-// Calls f(time, values) for each known type; returns false for an unknown one.
+// The values of a built-in datum after its stamp, as numbers.
+template <rtm::PortData T>
+std::vector<double> values_of(const T& d) {
+  using Traits = rtm::DataTraits<T>;
+  const auto& member = Traits::values(d);
+  std::vector<double> v;
+  if constexpr (Traits::shape == rtm::DataShape::scalar) {
+    v.push_back(static_cast<double>(member));
+  } else if constexpr (Traits::shape == rtm::DataShape::array) {
+    v.assign(member, member + Traits::elements);
+  } else {
+    for (CORBA::ULong i = 0; i < member.length(); ++i) v.push_back(member[i]);
+  }
+  return v;
+}
+
+// Calls f(time, values, datum) for a built-in type (rtm/data.h's list); false for any other.
 template <class F>
 bool visit(const CORBA::Any& any, F&& f) {
-  const RTM::TimedFloat6* f6 = nullptr;
-  const RTM::TimedFloat3* f3 = nullptr;
-  const RTM::TimedFloat* f1 = nullptr;
-  const RTM::TimedDouble* d1 = nullptr;
-  const RTM::TimedLong* l1 = nullptr;
-  const RTM::TimedBoolean* b1 = nullptr;
-  const RTM::TimedFloatSeq* fs = nullptr;
-  const RTM::TimedDoubleSeq* ds = nullptr;
-  std::vector<double> v;
-  if (any >>= f6) {
-    v.assign(f6->val, f6->val + 6);
-    f(f6->tm, v);
-  } else if (any >>= f3) {
-    v.assign(f3->val, f3->val + 3);
-    f(f3->tm, v);
-  } else if (any >>= f1) {
-    f(f1->tm, std::vector<double>{f1->data});
-  } else if (any >>= d1) {
-    f(d1->tm, std::vector<double>{d1->data});
-  } else if (any >>= l1) {
-    f(l1->tm, std::vector<double>{static_cast<double>(l1->data)});
-  } else if (any >>= b1) {
-    f(b1->tm, std::vector<double>{b1->data ? 1.0 : 0.0});
-  } else if (any >>= fs) {
-    for (CORBA::ULong i = 0; i < fs->data.length(); ++i) v.push_back(fs->data[i]);
-    f(fs->tm, v);
-  } else if (any >>= ds) {
-    for (CORBA::ULong i = 0; i < ds->data.length(); ++i) v.push_back(ds->data[i]);
-    f(ds->tm, v);
-  } else {
-    return false;
-  }
-  return true;
+  bool found = false;
+  rtm::for_each_builtin_type([&]<class T>() {
+    const T* d = nullptr;
+    if (found || !(any >>= d)) return;
+    found = true;
+    f(d->tm, values_of(*d), *d);
+  });
+  return found;
 }
 
 double parse_number(const std::string& word) {
@@ -87,22 +78,21 @@ std::vector<double> parse_numbers(const std::vector<std::string>& words, std::si
   return out;
 }
 
-// "fields" of a built-in type: its one member after tm, by name.
-nlohmann::json builtin_fields(const CORBA::Any& any, const std::vector<double>& v) {
+// "fields" of a built-in type: its one member after tm, by name; a long as an integer, a
+// boolean as true/false.
+template <rtm::PortData T>
+nlohmann::json builtin_fields(const T& d, const std::vector<double>& v) {
+  using Traits = rtm::DataTraits<T>;
   nlohmann::json j = nlohmann::json::object();
-  CORBA::TypeCode_var tc = any.type();
-  const RTM::TimedLong* l = nullptr;
-  const RTM::TimedBoolean* b = nullptr;
-  if (any >>= l) {
-    j["data"] = l->data;
-  } else if (any >>= b) {
-    j["data"] = static_cast<bool>(b->data);
-  } else if (tc->equivalent(RTM::_tc_TimedFloat6) || tc->equivalent(RTM::_tc_TimedFloat3)) {
-    j["val"] = v;
-  } else if (tc->equivalent(RTM::_tc_TimedFloatSeq) || tc->equivalent(RTM::_tc_TimedDoubleSeq)) {
-    j["data"] = v;
+  const std::string member(Traits::member);
+  if constexpr (std::is_same_v<typename Traits::Element, CORBA::Boolean>) {
+    j[member] = static_cast<bool>(Traits::values(d));
+  } else if constexpr (std::is_same_v<typename Traits::Element, CORBA::Long>) {
+    j[member] = Traits::values(d);
+  } else if constexpr (Traits::shape == rtm::DataShape::scalar) {
+    j[member] = v.at(0);
   } else {
-    j["data"] = v.at(0);
+    j[member] = v;
   }
   return j;
 }
@@ -577,7 +567,7 @@ CORBA::Any parse_struct(CORBA::TypeCode_ptr type, CORBA::TypeCode_ptr tc, const 
 
 std::string format_text(const CORBA::Any& value, const std::vector<std::string>& units) {
   std::string line;
-  bool known = visit(value, [&](const RTM::Time& tm, const std::vector<double>& v) {
+  bool known = visit(value, [&](const RTM::Time& tm, const std::vector<double>& v, const auto&) {
     line = format_time(tm);
     for (std::size_t i = 0; i < v.size(); ++i) {
       line += fmt::format("  {:.4f}", v[i]);
@@ -604,10 +594,10 @@ nlohmann::json format_json(const CORBA::Any& value) {
     j["time"] = {{"sec", static_cast<unsigned long>(tm.sec)},
                  {"nsec", static_cast<unsigned long>(tm.nsec)}};
   };
-  const bool known = visit(value, [&](const RTM::Time& tm, const std::vector<double>& v) {
+  const bool known = visit(value, [&](const RTM::Time& tm, const std::vector<double>& v, const auto& datum) {
     stamp(tm);
     j["values"] = v;
-    j["fields"] = builtin_fields(value, v);
+    j["fields"] = builtin_fields(datum, v);
   });
   if (known) return j;
   if (auto w = walk(value)) {
@@ -621,7 +611,7 @@ nlohmann::json format_json(const CORBA::Any& value) {
 Sample to_sample(const CORBA::Any& value) {
   CORBA::TypeCode_var tc = value.type();
   Sample s{rtm::type_name(tc), 0, {}};
-  const bool known = visit(value, [&](const RTM::Time& tm, const std::vector<double>& v) {
+  const bool known = visit(value, [&](const RTM::Time& tm, const std::vector<double>& v, const auto&) {
     s.time_ns = rtm::to_ns(tm);
     s.values = v;
   });
@@ -646,49 +636,42 @@ CORBA::Any parse_value(CORBA::TypeCode_ptr type, const std::vector<std::string>&
       throw ValueError(fmt::format("{} is out of the range of {}'s float elements (|x| <= 3.4e38)", x, name));
     return static_cast<float>(x);
   };
-  if (type->equivalent(RTM::_tc_TimedFloat6)) {
-    auto v = parse_numbers(words, 6, name);
-    RTM::TimedFloat6 d;
-    d.tm = rtm::now();
-    for (int i = 0; i < 6; ++i) d.val[i] = to_float(v[i]);
-    any <<= d;
-  } else if (type->equivalent(RTM::_tc_TimedFloat3)) {
-    auto v = parse_numbers(words, 3, name);
-    RTM::TimedFloat3 d;
-    d.tm = rtm::now();
-    for (int i = 0; i < 3; ++i) d.val[i] = to_float(v[i]);
-    any <<= d;
-  } else if (type->equivalent(RTM::_tc_TimedFloat)) {
-    RTM::TimedFloat d{rtm::now(), to_float(parse_numbers(words, 1, name)[0])};
-    any <<= d;
-  } else if (type->equivalent(RTM::_tc_TimedDouble)) {
-    RTM::TimedDouble d{rtm::now(), narrow(parse_numbers(words, 1, name)[0])};
-    any <<= d;
-  } else if (type->equivalent(RTM::_tc_TimedLong)) {
-    double x = narrow(parse_numbers(words, 1, name)[0]);
-    if (x != std::trunc(x) || x < -2147483648.0 || x > 2147483647.0) {
-      throw ValueError(fmt::format("{} takes a whole number in the long range, got {}", name, words[0]));
+  // One element of a built-in type from a number, refused when the type cannot hold it.
+  auto element = [&]<class E>(double x, const std::string& word) -> E {
+    if constexpr (std::is_same_v<E, CORBA::Boolean>) {
+      return x != 0.0;
+    } else if constexpr (std::is_same_v<E, CORBA::Long>) {
+      x = narrow(x);
+      if (x != std::trunc(x) || x < -2147483648.0 || x > 2147483647.0)
+        throw ValueError(fmt::format("{} takes a whole number in the long range, got {}", name, word));
+      return static_cast<CORBA::Long>(x);
+    } else if constexpr (std::is_same_v<E, float>) {
+      return to_float(x);
+    } else {
+      return narrow(x);
     }
-    RTM::TimedLong d{rtm::now(), static_cast<CORBA::Long>(x)};
-    any <<= d;
-  } else if (type->equivalent(RTM::_tc_TimedBoolean)) {
-    RTM::TimedBoolean d{rtm::now(), parse_numbers(words, 1, name)[0] != 0.0};
-    any <<= d;
-  } else if (type->equivalent(RTM::_tc_TimedFloatSeq)) {
-    auto v = parse_numbers(words, 0, name);
-    RTM::TimedFloatSeq d;
+  };
+  bool built = false;
+  rtm::for_each_builtin_type([&]<class T>() {
+    using Traits = rtm::DataTraits<T>;
+    using E = typename Traits::Element;
+    if (built || !type->equivalent(Traits::type_code())) return;
+    const std::vector<double> v = parse_numbers(words, Traits::elements, name);
+    T d;
     d.tm = rtm::now();
-    d.data.length(static_cast<CORBA::ULong>(v.size()));
-    for (CORBA::ULong i = 0; i < v.size(); ++i) d.data[i] = to_float(v[i]);
+    auto& member = Traits::values(d);
+    if constexpr (Traits::shape == rtm::DataShape::scalar) {
+      member = element.template operator()<E>(v[0], words[0]);
+    } else if constexpr (Traits::shape == rtm::DataShape::array) {
+      for (std::size_t i = 0; i < Traits::elements; ++i) member[i] = element.template operator()<E>(v[i], words[i]);
+    } else {
+      member.length(static_cast<CORBA::ULong>(v.size()));
+      for (CORBA::ULong i = 0; i < v.size(); ++i) member[i] = element.template operator()<E>(v[i], words[i]);
+    }
     any <<= d;
-  } else if (type->equivalent(RTM::_tc_TimedDoubleSeq)) {
-    auto v = parse_numbers(words, 0, name);
-    RTM::TimedDoubleSeq d;
-    d.tm = rtm::now();
-    d.data.length(static_cast<CORBA::ULong>(v.size()));
-    for (CORBA::ULong i = 0; i < v.size(); ++i) d.data[i] = narrow(v[i]);
-    any <<= d;
-  } else {
+    built = true;
+  });
+  if (!built) {
     CORBA::TypeCode_var tc = unalias(type);
     if (tc->kind() != CORBA::tk_struct) throw ValueError(fmt::format("rtm cannot build a value of type {}", name));
     return parse_struct(type, tc, words);

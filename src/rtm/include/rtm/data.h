@@ -31,8 +31,24 @@ RTM::Time from_ns(std::int64_t ns);
 
 // ================================ types ===============================
 
-// DataTraits<T>: the TypeCode and IDL name of a type a port can carry.
-// Specialised for RTM::TimedFloat6 (RTM.idl) and every Timed* of RTMData.idl.
+// The built-in data types, listed here once and nowhere else (the ports, the tools, the
+// scaffold all read this list): X(Type, shape, member, elements, element), RTM.idl's
+// TimedFloat6 first, then RTMData.idl's. shape: the values after the stamp are an array
+// `member[elements]`, one scalar `member`, or a sequence `member`; element: their C++ type.
+#define RTM_BUILTIN_DATA_TYPES(X)                  \
+  X(TimedFloat6, array, val, 6, float)             \
+  X(TimedFloat, scalar, data, 1, float)            \
+  X(TimedDouble, scalar, data, 1, double)          \
+  X(TimedLong, scalar, data, 1, CORBA::Long)       \
+  X(TimedBoolean, scalar, data, 1, CORBA::Boolean) \
+  X(TimedFloat3, array, val, 3, float)             \
+  X(TimedFloatSeq, sequence, data, 0, float)       \
+  X(TimedDoubleSeq, sequence, data, 0, double)
+
+enum class DataShape : std::uint8_t { scalar, array, sequence };
+
+// DataTraits<T>: the TypeCode and IDL name of a type a port can carry. Specialised for each
+// built-in type above (with its shape, member and element too) and by RTM_DATA_TYPE.
 template <class T>
 struct DataTraits;
 
@@ -43,25 +59,32 @@ concept PortData = requires {
   { DataTraits<T>::name } -> std::convertible_to<std::string_view>;
 };
 
-#define RTM_DATA_TRAITS(Type, FixedSize, Elements)                               \
+#define RTM_DATA_TRAITS(Type, Shape, Member, Elements, ElementType)                  \
   template <>                                                                     \
   struct DataTraits<RTM::Type> {                                                  \
     static CORBA::TypeCode_ptr type_code() { return RTM::_tc_##Type; }            \
     static constexpr std::string_view name = "RTM::" #Type;                       \
     /* true: copying one allocates nothing */                                     \
-    static constexpr bool fixed_size = FixedSize;                                 \
+    static constexpr bool fixed_size = DataShape::Shape != DataShape::sequence;   \
     /* values in one datum (0: a sequence, any number) */                         \
     static constexpr std::size_t elements = Elements;                             \
+    static constexpr DataShape shape = DataShape::Shape;                          \
+    static constexpr std::string_view member = #Member;                           \
+    using Element = ElementType;                                                  \
+    static constexpr std::string_view element = #ElementType;                     \
+    static const auto& values(const RTM::Type& d) { return d.Member; }            \
+    static auto& values(RTM::Type& d) { return d.Member; }                        \
   };
-RTM_DATA_TRAITS(TimedFloat6, true, 6)
-RTM_DATA_TRAITS(TimedFloat, true, 1)
-RTM_DATA_TRAITS(TimedDouble, true, 1)
-RTM_DATA_TRAITS(TimedLong, true, 1)
-RTM_DATA_TRAITS(TimedBoolean, true, 1)
-RTM_DATA_TRAITS(TimedFloat3, true, 3)
-RTM_DATA_TRAITS(TimedFloatSeq, false, 0)
-RTM_DATA_TRAITS(TimedDoubleSeq, false, 0)
+RTM_BUILTIN_DATA_TYPES(RTM_DATA_TRAITS)
 #undef RTM_DATA_TRAITS
+
+// Calls f.template operator()<T>() for each built-in type T, in the order of the list.
+template <class F>
+void for_each_builtin_type(F&& f) {
+#define RTM_VISIT_TYPE(Type, Shape, Member, Elements, ElementType) f.template operator()<RTM::Type>();
+  RTM_BUILTIN_DATA_TYPES(RTM_VISIT_TYPE)
+#undef RTM_VISIT_TYPE
+}
 
 // A data type of a project's own IDL (stubs made by rtm_add_idl in CMake), at global scope
 // after the stub header: RTM_DATA_TYPE(My, TimedPose, 7) makes rtm::InPort<My::TimedPose> and
