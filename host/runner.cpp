@@ -2,6 +2,7 @@
 #include "host/runner.h"
 
 #include "host/lease.h"
+#include "host/name_binding.h"
 #include "host/tls.h"
 #include "rtm/log.h"
 #include "rtm/orb.h"
