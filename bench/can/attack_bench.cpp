@@ -26,8 +26,8 @@
 #include <vector>
 
 #include "busy_neighbour.h"
-#include "attacker.h"
-#include "master_rig.h"
+#include "rtm_test/can/attacker.h"
+#include "rtm_test/can/master_rig.h"
 
 namespace {
 

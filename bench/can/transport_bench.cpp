@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // Frames through a CAN transport, and the master's lock-step cycle against pa10-sim's CAN nodes
-// on a kinematic plant (tests/can/emulated_pa10.h).
+// on a kinematic plant (tests/support/rtm_test/can/emulated_pa10.h).
 //
 // usage: can_transport_bench [BUS]   BUS = "local" (default: starts its own hub in a temporary
 //        directory) or a spec such as "socketcan:vcan0" (run in a QEMU guest with
@@ -28,7 +28,7 @@
 #include "arm/can/bus.h"
 #include "arm/can/local_bus.h"
 #include "arm/can/master.h"
-#include "emulated_pa10.h"
+#include "rtm_test/can/emulated_pa10.h"
 
 namespace {
 

@@ -3,7 +3,7 @@
 //   1. `rtm ls` (and `rtm ls -l`) of N components: wall time per call, p50 and max;
 //   2. `rtm watch` on a 500 Hz stream: data received vs written, drops.
 // Usage: rtm_cli_bench [--components N] [--calls N] [--watch-seconds S]
-#include "../../tests/tools/run_command.h"
+#include "rtm_test/run_command.h"
 
 #include "rtm_test/child_process.h"
 #include "rtm_test/omni_names.h"

@@ -14,7 +14,7 @@
 
 #include "arm/can/local_bus.h"
 #include "arm/can/master.h"
-#include "master_rig.h"
+#include "rtm_test/can/master_rig.h"
 #include "rtm_test/eventually.h"
 
 namespace rtm::can::testing {

@@ -28,7 +28,7 @@
 #include "arm/can/receive_thread.h"
 #include "rt/thread.h"
 #include "rtm_test/eventually.h"
-#include "test_paths.h"
+#include "rtm_test/can/test_paths.h"
 
 namespace rtm::can {
 namespace {

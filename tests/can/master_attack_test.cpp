@@ -21,8 +21,8 @@
 #include "arm/can/answer_ledger.h"
 #include "arm/can/local_bus.h"
 #include "arm/can/master.h"
-#include "attacker.h"
-#include "master_rig.h"
+#include "rtm_test/can/attacker.h"
+#include "rtm_test/can/master_rig.h"
 #include "rtm_test/eventually.h"
 
 namespace rtm::can {

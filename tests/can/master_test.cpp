@@ -23,7 +23,7 @@
 #include "arm/can/supervisor.h"
 #include "rtm_test/allocation_counter.h"
 #include "rtm_test/eventually.h"
-#include "master_rig.h"
+#include "rtm_test/can/master_rig.h"
 
 namespace rtm::can {
 namespace {

@@ -15,7 +15,7 @@
 #include "arm/can/bus.h"
 #include "arm/can/master.h"
 #include "arm/can/sensor_listener.h"
-#include "emulated_pa10.h"
+#include "rtm_test/can/emulated_pa10.h"
 #include "rtm_test/eventually.h"
 
 namespace rtm::can {

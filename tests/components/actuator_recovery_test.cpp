@@ -9,8 +9,8 @@
 
 #include "arm/can/local_bus.h"
 #include "component_test_support.h"
-#include "emulated_pa10.h"
-#include "test_paths.h"
+#include "rtm_test/can/emulated_pa10.h"
+#include "rtm_test/can/test_paths.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The Sensor component's fault policy with its real bus source (BusWristSource: SensorListener
-// and JointListener) against pa10-sim's CAN nodes (tests/can/emulated_pa10.h: the simulator's
+// and JointListener) against pa10-sim's CAN nodes (tests/support/rtm_test/can/emulated_pa10.h: the simulator's
 // own ForceSensorDevice and DriveDevices, in lock-step) on the user-space bus. The test is the
 // bus master: NMT start, then one SYNC per step. The wrist sensor node is cut off the bus as a
 // pulled cable is (ForceSensorDevice::set_connected(false): no TPDO, no heartbeat):
@@ -13,10 +13,10 @@
 
 #include "arm/can/local_bus.h"
 #include "component_test_support.h"
-#include "emulated_pa10.h"
-#include "master_rig.h"
+#include "rtm_test/can/emulated_pa10.h"
+#include "rtm_test/can/master_rig.h"
 #include "rtm_test/eventually.h"
-#include "test_paths.h"
+#include "rtm_test/can/test_paths.h"
 
 #include <CLI/CLI.hpp>
 #include <gtest/gtest.h>

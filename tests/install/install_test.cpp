@@ -2,7 +2,7 @@
 // RTM as others build on it: `cmake --install` into a temporary prefix, then projects outside
 // this tree built against that prefix alone (find_package(RTM)), run with a real omniNames and
 // wired by the installed `rtm`.
-#include "run_command.h"
+#include "rtm_test/run_command.h"
 
 #include "rtm_test/child_process.h"
 #include "rtm_test/eventually.h"

@@ -10,6 +10,7 @@
 #   sim/         the simulator: no CORBA, no component
 #   tools/       the component browser: no robot code
 #   components/  included only by components (a composite includes its members) and tests
+#   bench/       tests' code only through tests/support's libraries (rtm_test/...)
 # usage: check_includes.sh SOURCE_DIR   prints each violation as file:line: rule: the #include;
 #        exits 1 if there is any
 set -uo pipefail
@@ -40,6 +41,7 @@ forbid arm "sim/|components/" "the arm/CAN library includes no simulator or comp
 forbid sim "$corba" "the simulator knows nothing of CORBA"
 forbid sim "components/" "the simulator includes no component"
 forbid tools "$robot" "tools include no robot code"
+forbid bench '\.\./|tests/' "benchmarks take tests' code only from the test-support libraries (rtm_test/)"
 for folder in bench examples scripts src host arm sim tools; do
   forbid "$folder" "components/" "nothing outside components/ and tests/ includes a component"
 done

@@ -8,7 +8,7 @@ check=$1
 source "$(dirname "$0")/expect.sh"
 tree=$scratch
 
-mkdir -p "$tree"/{src/rtm,src/rt,host,arm/can,sim,tools/rtm,components/controller,components/servo,tests/components}
+mkdir -p "$tree"/{src/rtm,src/rt,host,arm/can,sim,tools/rtm,components/controller,components/servo,tests/components,bench/can}
 echo '#include "rtm/component.h"' >"$tree/components/controller/controller.h"
 echo '#include "components/controller/controller.h"' >"$tree/components/servo/servo.h"
 echo '#include "components/controller/controller.h"' >"$tree/tests/components/controller_test.cpp"
@@ -17,6 +17,7 @@ echo '#include "rt/activity.h"' >"$tree/sim/runner.cpp"
 echo '#include "rt/schedule.h"' >"$tree/src/rtm/component.h"
 printf '#include <vector>\n#include "rtm/orb.h"\n' >"$tree/tools/rtm/main.cpp"
 printf '#include "rtm/component.h"\n#include "host/access.h"\n' >"$tree/host/runner.cpp"
+echo '#include "rtm_test/can/attacker.h"' >"$tree/bench/can/attack_bench.cpp"
 run_check "$check" "$tree"
 expect "a tree that keeps the rules passes" test $status -eq 0
 
@@ -28,6 +29,7 @@ echo '#include "sim/wrench.h"' >"$tree/arm/can/sensor.h"
 echo '#include "rtm/log.h"' >"$tree/src/rt/thread.cpp"
 echo '#include "host/tls.h"' >"$tree/src/rtm/naming.cpp"
 echo '#include "tools/rtm/browser.h"' >"$tree/host/launch.cpp"
+echo '#include "../../tests/tools/run_command.h"' >"$tree/bench/cli_bench.cpp"
 run_check "$check" "$tree"
 expect "violations fail the check" test $status -eq 1
 expect "the core including robot code is named with its line" grep -q "^src/rtm/runner.cpp:2: the core knows nothing of robots" <<<"$output"
@@ -38,6 +40,7 @@ expect "the CAN library including the simulator is found" grep -q "^arm/can/sens
 expect "the real-time base including the core is found" grep -q "^src/rt/thread.cpp:1: the real-time base knows nothing of CORBA" <<<"$output"
 expect "the core including the host library is found" grep -q "^src/rtm/naming.cpp:1: the core knows nothing of the host library" <<<"$output"
 expect "the host library including tools is found" grep -q "^host/launch.cpp:1: the host library knows nothing of robots or tools" <<<"$output"
-expect "the count is given" grep -q "^9 layering violation(s)" <<<"$output"
+expect "a benchmark reaching into tests/ is found" grep -q "^bench/cli_bench.cpp:1: benchmarks take tests' code only from the test-support libraries" <<<"$output"
+expect "the count is given" grep -q "^10 layering violation(s)" <<<"$output"
 
 finish

@@ -4,7 +4,7 @@
 // it, and every request is then replayed to change the owner's component; changes over a
 // connection where the caller cannot be told; wiring from a writer that could never deliver;
 // `rtm up` and a name bound to an impostor. The real rtm, real components, real omniNames.
-#include "run_command.h"
+#include "rtm_test/run_command.h"
 
 #include "host/access.h"
 #include "rtm/naming.h"

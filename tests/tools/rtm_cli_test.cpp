@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The `rtm` command-line tool, driven as a user drives it: the real binary against real
 // component processes and a real omniNames on a free port.
-#include "run_command.h"
+#include "rtm_test/run_command.h"
 
 #include "rtm_test/child_process.h"
 #include "rtm_test/eventually.h"

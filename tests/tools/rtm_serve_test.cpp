@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // rtm serve's API, driven over HTTP as its page drives it: the real `rtm serve` against real
 // component processes and a real omniNames; every refusal a hostile page or host could meet.
-#include "run_command.h"
+#include "rtm_test/run_command.h"
 
 #include "rtm_test/child_process.h"
 #include "rtm_test/eventually.h"

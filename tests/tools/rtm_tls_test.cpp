@@ -2,7 +2,7 @@
 // Components across hosts: giop:ssl: endpoints with client certificates (host/tls.h), driven as
 // a user drives them: `rtm tls` makes the folders, real component processes serve only
 // giop:ssl: on loopback, and the real `rtm` reaches them with one folder or another.
-#include "run_command.h"
+#include "rtm_test/run_command.h"
 
 #include "rtm_test/child_process.h"
 #include "rtm_test/omni_names.h"

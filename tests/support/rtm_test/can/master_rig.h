@@ -8,8 +8,8 @@
 
 #include "arm/can/local_bus.h"
 #include "arm/can/master.h"
-#include "emulated_pa10.h"
-#include "test_paths.h"
+#include "rtm_test/can/emulated_pa10.h"
+#include "rtm_test/can/test_paths.h"
 
 namespace rtm::can::testing {
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "run_command.h"
+#include "rtm_test/run_command.h"
 
 #include <fcntl.h>
 #include <poll.h>
