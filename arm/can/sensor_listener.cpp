@@ -142,7 +142,7 @@ FaultKind SensorListener::fault_kind() const {
   return fault_kind_locked(monotonic_ns());
 }
 
-SensorListener::Fault SensorListener::fault_with_kind() const {
+Fault SensorListener::fault_with_kind() const {
   std::lock_guard lock(mutex_);
   const std::int64_t now_ns = monotonic_ns();
   Fault f{fault_kind_locked(now_ns), {}};

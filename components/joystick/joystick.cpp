@@ -40,20 +40,22 @@ void Joystick::on_start() {
 }
 
 void Joystick::check_fault(const JoystickReading& reading) {
-  const std::string why = source_->fault();
-  if (why.empty()) return;
-  if (!source_->heartbeat_lost()) throw std::runtime_error(why);
+  if (source_->fault_kind() == rtm::can::FaultKind::none) return;
+  const rtm::can::Fault fault = source_->fault();
+  if (!fault.active()) return;  // cleared in between
+  if (fault.kind != rtm::can::FaultKind::heartbeat_lost) throw std::runtime_error(fault.reason);
   lost_ = true;
   lost_cycles_ = 0;
   loss_sequence_ = reading.sequence;  // wrenches up to this one may be from before the loss
   const std::uint64_t event = counters_.heartbeat_losses.add();
   log().warn("{}: {}: writing nothing until it is heard again with a new wrench, for at most {} cycles "
              "(heartbeat loss {})",
-             name(), why, kHeartbeatRecoveryPeriods, event);
+             name(), fault.reason, kHeartbeatRecoveryPeriods, event);
 }
 
 bool Joystick::back_from_loss(const JoystickReading& reading, bool fresh) {
-  if (fresh && reading.sequence > loss_sequence_ && !source_->heartbeat_lost()) {
+  const rtm::can::FaultKind kind = source_->fault_kind();
+  if (fresh && reading.sequence > loss_sequence_ && kind != rtm::can::FaultKind::heartbeat_lost) {
     lost_ = false;
     const std::uint64_t event = counters_.heartbeat_recoveries.add();
     log().info("{}: the joystick node is heard again after {} cycles: writing again (recovery {})", name(),
@@ -61,9 +63,9 @@ bool Joystick::back_from_loss(const JoystickReading& reading, bool fresh) {
     return true;
   }
   if (++lost_cycles_ < kHeartbeatRecoveryPeriods) {
-    if (!source_->heartbeat_lost()) {
-      const std::string why = source_->fault();  // another fault meanwhile: no stall
-      if (!why.empty()) throw std::runtime_error(why);
+    if (kind != rtm::can::FaultKind::none && kind != rtm::can::FaultKind::heartbeat_lost) {
+      const rtm::can::Fault fault = source_->fault();  // another fault meanwhile: no stall
+      if (fault.active() && fault.kind != rtm::can::FaultKind::heartbeat_lost) throw std::runtime_error(fault.reason);
     }
     return false;
   }

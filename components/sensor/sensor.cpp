@@ -78,24 +78,24 @@ std::string cycles_text(std::uint64_t cycles, std::int64_t period_ns) {
 
 }  // namespace
 
-void Sensor::begin_loss(const WristFault& fault, std::int64_t period_ns) {
+void Sensor::begin_loss(const Fault& fault, std::int64_t period_ns) {
   lost_ = true;
   lost_flag_.store(true, std::memory_order_relaxed);
   lost_cycles_ = 0;
   // Wrenches up to this one may be from before the loss: writing resumes only after it.
   loss_sequence_ = source_->latest().sequence;
-  loss_reason_ = fault.text;
+  loss_reason_ = fault.reason;
   const std::uint64_t event = counters_.heartbeat_losses.add();
   log().warn("{}: {}: writing nothing until it is back with a new wrench, for at most {} (heartbeat loss {})",
              name(), loss_reason_, cycles_text(recovery_budget_, period_ns), event);
 }
 
 void Sensor::give_up(std::int64_t period_ns) const {
-  const WristFault now = source_->fault();
+  const Fault now = source_->fault();
   const std::string budget = cycles_text(recovery_budget_, period_ns);
-  if (now.kind == WristFaultKind::heartbeat_lost) {
+  if (now.kind == FaultKind::heartbeat_lost) {
     throw std::runtime_error(
-        fmt::format("{}: not back within the recovery budget of {} after the loss", now.text, budget));
+        fmt::format("{}: not back within the recovery budget of {} after the loss", now.reason, budget));
   }
   throw std::runtime_error(fmt::format("{}; heartbeat back, but no wrench newer than the loss within the recovery "
                                        "budget of {}",
@@ -111,10 +111,10 @@ void Sensor::on_cycle(const rtm::CycleContext& ctx) {
       return;
     }
     // Only here (rarely, and no allocation when healthy) ask why nothing new came.
-    if (source_->fault_kind() == WristFaultKind::none) return;
-    const WristFault fault = source_->fault();
-    if (fault.kind == WristFaultKind::none) return;  // cleared in between
-    if (fault.kind != WristFaultKind::heartbeat_lost) throw std::runtime_error(fault.text);
+    if (source_->fault_kind() == FaultKind::none) return;
+    const Fault fault = source_->fault();
+    if (fault.kind == FaultKind::none) return;  // cleared in between
+    if (fault.kind != FaultKind::heartbeat_lost) throw std::runtime_error(fault.reason);
     begin_loss(fault, ctx.period_ns);
     return;
   }
@@ -122,13 +122,13 @@ void Sensor::on_cycle(const rtm::CycleContext& ctx) {
   // In a heartbeat loss: nothing is written until the node's heartbeat is back and a wrench
   // newer than the loss came.
   ++lost_cycles_;
-  const WristFaultKind kind = source_->fault_kind();
-  if (kind != WristFaultKind::none && kind != WristFaultKind::heartbeat_lost) {
-    const WristFault fault = source_->fault();
-    if (fault.kind != WristFaultKind::none && fault.kind != WristFaultKind::heartbeat_lost)
-      throw std::runtime_error(fault.text);
+  const FaultKind kind = source_->fault_kind();
+  if (kind != FaultKind::none && kind != FaultKind::heartbeat_lost) {
+    const Fault fault = source_->fault();
+    if (fault.kind != FaultKind::none && fault.kind != FaultKind::heartbeat_lost)
+      throw std::runtime_error(fault.reason);
   }
-  if (kind == WristFaultKind::none && sample.valid && sample.sequence > loss_sequence_) {
+  if (kind == FaultKind::none && sample.valid && sample.sequence > loss_sequence_) {
     lost_ = false;
     lost_flag_.store(false, std::memory_order_relaxed);
     const std::uint64_t event = counters_.heartbeat_recoveries.add();

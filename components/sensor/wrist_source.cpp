@@ -5,16 +5,6 @@ namespace rtm::comp {
 
 namespace pc = rtm::can;
 
-std::string_view to_string(WristFaultKind kind) {
-  switch (kind) {
-    case WristFaultKind::none: return "none";
-    case WristFaultKind::heartbeat_lost: return "heartbeat_lost";
-    case WristFaultKind::sensor_fault: return "sensor_fault";
-    case WristFaultKind::bus_lost: return "bus_lost";
-  }
-  return "?";
-}
-
 WristSample MasterWristSource::latest() const {
   WristSample sample;
   const pc::Wrench wrench = master_.wrench(pc::ForceSensor::wrist);
@@ -26,11 +16,10 @@ WristSample MasterWristSource::latest() const {
   return sample;
 }
 
-WristFault MasterWristSource::fault() const {
+Fault MasterWristSource::fault() const {
   const pc::MasterFault f = master_.fault();
   if (!f.active() || f.node != pc::kWristSensorNode) return {};
-  if (f.kind == pc::FaultKind::heartbeat_lost) return {WristFaultKind::heartbeat_lost, f.reason};
-  if (f.kind == pc::FaultKind::emergency) return {WristFaultKind::sensor_fault, f.reason};
+  if (f.kind == pc::FaultKind::heartbeat_lost || f.kind == pc::FaultKind::emergency) return {f.kind, f.reason};
   return {};  // about the wrist node, but the bus's or the master's business (spoofing, NMT state)
 }
 
@@ -58,30 +47,28 @@ WristSample BusWristSource::latest() const {
 
 namespace {
 
-WristFaultKind wrist_kind(pc::FaultKind kind) {
-  switch (kind) {
-    case pc::FaultKind::none: return WristFaultKind::none;
-    case pc::FaultKind::heartbeat_lost: return WristFaultKind::heartbeat_lost;
-    case pc::FaultKind::emergency: return WristFaultKind::sensor_fault;
-    default: return WristFaultKind::bus_lost;
-  }
+// The listener's kinds as the source reports them: anything but a heartbeat loss and the
+// sensor's own EMCY is the bus's.
+FaultKind source_kind(FaultKind kind) {
+  if (kind == FaultKind::none || kind == FaultKind::heartbeat_lost || kind == FaultKind::emergency) return kind;
+  return FaultKind::bus_error;
 }
 
 }  // namespace
 
-WristFaultKind BusWristSource::fault_kind() const {
-  const WristFaultKind kind = wrist_kind(wrench_.fault_kind());
-  if (kind != WristFaultKind::none) return kind;
+FaultKind BusWristSource::fault_kind() const {
+  const FaultKind kind = source_kind(wrench_.fault_kind());
+  if (kind != FaultKind::none) return kind;
   // The joint listener's only fault is a lost bus. Its text is "" (no allocation) without one.
-  return joints_.fault().empty() ? WristFaultKind::none : WristFaultKind::bus_lost;
+  return joints_.fault().empty() ? FaultKind::none : FaultKind::bus_error;
 }
 
-WristFault BusWristSource::fault() const {
-  const pc::SensorListener::Fault wrench_fault = wrench_.fault_with_kind();
-  WristFault f{wrist_kind(wrench_fault.kind), wrench_fault.reason};
-  if (f.kind != WristFaultKind::none) return f;
-  f.text = joints_.fault();
-  f.kind = f.text.empty() ? WristFaultKind::none : WristFaultKind::bus_lost;
+Fault BusWristSource::fault() const {
+  const Fault wrench_fault = wrench_.fault_with_kind();
+  Fault f{source_kind(wrench_fault.kind), wrench_fault.reason};
+  if (f.active()) return f;
+  f.reason = joints_.fault();
+  f.kind = f.reason.empty() ? FaultKind::none : FaultKind::bus_error;
   return f;
 }
 

@@ -993,7 +993,7 @@ TEST(CanSensorListener, ASilentHeartbeatIsReportedAsAFaultUntilTheNextHeartbeat)
   ASSERT_TRUE(eventually([&] { return listener.fault_kind() == FaultKind::heartbeat_lost; }));
   EXPECT_THAT(listener.fault(), HasSubstr("joystick sensor 0x11: no heartbeat"));
   EXPECT_EQ(listener.fault_kind(), FaultKind::heartbeat_lost);
-  const SensorListener::Fault both = listener.fault_with_kind();
+  const Fault both = listener.fault_with_kind();
   EXPECT_EQ(both.kind, FaultKind::heartbeat_lost);
   EXPECT_THAT(both.reason, HasSubstr("joystick sensor 0x11: no heartbeat"));
   // A heartbeat clears it: the only kind that goes by itself. (Asked right after one is read,

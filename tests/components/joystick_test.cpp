@@ -15,11 +15,14 @@ using comp_test::values;
 class FakeJoystickSource final : public rtm::comp::JoystickSource {
  public:
   rtm::comp::JoystickReading reading;
-  std::string why;
-  bool silent = false;  // the fault is a heartbeat loss
+  std::string why;       // "" when healthy
+  bool silent = false;  // the fault is a heartbeat loss (else the sensor's own EMCY)
   rtm::comp::JoystickReading latest() const override { return reading; }
-  std::string fault() const override { return why; }
-  bool heartbeat_lost() const override { return silent; }
+  rtm::can::FaultKind fault_kind() const override {
+    if (why.empty()) return rtm::can::FaultKind::none;
+    return silent ? rtm::can::FaultKind::heartbeat_lost : rtm::can::FaultKind::emergency;
+  }
+  rtm::can::Fault fault() const override { return {fault_kind(), why}; }
 };
 
 struct JoystickUnderTest {

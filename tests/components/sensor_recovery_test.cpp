@@ -31,7 +31,7 @@ namespace {
 
 using namespace std::chrono_literals;
 namespace pc = rtm::can;
-using rtm::comp::WristFaultKind;
+using rtm::comp::FaultKind;
 using rtm_test::eventually;
 
 // eventually()'s bound here. Generous: a loaded 2-core VM may stall the nodes' thread for a
@@ -164,8 +164,8 @@ TEST(SensorRecovery, HeartbeatBackResumesWritingWithAWrenchNewerThanTheLoss) {
   t.nodes->set_connected(pc::kWristSensorNode, true);
   // Its heartbeat comes back (every 100 ms); no cycle runs meanwhile, so none counts
   // against the budget however slow the machine is.
-  ASSERT_TRUE(eventually([&] { return t.source->fault_kind() == WristFaultKind::none; }, kDeadline))
-      << t.source->fault().text;
+  ASSERT_TRUE(eventually([&] { return t.source->fault_kind() == FaultKind::none; }, kDeadline))
+      << t.source->fault().reason;
   // Heartbeat back, but no new wrench yet: nothing to write.
   t.cycle();
   EXPECT_EQ(t.sensor->counters().samples, 3u);
@@ -223,7 +223,7 @@ TEST(SensorRecovery, AnEmcyOfTheSensorIsAnErrorAtOnceNotAHeartbeatLoss) {
   t.nodes->set_wrench(pc::ForceSensor::wrist, {0, 0, -1000, 0, 0, 0});
   ASSERT_TRUE(t.sync_and_wait_for_wrench());
   t.cycle();  // that SYNC's (saturated) wrench
-  ASSERT_TRUE(eventually([&] { return t.source->fault_kind() == WristFaultKind::sensor_fault; }, kDeadline))
+  ASSERT_TRUE(eventually([&] { return t.source->fault_kind() == FaultKind::emergency; }, kDeadline))
       << "the EMCY was never heard";
   // The very next cycle without a new wrench fails; the heartbeat is fine all along.
   try {

@@ -23,12 +23,12 @@ constexpr std::array<double, 7> kReadyPose_rad{0, 0.360534478941, 0, 1.828143726
 class FakeWristSource final : public rtm::comp::WristSampleSource {
  public:
   rtm::comp::WristSample sample;
-  rtm::comp::WristFault why;
+  rtm::comp::Fault why;
   std::function<void()> when_fault_asked;  // runs after fault() has taken its answer
   rtm::comp::WristSample latest() const override { return sample; }
-  rtm::comp::WristFaultKind fault_kind() const override { return why.kind; }
-  rtm::comp::WristFault fault() const override {
-    rtm::comp::WristFault answer = why;
+  rtm::comp::FaultKind fault_kind() const override { return why.kind; }
+  rtm::comp::Fault fault() const override {
+    rtm::comp::Fault answer = why;
     if (when_fault_asked) when_fault_asked();
     return answer;
   }
@@ -109,7 +109,7 @@ TEST(Sensor, WritesNothingBeforeAValidSampleOrForOneSeenBeforeOn) {
 TEST(Sensor, SensorFaultWhileNothingNewArrivesThrowsTheReason) {
   SensorUnderTest t;
   t.sensor->on_start();
-  t.source->why = {rtm::comp::WristFaultKind::sensor_fault, "wrist sensor 0x10: EMCY 0x7300 sensor fault"};
+  t.source->why = {rtm::comp::FaultKind::emergency, "wrist sensor 0x10: EMCY 0x7300 sensor fault"};
   try {
     t.sensor->on_cycle(cycle(0));
     FAIL() << "no exception";
@@ -128,7 +128,7 @@ TEST(Sensor, AfterAHeartbeatLossOnlyAWrenchNewerThanTheLossIsWritten) {
   t.new_wrench({0, 0, -1, 0, 0, 0});
   t.sensor->on_cycle(cycle(0));
   ASSERT_EQ(t.sensor->counters().samples, 1u);
-  t.source->why = {rtm::comp::WristFaultKind::heartbeat_lost, "wrist sensor 0x10: no heartbeat for 301 ms"};
+  t.source->why = {rtm::comp::FaultKind::heartbeat_lost, "wrist sensor 0x10: no heartbeat for 301 ms"};
   t.source->when_fault_asked = [&] { t.new_wrench({0, 0, -2, 0, 0, 0}); };
   t.sensor->on_cycle(cycle(1));
   ASSERT_EQ(t.sensor->counters().heartbeat_losses, 1u);

@@ -36,8 +36,8 @@ class FakeWristSource final : public rtm::comp::WristSampleSource {
  public:
   rtm::comp::WristSample sample;
   rtm::comp::WristSample latest() const override { return sample; }
-  rtm::comp::WristFaultKind fault_kind() const override { return rtm::comp::WristFaultKind::none; }
-  rtm::comp::WristFault fault() const override { return {}; }
+  rtm::comp::FaultKind fault_kind() const override { return rtm::comp::FaultKind::none; }
+  rtm::comp::Fault fault() const override { return {}; }
 };
 
 using rtm_test::RecordingArm;

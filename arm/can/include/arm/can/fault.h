@@ -10,6 +10,7 @@
 #include "arm/can/protocol.h"
 
 #include <cstdint>
+#include <string>
 #include <string_view>
 
 namespace rtm::can {
@@ -41,6 +42,13 @@ enum class FaultKind : std::uint8_t {
 
 // The kind's name as written above ("drive_fault", "command_loss", ...).
 std::string_view to_string(FaultKind kind);
+
+// A fault with its sentence, as a listener or a force source reports it.
+struct Fault {
+  FaultKind kind = FaultKind::none;
+  std::string reason;  // names the node and what happened; "" for none
+  bool active() const { return kind != FaultKind::none; }
+};
 
 // A fault that holds until a reset: anything but none and not_enabled.
 constexpr bool latched(FaultKind kind) { return kind != FaultKind::none && kind != FaultKind::not_enabled; }

@@ -66,10 +66,6 @@ class SensorListener {
   // the node is heard again), else none.
   FaultKind fault_kind() const;
   // Both at one instant (the kind and its text cannot disagree).
-  struct Fault {
-    FaultKind kind = FaultKind::none;
-    std::string reason;
-  };
   Fault fault_with_kind() const;
 
   SensorListenerCounters counters() const;

@@ -30,14 +30,17 @@ struct JoystickReading {
   bool valid = false;
 };
 
-// The hardware seam of the Joystick component.
+// The hardware seam of the Joystick component. Its faults are the arm library's one vocabulary
+// (arm/can/fault.h), as the joystick node gives them: heartbeat_lost (silent; clears by itself
+// when the node is heard again), emergency (the sensor's own EMCY), bus_error.
 class JoystickSource {
  public:
   virtual ~JoystickSource() = default;
   virtual JoystickReading latest() const = 0;  // never blocks
-  virtual std::string fault() const = 0;       // "" when healthy; asked only when nothing new came
-  // The fault is the node's silence (it clears by itself when the node is heard again).
-  virtual bool heartbeat_lost() const { return false; }
+  // The kind of fault now; allocates nothing (asked each cycle in which nothing new came).
+  virtual rtm::can::FaultKind fault_kind() const = 0;
+  // The fault now with its sentence (may allocate: asked when the kind is not none).
+  virtual rtm::can::Fault fault() const = 0;
 };
 
 // Reads the Pa10Master of this process (it listens to the joystick node too).
@@ -45,7 +48,9 @@ class MasterJoystickSource final : public JoystickSource {
  public:
   explicit MasterJoystickSource(const rtm::can::Pa10Master& master) : master_(master) {}
   JoystickReading latest() const override;
-  std::string fault() const override { return ""; }
+  // The master's faults are the actuator's: the joystick node's silence stops the arm there.
+  rtm::can::FaultKind fault_kind() const override { return rtm::can::FaultKind::none; }
+  rtm::can::Fault fault() const override { return {}; }
 
  private:
   const rtm::can::Pa10Master& master_;
@@ -56,10 +61,8 @@ class BusJoystickSource final : public JoystickSource {
  public:
   explicit BusJoystickSource(std::string_view bus_spec);
   JoystickReading latest() const override;
-  std::string fault() const override { return listener_.fault(); }
-  bool heartbeat_lost() const override {
-    return listener_.fault_kind() == rtm::can::FaultKind::heartbeat_lost;
-  }
+  rtm::can::FaultKind fault_kind() const override { return listener_.fault_kind(); }
+  rtm::can::Fault fault() const override { return listener_.fault_with_kind(); }
 
  private:
   rtm::can::SensorListener listener_;

@@ -13,7 +13,7 @@
 //     loss arrives, it writes again, counting and logging the recovery once. A node not back
 //     within recovery_timeout_periods cycles of the loss puts the component in
 //     COMPONENT_ERROR with a reason naming the node and how long it was silent;
-//   - sensor_fault (an EMCY with a non-zero code) or bus_lost: COMPONENT_ERROR at once.
+//   - emergency (an EMCY with a non-zero code) or bus_error: COMPONENT_ERROR at once.
 //
 // Sign and frame (what the controller's gain*(ref + sen) relies on): the value is the wrench
 // the outside world exerts on the tool, in the BASE frame (N, N·m, torque about the sensor
@@ -93,7 +93,7 @@ class Sensor final : public rtm::Component {
 
  private:
   void write(const WristSample& sample);
-  void begin_loss(const WristFault& fault, std::int64_t period_ns);
+  void begin_loss(const Fault& fault, std::int64_t period_ns);
   [[noreturn]] void give_up(std::int64_t period_ns) const;
 
   std::unique_ptr<WristSampleSource> source_;

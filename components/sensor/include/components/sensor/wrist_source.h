@@ -28,26 +28,14 @@ struct WristSample {
   bool valid = false;                     // a wrench and a full joint vector were seen
 };
 
-// Why a source cannot deliver, by what the Sensor component does about it.
-enum class WristFaultKind : std::uint8_t {
-  none,
-  // The sensor node's heartbeat has been silent longer than its timeout (a pulled cable, a
-  // node that reboots). Clears by itself when the node is heard again: the component waits for
-  // it, within a budget.
-  heartbeat_lost,
-  // The sensor reports a fault of its own (EMCY with a non-zero error code): its readings
-  // cannot be trusted until someone looks at it.
-  sensor_fault,
-  // A bus failed (the transport), or anything else the source cannot recover from.
-  bus_lost,
-};
-
-std::string_view to_string(WristFaultKind kind);
-
-struct WristFault {
-  WristFaultKind kind = WristFaultKind::none;
-  std::string text;  // names the node and what happened ("" for none)
-};
+// Why a source cannot deliver: the arm library's one fault vocabulary (arm/can/fault.h), as
+// the force sensor's node gives it. heartbeat_lost: the node has been silent longer than its
+// timeout (a pulled cable, a node that reboots); it clears by itself when the node is heard
+// again, and the component waits for it, within a budget. emergency: the sensor reports a fault
+// of its own (EMCY with a non-zero code), its readings cannot be trusted until someone looks at
+// it. bus_error: a bus failed, or anything else the source cannot recover from.
+using rtm::can::Fault;
+using rtm::can::FaultKind;
 
 // The hardware seam of the Sensor component.
 class WristSampleSource {
@@ -57,10 +45,10 @@ class WristSampleSource {
   virtual WristSample latest() const = 0;
   // The kind of fault now; never blocks for long, allocates nothing (asked each cycle in
   // which no new sample came).
-  virtual WristFaultKind fault_kind() const = 0;
+  virtual FaultKind fault_kind() const = 0;
   // The fault now with its text (may allocate: asked when the kind changes, not each cycle).
   // Its kind may differ from an earlier fault_kind() when the fault changed in between.
-  virtual WristFault fault() const = 0;
+  virtual Fault fault() const = 0;
 };
 
 // Reads the master of this process. The master must outlive the source. Only the master's
@@ -73,8 +61,8 @@ class MasterWristSource final : public WristSampleSource {
  public:
   explicit MasterWristSource(const rtm::can::Pa10Master& master) : master_(master) {}
   WristSample latest() const override;
-  WristFaultKind fault_kind() const override { return fault().kind; }
-  WristFault fault() const override;
+  FaultKind fault_kind() const override { return fault().kind; }
+  Fault fault() const override;
 
  private:
   const rtm::can::Pa10Master& master_;
@@ -90,8 +78,8 @@ class BusWristSource final : public WristSampleSource {
   BusWristSource(std::string_view drive_bus_spec, std::string_view sensor_bus_spec,
                  std::int64_t heartbeat_timeout_ns = kDefaultHeartbeatTimeout_ns);
   WristSample latest() const override;
-  WristFaultKind fault_kind() const override;
-  WristFault fault() const override;
+  FaultKind fault_kind() const override;
+  Fault fault() const override;
 
  private:
   rtm::can::SensorListener wrench_;
