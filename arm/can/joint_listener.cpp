@@ -89,9 +89,15 @@ JointState JointListener::latest() const {
   return latest_;
 }
 
-std::string JointListener::fault() const {
+Fault JointListener::fault() const {
   std::lock_guard lock(mutex_);
-  return bus_error_;
+  if (bus_error_.empty()) return {};
+  return {FaultKind::bus_error, bus_error_};
+}
+
+FaultKind JointListener::fault_kind() const {
+  std::lock_guard lock(mutex_);
+  return bus_error_.empty() ? FaultKind::none : FaultKind::bus_error;
 }
 
 JointListenerCounters JointListener::counters() const {

@@ -142,7 +142,7 @@ FaultKind SensorListener::fault_kind() const {
   return fault_kind_locked(monotonic_ns());
 }
 
-Fault SensorListener::fault_with_kind() const {
+Fault SensorListener::fault() const {
   std::lock_guard lock(mutex_);
   const std::int64_t now_ns = monotonic_ns();
   Fault f{fault_kind_locked(now_ns), {}};
@@ -164,8 +164,6 @@ Fault SensorListener::fault_with_kind() const {
   }
   return f;
 }
-
-std::string SensorListener::fault() const { return fault_with_kind().reason; }
 
 SensorListenerCounters SensorListener::counters() const {
   std::lock_guard lock(mutex_);

@@ -60,16 +60,13 @@ FaultKind BusWristSource::fault_kind() const {
   const FaultKind kind = source_kind(wrench_.fault_kind());
   if (kind != FaultKind::none) return kind;
   // The joint listener's only fault is a lost bus. Its text is "" (no allocation) without one.
-  return joints_.fault().empty() ? FaultKind::none : FaultKind::bus_error;
+  return joints_.fault_kind();
 }
 
 Fault BusWristSource::fault() const {
-  const Fault wrench_fault = wrench_.fault_with_kind();
-  Fault f{source_kind(wrench_fault.kind), wrench_fault.reason};
-  if (f.active()) return f;
-  f.reason = joints_.fault();
-  f.kind = f.reason.empty() ? FaultKind::none : FaultKind::bus_error;
-  return f;
+  const Fault wrench_fault = wrench_.fault();
+  const Fault f{source_kind(wrench_fault.kind), wrench_fault.reason};
+  return f.active() ? f : joints_.fault();
 }
 
 }  // namespace rtm::comp

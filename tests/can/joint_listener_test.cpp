@@ -60,7 +60,7 @@ TEST(CanJointListener, HearsTheJointStateTheMasterReadsOfTheSameSyncOnceEveryDri
   EXPECT_GE(counters.complete_syncs, 50u);
   EXPECT_EQ(counters.incomplete_syncs, 0u);
   EXPECT_EQ(counters.malformed_frames, 0u);
-  EXPECT_EQ(listener.fault(), "");
+  EXPECT_FALSE(listener.fault().active()) << listener.fault().reason;
 }
 
 TEST(CanJointListener, StaysIncompleteWhileADriveIsSilentAndKeepsItsLastPosition) {
@@ -152,12 +152,14 @@ TEST(CanJointListener, ALostBusIsReportedThroughFaultNamingTheBusNotThrown) {
   const std::string spec = "local:" + dir.file("bus");
   JointListener listener(spec);
   listener.start();
-  EXPECT_EQ(listener.fault(), "");
+  EXPECT_FALSE(listener.fault().active()) << listener.fault().reason;
   hub.reset();  // every endpoint sees the connection closed
-  ASSERT_TRUE(eventually([&] { return !listener.fault().empty(); }));
-  EXPECT_THAT(listener.fault(), HasSubstr("joint listener"));
-  EXPECT_THAT(listener.fault(), HasSubstr("CAN bus '" + spec + "'"));
-  EXPECT_THAT(listener.fault(), HasSubstr("the hub closed the connection"));
+  ASSERT_TRUE(eventually([&] { return listener.fault().active(); }));
+  EXPECT_EQ(listener.fault_kind(), rtm::can::FaultKind::bus_error);
+  EXPECT_EQ(listener.fault().kind, rtm::can::FaultKind::bus_error);
+  EXPECT_THAT(listener.fault().reason, HasSubstr("joint listener"));
+  EXPECT_THAT(listener.fault().reason, HasSubstr("CAN bus '" + spec + "'"));
+  EXPECT_THAT(listener.fault().reason, HasSubstr("the hub closed the connection"));
   listener.stop();
   EXPECT_FALSE(listener.latest().complete);
 }

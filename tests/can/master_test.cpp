@@ -946,7 +946,7 @@ TEST(CanSensorListener, ReadsTheWrenchAndItsSyncCounterPassively) {
   const std::uint8_t master_counter = rig.master->wrench(ForceSensor::joystick).sync_counter;
   ASSERT_TRUE(eventually([&] { return listener.latest().sync_counter == master_counter; }));
   EXPECT_EQ(listener.latest().sync_counter, master_counter);
-  EXPECT_EQ(listener.fault(), "");
+  EXPECT_FALSE(listener.fault().active()) << listener.fault().reason;
   listener.stop();
 }
 
@@ -968,14 +968,14 @@ TEST(CanSensorListener, PollModeAndEmcyFaultUntilTheErrorReset) {
   device->send(*encode_emcy(kWristSensorNode, emcy::kSensorFault, 0x80));
   device->send(*encode_sync(18));  // gives poll a frame after the EMCY to return on
   listener.poll(200'000'000);
-  EXPECT_THAT(listener.fault(), HasSubstr("EMCY 0x7300"));
-  EXPECT_THAT(listener.fault(), HasSubstr("wrist sensor 0x10"));
+  EXPECT_THAT(listener.fault().reason, HasSubstr("EMCY 0x7300"));
+  EXPECT_THAT(listener.fault().reason, HasSubstr("wrist sensor 0x10"));
   EXPECT_EQ(listener.fault_kind(), FaultKind::emergency);
   device->send(*encode_emcy(kWristSensorNode, emcy::kErrorReset, 0x00));  // the sensor's error reset
   device->send(*encode_sync(19));
   listener.poll(200'000'000);
   EXPECT_EQ(listener.fault_kind(), FaultKind::none);
-  EXPECT_EQ(listener.fault(), "");
+  EXPECT_FALSE(listener.fault().active()) << listener.fault().reason;
   EXPECT_THROW(SensorListener(open_bus("local:" + dir.file("bus")), 3), std::invalid_argument);
 }
 
@@ -991,9 +991,9 @@ TEST(CanSensorListener, ASilentHeartbeatIsReportedAsAFaultUntilTheNextHeartbeat)
   EXPECT_EQ(listener.counters().heartbeats, 1u);
   // Once the 50 ms heartbeat timeout has passed.
   ASSERT_TRUE(eventually([&] { return listener.fault_kind() == FaultKind::heartbeat_lost; }));
-  EXPECT_THAT(listener.fault(), HasSubstr("joystick sensor 0x11: no heartbeat"));
+  EXPECT_THAT(listener.fault().reason, HasSubstr("joystick sensor 0x11: no heartbeat"));
   EXPECT_EQ(listener.fault_kind(), FaultKind::heartbeat_lost);
-  const Fault both = listener.fault_with_kind();
+  const Fault both = listener.fault();
   EXPECT_EQ(both.kind, FaultKind::heartbeat_lost);
   EXPECT_THAT(both.reason, HasSubstr("joystick sensor 0x11: no heartbeat"));
   // A heartbeat clears it: the only kind that goes by itself. (Asked right after one is read,
@@ -1005,7 +1005,7 @@ TEST(CanSensorListener, ASilentHeartbeatIsReportedAsAFaultUntilTheNextHeartbeat)
     listener.poll(1'000'000);
     cleared = listener.fault_kind() == FaultKind::none;
   }
-  EXPECT_TRUE(cleared) << listener.fault();
+  EXPECT_TRUE(cleared) << listener.fault().reason;
 }
 
 }  // namespace

@@ -54,10 +54,11 @@ class JointListener {
   // the first one is published.
   JointState latest() const;
 
-  // "" while the bus works; after a transport failure (the thread then stops reading) the
-  // reason, naming the bus: "joint listener: CAN bus 'local:/tmp/pa10.bus': the hub closed
-  // the connection".
-  std::string fault() const;
+  // none while the bus works; after a transport failure (the thread then stops reading)
+  // bus_error with the reason, naming the bus: "joint listener: CAN bus 'local:/tmp/pa10.bus':
+  // the hub closed the connection".
+  Fault fault() const;
+  FaultKind fault_kind() const;  // fault()'s kind alone, allocating nothing
 
   JointListenerCounters counters() const;
 

@@ -55,18 +55,16 @@ class SensorListener {
   // thread mode). Returns it, or nullopt on timeout.
   std::optional<Wrench> wait_newer_than(std::uint64_t sequence, std::int64_t timeout_ns);
 
-  // Non-empty when the sensor sent an EMCY with a non-zero code, or its heartbeat has been
-  // silent longer than heartbeat_timeout_ns (after having been seen once). Cleared by an EMCY
-  // 0x0000 (error reset) resp. the next heartbeat.
-  std::string fault() const;
-  // What fault() would describe, without the text (no allocation: for a periodic caller that
-  // asks for the text only when the kind changes). The first that applies, in fault()'s order:
-  // bus_error (the background thread lost the bus), emergency (EMCY with a non-zero code),
-  // heartbeat_lost (silent longer than the timeout: the only kind that clears by itself when
-  // the node is heard again), else none.
+  // The fault now, kind and sentence at one instant: emergency when the sensor sent an EMCY
+  // with a non-zero code (cleared by an EMCY 0x0000, error reset), heartbeat_lost when its
+  // heartbeat has been silent longer than heartbeat_timeout_ns after having been seen once
+  // (cleared by the next heartbeat: the only kind that clears by itself), bus_error when the
+  // background thread lost the bus; the first that applies, in that order from the last. May
+  // allocate (the sentence).
+  Fault fault() const;
+  // fault()'s kind alone, allocating nothing: for a periodic caller that asks for the sentence
+  // only when the kind is not none.
   FaultKind fault_kind() const;
-  // Both at one instant (the kind and its text cannot disagree).
-  Fault fault_with_kind() const;
 
   SensorListenerCounters counters() const;
   std::uint8_t node() const { return node_; }

@@ -62,7 +62,7 @@ class BusJoystickSource final : public JoystickSource {
   explicit BusJoystickSource(std::string_view bus_spec);
   JoystickReading latest() const override;
   rtm::can::FaultKind fault_kind() const override { return listener_.fault_kind(); }
-  rtm::can::Fault fault() const override { return listener_.fault_with_kind(); }
+  rtm::can::Fault fault() const override { return listener_.fault(); }
 
  private:
   rtm::can::SensorListener listener_;
