@@ -92,7 +92,7 @@ JointState JointListener::latest() const {
 Fault JointListener::fault() const {
   std::lock_guard lock(mutex_);
   if (bus_error_.empty()) return {};
-  return {FaultKind::bus_error, bus_error_};
+  return {FaultKind::bus_error, 0, 0, bus_error_};
 }
 
 FaultKind JointListener::fault_kind() const {

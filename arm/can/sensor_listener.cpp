@@ -145,7 +145,7 @@ FaultKind SensorListener::fault_kind() const {
 Fault SensorListener::fault() const {
   std::lock_guard lock(mutex_);
   const std::int64_t now_ns = monotonic_ns();
-  Fault f{fault_kind_locked(now_ns), {}};
+  Fault f{fault_kind_locked(now_ns), node_, 0, {}};
   char text[160];
   switch (f.kind) {
     case FaultKind::bus_error: f.reason = bus_error_; break;
@@ -153,6 +153,7 @@ Fault SensorListener::fault() const {
       std::snprintf(text, sizeof text, "%s: EMCY 0x%04x %s", node_description(node_).c_str(), emcy_code_,
                     emcy_description(emcy_code_).data());
       f.reason = text;
+      f.code = emcy_code_;
       break;
     case FaultKind::heartbeat_lost:
       std::snprintf(text, sizeof text, "%s: no heartbeat for %lld ms (limit %lld ms)", node_description(node_).c_str(),

@@ -90,8 +90,9 @@ ArmFault ArmHardware::fault() const {
   // While the component is off nobody orders velocities, so the arm has not looked at the
   // master since: a fault the master latched meanwhile is found here.
   const FaultKind kind = arm_->check_faults();
-  if (!rtm::can::latched(kind)) return {kind, 0, ""};
-  return {kind, master_->fault().node, arm_->fault_reason()};
+  if (!rtm::can::latched(kind)) return {kind, 0, 0, ""};
+  const rtm::can::Fault master = master_->fault();
+  return {kind, master.node, master.code, arm_->fault_reason()};
 }
 
 ArmDiagnostics::BusPosition ArmHardware::Diagnostics::bus_position() const {

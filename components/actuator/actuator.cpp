@@ -110,7 +110,7 @@ ActuatorParams Actuator::params() const {
 }
 
 void Actuator::on_start() {
-  if (const rtm::pa10::ArmFault fault = arm_->fault(); fault.latched()) {
+  if (const rtm::pa10::ArmFault fault = arm_->fault(); rtm::can::latched(fault.kind)) {
     log().info("{}: resetting the arm ({})", name(), fault.reason);
     arm_->reset();
   }

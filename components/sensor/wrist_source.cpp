@@ -19,7 +19,7 @@ WristSample MasterWristSource::latest() const {
 Fault MasterWristSource::fault() const {
   const pc::MasterFault f = master_.fault();
   if (!f.active() || f.node != pc::kWristSensorNode) return {};
-  if (f.kind == pc::FaultKind::heartbeat_lost || f.kind == pc::FaultKind::emergency) return {f.kind, f.reason};
+  if (f.kind == pc::FaultKind::heartbeat_lost || f.kind == pc::FaultKind::emergency) return f;
   return {};  // about the wrist node, but the bus's or the master's business (spoofing, NMT state)
 }
 
@@ -65,7 +65,7 @@ FaultKind BusWristSource::fault_kind() const {
 
 Fault BusWristSource::fault() const {
   const Fault wrench_fault = wrench_.fault();
-  const Fault f{source_kind(wrench_fault.kind), wrench_fault.reason};
+  const Fault f{source_kind(wrench_fault.kind), wrench_fault.node, wrench_fault.code, wrench_fault.reason};
   return f.active() ? f : joints_.fault();
 }
 

@@ -22,7 +22,7 @@ class FakeJoystickSource final : public rtm::comp::JoystickSource {
     if (why.empty()) return rtm::can::FaultKind::none;
     return silent ? rtm::can::FaultKind::heartbeat_lost : rtm::can::FaultKind::emergency;
   }
-  rtm::can::Fault fault() const override { return {fault_kind(), why}; }
+  rtm::can::Fault fault() const override { return {fault_kind(), 0x11, 0, why}; }
 };
 
 struct JoystickUnderTest {

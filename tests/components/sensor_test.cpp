@@ -109,7 +109,7 @@ TEST(Sensor, WritesNothingBeforeAValidSampleOrForOneSeenBeforeOn) {
 TEST(Sensor, SensorFaultWhileNothingNewArrivesThrowsTheReason) {
   SensorUnderTest t;
   t.sensor->on_start();
-  t.source->why = {rtm::comp::FaultKind::emergency, "wrist sensor 0x10: EMCY 0x7300 sensor fault"};
+  t.source->why = {rtm::comp::FaultKind::emergency, 0x10, 0x7300, "wrist sensor 0x10: EMCY 0x7300 sensor fault"};
   try {
     t.sensor->on_cycle(cycle(0));
     FAIL() << "no exception";
@@ -128,7 +128,7 @@ TEST(Sensor, AfterAHeartbeatLossOnlyAWrenchNewerThanTheLossIsWritten) {
   t.new_wrench({0, 0, -1, 0, 0, 0});
   t.sensor->on_cycle(cycle(0));
   ASSERT_EQ(t.sensor->counters().samples, 1u);
-  t.source->why = {rtm::comp::FaultKind::heartbeat_lost, "wrist sensor 0x10: no heartbeat for 301 ms"};
+  t.source->why = {rtm::comp::FaultKind::heartbeat_lost, 0x10, 0, "wrist sensor 0x10: no heartbeat for 301 ms"};
   t.source->when_fault_asked = [&] { t.new_wrench({0, 0, -2, 0, 0, 0}); };
   t.sensor->on_cycle(cycle(1));
   ASSERT_EQ(t.sensor->counters().heartbeat_losses, 1u);

@@ -49,8 +49,8 @@ class RecordingArm final : public rtm::pa10::VelocityArm, private rtm::pa10::Arm
   }
   void stop() override { ++stops; }
   rtm::pa10::ArmFault fault() const override {
-    if (!rtm::can::latched(status)) return {status, 0, ""};
-    return {status, fault_node, reason};
+    if (!rtm::can::latched(status)) return {status, 0, 0, ""};
+    return {status, fault_node, 0, reason};
   }
   void reset() override {
     ++resets;

@@ -43,10 +43,12 @@ enum class FaultKind : std::uint8_t {
 // The kind's name as written above ("drive_fault", "command_loss", ...).
 std::string_view to_string(FaultKind kind);
 
-// A fault with its sentence, as a listener or a force source reports it.
+// A fault as every layer reports it: the master, the listeners, the force sources, the arm.
 struct Fault {
   FaultKind kind = FaultKind::none;
-  std::string reason;  // names the node and what happened; "" for none
+  std::uint8_t node = 0;  // the node it concerns (0: the bus, none, or the reporter cannot tell)
+  std::uint16_t code = 0; // the EMCY code or statusword it came with (0: none)
+  std::string reason;     // one line naming the node and what happened; "" for none
   bool active() const { return kind != FaultKind::none; }
 };
 
@@ -85,5 +87,7 @@ constexpr Recovery recovery(FaultKind kind, std::uint8_t node) {
     default: return Recovery::stop;
   }
 }
+
+inline Recovery recovery(const Fault& fault) { return recovery(fault.kind, fault.node); }
 
 }  // namespace rtm::can

@@ -91,13 +91,8 @@ struct Wrench {
   bool valid = false;
 };
 
-struct MasterFault {
-  FaultKind kind = FaultKind::none;
-  std::uint8_t node = 0;           // the node concerned (0 = bus / none)
-  std::uint16_t code = 0;          // EMCY code or statusword
-  std::string reason;              // e.g. "drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)"
-  bool active() const { return kind != FaultKind::none; }
-};
+// The master's latched fault; reason e.g. "drive 4 (E1): EMCY 0x8250 RPDO timeout (command loss)".
+using MasterFault = Fault;
 
 struct MasterCounters {
   std::uint64_t cycles = 0;            // SYNCs sent

@@ -24,15 +24,9 @@ namespace rtm::pa10 {
 using rtm::can::FaultKind;
 using rtm::can::Recovery;
 
-// The fault the arm holds now, as the arm library's one vocabulary says it (arm/can/fault.h).
-struct ArmFault {
-  FaultKind kind = FaultKind::none;
-  std::uint8_t node = 0;  // the node it concerns (0: the bus, none, or the arm cannot tell)
-  std::string reason;     // one line; "" when none
-  bool latched() const { return rtm::can::latched(kind); }
-  // What the component may do about it: the arm library's knowledge, not the component's.
-  Recovery recovery() const { return rtm::can::recovery(kind, node); }
-};
+// The fault the arm holds now, as every layer of the arm library says it (arm/can/fault.h);
+// rtm::can::recovery(fault) says what the component may do about it.
+using ArmFault = rtm::can::Fault;
 
 // What the arm's bus says, for reports and the sample-to-drive latency: reading it changes
 // nothing. Each call is cheap and allocates nothing.
