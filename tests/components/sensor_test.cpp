@@ -5,6 +5,7 @@
 #include "components/sensor/sensor.h"
 
 #include "component_test_support.h"
+#include "rtm_test/fake_wrist_source.h"
 
 #include <gtest/gtest.h>
 
@@ -20,19 +21,7 @@ using comp_test::values;
 // The "ready" keyframe of sim/models/pa10_scene.xml: tool pointing straight down.
 constexpr std::array<double, 7> kReadyPose_rad{0, 0.360534478941, 0, 1.828143726078, 0, 0.952914448571, 0};
 
-class FakeWristSource final : public rtm::comp::WristSampleSource {
- public:
-  rtm::comp::WristSample sample;
-  rtm::comp::Fault why;
-  std::function<void()> when_fault_asked;  // runs after fault() has taken its answer
-  rtm::comp::WristSample latest() const override { return sample; }
-  rtm::comp::FaultKind fault_kind() const override { return why.kind; }
-  rtm::comp::Fault fault() const override {
-    rtm::comp::Fault answer = why;
-    if (when_fault_asked) when_fault_asked();
-    return answer;
-  }
-};
+using rtm_test::FakeWristSource;
 
 rtm::pa10::Kinematics model() { return rtm::pa10::Kinematics::pa10(); }
 

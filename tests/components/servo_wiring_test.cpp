@@ -10,6 +10,7 @@
 #include "rtm/orb.h"
 #include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
+#include "rtm_test/fake_wrist_source.h"
 #include "rtm_test/recording_arm.h"
 
 #include <gtest/gtest.h>
@@ -32,13 +33,7 @@ rtm::Orb& test_orb() {
   return orb;
 }
 
-class FakeWristSource final : public rtm::comp::WristSampleSource {
- public:
-  rtm::comp::WristSample sample;
-  rtm::comp::WristSample latest() const override { return sample; }
-  rtm::comp::FaultKind fault_kind() const override { return rtm::comp::FaultKind::none; }
-  rtm::comp::Fault fault() const override { return {}; }
-};
+using rtm_test::FakeWristSource;
 
 using rtm_test::RecordingArm;
 
