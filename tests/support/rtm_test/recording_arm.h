@@ -13,9 +13,10 @@
 
 namespace rtm_test {
 
-class RecordingArm final : public rtm::pa10::VelocityArm, private rtm::pa10::ArmDiagnostics {
+class RecordingArm final : public rtm::pa10::VelocityArm {
  public:
-  RecordingArm() : VelocityArm(static_cast<const ArmDiagnostics&>(*this)) {}
+  using SentCommand = rtm::pa10::ArmDiagnostics::SentCommand;
+  RecordingArm() : VelocityArm(diagnostics_) {}
 
   // One entry per order: the twist ordered, or zero with braked set for a quick stop.
   std::vector<std::array<float, 6>> ordered;
@@ -58,8 +59,17 @@ class RecordingArm final : public rtm::pa10::VelocityArm, private rtm::pa10::Arm
   }
 
  private:
-  std::uint64_t command_sequence() const override { return sequence; }
-  SentCommand last_sent() const override { return sent; }
+  // What the bus "says": the sequence handed out and the one the test says was sent.
+  class Diagnostics final : public rtm::pa10::ArmDiagnostics {
+   public:
+    explicit Diagnostics(const RecordingArm& arm) : arm_(arm) {}
+    std::uint64_t command_sequence() const override { return arm_.sequence; }
+    SentCommand last_sent() const override { return arm_.sent; }
+
+   private:
+    const RecordingArm& arm_;
+  };
+  Diagnostics diagnostics_{*this};
 };
 
 }  // namespace rtm_test
