@@ -81,16 +81,11 @@ ArmHardware::~ArmHardware() {
   master_.reset();  // one last zero-velocity cycle, then NMT pre-operational
 }
 
-const ArmDiagnostics& ArmDiagnostics::none() {
-  static const ArmDiagnostics nothing;
-  return nothing;
-}
-
 ArmFault ArmHardware::fault() const {
   // While the component is off nobody orders velocities, so the arm has not looked at the
   // master since: a fault the master latched meanwhile is found here.
   const FaultKind kind = arm_->check_faults();
-  if (!rtm::can::latched(kind)) return {kind, 0, 0, ""};
+  if (!rtm::can::latched(kind)) return {kind, 0, 0, arm_->fault_reason()};
   const rtm::can::Fault master = master_->fault();
   return {kind, master.node, master.code, arm_->fault_reason()};
 }

@@ -3,9 +3,11 @@
 // here once for the components, the arm's hardware and the simulator.
 #pragma once
 
-#include <CLI/CLI.hpp>
-
 #include <string>
+
+namespace CLI {
+class App;
+}
 
 namespace rtm::can {
 
@@ -20,10 +22,7 @@ struct BusOptions {
   const std::string& sensors() const { return sensor_bus.empty() ? bus : sensor_bus; }
 
   // --bus and --sensor-bus on app, bound to these fields.
-  void add_options(CLI::App& app) {
-    app.add_option("--bus", bus, "the arm's CAN bus: local:<path> or socketcan:<if>")->capture_default_str();
-    app.add_option("--sensor-bus", sensor_bus, "separate bus of the force sensors (default: --bus)");
-  }
+  void add_options(CLI::App& app);
 };
 
 }  // namespace rtm::can

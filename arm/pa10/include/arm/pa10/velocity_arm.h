@@ -59,8 +59,6 @@ class ArmDiagnostics {
     std::uint64_t target_expiries = 0;  // targets the master dropped as not renewed in time
   };
   virtual BusHealth bus_health() const { return {}; }
-  // A view that can tell nothing: every figure 0.
-  static const ArmDiagnostics& none();
 };
 
 // The arm the actuator commands each cycle: five calls, made by one thread at a time (the
@@ -92,8 +90,7 @@ class VelocityArm {
   const ArmDiagnostics& diagnostics() const { return diagnostics_; }
 
  protected:
-  // diagnostics: lives as long as the arm (a member of the derived class may be given here);
-  // an arm with no bus to tell of gives ArmDiagnostics::none().
+  // diagnostics: lives as long as the arm (a member of the derived class may be given here).
   explicit VelocityArm(const ArmDiagnostics& diagnostics) : diagnostics_(diagnostics) {}
 
  private:
