@@ -101,13 +101,13 @@ class Installed : public ::testing::Test {
   std::string last_cat_;  // what the last `rtm cat` said, for a failure's message
 };
 
-TEST_F(Installed, TheGnuLayoutHoldsProgramsLibrariesHeadersIdlModelsAndThePackage) {
+TEST_F(Installed, TheGnuLayoutHoldsProgramsLibrariesHeadersIdlModelsTemplatesAndThePackage) {
   for (const char* file : {"bin/rtm", "bin/rtm-controller", "bin/rtm-servo", "bin/pa10-sim", "lib/librtm_core.a",
                            "lib/cmake/RTM/RTMConfig.cmake", "lib/cmake/RTM/RTMConfigVersion.cmake",
                            "lib/cmake/RTM/RTMTargets.cmake", "lib/cmake/RTM/RtmIdl.cmake",
                            "include/rtm/rtm/component.h", "include/rtm/rt/activity.h", "include/rtm/arm/can/bus.h",
                            "include/rtm/idl/RTM.hh", "include/rtm/idl/RTMExt.hh", "share/rtm/idl/RTM.idl",
-                           "share/rtm/models/pa10_scene.xml", "share/rtm/models/pa10.urdf",
+                           "share/rtm/models/pa10_scene.xml", "share/rtm/models/pa10.urdf", "share/rtm/scaffold/component.h.in",
                            "share/bash-completion/completions/rtm", "share/doc/rtm/README.md"})
     EXPECT_TRUE(fs::exists(prefix() / file)) << file;
 }

@@ -8,7 +8,13 @@
 #   arm/         the arm and CAN library: no CORBA (omniORB, the IDL stubs, the core rtm/),
 #                no simulator, no component
 #   sim/         the simulator: no CORBA, no component
-#   tools/       the component browser: no robot code
+#   tools/       no robot code; its rooms, each a library, call only downwards:
+#                browser/ (find, describe, connect, values): no launcher, server or scaffold,
+#                  no HTTP, and it prints nothing (its results are values and JSON)
+#                launcher/ (system files, rtm up/down): the browser only
+#                serve/ (rtm serve): the browser and the launcher, not the scaffold
+#                scaffold/ (rtm new): writes files, asks nothing of a running system
+#                rtm/ (the command line) is on no other room's include path
 #   components/  included only by components (a composite includes its members) and tests
 #   bench/       tests' code only through tests/support's libraries (rtm_test/...)
 # usage: check_includes.sh SOURCE_DIR   prints each violation as file:line: rule: the #include;
@@ -45,6 +51,23 @@ forbid bench '\.\./|tests/' "benchmarks take tests' code only from the test-supp
 for folder in bench examples scripts src host arm sim tools; do
   forbid "$folder" "components/" "nothing outside components/ and tests/ includes a component"
 done
+
+# rule: a folder's sources must not call what matches a pattern (comments aside)
+forbid_call() { # folder, extended regex, what the rule says
+  local folder=$1 pattern=$2 rule=$3 file line text
+  [[ -d $folder ]] || return 0
+  while IFS=: read -r file line text; do
+    text=${text#"${text%%[![:space:]]*}"}
+    [[ $text == //* ]] && continue
+    echo "$file:$line: $rule: $text"
+    violations=$((violations + 1))
+  done < <(grep -rnE --include='*.h' --include='*.hpp' --include='*.cpp' --include='*.cc' "$pattern" "$folder" 2>/dev/null)
+}
+forbid tools/browser "launcher/|serve/|scaffold/|httplib" "the browser knows nothing of the launcher, the web server or the scaffold"
+forbid_call tools/browser 'std::(cout|cerr|clog)|fmt::print|(^|[^a-z_])(printf|fprintf|puts)[[:space:]]*\(' "the browser prints nothing"
+forbid tools/launcher "serve/|scaffold/" "the launcher calls the browser only"
+forbid tools/serve "scaffold/" "the web server calls the browser and the launcher only"
+forbid tools/scaffold "browser/|launcher/|serve/" "the scaffold writes files and asks nothing of a running system"
 
 if ((violations)); then
   echo "$violations layering violation(s)"

@@ -8,7 +8,7 @@ check=$1
 source "$(dirname "$0")/expect.sh"
 tree=$scratch
 
-mkdir -p "$tree"/{src/rtm,src/rt,host,arm/can,sim,tools/rtm,components/controller,components/servo,tests/components,bench/can}
+mkdir -p "$tree"/{src/rtm,src/rt,host,arm/can,sim,tools/rtm,tools/browser,tools/serve,tools/scaffold,components/controller,components/servo,tests/components,bench/can}
 echo '#include "rtm/component.h"' >"$tree/components/controller/controller.h"
 echo '#include "components/controller/controller.h"' >"$tree/components/servo/servo.h"
 echo '#include "components/controller/controller.h"' >"$tree/tests/components/controller_test.cpp"
@@ -18,6 +18,8 @@ echo '#include "rt/schedule.h"' >"$tree/src/rtm/component.h"
 printf '#include <vector>\n#include "rtm/orb.h"\n' >"$tree/tools/rtm/main.cpp"
 printf '#include "rtm/component.h"\n#include "host/access.h"\n' >"$tree/host/runner.cpp"
 echo '#include "rtm_test/can/attacker.h"' >"$tree/bench/can/attack_bench.cpp"
+printf '#include "browser/browser.h"\n#include "launcher/system_file.h"\n' >"$tree/tools/serve/serve.cpp"
+printf '#include "rtm/naming.h"\n// no printf (here), std::cout\nstd::string s = "x";\n' >"$tree/tools/browser/browser.cpp"
 run_check "$check" "$tree"
 expect "a tree that keeps the rules passes" test $status -eq 0
 
@@ -30,6 +32,9 @@ echo '#include "rtm/log.h"' >"$tree/src/rt/thread.cpp"
 echo '#include "host/tls.h"' >"$tree/src/rtm/naming.cpp"
 echo '#include "tools/rtm/browser.h"' >"$tree/host/launch.cpp"
 echo '#include "../../tests/tools/run_command.h"' >"$tree/bench/cli_bench.cpp"
+echo '#include "serve/serve.h"' >"$tree/tools/browser/values.cpp"
+printf 'void f() {\n  fmt::print("{}", 1);\n}\n' >"$tree/tools/browser/json.cpp"
+echo '#include "browser/browser.h"' >"$tree/tools/scaffold/scaffold.cpp"
 run_check "$check" "$tree"
 expect "violations fail the check" test $status -eq 1
 expect "the core including robot code is named with its line" grep -q "^src/rtm/runner.cpp:2: the core knows nothing of robots" <<<"$output"
@@ -41,6 +46,9 @@ expect "the real-time base including the core is found" grep -q "^src/rt/thread.
 expect "the core including the host library is found" grep -q "^src/rtm/naming.cpp:1: the core knows nothing of the host library" <<<"$output"
 expect "the host library including tools is found" grep -q "^host/launch.cpp:1: the host library knows nothing of robots or tools" <<<"$output"
 expect "a benchmark reaching into tests/ is found" grep -q "^bench/cli_bench.cpp:1: benchmarks take tests' code only from the test-support libraries" <<<"$output"
-expect "the count is given" grep -q "^10 layering violation(s)" <<<"$output"
+expect "the browser including the web server is found" grep -q "^tools/browser/values.cpp:1: the browser knows nothing of the launcher" <<<"$output"
+expect "the browser printing is found, with its line" grep -q "^tools/browser/json.cpp:2: the browser prints nothing" <<<"$output"
+expect "the scaffold asking the browser is found" grep -q "^tools/scaffold/scaffold.cpp:1: the scaffold writes files" <<<"$output"
+expect "the count is given" grep -q "^13 layering violation(s)" <<<"$output"
 
 finish

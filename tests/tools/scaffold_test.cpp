@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // `rtm new component`: the project it writes, and the input it refuses before writing anything.
-#include "scaffold.h"
-#include "system_file.h"
+#include "scaffold/scaffold.h"
+#include "launcher/system_file.h"
 
 #include "rtm/data.h"
 

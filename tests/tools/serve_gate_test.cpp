@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // rtm serve's gate: a request read as far as it has arrived, as httplib reads it; the user at the
 // other end of a loopback connection, as the kernel says.
-#include "serve_gate.h"
+#include "serve/serve_gate.h"
 
 #include <gtest/gtest.h>
 #include <grp.h>

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // rtm serve's stream slots: a cap on all streams together, one of each kind per page, a page's
 // new stream replacing its old one, and a slot freed when its stream ends.
-#include "stream_slots.h"
+#include "serve/stream_slots.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // rtm serve's system feed: one poll per period for every page together, a fresh view for a page
 // that comes after an idle spell, and a stop that wakes the pages waiting.
-#include "system_feed.h"
+#include "serve/system_feed.h"
 
 #include <gtest/gtest.h>
 

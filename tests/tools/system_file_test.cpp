@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // System files as `rtm up` reads them, and port addresses as every command parses them.
-#include "browser.h"
-#include "system_file.h"
+#include "browser/browser.h"
+#include "launcher/system_file.h"
 
 #include <gtest/gtest.h>
 

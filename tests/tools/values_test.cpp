@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // rtm's value conversions: what `rtm put` builds from words and `rtm get` prints.
-#include "values.h"
+#include "browser/values.h"
 
 #include "rtm/data.h"
 #include "rtm/orb.h"

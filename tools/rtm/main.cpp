@@ -18,14 +18,14 @@
 //
 // Every command takes --naming host:port (or $RTM_NAMING), --tls folder (or $RTM_TLS) and
 // --json; exit code 0 ok, 1 failed, 2 usage.
-#include "browser.h"
-#include "launcher.h"
+#include "browser/browser.h"
+#include "launcher/launcher.h"
 #include "report.h"
-#include "system_file.h"
+#include "launcher/system_file.h"
 #include "new_command.h"
-#include "serve.h"
+#include "serve/serve.h"
 #include "tls_command.h"
-#include "values.h"
+#include "browser/values.h"
 #include "watch.h"
 
 #include "host/access.h"

@@ -2,7 +2,7 @@
 // rtm new component NAME: the skeleton of a component project outside this tree (scaffold.h).
 #pragma once
 
-#include "scaffold.h"
+#include "scaffold/scaffold.h"
 
 #include <CLI/App.hpp>
 

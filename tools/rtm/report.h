@@ -1,27 +1,17 @@
 // SPDX-License-Identifier: Apache-2.0
-// What `rtm ls` and `rtm cat` print: the browser's results as text for people and as JSON
-// for scripts. Everything a component says of itself (ports with their elements and units,
+// What `rtm ls` and `rtm cat` print: the browser's results as text for people (the JSON for
+// scripts is browser/json.h). Everything a component says of itself (ports with their elements and units,
 // statistics, parameters) is shown as it says it; the tool knows no component kind.
 #pragma once
 
-#include "browser.h"
-
-#include <nlohmann/json.hpp>
+#include "browser/browser.h"
+#include "browser/json.h"
 
 #include <string>
 #include <string_view>
 #include <vector>
 
 namespace rtm::cli {
-
-// One line for a failed remote call: the exception's name, or what a refusal by access control
-// means and what to do about it.
-std::string failure_text(const CORBA::Exception& e);
-
-nlohmann::json port_json(const PortInfo& port);
-nlohmann::json timing_json(const RTM::TimingStats& timing);
-// detailed: timing, statistics and parameters too (`rtm cat`, `rtm ls -l`).
-nlohmann::json component_json(const ComponentInfo& component, bool detailed);
 
 void print_ls(const std::vector<ComponentInfo>& components, bool detailed);
 void print_cat(const ComponentInfo& component);
@@ -31,8 +21,6 @@ void print_cat(const ComponentInfo& component);
 // separators, bytes that are no UTF-8 and the backslash itself are written as escapes (\n,
 // \x1b, \xc2\x9b, \\). Valid UTF-8 text without them is unchanged.
 std::string terminal_text(std::string_view text);
-// Whether a name follows the naming rule (rtm::check_name).
-bool name_follows_rule(std::string_view name);
 // A component's or host's name for the terminal: as it is when it follows the naming rule, else
 // escaped and marked " (not a valid name)": someone bound it by hand, not an RTM component.
 std::string shown_name(std::string_view name);

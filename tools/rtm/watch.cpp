@@ -2,8 +2,8 @@
 #include "watch.h"
 
 #include "report.h"
-#include "values.h"
-#include "watch_port.h"
+#include "browser/values.h"
+#include "browser/watch_port.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

@@ -4,7 +4,7 @@
 // --json, and every datum in a CSV file with --csv (columns named after the port's elements).
 #pragma once
 
-#include "browser.h"
+#include "browser/browser.h"
 
 #include "rtm/orb.h"
 

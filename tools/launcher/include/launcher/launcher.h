@@ -10,8 +10,8 @@
 // system; each process is recorded with its start time so that a recycled pid is never killed.
 #pragma once
 
-#include "browser.h"
-#include "system_file.h"
+#include "browser/browser.h"
+#include "launcher/system_file.h"
 
 #include <sys/types.h>
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "serve_gate.h"
+#include "serve/serve_gate.h"
 
 #include "host/socket_peer.h"
 

@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "serve.h"
+#include "serve/serve.h"
 
-#include "report.h"
-#include "serve_gate.h"
-#include "stream_slots.h"
-#include "system_feed.h"
-#include "system_file.h"
-#include "values.h"
+#include "browser/json.h"
+#include "serve/serve_gate.h"
+#include "serve/stream_slots.h"
+#include "serve/system_feed.h"
+#include "launcher/system_file.h"
+#include "browser/values.h"
 
 #include "rtm/data.h"
 
@@ -30,7 +30,7 @@
 
 namespace rtm::cli {
 
-// The page, its script and its style, embedded at build time from tools/rtm/web/
+// The page, its script and its style, embedded at build time from tools/serve/web/
 // (web_page.cpp.in).
 extern const char* const kWebPage;
 extern const char* const kWebScript;

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "launcher.h"
+#include "launcher/launcher.h"
 
 #include "host/access.h"
 #include "host/socket_peer.h"

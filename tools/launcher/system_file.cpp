@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "system_file.h"
+#include "launcher/system_file.h"
 
 #include "rtm/naming.h"
 

@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "scaffold.h"
+#include "scaffold/scaffold.h"
 
-#include "host/runner.h"
+#include "scaffold_templates.h"
+
+#include "host/runner.h"  // parse_period_ns: the period as the runner takes it
+
 #include "rtm/data.h"
 
 #include <fmt/format.h>
@@ -230,10 +233,10 @@ Plan make_plan(const ScaffoldOptions& options) {
 
 // ============================== templates =============================
 
-// Replaces each @KEY@ of text by values[KEY]. Templates hold no other '@', and begin with a
-// newline, dropped here, so that their first line stands in the source as it comes out.
+using namespace scaffold_templates;  // kCMakeLists, kHeader, ...: templates/*.in
+
+// Replaces each @KEY@ of text by values[KEY]. Templates hold no other '@'.
 std::string substitute(std::string_view text, const std::map<std::string, std::string>& values) {
-  if (text.starts_with('\n')) text.remove_prefix(1);
   std::string out;
   std::size_t at = 0;
   while (true) {
@@ -251,191 +254,6 @@ std::string substitute(std::string_view text, const std::map<std::string, std::s
   out.append(text.substr(at));
   return out;
 }
-
-constexpr std::string_view kCMakeLists = R"(
-# @NAME@: an RTM component (made by `rtm new component`).
-cmake_minimum_required(VERSION 3.25)
-project(@NAME@ LANGUAGES CXX)
-
-set(CMAKE_CXX_STANDARD 20)
-set(CMAKE_CXX_STANDARD_REQUIRED ON)
-set(CMAKE_CXX_EXTENSIONS OFF)
-if(NOT CMAKE_BUILD_TYPE AND NOT CMAKE_CONFIGURATION_TYPES)
-  set(CMAKE_BUILD_TYPE Release)
-endif()
-if(CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
-  add_compile_options(-Wall -Wextra)
-endif()
-
-# RTM::core brings the framework, its IDL stubs (RTM.hh, RTMData.hh) and omniORB; RTM::host
-# the runner, the main() of a component executable (with its access screen and TLS).
-find_package(RTM 0.1 REQUIRED)
-
-# The component: its class and its logic, step(), which the test calls without an ORB.
-add_library(@NAME@_logic STATIC src/@NAME@.cpp)
-target_include_directories(@NAME@_logic PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
-target_link_libraries(@NAME@_logic PUBLIC RTM::core)
-
-# The executable @NAME@.yaml starts: bin/rtm-@NAME@ in the build folder.
-add_executable(rtm-@NAME@ src/main.cpp)
-target_link_libraries(rtm-@NAME@ PRIVATE @NAME@_logic RTM::host)
-set_target_properties(rtm-@NAME@ PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin)
-
-enable_testing()
-find_package(GTest REQUIRED)
-add_executable(@NAME@_test test/@NAME@_test.cpp)
-target_link_libraries(@NAME@_test PRIVATE @NAME@_logic GTest::gtest_main)
-add_test(NAME @NAME@_test COMMAND @NAME@_test)
-)";
-
-constexpr std::string_view kHeader = R"(
-// @NAME@: an RTM component (made by `rtm new component`).
-//
-@PORT_TABLE@//
-// Its logic is step(): a pure function from the newest inputs to the outputs (no CORBA calls,
-// no I/O, no clock: the cycle hands it the time), so that a test checks it without an ORB
-// (test/@NAME@_test.cpp). The class itself only moves data between its ports and step().
-#pragma once
-
-#include "rtm/component.h"
-#include "rtm/data.h"
-
-#include <string>
-
-class @CLASS@ final : public rtm::Component {
- public:
-  // The newest datum of each InPort (zeros until the first one arrives).
-  struct Inputs {
-@INPUT_FIELDS@  };
-  // One datum for each OutPort.
-  struct Outputs {
-@OUTPUT_FIELDS@  };
-
-  // One cycle's computation at time now (wall clock, as data are stamped).
-  static Outputs step(const Inputs& in, const RTM::Time& now);
-
-  explicit @CLASS@(std::string name);
-
-  void on_cycle(const rtm::CycleContext& ctx) override;
-
- private:
-  Inputs inputs_{};
-@PORT_MEMBERS@};
-)";
-
-constexpr std::string_view kSource = R"(
-#include "@NAME@/@NAME@.h"
-
-#include <utility>
-
-// The component's logic: replace the body with yours, and keep it free of CORBA calls, I/O and
-// clocks so that the test can call it. As made, an OutPort carries the InPort of its type (the
-// first OutPort of a type the first InPort of that type, and so on), stamp included so that a
-// receiver can measure the latency; an OutPort without one carries zeros stamped now.
-@CLASS@::Outputs @CLASS@::step(@IN_PARAMETER@, @NOW_PARAMETER@) {
-  Outputs out;
-@STEP_LINES@  return out;
-}
-
-@CLASS@::@CLASS@(std::string name) : Component(std::move(name), "@NAME@") {}
-
-void @CLASS@::on_cycle(const rtm::CycleContext&) {
-@CYCLE_LINES@}
-)";
-
-constexpr std::string_view kMain = R"(
-// The component's executable: @CLASS@ under the RTM runner, whose options (--name, --naming,
-// --period, --on, --rt-priority, ...) `--help` lists.
-#include "@NAME@/@NAME@.h"
-
-#include "host/runner.h"
-
-#include <memory>
-
-int main(int argc, char** argv) {
-  return rtm::run_component(argc, argv, {
-      .kind = "@NAME@",
-      .description =
-@DESCRIPTION@,
-      .create = [](const rtm::RunSettings& settings) { return std::make_unique<@CLASS@>(settings.name); },
-  });
-}
-)";
-
-constexpr std::string_view kTest = R"(
-// Tests of @CLASS@::step(), the component's logic, without an ORB.
-#include "@NAME@/@NAME@.h"
-
-#include <gtest/gtest.h>
-
-#include <type_traits>
-
-namespace {
-
-RTM::Time stamp(CORBA::ULong sec, CORBA::ULong nsec) {
-  RTM::Time t;
-  t.sec = sec;
-  t.nsec = nsec;
-  return t;
-}
-@TESTS@
-}  // namespace
-)";
-
-constexpr std::string_view kSystemFile = R"(
-# @NAME@'s system, as `rtm up` reads it (the format: tools/rtm/system_file.h in RTM).
-#   rtm up @NAME@.yaml   starts @NAME@0, waits until it is bound, turns it on
-#   rtm down @NAME@      turns it off and stops it
-# A program with a '/' is taken relative to this file's folder: the build of README.md.
-name: @NAME@
-components:
-  - name: @NAME@0
-    command: [build/bin/rtm-@NAME@, --period, "@PERIOD@"]
-@EXAMPLE@activate: [@NAME@0]
-)";
-
-constexpr std::string_view kReadme = R"(
-# @NAME@
-
-An RTM component, made by `rtm new component`.
-
-@PORT_LIST@
-## Build and test
-
-```sh
-cmake -B build -DCMAKE_PREFIX_PATH=<rtm prefix>   # the folder RTM is installed in
-cmake --build build
-ctest --test-dir build
-```
-
-It needs what RTM itself needs (omniORB 4.2) and GoogleTest; `<rtm prefix>` may also be an RTM
-build tree. The component's executable is `build/bin/rtm-@NAME@`, where `@NAME@.yaml` runs it
-from (building elsewhere, change the path there).
-
-## Run
-
-```sh
-# a naming service of your own, on loopback only
-mkdir -p ~/.rtm-names && omniNames -start 2809 -logdir ~/.rtm-names -ignoreport -ORBendPoint giop:tcp:127.0.0.1:2809 &
-export RTM_NAMING=127.0.0.1:2809            # `rtm` is in <rtm prefix>/bin
-rtm up @NAME@.yaml     # starts @NAME@0 (a cycle every @PERIOD@) and turns it on
-rtm cat @NAME@0        # its ports, counters and timing
-rtm down @NAME@
-```
-
-`@NAME@.yaml` is the system file: add the components @NAME@0 talks to, and `connections`
-between their ports, there. `build/bin/rtm-@NAME@ --help` lists the options the runner takes
-(`--period`, `--rt-priority`, `--cpu`, ...).
-
-## Where the logic goes
-
-`@CLASS@::step()` in `src/@NAME@.cpp`: a pure function from `Inputs` (the newest datum of
-each InPort) and the time to `Outputs` (one datum per OutPort). Keep CORBA calls, I/O and
-clocks out of it, and test it in `test/@NAME@_test.cpp`. `@CLASS@::on_cycle()` reads the
-InPorts, calls `step()` and writes the OutPorts; the ports are declared in
-`include/@NAME@/@NAME@.h`. As made, `step()` passes each InPort on to an OutPort of its
-type, and stamps the OutPorts left over with the time it is given.
-)";
 
 // ============================== rendering =============================
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "stream_slots.h"
+#include "serve/stream_slots.h"
 
 #include <fmt/format.h>
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "system_feed.h"
+#include "serve/system_feed.h"
 
 #include <algorithm>
 

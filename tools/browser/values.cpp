@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "values.h"
+#include "browser/values.h"
 
 #include "rtm/data.h"
 #include "rtm/orb.h"

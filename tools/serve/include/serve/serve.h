@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // rtm serve: the component editor in a browser. An HTTP server (cpp-httplib, Debian's
 // libcpp-httplib-dev: a small, well-kept library with SSE support and no framework to adopt)
-// serving one page (tools/rtm/web/index.html, plain JavaScript, SVG and canvas) and a JSON API that
+// serving one page (tools/serve/web/index.html, plain JavaScript, SVG and canvas) and a JSON API that
 // runs the same code as the `rtm` commands (Browser, report, values).
 //
 // The page is three files embedded at build time: GET / (web/index.html), /app.js and
@@ -52,7 +52,7 @@
 // a worker.
 #pragma once
 
-#include "browser.h"
+#include "browser/browser.h"
 
 #include <atomic>
 #include <functional>

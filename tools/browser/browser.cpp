@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "browser.h"
-#include "report.h"
+#include "browser/browser.h"
+#include "browser/json.h"
 
 #include "rtm/data.h"
 #include "host/tls.h"

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "watch_port.h"
+#include "browser/watch_port.h"
 
 #include "rtm/data.h"
 

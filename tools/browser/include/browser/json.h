@@ -1,0 +1,27 @@
+// SPDX-License-Identifier: Apache-2.0
+// The browser's results as JSON (`rtm ls --json`, `rtm cat --json`, rtm serve's API) and a
+// failed remote call as one line of text: what every front end says the same way.
+#pragma once
+
+#include "browser/browser.h"
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <string_view>
+
+namespace rtm::cli {
+
+// One line for a failed remote call: the exception's name, or what a refusal by access control
+// means and what to do about it.
+std::string failure_text(const CORBA::Exception& e);
+
+nlohmann::json port_json(const PortInfo& port);
+nlohmann::json timing_json(const RTM::TimingStats& timing);
+// detailed: timing, statistics and parameters too (`rtm cat`, `rtm ls -l`).
+nlohmann::json component_json(const ComponentInfo& component, bool detailed);
+
+// Whether a name follows the naming rule (rtm::check_name).
+bool name_follows_rule(std::string_view name);
+
+}  // namespace rtm::cli
