@@ -14,30 +14,24 @@
 
 namespace rtm::comp {
 
-void ActuatorParams::add_options(CLI::App& app) {
-  rtm::add_array_option(app, "--limit", limit, "6 limits: vx vy vz in m/s, wx wy wz in rad/s");
-  app.add_option("--watchdog-periods", watchdog_periods, "cycles without a new command before the drives brake")
-      ->check(CLI::Range(1u, kMaxWatchdogPeriods))
-      ->capture_default_str();
-  app.add_option("--sensor-recovery-periods", sensor_recovery_periods,
-                 "cycles a silent force sensor node is waited for (drives stopped) before the actuator fails")
-      ->check(CLI::Range(1u, kMaxSensorRecoveryPeriods))
-      ->capture_default_str();
+const rtm::ParameterTable<ActuatorParams>& actuator_parameters() {
+  using P = ActuatorParams;
+  using rtm::ParameterAccess;
+  static const rtm::ParameterTable<P> table{
+      "actuator",
+      {{"limit", &P::limit, "m/s, rad/s", "6 limits of |v|: vx vy vz, then wx wy wz", ParameterAccess::live,
+        rtm::at_least(0)},
+       {"watchdog_periods", &P::watchdog_periods, "cycles", "cycles without a new command before the drives brake",
+        ParameterAccess::when_off, rtm::between(1, P::kMaxWatchdogPeriods)},
+       {"sensor_recovery_periods", &P::sensor_recovery_periods, "cycles",
+        "cycles a silent force sensor node is waited for (drives stopped) before the actuator fails",
+        ParameterAccess::when_off, rtm::between(1, P::kMaxSensorRecoveryPeriods)}}};
+  return table;
 }
 
-void ActuatorParams::validate() const {
-  for (std::size_t i = 0; i < limit.size(); ++i) {
-    if (!std::isfinite(limit[i]) || limit[i] < 0)
-      throw std::invalid_argument(fmt::format("actuator limit[{}] = {}: want a finite value >= 0", i, limit[i]));
-  }
-  if (watchdog_periods == 0) throw std::invalid_argument("actuator watchdog_periods must be at least 1");
-  if (watchdog_periods > kMaxWatchdogPeriods)
-    throw std::invalid_argument(fmt::format("actuator watchdog_periods = {}: at most {} (a longer watchdog is none)",
-                                            watchdog_periods, kMaxWatchdogPeriods));
-  if (sensor_recovery_periods == 0 || sensor_recovery_periods > kMaxSensorRecoveryPeriods)
-    throw std::invalid_argument(fmt::format("actuator sensor_recovery_periods = {}: want 1..{}",
-                                            sensor_recovery_periods, kMaxSensorRecoveryPeriods));
-}
+void ActuatorParams::add_options(CLI::App& app) { rtm::add_parameter_options(app, actuator_parameters(), *this); }
+
+void ActuatorParams::validate() const { actuator_parameters().validate(*this); }
 
 std::array<float, 6> clamp_twist(const std::array<float, 6>& limit, const RTM::Float6& command) {
   std::array<float, 6> out{};
@@ -70,16 +64,7 @@ void Actuator::describe_self() {
                 "twists the bus master dropped for not being renewed within its expiry (zero sent)",
                 [this] { return static_cast<double>(arm_->diagnostics().bus_health().target_expiries); });
   add_percentile_statistics("handover", "sensor sample to twist handed to the arm", handover_latency_);
-  add_parameter(rtm::live_numbers("limit", "m/s, rad/s", "6 limits |v|: vx vy vz, then wx wy wz", limit_live_,
-                                  [](const std::vector<double>& v) {
-                                    if (std::any_of(v.begin(), v.end(), [](double x) { return x < 0; }))
-                                      throw std::invalid_argument("limits must be >= 0");
-                                  }));
-  add_parameter(rtm::cycles_when_off("watchdog_periods", "cycles without a new command before the drives brake",
-                                     params_.watchdog_periods, 1, ActuatorParams::kMaxWatchdogPeriods));
-  add_parameter(rtm::cycles_when_off("sensor_recovery_periods",
-                                     "cycles a silent force sensor node is waited for before the actuator fails",
-                                     params_.sensor_recovery_periods, 1, ActuatorParams::kMaxSensorRecoveryPeriods));
+  add_parameters(actuator_parameters(), params_live_);
 }
 
 void Actuator::retry_sensor_loss(bool faulted) {
@@ -103,17 +88,14 @@ void Actuator::retry_sensor_loss(bool faulted) {
   }
 }
 
-ActuatorParams Actuator::params() const {
-  ActuatorParams now = params_;
-  now.limit = limit_live_.published();
-  return now;
-}
+ActuatorParams Actuator::params() const { return params_live_.published(); }
 
 void Actuator::on_start() {
   if (const rtm::pa10::ArmFault fault = arm_->fault(); rtm::can::latched(fault.kind)) {
     log().info("{}: resetting the arm ({})", name(), fault.reason);
     arm_->reset();
   }
+  params_ = params_live_.published();  // watchdog_periods, sensor_recovery_periods: only while off
   // A command that arrived while off is not one to act on.
   RTM::TimedFloat6 discard;
   command_in_.read(discard);
@@ -208,8 +190,8 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
       }
       twist_ = {};
     } else {
-      limit_live_.take(limit_);
-      twist_ = clamp_twist(limit_, command_.val);
+      params_live_.take(cycle_params_);
+      twist_ = clamp_twist(cycle_params_.limit, command_.val);
       for (CORBA::ULong i = 0; i < 6; ++i) {
         if (twist_[i] != command_.val[i]) {
           counters_.clamped.add();

@@ -13,38 +13,30 @@
 
 namespace rtm::comp {
 
-void ControllerParams::add_options(CLI::App& app) {
-  rtm::add_array_option(app, "--gain", gain, "6 gains: x y z in (m/s)/N, rx ry rz in (rad/s)/(N·m)");
-  rtm::add_array_option(app, "--free-gain", free_gain,
-                        "6 gains used in free space while --approach-speed is on, units as --gain");
-  app.add_option("--approach-speed", approach_speed_m_s,
-                 "free-space speed limit [m/s] so the tool meets a surface at most this fast; 0: the paper's "
-                 "plain P (--gain everywhere)")
-      ->capture_default_str();
-  app.add_option("--contact-force", contact_force_N,
-                 "|force| [N] from which the tool is in contact (left after 10 cycles below half of it)")
-      ->capture_default_str();
-  app.add_option("--stale-periods", stale_periods,
-                 "cycles without a new input datum before the command is withheld (the actuator brakes)")
-      ->capture_default_str();
+const rtm::ParameterTable<ControllerParams>& controller_parameters() {
+  using P = ControllerParams;
+  using rtm::ParameterAccess;
+  static const rtm::ParameterTable<P> table{
+      "controller",
+      {{"gain", &P::gain, "(m/s)/N, (rad/s)/(N·m)", "6 gains in contact: x y z, then rx ry rz", ParameterAccess::live},
+       {"free_gain", &P::free_gain, "(m/s)/N, (rad/s)/(N·m)",
+        "6 gains in free space while approach_speed is on: x y z, then rx ry rz", ParameterAccess::live},
+       {"approach_speed", &P::approach_speed_m_s, "m/s",
+        "free-space speed limit, so the tool meets a surface at most this fast; 0: the paper's plain P (gain "
+        "everywhere)",
+        ParameterAccess::live, rtm::at_least(0)},
+       {"contact_force", &P::contact_force_N, "N",
+        "|force| from which the tool is in contact (left after 10 cycles below half of it)", ParameterAccess::live,
+        rtm::above(0)},
+       {"stale_periods", &P::stale_periods, "cycles",
+        "cycles without a new input datum before the command is withheld (the actuator brakes)",
+        ParameterAccess::when_off, rtm::between(1, 1'000'000)}}};
+  return table;
 }
 
-void ControllerParams::validate() const {
-  for (std::size_t i = 0; i < gain.size(); ++i) {
-    if (!std::isfinite(gain[i]))
-      throw std::invalid_argument(fmt::format("controller gain[{}] = {} is not a finite number", i, gain[i]));
-  }
-  for (std::size_t i = 0; i < free_gain.size(); ++i) {
-    if (!std::isfinite(free_gain[i]))
-      throw std::invalid_argument(fmt::format("controller free_gain[{}] = {} is not a finite number", i, free_gain[i]));
-  }
-  if (!(std::isfinite(approach_speed_m_s) && approach_speed_m_s >= 0))
-    throw std::invalid_argument(fmt::format("controller approach_speed = {} m/s must be 0 (off) or more",
-                                            approach_speed_m_s));
-  if (!(std::isfinite(contact_force_N) && contact_force_N > 0))
-    throw std::invalid_argument(fmt::format("controller contact_force = {} N must be above 0", contact_force_N));
-  if (stale_periods == 0) throw std::invalid_argument("controller stale_periods must be at least 1");
-}
+void ControllerParams::add_options(CLI::App& app) { rtm::add_parameter_options(app, controller_parameters(), *this); }
+
+void ControllerParams::validate() const { controller_parameters().validate(*this); }
 
 std::array<float, 6> proportional_command(const std::array<float, 6>& gain, const RTM::Float6& reference,
                                           const RTM::Float6& sensor) {
@@ -92,33 +84,13 @@ void Controller::describe_self() {
       "proportional force controller: twist = gain*(reference + wrench); in free space free_gain, at most "
       "approach_speed (0: the paper's P everywhere)");
   add_counters(counters_);
-  add_parameter(rtm::live_numbers("gain", "(m/s)/N, (rad/s)/(N·m)", "6 gains: x y z, then rx ry rz (in contact)",
-                                  gain_live_));
-  add_parameter(rtm::live_numbers("free_gain", "(m/s)/N, (rad/s)/(N·m)",
-                                  "6 gains in free space while approach_speed is on", free_gain_live_));
-  add_parameter(rtm::live_numbers("approach_speed", "m/s", "free-space speed limit; 0: the paper's P everywhere",
-                                  approach_speed_live_, [](const std::vector<double>& v) {
-                                    if (v[0] < 0) throw std::invalid_argument("approach_speed must be 0 (off) or more");
-                                  }));
-  add_parameter(rtm::live_numbers("contact_force", "N", "|force| from which the tool is in contact",
-                                  contact_force_live_, [](const std::vector<double>& v) {
-                                    if (!(v[0] > 0)) throw std::invalid_argument("contact_force must be above 0");
-                                  }));
-  add_parameter(rtm::cycles_when_off("stale_periods",
-                                     "cycles without a new input datum before the command is withheld (the actuator brakes)",
-                                     params_.stale_periods, 1, 1'000'000));
+  add_parameters(controller_parameters(), params_live_);
 }
 
-ControllerParams Controller::params() const {
-  ControllerParams now = params_;
-  now.gain = gain_live_.published();
-  now.free_gain = free_gain_live_.published();
-  now.approach_speed_m_s = approach_speed_live_.published()[0];
-  now.contact_force_N = contact_force_live_.published()[0];
-  return now;
-}
+ControllerParams Controller::params() const { return params_live_.published(); }
 
 void Controller::on_start() {
+  params_ = params_live_.published();  // stale_periods, which changes only while off
   // Data that arrived while off is not fresh: a restart begins stale until new data comes.
   sensor_ = Input{params_.stale_periods};
   reference_ = Input{params_.stale_periods};
@@ -174,12 +146,6 @@ void Controller::on_cycle(const rtm::CycleContext&) {
   command_out_.write(command_);
 }
 
-void Controller::take_live_parameters() {
-  gain_live_.take(cycle_params_.gain);
-  free_gain_live_.take(cycle_params_.free_gain);
-  std::array<float, 1> one{};
-  if (approach_speed_live_.take(one)) cycle_params_.approach_speed_m_s = one[0];
-  if (contact_force_live_.take(one)) cycle_params_.contact_force_N = one[0];
-}
+void Controller::take_live_parameters() { params_live_.take(cycle_params_); }
 
 }  // namespace rtm::comp

@@ -13,20 +13,19 @@
 
 namespace rtm::comp {
 
-void SensorParams::add_options(CLI::App& app) {
-  app.add_option("--recovery-timeout-periods", recovery_timeout_periods,
-                 "cycles a heartbeat loss of the F/T node may last before the component goes to error")
-      ->check(CLI::Range(1u, kMaxRecoveryTimeoutPeriods))
-      ->capture_default_str();
+const rtm::ParameterTable<SensorParams>& sensor_parameters() {
+  using P = SensorParams;
+  static const rtm::ParameterTable<P> table{
+      "sensor",
+      {{"recovery_timeout_periods", &P::recovery_timeout_periods, "cycles",
+        "cycles a heartbeat loss of the F/T node may last before the component goes to error",
+        rtm::ParameterAccess::when_off, rtm::between(1, P::kMaxRecoveryTimeoutPeriods)}}};
+  return table;
 }
 
-void SensorParams::validate() const {
-  if (recovery_timeout_periods == 0)
-    throw std::invalid_argument("sensor recovery_timeout_periods must be at least 1");
-  if (recovery_timeout_periods > kMaxRecoveryTimeoutPeriods)
-    throw std::invalid_argument(fmt::format("sensor recovery_timeout_periods = {}: at most {}",
-                                            recovery_timeout_periods, kMaxRecoveryTimeoutPeriods));
-}
+void SensorParams::add_options(CLI::App& app) { rtm::add_parameter_options(app, sensor_parameters(), *this); }
+
+void SensorParams::validate() const { sensor_parameters().validate(*this); }
 
 std::array<double, 6> wrench_sensor_to_base(const Eigen::Matrix3d& rotation_base_sensor,
                                             const std::array<double, 6>& wrench_sensor) {
@@ -43,14 +42,13 @@ Sensor::Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm:
   params_.validate();
   set_description("wrist force/torque sensor: the wrench on the tool in the arm's base frame");
   add_counters(counters_);
-  add_parameter(rtm::cycles_when_off("recovery_timeout_periods",
-                                     "cycles a heartbeat loss of the F/T node may last before COMPONENT_ERROR",
-                                     params_.recovery_timeout_periods, 1, SensorParams::kMaxRecoveryTimeoutPeriods));
+  add_parameters(sensor_parameters(), params_live_);
 }
 
 void Sensor::on_start() {
   // A wrench already seen before on() is not fresh: it would reach the controller as new.
   last_sequence_ = source_->latest().sequence;
+  params_ = params_live_.published();  // recovery_timeout_periods changes only while off
   recovery_budget_ = params_.recovery_timeout_periods;
   // A loss still under way is seen again (and counted as a new one) in the first cycle.
   lost_ = false;

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/describe.h"
+#include "rtm/parameters.h"
 
 #include <fmt/format.h>
 
@@ -71,16 +72,16 @@ std::uint64_t parse_whole_number(std::string_view text, std::uint64_t min, std::
   return static_cast<std::uint64_t>(v);
 }
 
-Parameter cycles_when_off(std::string name, std::string description, std::uint32_t& field, std::uint32_t min,
-                          std::uint32_t max) {
-  return {.name = std::move(name),
-          .unit = "cycles",
-          .description = std::move(description),
-          .access = ParameterAccess::when_off,
-          .get = [&field] { return std::to_string(field); },
-          .set = [&field, min, max](std::string_view text) {
-            field = static_cast<std::uint32_t>(parse_whole_number(text, min, max));
-          }};
+void check_bounds(double value, const Bounds& bounds, std::string_view owner, std::string_view what, bool count) {
+  if (!std::isfinite(value))
+    throw std::invalid_argument(fmt::format("{} {} = {} is not a finite number", owner, what, value));
+  if (count && value < bounds.min)
+    throw std::invalid_argument(fmt::format("{} {} must be at least {}", owner, what, bounds.min));
+  if (bounds.min_open ? !(value > bounds.min) : value < bounds.min) {
+    throw std::invalid_argument(
+        fmt::format("{} {} = {}: must be {} {}", owner, what, value, bounds.min_open ? "above" : "at least", bounds.min));
+  }
+  if (value > bounds.max) throw std::invalid_argument(fmt::format("{} {} = {}: at most {}", owner, what, value, bounds.max));
 }
 
 std::string format_numbers(std::span<const float> values) { return format_all(values); }

@@ -47,19 +47,24 @@
 #include "host/access.h"
 #include "rtm/component.h"
 #include "rtm/naming.h"
+#include "rtm/parameters.h"
 
 #include <CLI/App.hpp>
+#include <CLI/Validators.hpp>
 
 #include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
+#include <variant>
 #include <vector>
 
 namespace rtm {
@@ -147,6 +152,35 @@ CLI::Option* add_array_option(CLI::App& app, const std::string& name, std::array
           description)
       ->expected(static_cast<int>(N))
       ->default_str(shown.str());
+}
+
+// One option for each parameter of table (rtm/parameters.h), bound to its field of params:
+// --name with '-' for '_', "description [unit]" as its help, the field's value as its default,
+// a count refused out of its bounds by the parser. Call table.validate(params) after parsing
+// (run_component's validate) for the bounds of the numbers.
+template <class P>
+void add_parameter_options(CLI::App& app, const ParameterTable<P>& table, P& params) {
+  for (const auto& decl : table.entries()) {
+    std::string option = "--" + decl.name;
+    std::replace(option.begin(), option.end(), '_', '-');
+    const std::string help = decl.unit.empty() ? decl.description : decl.description + " [" + decl.unit + "]";
+    std::visit(
+        [&](auto member) {
+          auto& field = params.*member;
+          using T = std::remove_cvref_t<decltype(field)>;
+          if constexpr (std::is_integral_v<T>) {
+            app.add_option(option, field, help)
+                ->check(CLI::Range(static_cast<T>(std::max(decl.bounds.min, 0.0)),
+                                   static_cast<T>(std::min(decl.bounds.max, double(std::numeric_limits<T>::max())))))
+                ->capture_default_str();
+          } else if constexpr (std::is_same_v<T, float>) {
+            app.add_option(option, field, help)->capture_default_str();
+          } else {
+            add_array_option(app, option, field, help);
+          }
+        },
+        decl.field);
+  }
 }
 
 // Parses a period: "2ms", "500us", "250000ns", "0.002s" or "0.002" (seconds). Throws

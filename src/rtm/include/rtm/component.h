@@ -6,9 +6,11 @@
 #include "RTMExt.hh"
 #include "rt/activity.h"
 #include "rt/histogram.h"
+#include "rt/live_value.h"
 #include "rtm/describe.h"
 #include "rtm/inport.h"
 #include "rtm/outport.h"
+#include "rtm/parameters.h"
 
 #include <atomic>
 #include <memory>
@@ -123,6 +125,26 @@ class Component {
   // Throws std::invalid_argument for an empty or repeated name, a missing get(), or a
   // writable parameter without set().
   void add_parameter(Parameter parameter);
+  // Each parameter of table (rtm/parameters.h), kept in value: `rtm cat` shows
+  // value.published(), `rtm set` checks the text as the table says and publishes the whole
+  // struct changed (ComponentServant serialises the sets), the cycle take()s it. table and
+  // value must outlive the component's servant.
+  template <class P>
+  void add_parameters(const ParameterTable<P>& table, LiveValue<P>& value) {
+    for (const auto& entry : table.entries()) {
+      const auto* decl = &entry;
+      add_parameter({.name = decl->name,
+                     .unit = decl->unit,
+                     .description = decl->description,
+                     .access = decl->access,
+                     .get = [decl, &value] { return decl->get(value.published()); },
+                     .set = [decl, &table, &value](std::string_view text) {
+                       P changed = value.published();
+                       decl->set(changed, text, table.owner());
+                       value.publish(changed);
+                     }});
+    }
+  }
 
  private:
   friend class ComponentServant;  // adds the statistics of what it does around the cycle

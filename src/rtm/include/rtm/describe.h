@@ -9,11 +9,9 @@
 //   add_statistic("watchdog_events", "", "commands stopped arriving", [this] { return double(events_); });
 //   add_parameter({.name = "gain", .unit = "(m/s)/N", .description = "...",
 //                  .access = rtm::ParameterAccess::live, .get = ..., .set = ...});
+// A component's own parameters are better declared once, in a table (rtm/parameters.h).
 #pragma once
 
-#include "rt/live_value.h"
-
-#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstddef>
@@ -136,30 +134,5 @@ std::uint64_t parse_whole_number(std::string_view text, std::uint64_t min, std::
 // Numbers as parse_numbers() reads them: "0.003 0.003 0 0 0 0" (shortest exact form).
 std::string format_numbers(std::span<const float> values);
 std::string format_numbers(std::span<const double> values);
-
-// A live parameter of N numbers the cycle takes from value (value.take() in on_cycle). check,
-// when given, throws std::invalid_argument for numbers out of range; nothing changes then.
-template <std::size_t N>
-Parameter live_numbers(std::string name, std::string unit, std::string description,
-                       LiveValue<std::array<float, N>>& value,
-                       std::function<void(const std::vector<double>&)> check = {}) {
-  return {.name = std::move(name),
-          .unit = std::move(unit),
-          .description = std::move(description),
-          .access = ParameterAccess::live,
-          .get = [&value] { return format_numbers(std::span<const float>(value.published())); },
-          .set = [&value, check = std::move(check)](std::string_view text) {
-            const auto numbers = parse_numbers(text, N);
-            if (check) check(numbers);
-            std::array<float, N> v{};
-            std::copy(numbers.begin(), numbers.end(), v.begin());
-            value.publish(v);
-          }};
-}
-
-// A whole number of cycles in [min, max] that changes only while the component is off (its
-// on_start() reads field).
-Parameter cycles_when_off(std::string name, std::string description, std::uint32_t& field, std::uint32_t min,
-                          std::uint32_t max);
 
 }  // namespace rtm

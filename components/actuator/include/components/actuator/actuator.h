@@ -70,6 +70,9 @@ struct ActuatorParams {
   void add_options(CLI::App& app);
 };
 
+// Each of the actuator's parameters, declared once (rtm/parameters.h).
+const rtm::ParameterTable<ActuatorParams>& actuator_parameters();
+
 // Fig. 7: each component clamped to [-limit[i], +limit[i]].
 std::array<float, 6> clamp_twist(const std::array<float, 6>& limit, const RTM::Float6& command);
 
@@ -136,9 +139,9 @@ class Actuator final : public rtm::Component {
   void describe_self();
 
   std::unique_ptr<VelocityArm> arm_;
-  ActuatorParams params_;  // watchdog_periods changes only while off; limit through limit_live_
-  rtm::LiveValue<std::array<float, 6>> limit_live_{params_.limit};
-  std::array<float, 6> limit_ = params_.limit;  // the cycle's copy of limit_live_
+  ActuatorParams params_;  // as on_start() took them: the periods change only while off
+  rtm::LiveValue<ActuatorParams> params_live_{params_};  // as `rtm set` leaves them
+  ActuatorParams cycle_params_ = params_;  // the cycle's copy: limit is live
   RTM::TimedFloat6 command_{};
   std::array<float, 6> twist_{};
   rtm::Freshness command_freshness_{params_.watchdog_periods};  // the watchdog; seen(): a command since on()

@@ -57,13 +57,17 @@ struct ControllerParams {
   std::uint32_t stale_periods = 3;  // cycles without a new datum before an input is stale
 
   // Throws std::invalid_argument naming the bad value (NaN/inf gain, a negative approach
-  // speed, a contact force not above 0, stale_periods 0).
+  // speed, a contact force not above 0, stale_periods 0), as controller_parameters() bounds it.
   void validate() const;
   // Registers --gain, --free-gain, --approach-speed, --contact-force and --stale-periods on
   // app, bound to these fields (rtm-controller and rtm-servo share them); call validate() after
   // parsing.
   void add_options(CLI::App& app);
 };
+
+// Each of the controller's parameters, declared once (rtm/parameters.h): its option, its help,
+// its bounds, what `rtm cat` shows and `rtm set` changes.
+const rtm::ParameterTable<ControllerParams>& controller_parameters();
 
 // Fig. 6: out[i] = gain[i] * (ref[i] + sen[i]).
 std::array<float, 6> proportional_command(const std::array<float, 6>& gain, const RTM::Float6& reference,
@@ -136,11 +140,8 @@ class Controller final : public rtm::Component {
   void describe_self();
   void take_live_parameters();
 
-  ControllerParams params_;  // stale_periods changes only while off; gain through gain_live_
-  rtm::LiveValue<std::array<float, 6>> gain_live_{params_.gain};
-  rtm::LiveValue<std::array<float, 6>> free_gain_live_{params_.free_gain};
-  rtm::LiveValue<std::array<float, 1>> approach_speed_live_{{params_.approach_speed_m_s}};
-  rtm::LiveValue<std::array<float, 1>> contact_force_live_{{params_.contact_force_N}};
+  ControllerParams params_;  // as on_start() took them: stale_periods changes only while off
+  rtm::LiveValue<ControllerParams> params_live_{params_};  // as `rtm set` leaves them
   ControllerParams cycle_params_ = params_;  // the cycle's copy of the live parameters
   ContactDetector contact_;
   Input sensor_{params_.stale_periods};

@@ -59,6 +59,9 @@ struct SensorParams {
   void add_options(CLI::App& app);
 };
 
+// The sensor's parameter, declared once (rtm/parameters.h).
+const rtm::ParameterTable<SensorParams>& sensor_parameters();
+
 // What the sensor counts: each field is also the statistic of its name (`rtm cat`).
 struct SensorCounters : rtm::CounterSet {
   rtm::Counter samples{*this, "samples", "wrenches written"};
@@ -87,7 +90,7 @@ class Sensor final : public rtm::Component {
 
   rtm::OutPort<RTM::TimedFloat6>& out() { return out_; }
   const SensorCounters& counters() const { return counters_; }
-  SensorParams params() const { return params_; }
+  SensorParams params() const { return params_live_.published(); }
   // In a heartbeat loss now (nothing is written).
   bool in_heartbeat_loss() const { return lost_flag_.load(std::memory_order_relaxed); }
 
@@ -98,7 +101,8 @@ class Sensor final : public rtm::Component {
 
   std::unique_ptr<WristSampleSource> source_;
   rtm::pa10::Kinematics kinematics_;
-  SensorParams params_;  // recovery_timeout_periods changes only while off
+  SensorParams params_;  // as on_start() took them: recovery_timeout_periods changes only while off
+  rtm::LiveValue<SensorParams> params_live_{params_};  // as `rtm set` leaves them
   std::uint32_t recovery_budget_ = params_.recovery_timeout_periods;  // the cycle's copy (on_start)
   rtm::pa10::JointVector q_rad_ = rtm::pa10::JointVector::Zero();
   std::uint64_t last_sequence_ = 0;
