@@ -566,6 +566,32 @@ components:
   EXPECT_TRUE(rtm_json({"ls"}).empty()) << "good was stopped and unbound too";
 }
 
+TEST_F(RtmUpDown, UpChecksTheWholeWiringFirstNamingEveryProblemAndConnectsNothing) {
+  auto file = write_system(R"(
+name: trio
+components:
+  - {name: a, command: rtm-test-talker}
+  - {name: b, command: rtm-test-talker}
+connections:
+  - {from: a.force, to: b.in0}
+  - {from: a.force, to: b.pos3}
+  - {from: a.forse, to: b.out3}
+activate: [a, b]
+)");
+  auto up = rtm_env({"up", file.string()});
+  EXPECT_EQ(up.exit_code, 1) << up.out;
+  EXPECT_NE(up.err.find("the wiring does not hold, nothing was connected"), std::string::npos) << up.err;
+  EXPECT_NE(up.err.find("a.force (RTM::TimedFloat6) -> b.pos3 (RTM::TimedFloat3): types differ"), std::string::npos)
+      << up.err;
+  EXPECT_NE(up.err.find("a.forse -> b.out3: a has no OutPort forse (OutPorts: force, out3)"), std::string::npos)
+      << up.err;
+  EXPECT_NE(up.err.find("a.forse -> b.out3: b.out3 is an OutPort; a connection goes from an OutPort to an InPort"),
+            std::string::npos)
+      << up.err;
+  EXPECT_EQ(up.out.find("connected"), std::string::npos) << "a connection was made first:\n" << up.out;
+  EXPECT_TRUE(rtm_json({"ls"}).empty()) << "what was started is stopped again";
+}
+
 TEST_F(RtmUpDown, UpWithAMissingProgramStartsNothing) {
   auto file = write_system("components: [{name: x, command: rtm-no-such-component}]\n");
   auto up = rtm_env({"up", file.string()});

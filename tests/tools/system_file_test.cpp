@@ -123,6 +123,27 @@ TEST(RtmSystemFile, ConnectionToUnlistedComponentIsRefused) {
             std::string::npos);
 }
 
+TEST(RtmSystemFile, AnInPortWrittenTwiceIsRefusedNamingItAndBothWriters) {
+  const auto error = error_of(
+      "components: [{name: a, command: x}, {name: b, command: y}, {name: c, command: z}]\n"
+      "connections: [{from: a.force, to: c.in0}, {from: b.force, to: c.in0}]");
+  EXPECT_NE(error.find("/srv/systems/servo.yaml: the wiring does not hold"), std::string::npos) << error;
+  EXPECT_NE(error.find("c.in0 has two writers, a.force and b.force"), std::string::npos) << error;
+}
+
+TEST(RtmSystemFile, ItsDiagramHasItsComponentsAndConnectionsWithTheirPolicies) {
+  const auto file = SystemFile::parse("components: [{name: a, command: x}, {name: b, command: y}]\n"
+                                      "connections: [{from: a.force, to: b.in0, type: once}]",
+                                      kFile);
+  const auto d = file.diagram();
+  ASSERT_EQ(d.members.size(), 2u);
+  EXPECT_EQ(d.members[1].name, "b");
+  EXPECT_FALSE(d.ticked);
+  ASSERT_EQ(d.connections.size(), 1u);
+  EXPECT_EQ(d.connections[0].text(), "a.force -> b.in0");
+  EXPECT_TRUE(d.connections[0].policy.once);
+}
+
 TEST(RtmSystemFile, BadConnectionTypeIsRefused) {
   EXPECT_NE(error_of("components: [{name: a, command: x}]\n"
                      "connections: [{from: a.out0, to: a.in0, type: twice}]")

@@ -3,6 +3,7 @@
 
 #include "host/access.h"
 #include "host/socket_peer.h"
+#include "rtm/data.h"
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -265,6 +266,42 @@ void refuse_if_up(const std::string& system) {
   }
 }
 
+namespace {
+
+// The file's diagram against the ports of the running components, before anything is
+// connected: every problem at once, each naming both ends.
+void check_wiring(const SystemFile& file, const Browser& browser) {
+  rtm::PortCatalogue ports{
+      .find = [&browser](const rtm::PortRef& ref, bool in) -> std::optional<rtm::PortShape> {
+        try {
+          const ResolvedPort p = browser.port({ref.member, ref.port});
+          if ((p.direction == Direction::in) != in) return std::nullopt;
+          return rtm::PortShape{in, rtm::type_name(p.type.in()), p.elements.empty() ? std::vector<std::string>{} : p.units()};
+        } catch (const BrowseError&) {
+          return std::nullopt;
+        }
+      },
+      .names = [&browser](const std::string& member, bool in) {
+        std::vector<std::string> names;
+        try {
+          for (const auto& p : browser.describe(member).ports) {
+            if ((p.direction == Direction::in) == in) names.push_back(p.name);
+          }
+        } catch (const BrowseError&) {
+        }
+        return names;
+      },
+  };
+  try {
+    file.diagram().check(ports);
+  } catch (const rtm::DiagramError& e) {
+    throw SystemFileError(fmt::format("{}: the wiring does not hold, nothing was connected: {}", file.path.string(),
+                                      e.what()));
+  }
+}
+
+}  // namespace
+
 SystemState system_up(const SystemFile& file, const Browser& browser, const NamingAddress& naming,
                       const LaunchOptions& options) {
   auto say = [&](const std::string& line) {
@@ -305,6 +342,7 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
       wait_until_bound(browser, host, p, options.bind_timeout, check_interrupt);
       say(fmt::format("bound {}", p.name));
     }
+    check_wiring(file, browser);
     for (const auto& c : file.connections) {
       check_interrupt();
       browser.connect(PortAddress::parse(c.from), PortAddress::parse(c.to), c.policy);

@@ -167,7 +167,20 @@ SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem
       f.activate.push_back(std::move(n));
     }
   }
+  // What the file's wiring is as a diagram: an InPort written twice, a connection listed twice.
+  if (auto problems = f.diagram().problems(); !problems.empty()) {
+    std::string text = fmt::format("{}: the wiring does not hold:", path.string());
+    for (const auto& p : problems) text += "\n  " + p;
+    throw SystemFileError(text);
+  }
   return f;
+}
+
+rtm::Diagram SystemFile::diagram() const {
+  rtm::Diagram d{.name = name};
+  for (const auto& c : components) d.members.push_back({c.name});
+  for (const auto& c : connections) d.connections.push_back({rtm::PortRef::parse(c.from), rtm::PortRef::parse(c.to), c.policy});
+  return d;
 }
 
 std::filesystem::path find_program(const std::string& program, const std::filesystem::path& base) {

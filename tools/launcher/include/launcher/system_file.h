@@ -18,6 +18,7 @@
 #pragma once
 
 #include "rtm/conn_policy.h"
+#include "rtm/diagram.h"
 
 #include <filesystem>
 #include <optional>
@@ -51,12 +52,18 @@ struct SystemFile {
   std::vector<std::string> activate;
 
   // Throws SystemFileError for an unreadable file, bad YAML, a missing or mistyped key, a
-  // duplicate component, or a connection/activation naming a component the file does not list.
+  // duplicate component, a connection/activation naming a component the file does not list, or
+// wiring that does not hold (diagram()).
   static SystemFile load(const std::filesystem::path& file);
   static SystemFile parse(const std::string& yaml_text, const std::filesystem::path& path);
 
   // The file as YAML that parse() reads back to the same content (rtm serve's "save").
   std::string to_yaml() const;
+  // Its components and connections as a diagram (not ticked: each component runs on its own
+  // activity). parse() refuses a file whose diagram does not hold by its structure alone (an
+  // InPort with two writers, a connection listed twice); `rtm up` checks the rest against the
+  // running components' ports before it connects anything.
+  rtm::Diagram diagram() const;
 };
 
 // The program to execute for `program` as written in a system file in folder `base`.
