@@ -2,12 +2,13 @@
 // rtm-servo: the force-servo composite (paper Figs. 4, 8).
 //
 // Paper mode (default): --sensor/--controller/--actuator name RT components found through the
-// naming service (waited for up to --wait); on() wires sensor.out0 -> controller.in0 and
-// controller.out0 -> actuator.in0 and turns them on; off() reverses it.
+// naming service (waited for up to --wait); on() wires sensor.wrench -> controller.wrench and
+// controller.twist -> actuator.twist and turns them on; off() reverses it.
 // Shared-tick mode (--shared-tick): the three members are created in this process on the
 // arm's bus (--bus, --sensor-bus) and run by one periodic tick, sensor -> controller ->
 // actuator in that order; they are also bound by those names, for browsing.
-// In both modes the servo's InPort 0 is the controller's InPort 1 (the reference).
+// In both modes the servo's InPort 0 is the controller's InPort "reference"; the wiring is
+// servo_diagram(), checked against the members' ports before anything is connected.
 // --cpu pins the tick and the bus master's thread, not the whole process.
 #include "components/servo/servo.h"
 
@@ -135,7 +136,7 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions&
 int main(int argc, char** argv) {
   ServoOptions options;
   rtm::comp::SharedTickServo* shared = nullptr;  // owned by the servant, in shared-tick mode
-  RTM::InPort_var reference;                     // the controller's InPort 1
+  RTM::InPort_var reference;                     // the controller's InPort "reference"
   return rtm::run_component(argc, argv, {
       .kind = "servo",
       .description = "rtm-servo: force-servo composite (Figs. 4, 8): sensor -> controller -> actuator; in0 = the "

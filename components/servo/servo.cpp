@@ -43,7 +43,52 @@ std::string refusal_of(RTM::OutPort_ptr port) {
   return "refused";
 }
 
+// The port of a remote component named `port`, or "in<N>"/"out<N>" (a 2004 component whose
+// ports say no name of use); nil when it has none. names: each port's name, for a message.
+template <class List, class Port>
+typename Port::_ptr_type find_port(const List& ports, const std::string& port, const char* prefix,
+                                   std::vector<std::string>* names = nullptr) {
+  for (CORBA::ULong i = 0; i < ports.length(); ++i) {
+    CORBA::String_var n = ports[i]->name();
+    if (names) names->push_back(n.in());
+    if (port == n.in() || port == prefix + std::to_string(i)) return Port::_duplicate(ports[i]);
+  }
+  return Port::_nil();
+}
+
+RTM::InPort_ptr find_in(RTM::RtComponent_ptr c, const std::string& port, std::vector<std::string>* names = nullptr) {
+  RTM::InPortList_var ins = c->in_ports();
+  return find_port<RTM::InPortList, RTM::InPort>(ins.in(), port, "in", names);
+}
+
+RTM::OutPort_ptr find_out(RTM::RtComponent_ptr c, const std::string& port, std::vector<std::string>* names = nullptr) {
+  RTM::OutPortList_var outs = c->out_ports();
+  return find_port<RTM::OutPortList, RTM::OutPort>(outs.in(), port, "out", names);
+}
+
+// What a remote port is, for a diagram's check: its type, and its elements' units when it
+// describes them (an RTMExt port).
+template <class Ex, class Port>
+rtm::PortShape shape_of(Port* port, bool is_in) {
+  CORBA::TypeCode_var type = port->port_type();
+  rtm::PortShape shape{is_in, rtm::type_name(type.in()), {}};
+  typename Ex::_var_type ex = Ex::_narrow(port);
+  if (!CORBA::is_nil(ex)) {
+    RTM::PortDescription_var d = ex->describe();
+    for (CORBA::ULong i = 0; i < d->elements.length(); ++i) shape.units.push_back(d->elements[i].unit.in());
+  }
+  return shape;
+}
+
 }  // namespace
+
+rtm::Diagram servo_diagram(const std::string& servo, const std::string& sensor, const std::string& controller,
+                           const std::string& actuator, bool ticked) {
+  return {.name = servo + "'s wiring",
+          .members = {{sensor}, {controller}, {actuator}},
+          .ticked = ticked,
+          .connections = {{{sensor, "wrench"}, {controller, "wrench"}}, {{controller, "twist"}, {actuator, "twist"}}}};
+}
 
 // ============================ RemoteServo =============================
 
@@ -59,31 +104,67 @@ RemoteServo::RemoteServo(std::string name, RTM::RtComponent_ptr sensor, RTM::RtC
   if (phase_offset_.count() < 0)
     throw std::invalid_argument(fmt::format("servo {}: phase offset {} ns is negative", this->name(),
                                             phase_offset_.count()));
+  diagram_ = servo_diagram(this->name(), name_of(sensor_, "sensor"), name_of(controller_, "controller"),
+                           name_of(actuator_, "actuator"), false);
+  diagram_.check_structure();  // three distinct members
+}
+
+RTM::RtComponent_ptr RemoteServo::member(const std::string& name) const {
+  const RTM::RtComponent_ptr members[3] = {sensor_.in(), controller_.in(), actuator_.in()};
+  for (std::size_t i = 0; i < 3; ++i) {
+    if (diagram_.members[i].name == name) return members[i];
+  }
+  return RTM::RtComponent::_nil();
 }
 
 RTM::InPort_ptr RemoteServo::reference_port() const {
-  RTM::InPortList_var ins = controller_->in_ports();
-  if (ins->length() < 2)
-    throw std::runtime_error(fmt::format("servo {}: controller {} has {} InPorts, the reference is InPort 1", name(),
-                                         name_of(controller_, "controller"), ins->length()));
-  return RTM::InPort::_duplicate(ins[1]);
+  std::vector<std::string> names;
+  RTM::InPort_var port = find_in(controller_, kServoReferencePort, &names);
+  if (CORBA::is_nil(port)) {
+    std::string have;
+    for (const auto& n : names) have += (have.empty() ? "" : ", ") + n;
+    throw std::runtime_error(fmt::format("servo {}: controller {} has no InPort {} (InPorts: {})", name(),
+                                         diagram_.members[1].name, kServoReferencePort, have.empty() ? "none" : have));
+  }
+  return port._retn();
 }
 
-RemoteServo::Link RemoteServo::link(RTM::RtComponent_ptr from, const char* from_role, RTM::RtComponent_ptr to,
-                                    const char* to_role, CORBA::ULong in_index) const {
-  Link result;
-  result.text = fmt::format("{}.out0 -> {}.in{}", name_of(from, from_role), name_of(to, to_role), in_index);
-  RTM::OutPortList_var outs = from->out_ports();
-  RTM::InPortList_var ins = to->in_ports();
-  if (outs->length() < 1 || ins->length() <= in_index)
-    throw std::runtime_error(fmt::format("servo {}: {}: port missing ({} has {} OutPorts, {} has {} InPorts)", name(),
-                                         result.text, from_role, outs->length(), to_role, ins->length()));
-  result.from = RTM::OutPort::_duplicate(outs[0]);
-  result.to = RTM::InPort::_duplicate(ins[in_index]);
+std::vector<RemoteServo::Link> RemoteServo::links() const {
+  const rtm::PortCatalogue ports{
+      .find = [this](const rtm::PortRef& ref, bool in) -> std::optional<rtm::PortShape> {
+        RTM::RtComponent_ptr m = member(ref.member);
+        if (CORBA::is_nil(m)) return std::nullopt;
+        if (in) {
+          RTM::InPort_var p = find_in(m, ref.port);
+          if (!CORBA::is_nil(p)) return shape_of<RTM::InPortEx>(p.in(), true);
+        } else {
+          RTM::OutPort_var p = find_out(m, ref.port);
+          if (!CORBA::is_nil(p)) return shape_of<RTM::OutPortEx>(p.in(), false);
+        }
+        return std::nullopt;
+      },
+      .names = [this](const std::string& name, bool in) {
+        std::vector<std::string> names;
+        RTM::RtComponent_ptr m = member(name);
+        if (CORBA::is_nil(m)) return names;
+        if (in) {
+          RTM::InPort_var ignored = find_in(m, "", &names);
+        } else {
+          RTM::OutPort_var ignored = find_out(m, "", &names);
+        }
+        return names;
+      },
+  };
+  if (auto problems = diagram_.problems(&ports); !problems.empty())
+    throw rtm::DiagramError(diagram_.name, std::move(problems));
+  std::vector<Link> result;
+  for (const auto& c : diagram_.connections) {
+    result.push_back({find_out(member(c.from.member), c.from.port), find_in(member(c.to.member), c.to.port), c.text()});
+  }
   return result;
 }
 
-void RemoteServo::undo(bool turned_on[3], bool subscribed[2]) {
+void RemoteServo::undo(bool turned_on[3], const std::vector<Link>& subscribed) {
   RTM::RtComponent_ptr members[3] = {actuator_.in(), controller_.in(), sensor_.in()};
   for (int i = 0; i < 3; ++i) {
     if (!turned_on[i]) continue;
@@ -93,34 +174,26 @@ void RemoteServo::undo(bool turned_on[3], bool subscribed[2]) {
       log().warn("servo {}: off() of {} raised {}", name(), name_of(members[i], "member"), e._name());
     }
   }
-  for (int i = 0; i < 2; ++i) {
-    if (!subscribed[i]) continue;
+  for (const auto& l : subscribed) {
     try {
-      const Link l = i == 0 ? link(sensor_, "sensor", controller_, "controller", 0)
-                            : link(controller_, "controller", actuator_, "actuator", 0);
       l.from->unsubscribe(RTM::repeated, l.to);
     } catch (const CORBA::Exception& e) {
-      log().warn("servo {}: unsubscribe raised {}", name(), e._name());
-    } catch (const std::exception& e) {
-      log().warn("servo {}: unsubscribe failed: {}", name(), e.what());
+      log().warn("servo {}: unsubscribing {} raised {}", name(), l.text, e._name());
     }
   }
 }
 
 void RemoteServo::on_start() {
   bool turned_on[3] = {false, false, false};  // actuator, controller, sensor
-  bool subscribed[2] = {false, false};
-  std::string step;
+  std::vector<Link> subscribed;
+  std::string step = "check the wiring";
   try {
-    const Link links[2] = {link(sensor_, "sensor", controller_, "controller", 0),
-                           link(controller_, "controller", actuator_, "actuator", 0)};
-    for (int i = 0; i < 2; ++i) {
-      step = "subscribe " + links[i].text;
+    for (const Link& l : links()) {
+      step = "subscribe " + l.text;
       // A subscription left from an earlier run (a crash between on and off) is replaced.
-      links[i].from->unsubscribe(RTM::repeated, links[i].to);
-      if (!links[i].from->subscribe(RTM::repeated, links[i].to))
-        throw std::runtime_error(step + ": " + refusal_of(links[i].from));
-      subscribed[i] = true;
+      l.from->unsubscribe(RTM::repeated, l.to);
+      if (!l.from->subscribe(RTM::repeated, l.to)) throw std::runtime_error(step + ": " + refusal_of(l.from));
+      subscribed.push_back(l);
     }
     RTM::RtComponent_ptr members[3] = {actuator_.in(), controller_.in(), sensor_.in()};
     if (phase_offset_.count() == 0) {
@@ -202,8 +275,17 @@ void RemoteServo::stop_holding() {
 void RemoteServo::on_stop() {
   stop_holding();
   bool all[3] = {true, true, true};
-  bool both[2] = {true, true};
-  undo(all, both);
+  bool none[3] = {false, false, false};
+  undo(all, {});
+  std::vector<Link> made;
+  try {
+    made = links();
+  } catch (const std::exception& e) {
+    log().warn("servo {}: finding its connections to remove: {}", name(), e.what());
+  } catch (const CORBA::Exception& e) {
+    log().warn("servo {}: finding its connections to remove raised {}", name(), e._name());
+  }
+  undo(none, made);
   log().info("servo {}: members off and disconnected", name());
 }
 
@@ -230,6 +312,8 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
       bus_(std::move(bus)) {
   if (!sensor || !controller || !actuator)
     throw std::invalid_argument("servo " + this->name() + ": a member is missing");
+  diagram_ = servo_diagram(this->name(), sensor->name(), controller->name(), actuator->name(), true);
+  diagram_.check(rtm::catalogue_of({sensor.get(), controller.get(), actuator.get()}));
   if ((bus_.take_over || bus_.hand_back || bus_.receive || bus_.transmit) &&
       !(bus_.take_over && bus_.hand_back && bus_.receive && bus_.transmit))
     throw std::invalid_argument("servo " + this->name() + ": the bus cycle needs take_over, hand_back, receive and transmit");
@@ -259,9 +343,7 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
   }
   // The actuator too: in error it has commanded zero (its on_stop), which the bus transmit
   // below still sends; the servo's own cycle then reports the failed member and stops the tick.
-  tick_.add(keep_going(sensor_->cycle_function()));
-  tick_.add(keep_going(controller_->cycle_function()));
-  tick_.add(keep_going(actuator_->cycle_function()));
+  for (const auto& m : diagram_.members) tick_.add(keep_going(servant(m.name).cycle_function()));
   if (bus_.set()) {
     tick_.add([this](const rtm::CycleContext& ctx) {
       if (!bus_cycle_is_mine(ctx)) return true;
@@ -314,13 +396,49 @@ RTM::InPort_ptr SharedTickServo::reference_port() const {
   return RTM::InPort::_duplicate(ref.in());
 }
 
+rtm::ComponentServant& SharedTickServo::servant(const std::string& member) {
+  for (auto* s : {sensor_.in(), controller_.in(), actuator_.in()}) {
+    if (s->component().name() == member) return *s;
+  }
+  throw std::logic_error("servo " + name() + ": no member " + member);
+}
+
+namespace {
+
+template <class Port>
+Port* port_named(const std::vector<Port*>& ports, const std::string& name) {
+  for (auto* p : ports) {
+    if (p->port_name() == name) return p;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+std::string SharedTickServo::connect_members() {
+  disconnect_members();  // a connection left from an earlier run is replaced
+  for (const auto& c : diagram_.connections) {
+    auto* out = port_named(servant(c.from.member).component().out_ports(), c.from.port);
+    auto* in = port_named(servant(c.to.member).component().in_ports(), c.to.port);
+    if (!out || !in) return c.text() + ": no such port";  // the constructor's check makes this unreachable
+    if (!out->connect_local(*in, c.policy)) return c.text() + ": " + out->last_refusal();
+  }
+  return "";
+}
+
+void SharedTickServo::disconnect_members() {
+  for (const auto& c : diagram_.connections) {
+    auto* out = port_named(servant(c.from.member).component().out_ports(), c.from.port);
+    auto* in = port_named(servant(c.to.member).component().in_ports(), c.to.port);
+    if (out && in) out->disconnect_local(*in);
+  }
+}
+
 void SharedTickServo::on_start() {
-  sensor_logic_->out().disconnect(controller_logic_->sensor_in());
-  controller_logic_->command_out().disconnect(actuator_logic_->command_in());
-  if (!sensor_logic_->out().connect(controller_logic_->sensor_in()) ||
-      !controller_logic_->command_out().connect(actuator_logic_->command_in()))
-    throw std::runtime_error("servo " + name() + ": connecting the members failed: " +
-                             sensor_logic_->out().last_refusal() + controller_logic_->command_out().last_refusal());
+  if (const std::string why = connect_members(); !why.empty()) {
+    disconnect_members();
+    throw std::runtime_error("servo " + name() + ": connecting the members failed: " + why);
+  }
   try {
     actuator_->on();
     controller_->on();
@@ -398,8 +516,7 @@ void SharedTickServo::on_stop() {
   actuator_->off();
   controller_->off();
   sensor_->off();
-  sensor_logic_->out().disconnect(controller_logic_->sensor_in());
-  controller_logic_->command_out().disconnect(actuator_logic_->command_in());
+  disconnect_members();
   log().info("servo {}: members off", name());
 }
 

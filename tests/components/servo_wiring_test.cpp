@@ -163,7 +163,9 @@ TEST_F(ServoWiringTest, AMemberWithoutTheExpectedPortFailsOnNamingTheLinkAndTurn
     servo.on_start();
     FAIL() << "no exception";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("sensor9.out0 -> controller0.in0"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sensor9.wrench -> controller0.wrench: sensor9 has no OutPort wrench"),
+              std::string::npos)
+        << e.what();
   }
   EXPECT_EQ(controller().command_out().subscription_count(), 0u);
   EXPECT_EQ(actuator_->current_state(), RTM::COMPONENT_OFF);
@@ -171,19 +173,21 @@ TEST_F(ServoWiringTest, AMemberWithoutTheExpectedPortFailsOnNamingTheLinkAndTurn
   portless->deactivate();
 }
 
-// A member that records when it is turned on; ports shaped like the member it stands for.
+// A member that records when it is turned on; ports named like those of the member it stands
+// for (in: the InPorts' names, out: the OutPort's).
 class OrderProbe final : public rtm::Component {
  public:
-  OrderProbe(std::string name, std::vector<std::string>& turned_on)
-      : Component(std::move(name), "probe"), turned_on_(turned_on) {}
+  OrderProbe(std::string name, std::vector<std::string>& turned_on, std::vector<std::string> in = {"wrench", "twist"},
+             const std::string& out = "wrench")
+      : Component(std::move(name), "probe"), turned_on_(turned_on) {
+    for (const auto& port : in) add_in_port<RTM::TimedFloat6>(port);
+    add_out_port<RTM::TimedFloat6>(out);
+  }
   void on_start() override { turned_on_.push_back(name()); }
   void on_cycle(const rtm::CycleContext&) override {}
 
  private:
   std::vector<std::string>& turned_on_;
-  rtm::InPort<RTM::TimedFloat6>& in0_ = add_in_port<RTM::TimedFloat6>("in0");
-  rtm::InPort<RTM::TimedFloat6>& in1_ = add_in_port<RTM::TimedFloat6>("in1");
-  rtm::OutPort<RTM::TimedFloat6>& out0_ = add_out_port<RTM::TimedFloat6>("out0");
 };
 
 std::vector<std::string> order_of_on(std::chrono::nanoseconds phase_offset) {
@@ -191,8 +195,11 @@ std::vector<std::string> order_of_on(std::chrono::nanoseconds phase_offset) {
   PortableServer::Servant_var<rtm::ComponentServant> members[3];
   RTM::RtComponentEx_var refs[3];
   const char* names[3] = {"probe_sensor", "probe_controller", "probe_actuator"};
+  const std::vector<std::string> ins[3] = {{}, {"wrench", "reference"}, {"twist"}};
+  const char* outs[3] = {"wrench", "twist", "state"};
   for (int i = 0; i < 3; ++i) {
-    members[i] = new rtm::ComponentServant(std::make_unique<OrderProbe>(names[i], turned_on), rtm::ExternalTick{});
+    members[i] = new rtm::ComponentServant(std::make_unique<OrderProbe>(names[i], turned_on, ins[i], outs[i]),
+                                           rtm::ExternalTick{});
     refs[i] = members[i]->activate(test_orb());
   }
   rtm::comp::RemoteServo servo("servo_order", refs[0], refs[1], refs[2], phase_offset);

@@ -144,6 +144,11 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   // Drops every subscription and joins every delivery thread. Idempotent.
   void close();
 
+  // OutPort<T>::connect()/disconnect() to an InPort of this process known by its base (a
+  // diagram's wiring). False, with last_refusal(), when in carries another type.
+  virtual bool connect_local(InPortBase& in, const ConnPolicy& policy) = 0;
+  virtual bool disconnect_local(InPortBase& in) = 0;
+
   // ---- IDL ----
   // subscribe() and connect() are typed: see OutPort<T>.
   // False when i_port has no subscription of type r_type.
@@ -238,6 +243,8 @@ class OutPort final : public OutPortBase {
   // the InPort does not keep.
   bool connect(InPort<T>& in, const ConnPolicy& policy = ConnPolicy::repeated());
   bool disconnect(InPort<T>& in);
+  bool connect_local(InPortBase& in, const ConnPolicy& policy) override;
+  bool disconnect_local(InPortBase& in) override;
 
   CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
   std::size_t element_count() const override { return DataTraits<T>::elements; }

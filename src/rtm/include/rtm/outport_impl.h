@@ -100,6 +100,23 @@ bool OutPort<T>::disconnect(InPort<T>& in) {
 }
 
 template <PortData T>
+bool OutPort<T>::connect_local(InPortBase& in, const ConnPolicy& policy) {
+  auto* typed = dynamic_cast<InPort<T>*>(&in);
+  if (!typed) {
+    refuse(full_name() + " (" + type_name(type_code()) + ") -> " + in.full_name() + " (" + type_name(in.type_code()) +
+           "): types differ");
+    return false;
+  }
+  return connect(*typed, policy);
+}
+
+template <PortData T>
+bool OutPort<T>::disconnect_local(InPortBase& in) {
+  auto* typed = dynamic_cast<InPort<T>*>(&in);
+  return typed && disconnect(*typed);
+}
+
+template <PortData T>
 CORBA::Any* OutPort<T>::get() {
   auto* any = new CORBA::Any;
   {

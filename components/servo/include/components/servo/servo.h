@@ -1,13 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // Servo: the composite of the paper (Figs. 4, 8). It owns a sensor, a controller and an
-// actuator in their fixed pattern and hides them:
-//   on():  sensor.out0 -> controller.in0 and controller.out0 -> actuator.in0 (repeated), then
-//          on() each member (see RemoteServo for the order);
+// actuator and hides them. What it is, is a declaration: servo_diagram(), the three members in
+// the order a cycle runs them and their wiring by port name, checked once against the
+// members' ports before anything is wired. Both run modes make their connections from it:
+//   on():  sensor.wrench -> controller.wrench and controller.twist -> actuator.twist
+//          (repeated), then on() each member (see RemoteServo for the order);
 //   off(): off() each member (actuator first: the arm gets zero velocity before its command
-//          stream ends, so no watchdog fires), then the two subscriptions are removed.
-// Its own InPort 0 IS the controller's InPort 1 (the reference): the servo's servant hands out
-// the controller's reference (ComponentServant::expose_in_port), so a put on it lands directly
-// in the controller.
+//          stream ends, so no watchdog fires), then the connections are removed.
+// Its own InPort 0 IS the controller's InPort "reference": the servo's servant hands out the
+// controller's (ComponentServant::expose_in_port), so a put on it lands directly in the
+// controller.
 //
 // Two run modes:
 //   RemoteServo       the paper's: members are RT components anywhere (found by name), each on
@@ -24,6 +26,7 @@
 
 #include "rt/activity.h"
 #include "rtm/component.h"
+#include "rtm/diagram.h"
 
 #include <RTMExt.hh>
 
@@ -35,8 +38,17 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace rtm::comp {
+
+// The servo's members, in the order a shared tick runs them, and its wiring: the sensor's
+// wrench into the controller's, the controller's twist into the actuator's. ticked: one
+// thread runs them in that order (the shared tick).
+rtm::Diagram servo_diagram(const std::string& servo, const std::string& sensor, const std::string& controller,
+                           const std::string& actuator, bool ticked);
+// The controller's InPort the servo hands out as its own.
+inline constexpr const char* kServoReferencePort = "reference";
 
 // ============================ RemoteServo =============================
 
@@ -58,9 +70,10 @@ class RemoteServo final : public rtm::Component {
               RTM::RtComponent_ptr actuator, std::chrono::nanoseconds phase_offset = std::chrono::nanoseconds(0));
   ~RemoteServo() override { stop_holding(); }
 
-  // The controller's InPort 1, to expose as the servo's InPort 0. Throws std::runtime_error
-  // when the controller has fewer than two InPorts.
+  // The controller's InPort "reference", to expose as the servo's InPort 0. Throws
+  // std::runtime_error naming the controller's InPorts when it has none of that name.
   RTM::InPort_ptr reference_port() const;
+  const rtm::Diagram& diagram() const { return diagram_; }
 
   // Subscribes and turns the members on; on any failure undoes what it did and throws
   // std::runtime_error naming the member and the reason.
@@ -72,11 +85,14 @@ class RemoteServo final : public rtm::Component {
   struct Link {
     RTM::OutPort_var from;
     RTM::InPort_var to;
-    std::string text;  // "sensor0.out0 -> controller0.in0"
+    std::string text;  // "sensor0.wrench -> controller0.wrench"
   };
-  Link link(RTM::RtComponent_ptr from, const char* from_role, RTM::RtComponent_ptr to, const char* to_role,
-            CORBA::ULong in_index) const;
-  void undo(bool turned_on[3], bool subscribed[2]);
+  // The members by the names the diagram gives them.
+  RTM::RtComponent_ptr member(const std::string& name) const;
+  // The ports of the diagram's connections, found by name. Throws std::runtime_error listing
+  // every problem of the diagram against the members' ports (rtm::Diagram::problems).
+  std::vector<Link> links() const;
+  void undo(bool turned_on[3], const std::vector<Link>& subscribed);
   // While on, the servo holds its members (RtComponentEx::hold, renewed every lease/5): when
   // its process dies they turn themselves off within the lease instead of running on, wired
   // and out of anyone's reach.
@@ -84,6 +100,7 @@ class RemoteServo final : public rtm::Component {
   void stop_holding();
 
   RTM::RtComponent_var sensor_, controller_, actuator_;
+  rtm::Diagram diagram_;
   std::chrono::nanoseconds phase_offset_;
   std::thread holder_;
   std::mutex holder_mutex_;
@@ -143,7 +160,7 @@ class SharedTickServo final : public rtm::Component {
   ~SharedTickServo() override;
 
   // Activates the three members in orb (their ports become reachable; the servo exposes the
-  // controller's InPort 1 through reference_port()).
+  // controller's InPort "reference" through reference_port()).
   void activate_members(rtm::Orb& orb);
   RTM::InPort_ptr reference_port() const;  // after activate_members()
 
@@ -151,6 +168,7 @@ class SharedTickServo final : public rtm::Component {
   // servant's own cycle_function(), so a failed member puts the servo in error). Only while off.
   void add_to_tick(rtm::CycleFunction cycle) { tick_.add(handing_back_on_stop(std::move(cycle))); }
   bool runs_bus_cycle() const { return bus_.set(); }
+  const rtm::Diagram& diagram() const { return diagram_; }
 
   void on_start() override;
   // Runs in the tick after the members: a member in COMPONENT_ERROR fails the servo. A bus
@@ -170,6 +188,7 @@ class SharedTickServo final : public rtm::Component {
   Sensor* sensor_logic_;
   Controller* controller_logic_;
   Actuator* actuator_logic_;
+  rtm::Diagram diagram_;  // checked against the members' ports in the constructor
   rtm::SharedTick tick_;
   TickPhase phase_;
   TickBusCycle bus_;
@@ -187,6 +206,10 @@ class SharedTickServo final : public rtm::Component {
   rtm::CycleFunction handing_back_on_stop(rtm::CycleFunction cycle);
   void hand_back_bus(std::int64_t next_deadline_ns);
   void retake_bus();
+  // The diagram's connections made (in-process) or removed; connect returns "" or why not.
+  std::string connect_members();
+  void disconnect_members();
+  rtm::ComponentServant& servant(const std::string& member);
   bool bus_cycle_is_mine(const rtm::CycleContext& ctx) const {
     return ctx.deadline_ns >= bus_resume_ns_.load(std::memory_order_relaxed);
   }
