@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
     RTM::InPortEx_var in_ref = in->activate(orb);
     RTM::OutPortEx_var out_ref = out->activate(orb);
     if (!out_ref->subscribe(RTM::repeated, in_ref)) {
-      std::fprintf(stderr, "subscribe refused: %s\n", out->last_refusal().c_str());
+      std::fprintf(stderr, "subscribe refused: %s\n", out->last_error_text().c_str());
       return 1;
     }
     RTM::SubscriptionInfoList_var subs = out_ref->subscriptions();

@@ -292,7 +292,7 @@ int run_publisher(const Args& args) {
   PortableServer::Servant_var<Float6Out> out(new Float6Out("out", "publisher", options));
   RTM::OutPortEx_var out_ref = out->activate(orb);
   if (!out->subscribe(RTM::repeated, target)) {
-    std::fprintf(stderr, "publisher: subscribe refused: %s\n", out->last_refusal().c_str());
+    std::fprintf(stderr, "publisher: subscribe refused: %s\n", out->last_error_text().c_str());
     return 1;
   }
   const auto writing_from = rtm_bench::monotonic_ns();

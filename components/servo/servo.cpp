@@ -421,7 +421,7 @@ std::string SharedTickServo::connect_members() {
     auto* out = port_named(servant(c.from.member).component().out_ports(), c.from.port);
     auto* in = port_named(servant(c.to.member).component().in_ports(), c.to.port);
     if (!out || !in) return c.text() + ": no such port";  // the constructor's check makes this unreachable
-    if (!out->connect_local(*in, c.policy)) return c.text() + ": " + out->last_refusal();
+    if (!out->connect_local(*in, c.policy)) return c.text() + ": " + out->last_error_text();
   }
   return "";
 }

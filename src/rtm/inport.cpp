@@ -94,9 +94,9 @@ InPortCounters InPortBase::counters_snapshot() const {
   return c;
 }
 
-std::string InPortBase::last_rejection() const {
+std::string InPortBase::last_error_text() const {
   std::lock_guard lock(mu_);
-  return last_rejection_;
+  return last_error_;
 }
 
 void InPortBase::set_arrival_signal(std::shared_ptr<ArrivalSignal> signal) {
@@ -336,7 +336,7 @@ RTM::PortCounters InPortBase::counters() {
   return out;
 }
 
-char* InPortBase::last_error() { return CORBA::string_dup(last_rejection().c_str()); }
+char* InPortBase::last_error() { return CORBA::string_dup(last_error_text().c_str()); }
 
 void InPortBase::push(const CORBA::Any& value) {
   try {
@@ -359,8 +359,8 @@ void InPortBase::reject(CORBA::TypeCode_ptr got) {
   std::string why = "put on " + full_name() + ": expected " + type_name(type_code()) + ", got " + type_name(got);
   std::lock_guard lock(mu_);
   // One line per distinct reason: a publisher of the wrong type must not flood the log.
-  if (why != last_rejection_) log().warn("{} (BAD_PARAM)", why);
-  last_rejection_ = std::move(why);
+  if (why != last_error_) log().warn("{} (BAD_PARAM)", why);
+  last_error_ = std::move(why);
 }
 
 void InPortBase::notify_arrival() {

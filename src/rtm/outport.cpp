@@ -48,9 +48,9 @@ WriteCost OutPortBase::write_cost() const {
   return w;
 }
 
-std::string OutPortBase::last_refusal() const {
+std::string OutPortBase::last_error_text() const {
   std::lock_guard lock(mu_);
-  return last_refusal_;
+  return last_error_;
 }
 
 std::string OutPortBase::full_port_text() const {
@@ -268,7 +268,7 @@ void OutPortBase::refuse(const std::string& why) {
   refused_.fetch_add(1, std::memory_order_relaxed);
   log().warn("subscribe refused: {}", why);
   std::lock_guard lock(mu_);
-  last_refusal_ = why;
+  last_error_ = why;
 }
 
 std::string OutPortBase::peer_name(RTM::InPort_ptr port, std::uint32_t call_timeout_ms) {
@@ -317,6 +317,6 @@ RTM::SubscriptionInfoList* OutPortBase::subscriptions() {
   return list;
 }
 
-char* OutPortBase::last_error() { return CORBA::string_dup(last_refusal().c_str()); }
+char* OutPortBase::last_error() { return CORBA::string_dup(last_error_text().c_str()); }
 
 }  // namespace rtm

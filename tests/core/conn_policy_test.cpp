@@ -64,8 +64,8 @@ TEST_F(ConnPolicyPortTest, EachSubscriptionFallsBehindByItsOwnDepth) {
   RTM::OutPortEx_var out_ref = out->activate(orb());
   RTM::InPortEx_var two_ref = two->activate(orb());
   RTM::InPortEx_var six_ref = six->activate(orb());
-  ASSERT_TRUE(out_ref->connect(rtm::to_idl(rtm::parse_conn_policy("depth=2")), two_ref.in())) << out->last_refusal();
-  ASSERT_TRUE(out_ref->connect(rtm::to_idl(rtm::parse_conn_policy("depth=6")), six_ref.in())) << out->last_refusal();
+  ASSERT_TRUE(out_ref->connect(rtm::to_idl(rtm::parse_conn_policy("depth=2")), two_ref.in())) << out->last_error_text();
+  ASSERT_TRUE(out_ref->connect(rtm::to_idl(rtm::parse_conn_policy("depth=6")), six_ref.in())) << out->last_error_text();
   const auto count = [&](std::vector<float>& v) {
     std::lock_guard lock(mu);
     return v.size();
@@ -136,13 +136,13 @@ TEST_F(ConnPolicyPortTest, AReaderPolicyTheInPortDoesNotKeepIsRefusedNamingBoth)
     RTM::OutPortEx_var out_ref = out->activate(orb());
     RTM::InPortEx_var in_ref = fifo->activate(orb());
     EXPECT_FALSE(out->subscribe_with(rtm::parse_conn_policy("reader=latest"), in_ref.in()));
-    EXPECT_NE(out->last_refusal().find("src.out0 -> dst.fifo: the InPort keeps fifo:8, the connection asks "
+    EXPECT_NE(out->last_error_text().find("src.out0 -> dst.fifo: the InPort keeps fifo:8, the connection asks "
                                        "reader=latest"),
               std::string::npos)
-        << out->last_refusal();
+        << out->last_error_text();
     EXPECT_FALSE(out->subscribe_with(rtm::parse_conn_policy("reader=fifo:16"), in_ref.in()));
     EXPECT_EQ(out->subscription_count(), 0u);
-    ASSERT_TRUE(out->subscribe_with(rtm::parse_conn_policy("reader=fifo:8"), in_ref.in())) << out->last_refusal();
+    ASSERT_TRUE(out->subscribe_with(rtm::parse_conn_policy("reader=fifo:8"), in_ref.in())) << out->last_error_text();
     out->write(float6(3.0f));
     ASSERT_TRUE(eventually([&] { return fifo->counters_snapshot().accepted == 1; }));
     EXPECT_STREQ(only_subscription(out_ref.in(), "dst.fifo").kind.in(), in_process ? "in-process" : "CORBA by writer");

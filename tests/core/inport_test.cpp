@@ -74,7 +74,7 @@ TEST_F(InPortTest, LastErrorNamesPortAndBothTimedTypes) {
   CORBA::Any wrong;
   wrong <<= float3(9.0f);
   EXPECT_THROW(port->put(wrong), CORBA::BAD_PARAM);
-  EXPECT_EQ(port->last_rejection(), "put on controller0.in1: expected RTM::TimedFloat6, got RTM::TimedFloat3");
+  EXPECT_EQ(port->last_error_text(), "put on controller0.in1: expected RTM::TimedFloat6, got RTM::TimedFloat3");
   EXPECT_EQ(port->queued(), 0u);
 }
 

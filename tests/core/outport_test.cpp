@@ -202,7 +202,7 @@ TEST_F(OutPortTest, OnceThroughTheOrbDeliversTheFirstDatumAfterSubscribing) {
 TEST_F(OutPortTest, SubscribeRefusesNilReference) {
   auto out = make_out();
   EXPECT_FALSE(out->subscribe(RTM::repeated, RTM::InPort::_nil()));
-  EXPECT_EQ(out->last_refusal(), "sensor0.out0: nil InPort reference");
+  EXPECT_EQ(out->last_error_text(), "sensor0.out0: nil InPort reference");
   EXPECT_EQ(out->counters_snapshot().refused, 1u);
   EXPECT_EQ(out->subscription_count(), 0u);
 }
@@ -213,7 +213,7 @@ TEST_F(OutPortTest, SubscribeRefusesADuplicateOfEitherType) {
   RTM::InPortEx_var in_ref = in->activate(orb());
   ASSERT_TRUE(out->subscribe(RTM::repeated, in_ref.in()));
   EXPECT_FALSE(out->subscribe(RTM::repeated, in_ref.in()));
-  EXPECT_EQ(out->last_refusal(), "sensor0.out0 -> controller0.in0: already subscribed");
+  EXPECT_EQ(out->last_error_text(), "sensor0.out0 -> controller0.in0: already subscribed");
   EXPECT_FALSE(out->subscribe(RTM::once, in_ref.in()));
   EXPECT_EQ(out->subscription_count(), 1u);
   EXPECT_EQ(out->counters_snapshot().refused, 2u);
@@ -536,9 +536,9 @@ TEST_F(OutPortTest, SubscribeToAnInPortThatNeverAnswersIsRefusedAfterTheCallTime
   auto out = make_out(options);
   peer.process.pause();  // its ORB answers nothing: name(), owner(), port_type() would wait for ever
   EXPECT_FALSE(out->subscribe(RTM::repeated, peer.port.in()));
-  EXPECT_NE(out->last_refusal().find("does not answer (TIMEOUT)"), std::string::npos) << out->last_refusal();
+  EXPECT_NE(out->last_error_text().find("does not answer (TIMEOUT)"), std::string::npos) << out->last_error_text();
   peer.process.resume();
-  EXPECT_TRUE(out->subscribe(RTM::repeated, peer.port.in())) << "once it answers: " << out->last_refusal();
+  EXPECT_TRUE(out->subscribe(RTM::repeated, peer.port.in())) << "once it answers: " << out->last_error_text();
   out->close();
 }
 
@@ -552,10 +552,10 @@ TEST_F(OutPortTest, AnOutPortTakesAtMostMaxSubscriptionsAndRefusesMoreNamingTheL
     ins.push_back(make_in());
     refs.push_back(ins.back()->activate(orb()));
   }
-  for (int i = 0; i < 4; ++i) EXPECT_TRUE(out->subscribe(RTM::repeated, refs[i].in())) << i << out->last_refusal();
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(out->subscribe(RTM::repeated, refs[i].in())) << i << out->last_error_text();
   EXPECT_FALSE(out->subscribe(RTM::repeated, refs[4].in()));
-  EXPECT_NE(out->last_refusal().find("already 4 subscriptions, the most it takes"), std::string::npos)
-      << out->last_refusal();
+  EXPECT_NE(out->last_error_text().find("already 4 subscriptions, the most it takes"), std::string::npos)
+      << out->last_error_text();
   EXPECT_EQ(out->counters_snapshot().refused, 1u);
   ASSERT_TRUE(out->unsubscribe(RTM::repeated, refs[0].in()));
   EXPECT_TRUE(out->subscribe(RTM::repeated, refs[4].in())) << "room again after an unsubscribe";

@@ -283,7 +283,8 @@ RTM::RtComponent_var Browser::component(std::string_view name) const {
   return comp;
 }
 
-SwitchResult Browser::switch_component(const std::string& name, Switch what) const {
+void Browser::switch_component(const std::string& name, Switch what) const {
+  const char* verb = what == Switch::on ? "on" : what == Switch::off ? "off" : "reset";
   try {
     auto comp = component(name);
     if (what == Switch::on) {
@@ -295,15 +296,13 @@ SwitchResult Browser::switch_component(const std::string& name, Switch what) con
       if (CORBA::is_nil(ex)) throw BrowseError(name + " is a plain RtComponent: it has no reset");
       ex->reset();
     }
-    return {};
   } catch (const CORBA::Exception& e) {
     if (const auto* bio = dynamic_cast<const CORBA::BAD_INV_ORDER*>(&e);
         bio && bio->minor() == rtm::kMinorComponentError) {
-      return {"the component is in error; `rtm cat` shows why, `rtm reset` clears it"};
+      throw BrowseError(fmt::format("{} {}: the component is in error; `rtm cat` shows why, `rtm reset` clears it",
+                                    verb, name));
     }
-    return {failure_text(e)};
-  } catch (const BrowseError& e) {
-    return {e.what(), true};
+    throw BrowseError(fmt::format("{} {}: {}", verb, name, failure_text(e)));
   }
 }
 

@@ -237,16 +237,14 @@ int run_switch(const Browser& browser, const Cli& c) {
   json results = json::object();
   const Switch what = c.on->parsed() ? Switch::on : c.off->parsed() ? Switch::off : Switch::reset;
   for (const auto& name : c.components) {
-    const auto [why, full] = browser.switch_component(name, what);
-    results[name] = why.empty() ? "ok" : why;
-    if (!why.empty()) code = kFailed;
-    if (c.json) continue;
-    if (why.empty()) {
-      fmt::print("{} {}\n", verb, name);
-    } else if (full) {
-      fmt::print(stderr, "rtm: {}\n", terminal_text(why));
-    } else {
-      fmt::print(stderr, "rtm: {} {}: {}\n", verb, name, terminal_text(why));
+    try {
+      browser.switch_component(name, what);
+      results[name] = "ok";
+      if (!c.json) fmt::print("{} {}\n", verb, name);
+    } catch (const BrowseError& e) {
+      results[name] = e.what();
+      code = kFailed;
+      if (!c.json) fmt::print(stderr, "rtm: {}\n", terminal_text(e.what()));
     }
   }
   if (c.json) fmt::print("{}\n", results.dump());

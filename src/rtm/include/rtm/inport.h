@@ -142,7 +142,9 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   const PortInfo& info() const { return info_; }
   // Takes what publishers' rings hold first (a lock, no system call).
   InPortCounters counters_snapshot() const;
-  std::string last_rejection() const;  // "" when none
+  // Why the last put was rejected, "" when none: what the IDL's last_error() says, as a
+  // std::string (the OutPort's is the same).
+  std::string last_error_text() const;
 
   // Bumped after every stored datum (drives an OnArrivalActivity). May be null.
   void set_arrival_signal(std::shared_ptr<ArrivalSignal> signal);
@@ -260,7 +262,7 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   const std::string owner_;
   const InPortPolicy policy_;
   PortInfo info_;
-  mutable std::mutex mu_;  // guards the stored data, the signal and last_rejection_
+  mutable std::mutex mu_;  // guards the stored data, the signal and last_error_
   std::shared_ptr<ArrivalSignal> signal_;
   // wait_new_until(): threads in it, the condition variable they wait on, and the ring one
   // of them waits on (a put wakes it through the ring's word). Guarded by mu_.
@@ -268,7 +270,7 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   std::condition_variable arrival_cv_;
   AttachedRing* awaited_ring_ = nullptr;
   std::atomic<bool> await_cancel_{false};  // set by a store while one waits on a ring
-  std::string last_rejection_;
+  std::string last_error_;
   std::atomic<std::uint64_t> accepted_{0};
   std::atomic<std::uint64_t> rejected_{0};
   std::atomic<std::uint64_t> dropped_{0};

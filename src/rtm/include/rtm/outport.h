@@ -135,7 +135,9 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   // Percentiles of the time write() held its caller (walks a histogram: not for a hot loop).
   WriteCost write_cost() const;
   const LatencyHistogram& write_cost_histogram() const { return write_cost_; }
-  std::string last_refusal() const;  // why the last subscribe was refused, "" when none
+  // Why the last subscribe or connect was refused, "" when none: what the IDL's last_error()
+  // says, as a std::string (the InPort's is the same).
+  std::string last_error_text() const;
   std::size_t subscription_count() const;
 
   RTM::OutPortEx_ptr activate(Orb& orb);  // idempotent
@@ -145,7 +147,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void close();
 
   // OutPort<T>::connect()/disconnect() to an InPort of this process known by its base (a
-  // diagram's wiring). False, with last_refusal(), when in carries another type.
+  // diagram's wiring). False, with last_error_text(), when in carries another type.
   virtual bool connect_local(InPortBase& in, const ConnPolicy& policy) = 0;
   virtual bool disconnect_local(InPortBase& in) = 0;
 
@@ -206,7 +208,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   mutable std::mutex mu_;  // guards conns_, retired_, the latest value (derived)
   std::vector<std::unique_ptr<Connection>> conns_;
   std::vector<std::unique_ptr<Connection>> retired_;
-  std::string last_refusal_;
+  std::string last_error_;
   std::atomic<std::uint64_t> written_{0};
   std::atomic<std::uint64_t> refused_{0};
   // Connections write() calls or queues for: while there are none, write() times itself one
@@ -239,7 +241,7 @@ class OutPort final : public OutPortBase {
   bool latest(T& out) const;
 
   // Direct C++ connection to an InPort of this process, without the ORB (composites). The
-  // same rules as subscribe(): false (with last_refusal()) for a duplicate or a reader policy
+  // same rules as subscribe(): false (with last_error_text()) for a duplicate or a reader policy
   // the InPort does not keep.
   bool connect(InPort<T>& in, const ConnPolicy& policy = ConnPolicy::repeated());
   bool disconnect(InPort<T>& in);

@@ -119,13 +119,6 @@ struct ResolvedPort {
 
 enum class Switch { on, off, reset };
 
-// What switch_component did: "" when done, else why not; full: the message names the
-// component itself (else it is the reason a call failed).
-struct SwitchResult {
-  std::string why;
-  bool full = false;
-};
-
 class Browser {
  public:
   // call_timeout bounds every remote call, so that a hung process cannot hang the tool.
@@ -151,8 +144,9 @@ class Browser {
   ComponentInfo describe(std::string_view component) const;
 
   RTM::RtComponent_var component(std::string_view component) const;
-  // on, off or reset of one component (rtm on/off/reset, rtm serve).
-  SwitchResult switch_component(const std::string& name, Switch what) const;
+  // on, off or reset of one component (rtm on/off/reset, rtm serve). Throws BrowseError
+  // naming the component: "on t: the component is in error; ...", "no component ghost ...".
+  void switch_component(const std::string& name, Switch what) const;
   ResolvedPort port(const PortAddress& address) const;
 
   // subscribe/unsubscribe out -> in. Checks directions and types first, throwing BrowseError
