@@ -165,6 +165,8 @@ class SocketCanBus final : public Bus {
     }
   }
 
+  // The kernel queues a frame to the host's other CAN sockets as it is sent.
+  bool fence(std::int64_t) override { return true; }
   int pollable_fd() const override { return fd_.get(); }
   const std::string& name() const override { return name_; }
 
@@ -273,6 +275,21 @@ class LocalBus final : public Bus {
     }
   }
 
+  // The hub answers after the round that read the fence has handed on every frame before it
+  // (local_bus.h). Frames that come meanwhile are kept for receive(), as many as batch_ holds.
+  bool fence(std::int64_t timeout_ns) override {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
+    if (::send(fd_.get(), kFenceMagic.data(), kFenceMagic.size(), MSG_NOSIGNAL) !=
+        static_cast<ssize_t>(kFenceMagic.size()))
+      failure()(errno, "send (a fence to the hub)");
+    const std::uint64_t mine = ++fences_asked_;
+    while (fences_answered_ < mine) {
+      if (taken_ - next_ + kMaxFramesPerDatagram > batch_.size()) return false;  // no room to read on
+      if (!take_batch() && !wait_readable(fd_.get(), deadline, name_)) return false;
+    }
+    return true;
+  }
+
   int pollable_fd() const override { return fd_.get(); }
   const std::string& name() const override { return name_; }
 
@@ -314,13 +331,20 @@ class LocalBus final : public Bus {
       fail(name_, "send (filters to the hub)", errno);
   }
 
-  // Fills batch_ with the frames queued now (of whole, well-formed datagrams); false when none
-  // was queued. Throws BusError when the hub closed the connection.
+  // Appends to batch_ the frames queued now (of whole, well-formed datagrams), after those not
+  // handed out yet (none when receive() calls it); false when none was queued. Throws BusError
+  // when the hub closed the connection.
   bool take_batch() {
-    next_ = taken_ = 0;
+    if (next_ > 0) {
+      std::memmove(batch_.data(), batch_.data() + next_, (taken_ - next_) * sizeof(can_frame));
+      taken_ -= next_;
+      next_ = 0;
+    }
+    const unsigned room = static_cast<unsigned>(std::min(kBatch, (batch_.size() - taken_) / kMaxFramesPerDatagram));
+    if (room == 0) return false;
     int n = -1;
     do {
-      n = ::recvmmsg(fd_.get(), messages_.data(), kBatch, MSG_DONTWAIT, nullptr);
+      n = ::recvmmsg(fd_.get(), messages_.data(), room, MSG_DONTWAIT, nullptr);
     } while (n < 0 && errno == EINTR);
     if (n < 0) {
       if (errno == EAGAIN) return false;
@@ -332,6 +356,10 @@ class LocalBus final : public Bus {
       if (length == 0) {  // the hub closed the connection (it never sends an empty datagram)
         if (taken_ > 0) return true;  // these first; the next take finds the close again
         throw BusError("CAN bus '" + name_ + "': the hub closed the connection");
+      }
+      if (length == kFenceMagic.size() && std::memcmp(buffers_[i].data(), kFenceMagic.data(), length) == 0) {
+        ++fences_answered_;
+        continue;
       }
       // A malformed datagram is dropped whole, as the hub drops one.
       const std::size_t frames = frames_in_datagram(buffers_[i].data(), length, messages_[i].msg_hdr.msg_flags);
@@ -352,6 +380,8 @@ class LocalBus final : public Bus {
   std::array<mmsghdr, kBatch> messages_{};
   std::size_t next_ = 0;   // the next frame of batch_ to hand out
   std::size_t taken_ = 0;  // frames in batch_
+  std::uint64_t fences_asked_ = 0;
+  std::uint64_t fences_answered_ = 0;
 };
 
 }  // namespace

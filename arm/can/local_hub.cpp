@@ -138,7 +138,10 @@ class LocalHub::Relay {
   Relay(const Relay&) = delete;
   Relay& operator=(const Relay&) = delete;
 
-  void clear() { count_ = 0; }
+  void clear() {
+    count_ = 0;
+    fences_ = 0;
+  }
   std::size_t size() const { return count_; }  // frames taken this round
   void forget(int endpoint) { filters_.erase(endpoint); }  // it closed
 
@@ -157,6 +160,10 @@ class LocalHub::Relay {
         const unsigned length = in_[i].msg_len;
         if (length == 0) return false;  // orderly close (no endpoint sends an empty datagram)
         if (take_filters(from, in_buffers_[i].data(), length, in_[i].msg_hdr.msg_flags, counters)) continue;
+        if (length == kFenceMagic.size() && std::memcmp(in_buffers_[i].data(), kFenceMagic.data(), length) == 0) {
+          if (fences_ < fencing_.size()) fencing_[fences_++] = from;  // answered after this round's delivery
+          continue;
+        }
         const std::size_t frames = frames_in_datagram(in_buffers_[i].data(), length, in_[i].msg_hdr.msg_flags);
         if (frames == 0) {  // not whole frames, too many, or one with can_dlc > 8: dropped whole
           ++counters.datagrams_malformed;
@@ -210,6 +217,12 @@ class LocalHub::Relay {
       }
       counters.deliveries += std::min(mine, done * kMaxFramesPerDatagram);
     }
+    // Everything taken before each fence is in its receivers' queues now: answer it.
+    for (std::size_t f = 0; f < fences_; ++f) {
+      if (::send(fencing_[f], kFenceMagic.data(), kFenceMagic.size(), MSG_DONTWAIT | MSG_NOSIGNAL) ==
+          static_cast<ssize_t>(kFenceMagic.size()))
+        ++counters.fences_answered;
+    }
   }
 
  private:
@@ -245,6 +258,8 @@ class LocalHub::Relay {
   std::array<iovec, kChunk> in_iov_{};
   std::array<mmsghdr, kChunk> in_{};
   std::size_t count_ = 0;
+  std::array<int, kChunk * 4> fencing_{};  // endpoints that asked for a fence this round
+  std::size_t fences_ = 0;
 };
 
 std::size_t frames_in_datagram(const unsigned char* data, std::size_t length, int msg_flags) noexcept {

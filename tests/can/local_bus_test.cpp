@@ -85,6 +85,34 @@ TEST(CanLocalBus, KeepsTheOrderOfOneSendersFrames) {
   }
 }
 
+// The lock-step primitive: once fence() returns, every frame sent before it is in the other
+// endpoints' queues (receive with no wait finds it), and the frames that came for the fencing
+// endpoint meanwhile are still there for it.
+TEST(CanLocalBus, AfterAFenceEveryFrameSentBeforeItIsQueuedAtEveryOtherEndpoint) {
+  TempDir dir;
+  LocalHub hub(dir.file("bus"));
+  auto a = open_local(dir.file("bus"));
+  auto b = open_local(dir.file("bus"));
+  auto c = open_local(dir.file("bus"));
+  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 3; }));
+  ASSERT_TRUE(c->send(frame(0x300, 7)));  // for a, while it fences
+  constexpr int kFrames = 200;            // a datagram each: several rounds of the hub
+  for (int i = 0; i < kFrames; ++i) ASSERT_TRUE(a->send(frame(0x100, static_cast<std::uint8_t>(i))));
+  ASSERT_TRUE(a->fence(kArrives_ns));
+  EXPECT_EQ(hub.counters().fences_answered, 1u);
+  can_frame got{};
+  for (int i = 0; i < kFrames; ++i) {
+    ASSERT_TRUE(b->receive(got, 0)) << "frame " << i << " is not queued at b after the fence";
+    if (got.can_id == 0x300) {  // c's, in between
+      ASSERT_TRUE(b->receive(got, 0));
+    }
+    EXPECT_EQ(got.data[0], i);
+  }
+  ASSERT_TRUE(a->receive(got, kArrives_ns)) << "c's frame, which came while a fenced, is kept";
+  EXPECT_EQ(got.can_id, 0x300u);
+  EXPECT_EQ(got.data[0], 7);
+}
+
 TEST(CanLocalBus, ABatchArrivesWholeAndInOrderAcrossSeveralSystemCalls) {
   TempDir dir;
   LocalHub hub(dir.file("bus"));

@@ -22,6 +22,7 @@
 #include "arm/can/local_bus.h"
 #include "arm/can/master.h"
 #include "rtm_test/can/attacker.h"
+#include "rtm_test/can/lock_step.h"
 #include "rtm_test/can/master_rig.h"
 #include "rtm_test/eventually.h"
 
@@ -32,6 +33,7 @@ using namespace std::chrono_literals;
 using ::testing::HasSubstr;
 using rtm_test::eventually;
 using testing::Attacker;
+using testing::delivered;
 using testing::Rig;
 using testing::test_config;
 
@@ -125,7 +127,7 @@ void expect_next_step_stops_every_drive(Rig& rig, const std::vector<can_frame>& 
   for (int i = 0; i < 5; ++i) ASSERT_TRUE(rig.master->step());
   auto intruder = open_bus(rig.spec);
   for (const can_frame& f : attack) intruder->send(f);
-  std::this_thread::sleep_for(50ms);  // delivered before the next step reads the bus
+  ASSERT_TRUE(delivered(*intruder));  // queued at the master before the next step reads the bus
   rig.master->step();
   EXPECT_EQ(rig.master->fault().kind, kind) << rig.master->fault().reason;
   for (int j = 0; j < kDriveCount; ++j) {
@@ -240,13 +242,13 @@ TEST(Pa10MasterAttack, AnSdoReadFromADiagnosticToolIsCountedButAnSdoWriteToADriv
   rig.master->start();
   auto tool = open_bus(rig.spec);
   tool->send(*encode_sdo_request({drive_node(0), SdoRequestKind::upload, object::kStatusword, 0, 0, 0}));
-  std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(delivered(*tool));
   for (int i = 0; i < 3; ++i) ASSERT_TRUE(rig.master->step());
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
   EXPECT_GE(rig.master->counters().foreign_frames, 1u);
 
   tool->send(*encode_sdo_request({drive_node(0), SdoRequestKind::download, object::kTargetVelocity, 0, 500000, 4}));
-  std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(delivered(*tool));
   rig.master->step();
   EXPECT_EQ(rig.master->fault().kind, FaultKind::foreign_master);
   EXPECT_THAT(rig.master->fault().reason, HasSubstr("SDO write of 0x60ff:00 to drive 1"));
@@ -260,7 +262,7 @@ TEST(Pa10MasterAttack, AfterAForeignMasterFaultAndResetTheDrivesAreOperationalAn
   rig.master->start();
   auto intruder = open_bus(rig.spec);
   intruder->send(*encode_sync(7));
-  std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(delivered(*intruder));
   rig.master->step();
   ASSERT_EQ(rig.master->fault().kind, FaultKind::foreign_master);
   rig.master->step();

@@ -23,6 +23,7 @@
 #include "arm/can/supervisor.h"
 #include "rtm_test/allocation_counter.h"
 #include "rtm_test/eventually.h"
+#include "rtm_test/can/lock_step.h"
 #include "rtm_test/can/master_rig.h"
 
 namespace rtm::can {
@@ -31,8 +32,10 @@ namespace {
 using namespace std::chrono_literals;
 using ::testing::HasSubstr;
 using rtm_test::eventually;
+using testing::delivered;
 using testing::EmulatedPa10;
 using testing::Rig;
+using testing::seen_and_delivered;
 using testing::TempDir;
 using testing::test_config;
 
@@ -97,8 +100,10 @@ TEST(Pa10Master, StartupSetsCyclicSyncVelocityModeAndEnablesEveryDrive) {
 // enable sequence resets the fault.
 TEST(Pa10Master, AnEmcyFromBeforeStartUpIsNoFaultAndTheEnableSequenceResetsTheDrive) {
   Rig rig;
+  auto probe = open_bus(rig.spec);
+  ASSERT_TRUE(eventually([&] { return rig.hub.endpoint_count() == 3; }));  // master, nodes, probe
   rig.nodes->inject_fault(drive_node(3), emcy::kRpdoTimeout);
-  std::this_thread::sleep_for(20ms);  // the EMCY waits in the master's socket
+  ASSERT_TRUE(seen_and_delivered(*probe, cob::kEmcyBase + drive_node(3)));  // the EMCY waits in the master's socket
   ASSERT_NO_THROW(rig.master->start());
   EXPECT_TRUE(rig.master->enabled()) << rig.master->fault().reason;
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
@@ -451,7 +456,7 @@ TEST(Pa10Master, UnknownMalformedFramesAndAForeignSdoReadAreCountedAndIgnored) {
   impossible_dlc.can_dlc = 200;
   const can_frame foreign = *encode_sdo_request({0x30, SdoRequestKind::upload, 0x1000, 0, 0, 0});  // to nobody
   for (const can_frame& f : {unknown, malformed, impossible_dlc, foreign}) intruder->send(f);
-  std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(delivered(*intruder));
   for (int i = 0; i < 5; ++i) ASSERT_TRUE(rig.master->step());
 
   const MasterCounters after = rig.master->counters();

@@ -62,6 +62,14 @@ class Bus {
   // Throws BusError when the transport fails (e.g. the hub closed the connection).
   virtual bool receive(can_frame& frame, std::int64_t timeout_ns) = 0;
 
+  // Returns true once every frame this endpoint sent before the call is in every other
+  // endpoint's receive queue, so that what one of them does next sees them: the lock-step of
+  // tests that send a frame and then step a master, instead of sleeping. The local bus asks
+  // its hub, which answers after it has handed those frames on; frames that come for this
+  // endpoint meanwhile stay queued for receive(). SocketCAN queues a frame to the host's
+  // other sockets as it is sent: true at once. False when no answer came within timeout_ns.
+  virtual bool fence(std::int64_t timeout_ns) = 0;
+
   // A file descriptor that poll()s readable (POLLIN) when receive() may return a frame
   // without waiting; lets one thread wait on several buses. A readable fd can still yield no
   // frame (a filtered-out or malformed datagram): call receive() with timeout 0.

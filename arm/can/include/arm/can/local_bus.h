@@ -18,6 +18,11 @@
 // them; a new such datagram replaces the list, none (the default) means every frame. The magic
 // reads as a frame with can_dlc 'A' (65), so a hub that does not know it drops it as malformed
 // and the endpoint's own filtering still holds. open_local() sends its filters so.
+//
+// An endpoint may ask the hub to answer once everything it sent before has been handed on
+// (Bus::fence): one datagram of kFenceMagic; the hub sends the same 8 bytes back to it after
+// the round in which it read them has delivered every frame taken so far. A hub that does not
+// know it drops it as malformed (can_dlc 'A'), and the fence times out.
 #pragma once
 
 #include <poll.h>
@@ -35,6 +40,7 @@
 namespace rtm::can {
 
 inline constexpr std::array<unsigned char, 8> kFilterMagic{'R', 'T', 'M', 'C', 'A', 'N', 'F', '1'};
+inline constexpr std::array<unsigned char, 8> kFenceMagic{'R', 'T', 'M', 'C', 'A', 'N', 'B', '1'};
 inline constexpr std::size_t kMaxFilters = 32;
 inline constexpr std::size_t kMaxFramesPerDatagram = 32;
 
@@ -55,6 +61,7 @@ class LocalHub {
     std::uint64_t endpoints_refused = 0;    // connections closed at once: kMaxEndpoints reached
     std::uint64_t filters_set = 0;          // filter lists endpoints sent
     std::uint64_t frames_filtered = 0;      // frame copies an endpoint's filters kept from it
+    std::uint64_t fences_answered = 0;      // Bus::fence requests answered
   };
   // Endpoints the hub serves at once (a bus has a master, the nodes, a few listeners).
   static constexpr std::size_t kMaxEndpoints = 32;

@@ -1,0 +1,40 @@
+// SPDX-License-Identifier: Apache-2.0
+// Lock-step on a local bus instead of sleeping: a test that sends frames and then steps a
+// master waits until they are in every other endpoint's queue (Bus::fence), so the step reads
+// them however loaded the machine is.
+//
+//   intruder->send(frame);
+//   ASSERT_TRUE(delivered(*intruder));  // the next step() of the master reads the frame
+//
+//   auto probe = open_bus(rig.spec);    // before the nodes send
+//   rig.nodes->inject_fault(drive_node(3), emcy::kRpdoTimeout);
+//   ASSERT_TRUE(seen_and_delivered(*probe, kEmcyBase + drive_node(3)));
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+
+#include "arm/can/bus.h"
+
+namespace rtm::can::testing {
+
+// Bounds how long a broken build waits; no assertion is about speed.
+inline constexpr std::int64_t kLockStepBound_ns = 20'000'000'000;
+
+// Every frame sender sent so far is queued at every other endpoint.
+inline bool delivered(Bus& sender) { return sender.fence(kLockStepBound_ns); }
+
+// probe received a frame with this id (another endpoint sent it), and every endpoint has it
+// queued: the hub had handed it on to all of them before it answered probe's fence, which it
+// read in a later round. Frames before it at probe are dropped.
+inline bool seen_and_delivered(Bus& probe, canid_t id) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(kLockStepBound_ns);
+  can_frame frame{};
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::nanoseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0 || !probe.receive(frame, left.count())) return false;
+    if (frame.can_id == id) return probe.fence(kLockStepBound_ns);
+  }
+}
+
+}  // namespace rtm::can::testing
