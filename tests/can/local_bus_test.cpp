@@ -85,16 +85,23 @@ TEST(CanLocalBus, KeepsTheOrderOfOneSendersFrames) {
   }
 }
 
+// A hub with three endpoints connected to it.
+struct ThreeEndpoints {
+  TempDir dir;
+  LocalHub hub{dir.file("bus")};
+  std::unique_ptr<Bus> a = open_local(dir.file("bus"));
+  std::unique_ptr<Bus> b = open_local(dir.file("bus"));
+  std::unique_ptr<Bus> c = open_local(dir.file("bus"));
+  bool connected() { return eventually([&] { return hub.endpoint_count() == 3; }); }
+};
+
 // The lock-step primitive: once fence() returns, every frame sent before it is in the other
 // endpoints' queues (receive with no wait finds it), and the frames that came for the fencing
 // endpoint meanwhile are still there for it.
 TEST(CanLocalBus, AfterAFenceEveryFrameSentBeforeItIsQueuedAtEveryOtherEndpoint) {
-  TempDir dir;
-  LocalHub hub(dir.file("bus"));
-  auto a = open_local(dir.file("bus"));
-  auto b = open_local(dir.file("bus"));
-  auto c = open_local(dir.file("bus"));
-  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 3; }));
+  ThreeEndpoints bus;
+  ASSERT_TRUE(bus.connected());
+  auto& [dir, hub, a, b, c] = bus;
   ASSERT_TRUE(c->send(frame(0x300, 7)));  // for a, while it fences
   constexpr int kFrames = 200;            // a datagram each: several rounds of the hub
   for (int i = 0; i < kFrames; ++i) ASSERT_TRUE(a->send(frame(0x100, static_cast<std::uint8_t>(i))));
@@ -358,12 +365,9 @@ TEST(CanLocalBus, ABatchToAStoppedHubThrowsHubClosed) {
 }
 
 TEST(CanLocalBus, SurvivesAnEndpointDying) {
-  TempDir dir;
-  LocalHub hub(dir.file("bus"));
-  auto a = open_local(dir.file("bus"));
-  auto b = open_local(dir.file("bus"));
-  auto c = open_local(dir.file("bus"));
-  ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 3; }));
+  ThreeEndpoints bus;
+  ASSERT_TRUE(bus.connected());
+  auto& [dir, hub, a, b, c] = bus;
   b.reset();  // closes its socket, as a crashed process would
   ASSERT_TRUE(eventually([&] { return hub.endpoint_count() == 2; }));
   ASSERT_TRUE(a->send(frame(0x321, 7)));
