@@ -33,6 +33,7 @@ using namespace std::chrono_literals;
 using ::testing::HasSubstr;
 using rtm_test::eventually;
 using testing::Attacker;
+using testing::all_seen_and_delivered;
 using testing::delivered;
 using testing::Rig;
 using testing::test_config;
@@ -120,6 +121,22 @@ void expect_every_drive_stopped_and_still(Rig& rig, std::chrono::milliseconds se
   }
 }
 
+// Lock-step: the frames `from` sent, and what the nodes answer to them (every drive's TPDO to a
+// SYNC, a drive's SDO response to a request), are queued at the master. An answer still on its
+// way would reach the step under test, which would take it for an answer to its own SYNC.
+bool answered_and_delivered(Bus& from, const std::vector<can_frame>& sent) {
+  if (!delivered(from)) return false;
+  std::vector<canid_t> answers;
+  for (const can_frame& f : sent) {
+    if (f.can_id == cob::kSync) {
+      for (int j = 0; j < kDriveCount; ++j) answers.push_back(cob::kTpdo1Base + drive_node(j));
+    } else if (f.can_id > cob::kSdoRequestBase && f.can_id < cob::kSdoRequestBase + 0x80) {
+      answers.push_back(cob::kSdoResponseBase + (f.can_id - cob::kSdoRequestBase));
+    }
+  }
+  return answers.empty() || all_seen_and_delivered(from, answers);
+}
+
 // Lock-step: the attack frames cross the bus between two steps; the very next step must see
 // them, latch the fault and send the quick stop with its SYNC (and NMT pre-operational after).
 void expect_next_step_stops_every_drive(Rig& rig, const std::vector<can_frame>& attack, FaultKind kind) {
@@ -127,7 +144,7 @@ void expect_next_step_stops_every_drive(Rig& rig, const std::vector<can_frame>& 
   for (int i = 0; i < 5; ++i) ASSERT_TRUE(rig.master->step());
   auto intruder = open_bus(rig.spec);
   for (const can_frame& f : attack) intruder->send(f);
-  ASSERT_TRUE(delivered(*intruder));  // queued at the master before the next step reads the bus
+  ASSERT_TRUE(answered_and_delivered(*intruder, attack));  // all at the master before the next step reads
   rig.master->step();
   EXPECT_EQ(rig.master->fault().kind, kind) << rig.master->fault().reason;
   for (int j = 0; j < kDriveCount; ++j) {
@@ -241,14 +258,17 @@ TEST(Pa10MasterAttack, AnSdoReadFromADiagnosticToolIsCountedButAnSdoWriteToADriv
   Rig rig({}, attack_config());
   rig.master->start();
   auto tool = open_bus(rig.spec);
-  tool->send(*encode_sdo_request({drive_node(0), SdoRequestKind::upload, object::kStatusword, 0, 0, 0}));
-  ASSERT_TRUE(delivered(*tool));
+  const can_frame read = *encode_sdo_request({drive_node(0), SdoRequestKind::upload, object::kStatusword, 0, 0, 0});
+  tool->send(read);
+  ASSERT_TRUE(answered_and_delivered(*tool, {read}));
   for (int i = 0; i < 3; ++i) ASSERT_TRUE(rig.master->step());
   EXPECT_FALSE(rig.master->fault().active()) << rig.master->fault().reason;
   EXPECT_GE(rig.master->counters().foreign_frames, 1u);
 
-  tool->send(*encode_sdo_request({drive_node(0), SdoRequestKind::download, object::kTargetVelocity, 0, 500000, 4}));
-  ASSERT_TRUE(delivered(*tool));
+  const can_frame write =
+      *encode_sdo_request({drive_node(0), SdoRequestKind::download, object::kTargetVelocity, 0, 500000, 4});
+  tool->send(write);
+  ASSERT_TRUE(answered_and_delivered(*tool, {write}));
   rig.master->step();
   EXPECT_EQ(rig.master->fault().kind, FaultKind::foreign_master);
   EXPECT_THAT(rig.master->fault().reason, HasSubstr("SDO write of 0x60ff:00 to drive 1"));
@@ -261,8 +281,9 @@ TEST(Pa10MasterAttack, AfterAForeignMasterFaultAndResetTheDrivesAreOperationalAn
   Rig rig({}, attack_config());
   rig.master->start();
   auto intruder = open_bus(rig.spec);
-  intruder->send(*encode_sync(7));
-  ASSERT_TRUE(delivered(*intruder));
+  const can_frame sync = *encode_sync(7);
+  intruder->send(sync);
+  ASSERT_TRUE(answered_and_delivered(*intruder, {sync}));
   rig.master->step();
   ASSERT_EQ(rig.master->fault().kind, FaultKind::foreign_master);
   rig.master->step();

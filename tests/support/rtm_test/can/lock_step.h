@@ -8,11 +8,12 @@
 //
 //   auto probe = open_bus(rig.spec);    // before the nodes send
 //   rig.nodes->inject_fault(drive_node(3), emcy::kRpdoTimeout);
-//   ASSERT_TRUE(seen_and_delivered(*probe, kEmcyBase + drive_node(3)));
+//   ASSERT_TRUE(seen_and_delivered(*probe, cob::kEmcyBase + drive_node(3)));
 #pragma once
 
 #include <chrono>
 #include <cstdint>
+#include <vector>
 
 #include "arm/can/bus.h"
 
@@ -24,17 +25,20 @@ inline constexpr std::int64_t kLockStepBound_ns = 20'000'000'000;
 // Every frame sender sent so far is queued at every other endpoint.
 inline bool delivered(Bus& sender) { return sender.fence(kLockStepBound_ns); }
 
-// probe received a frame with this id (another endpoint sent it), and every endpoint has it
-// queued: the hub had handed it on to all of them before it answered probe's fence, which it
-// read in a later round. Frames before it at probe are dropped.
-inline bool seen_and_delivered(Bus& probe, canid_t id) {
+// probe received a frame with each of these ids (other endpoints sent them), and every
+// endpoint has them queued: the hub had handed them on to all of them before it answered
+// probe's fence, which it read in a later round. Other frames at probe are dropped.
+inline bool all_seen_and_delivered(Bus& probe, std::vector<canid_t> ids) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(kLockStepBound_ns);
   can_frame frame{};
-  for (;;) {
+  while (!ids.empty()) {
     const auto left = std::chrono::duration_cast<std::chrono::nanoseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0 || !probe.receive(frame, left.count())) return false;
-    if (frame.can_id == id) return probe.fence(kLockStepBound_ns);
+    std::erase(ids, frame.can_id);
   }
+  return probe.fence(kLockStepBound_ns);
 }
+
+inline bool seen_and_delivered(Bus& probe, canid_t id) { return all_seen_and_delivered(probe, {id}); }
 
 }  // namespace rtm::can::testing
