@@ -110,12 +110,9 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions&
   auto arm = std::make_unique<rtm::pa10::ArmHardware>(o.hardware);
   rtm::can::Pa10Master* master = &arm->master();  // owned by the actuator, outlives the tick
   rtm::comp::TickPhase phase;
-  rtm::comp::TickBusCycle bus;
+  rtm::TickStage* bus = nullptr;  // the master's SYNC cycle, a stage of the tick
   if (o.bus_cycle == "tick") {
-    bus.take_over = [master] { return master->take_over_cycles(); };
-    bus.hand_back = [master](std::int64_t next_ns) { master->hand_back_cycles(next_ns); };
-    bus.receive = [master] { return master->receive_cycle(); };
-    bus.transmit = [master] { return master->transmit_cycle(); };
+    bus = master;
   } else {
     phase.next_reference_deadline_ns = [master] { return master->next_cycle_deadline_ns(); };
     phase.lead_ns = static_cast<std::int64_t>(o.tick_lead_us * 1000);
@@ -126,7 +123,7 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions&
   auto actuator = std::make_unique<rtm::comp::Actuator>(o.actuator, std::move(arm), o.actuator_params);
   auto servo = std::make_unique<rtm::comp::SharedTickServo>(settings.name, std::move(sensor), std::move(controller),
                                                             std::move(actuator), settings.periodic_options(),
-                                                            std::move(phase), std::move(bus));
+                                                            std::move(phase), bus);
   servo->activate_members(context.orb);
   return servo;
 }

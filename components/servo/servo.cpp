@@ -302,22 +302,19 @@ std::int64_t phased_first_deadline(std::int64_t reference_ns, std::int64_t lead_
 
 SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> sensor,
                                  std::unique_ptr<Controller> controller, std::unique_ptr<Actuator> actuator,
-                                 rtm::PeriodicOptions tick, TickPhase phase, TickBusCycle bus)
+                                 rtm::PeriodicOptions tick, TickPhase phase, rtm::TickStage* bus)
     : Component(std::move(name), "servo"),
       sensor_logic_(sensor.get()),
       controller_logic_(controller.get()),
       actuator_logic_(actuator.get()),
       tick_(std::move(tick)),
       phase_(std::move(phase)),
-      bus_(std::move(bus)) {
+      bus_(bus) {
   if (!sensor || !controller || !actuator)
     throw std::invalid_argument("servo " + this->name() + ": a member is missing");
   diagram_ = servo_diagram(this->name(), sensor->name(), controller->name(), actuator->name(), true);
   diagram_.check(rtm::catalogue_of({sensor.get(), controller.get(), actuator.get()}));
-  if ((bus_.take_over || bus_.hand_back || bus_.receive || bus_.transmit) &&
-      !(bus_.take_over && bus_.hand_back && bus_.receive && bus_.transmit))
-    throw std::invalid_argument("servo " + this->name() + ": the bus cycle needs take_over, hand_back, receive and transmit");
-  if (bus_.set() && phase_.next_reference_deadline_ns)
+  if (bus_ && phase_.next_reference_deadline_ns)
     throw std::invalid_argument("servo " + this->name() +
                                 ": a tick that runs the bus cycle cannot also be phased against it");
   phased_first_deadline(0, phase_.lead_ns, tick_.options().period_ns);  // validates the lead
@@ -334,20 +331,20 @@ SharedTickServo::SharedTickServo(std::string name, std::unique_ptr<Sensor> senso
       return true;
     };
   };
-  if (bus_.set()) {
+  if (bus_) {
     add_counters(counters_);
     tick_.add([this](const rtm::CycleContext& ctx) {
-      if (bus_cycle_is_mine(ctx) && !bus_.receive()) bus_lost_.store(true);
+      if (bus_cycle_is_mine(ctx) && !bus_->receive(ctx.deadline_ns)) bus_lost_.store(true);
       return true;
     });
   }
   // The actuator too: in error it has commanded zero (its on_stop), which the bus transmit
   // below still sends; the servo's own cycle then reports the failed member and stops the tick.
   for (const auto& m : diagram_.members) tick_.add(keep_going(servant(m.name).cycle_function()));
-  if (bus_.set()) {
+  if (bus_) {
     tick_.add([this](const rtm::CycleContext& ctx) {
       if (!bus_cycle_is_mine(ctx)) return true;
-      if (bus_.transmit())
+      if (bus_->transmit(ctx.deadline_ns))
         last_transmit_deadline_ns_.store(ctx.deadline_ns, std::memory_order_relaxed);
       else
         bus_lost_.store(true);
@@ -365,7 +362,7 @@ rtm::CycleFunction SharedTickServo::handing_back_on_stop(rtm::CycleFunction cycl
 }
 
 void SharedTickServo::hand_back_bus(std::int64_t next_deadline_ns) {
-  if (bus_taken_.exchange(false)) bus_.hand_back(next_deadline_ns);
+  if (bus_taken_.exchange(false)) bus_->hand_back(next_deadline_ns);
 }
 
 SharedTickServo::~SharedTickServo() {
@@ -455,8 +452,8 @@ void SharedTickServo::on_start() {
     throw std::runtime_error("servo " + name() + ": turning the members on failed:" + why);
   }
   std::int64_t first_ns = 0;
-  if (bus_.set()) {
-    first_ns = bus_.take_over();  // the bus master's activity stops before its next deadline
+  if (bus_) {
+    first_ns = bus_->take_over();  // the bus master's activity stops before its next deadline
     bus_taken_.store(true);
     bus_lost_.store(false);
     bus_resume_ns_.store(0, std::memory_order_relaxed);
@@ -471,7 +468,7 @@ void SharedTickServo::on_start() {
     hand_back_bus(first_ns);
     throw;
   }
-  if (bus_.set())
+  if (bus_)
     log().info("servo {}: shared tick running the bus cycle: receive, sensor -> controller -> actuator, transmit",
                name());
   else if (first_ns != 0)
@@ -497,7 +494,7 @@ void SharedTickServo::on_cycle(const rtm::CycleContext&) {
 // in progress and returns the first deadline that thread did not run; the bus halves of the
 // tick's cycles before it are skipped, so no period carries two SYNCs.
 void SharedTickServo::retake_bus() {
-  const std::int64_t resume_ns = bus_.take_over();
+  const std::int64_t resume_ns = bus_->take_over();
   bus_resume_ns_.store(resume_ns, std::memory_order_relaxed);
   bus_lost_.store(false);
   const std::uint64_t event = counters_.bus_retakes.add();

@@ -38,12 +38,13 @@
 #include "arm/can/bus.h"
 #include "arm/can/master_types.h"
 #include "rt/activity.h"
+#include "rt/tick_stage.h"
 
 namespace rtm::can {
 
 class BusCycle;
 
-class Pa10Master {
+class Pa10Master final : public rtm::TickStage {
  public:
   // `sensor_bus` may be null: the sensors are then read from `drive_bus`. The master owns both.
   Pa10Master(std::unique_ptr<Bus> drive_bus, std::unique_ptr<Bus> sensor_bus,
@@ -53,7 +54,7 @@ class Pa10Master {
              MasterConfig config = {});
   // Stops the periodic thread, then sends one last zero-velocity "shutdown" cycle and NMT
   // enter pre-operational, so the drives brake and do not time out into fault.
-  ~Pa10Master();
+  ~Pa10Master() override;
   Pa10Master(const Pa10Master&) = delete;
   Pa10Master& operator=(const Pa10Master&) = delete;
 
@@ -123,6 +124,11 @@ class Pa10Master {
   bool cycles_taken_over() const;
   bool receive_cycle();
   bool transmit_cycle();
+  // The same, as a shared tick's stage (rt/tick_stage.h).
+  std::int64_t take_over() override { return take_over_cycles(); }
+  void hand_back(std::int64_t next_deadline_ns) override { hand_back_cycles(next_deadline_ns); }
+  bool receive(std::int64_t) override { return receive_cycle(); }
+  bool transmit(std::int64_t) override { return transmit_cycle(); }
 
   // run_periodic()'s grid: the CLOCK_MONOTONIC deadline [ns] of its next cycle (cycles follow
   // every period from there); 0 when the periodic thread does not run or its cycles are taken

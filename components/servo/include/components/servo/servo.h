@@ -25,6 +25,7 @@
 #include "components/sensor/sensor.h"
 
 #include "rt/activity.h"
+#include "rt/tick_stage.h"
 #include "rtm/component.h"
 #include "rtm/diagram.h"
 
@@ -122,20 +123,12 @@ struct TickPhase {
   std::int64_t lead_ns = 100'000;
 };
 
-// The bus master's SYNC cycle run by the tick itself (Pa10Master::take_over_cycles()): the
-// tick receives before the sensor and transmits after the actuator, so a command computed from
-// a sample leaves with the very next SYNC, in the same cycle and on the same thread, with no
-// second thread to wake. take_over returns the deadline of the tick's first cycle (0: at once);
-// hand_back(next_deadline_ns) gives the cycles back to the bus master's own thread. receive and
-// transmit return false once the bus master has taken its cycles back because the tick fell
-// silent (Pa10Master: taken_over_timeout_periods); the servo then fails with that reason.
-struct TickBusCycle {
-  std::function<std::int64_t()> take_over;
-  std::function<void(std::int64_t)> hand_back;
-  std::function<bool()> receive;
-  std::function<bool()> transmit;
-  bool set() const { return static_cast<bool>(take_over); }
-};
+// The bus master's SYNC cycle run by the tick itself: a TickStage (rt/tick_stage.h; the
+// Pa10Master is one). The tick receives before the sensor and transmits after the actuator,
+// so a command computed from a sample leaves with the very next SYNC, in the same cycle and on
+// the same thread, with no second thread to wake. When receive or transmit returns false the
+// bus master has taken its cycles back because the tick fell silent (Pa10Master:
+// taken_over_timeout_periods); the servo takes them again.
 
 // The tick's first deadline for a reference grid whose next deadline is reference_ns: lead_ns
 // earlier (PeriodicActivity moves a deadline already past onto the same grid). 0 (start at
@@ -151,12 +144,12 @@ class SharedTickServo final : public rtm::Component {
   // Where the bus cycle happens: with `bus` set the tick runs it (bus receive, sensor,
   // controller, actuator, bus transmit), taking it over in on_start() and handing it back in
   // on_stop() or as soon as a stage stops the tick; otherwise the tick runs on its own,
-  // phased by `phase` against the bus master's cycles. Throws std::invalid_argument when a
-  // member is missing, when `bus` lacks one of its four functions, or when both `bus` and a
-  // phase reference are given.
+  // phased by `phase` against the bus master's cycles. `bus` must outlive the servo. Throws
+  // std::invalid_argument when a member is missing, or when both `bus` and a phase reference
+  // are given.
   SharedTickServo(std::string name, std::unique_ptr<Sensor> sensor, std::unique_ptr<Controller> controller,
                   std::unique_ptr<Actuator> actuator, rtm::PeriodicOptions tick, TickPhase phase = {},
-                  TickBusCycle bus = {});
+                  rtm::TickStage* bus = nullptr);
   ~SharedTickServo() override;
 
   // Activates the three members in orb (their ports become reachable; the servo exposes the
@@ -167,7 +160,7 @@ class SharedTickServo final : public rtm::Component {
   // Appended to the tick after the three members and the bus transmit (e.g. the servo
   // servant's own cycle_function(), so a failed member puts the servo in error). Only while off.
   void add_to_tick(rtm::CycleFunction cycle) { tick_.add(handing_back_on_stop(std::move(cycle))); }
-  bool runs_bus_cycle() const { return bus_.set(); }
+  bool runs_bus_cycle() const { return bus_ != nullptr; }
   const rtm::Diagram& diagram() const { return diagram_; }
 
   void on_start() override;
@@ -191,7 +184,7 @@ class SharedTickServo final : public rtm::Component {
   rtm::Diagram diagram_;  // checked against the members' ports in the constructor
   rtm::SharedTick tick_;
   TickPhase phase_;
-  TickBusCycle bus_;
+  rtm::TickStage* bus_;
   std::atomic<bool> bus_taken_{false};
   std::atomic<bool> bus_lost_{false};  // the bus master took its cycles back from the tick
   std::atomic<std::int64_t> bus_resume_ns_{0};  // after a retake: the first deadline whose cycle is the tick's
