@@ -1,14 +1,17 @@
 # SPDX-License-Identifier: Apache-2.0
-# rtm_add_gtest(<name> SOURCES <files...> LIBS <libs...> LABELS <labels...> [TIMEOUT s])
+# rtm_add_gtest(<name> SOURCES <files...> LIBS <libs...> LABELS <labels...> [TIMEOUT s]
+#               [RESOURCE_LOCK lock])
 #
 # One GoogleTest executable; each TEST becomes its own CTest test carrying LABELS
 # (unit, integration, slow, socketcan; 'threading' marks the tests the TSan preset runs).
+# RESOURCE_LOCK: no two tests holding the same lock run at once (a real-time loop of several
+# processes, which two at a time on 2 CPUs would starve).
 #
 # The properties are set by a script CTest includes after the tests are discovered, not through
 # gtest_discover_tests(PROPERTIES): CMake 3.25 splits list values there, which would drop every
 # label but the first and garble TIMEOUT and ENVIRONMENT.
 function(rtm_add_gtest name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "TIMEOUT;RESOURCE_LOCK" "SOURCES;LIBS;LABELS" ${ARGN})
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 120)
   endif()
@@ -17,11 +20,16 @@ function(rtm_add_gtest name)
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main GTest::gmock)
   gtest_discover_tests(${name} DISCOVERY_MODE PRE_TEST TEST_LIST ${name}_TESTS)
   set(props ${CMAKE_CURRENT_BINARY_DIR}/${name}_properties.cmake)
+  set(lock "")
+  if(ARG_RESOURCE_LOCK)
+    set(lock "    RESOURCE_LOCK \"${ARG_RESOURCE_LOCK}\"\n")
+  endif()
   file(WRITE ${props}
     "foreach(t IN LISTS ${name}_TESTS)\n"
     "  set_tests_properties(\"\${t}\" PROPERTIES\n"
     "    LABELS \"${ARG_LABELS}\"\n"
     "    TIMEOUT ${ARG_TIMEOUT}\n"
+    "${lock}"
     "    ENVIRONMENT \"RTM_BUILD_DIR=${CMAKE_BINARY_DIR};RTM_SOURCE_DIR=${CMAKE_SOURCE_DIR}\")\n"
     "endforeach()\n")
   set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${props})
