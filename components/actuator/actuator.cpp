@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "components/actuator/actuator.h"
 
-#include "host/runner.h"
 #include "rtm/data.h"
 #include "rtm/log.h"
 
@@ -28,8 +27,6 @@ const rtm::ParameterTable<ActuatorParams>& actuator_parameters() {
         ParameterAccess::when_off, rtm::between(1, P::kMaxSensorRecoveryPeriods)}}};
   return table;
 }
-
-void ActuatorParams::add_options(CLI::App& app) { rtm::add_parameter_options(app, actuator_parameters(), *this); }
 
 void ActuatorParams::validate() const { actuator_parameters().validate(*this); }
 

@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
       .add_options =
           [&](CLI::App& app) {
             hardware.add_options(app);
-            params.add_options(app);
+            rtm::add_parameter_options(app, rtm::comp::actuator_parameters(), params);
           },
       .validate = [&](const rtm::RunSettings&) { params.validate(); },
       .create =

@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "components/controller/controller.h"
 
-#include "host/runner.h"
 #include "rtm/data.h"
 #include "rtm/log.h"
 
@@ -33,8 +32,6 @@ const rtm::ParameterTable<ControllerParams>& controller_parameters() {
         ParameterAccess::when_off, rtm::between(1, 1'000'000)}}};
   return table;
 }
-
-void ControllerParams::add_options(CLI::App& app) { rtm::add_parameter_options(app, controller_parameters(), *this); }
 
 void ControllerParams::validate() const { controller_parameters().validate(*this); }
 

@@ -13,7 +13,7 @@ int main(int argc, char** argv) {
       .description =
           "rtm-controller: P force controller, out0 = gain*(in1 + in0) (Fig. 6); in0 sensor wrench, "
           "in1 reference wrench, out0 velocity twist (base frame, m/s, rad/s)",
-      .add_options = [&](CLI::App& app) { params.add_options(app); },
+      .add_options = [&](CLI::App& app) { rtm::add_parameter_options(app, rtm::comp::controller_parameters(), params); },
       .validate = [&](const rtm::RunSettings&) { params.validate(); },
       .create = [&](const rtm::RunSettings& settings) {
         return std::make_unique<rtm::comp::Controller>(settings.name, params);

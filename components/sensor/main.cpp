@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
           [&](CLI::App& app) {
             buses.add_options(app);
             app.add_option("--urdf", urdf, "arm model URDF, for the sensor frame's orientation (default: the built-in PA10 model)");
-            params.add_options(app);
+            rtm::add_parameter_options(app, rtm::comp::sensor_parameters(), params);
           },
       .validate = [&](const rtm::RunSettings&) { params.validate(); },
       .create =

@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "components/sensor/sensor.h"
 
-#include "host/runner.h"
 #include "rtm/data.h"
 #include "rtm/log.h"
 
@@ -22,8 +21,6 @@ const rtm::ParameterTable<SensorParams>& sensor_parameters() {
         rtm::ParameterAccess::when_off, rtm::between(1, P::kMaxRecoveryTimeoutPeriods)}}};
   return table;
 }
-
-void SensorParams::add_options(CLI::App& app) { rtm::add_parameter_options(app, sensor_parameters(), *this); }
 
 void SensorParams::validate() const { sensor_parameters().validate(*this); }
 

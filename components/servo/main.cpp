@@ -63,8 +63,8 @@ struct ServoOptions {
                                          "SYNC cycles, so a command leaves with the next SYNC (0 <= lead < --period)")
                            ->capture_default_str();
     hardware.add_options(*group);
-    controller_params.add_options(*group);
-    actuator_params.add_options(*group);
+    rtm::add_parameter_options(*group, rtm::comp::controller_parameters(), controller_params);
+    rtm::add_parameter_options(*group, rtm::comp::actuator_parameters(), actuator_params);
   }
 
   void validate() const {

@@ -11,6 +11,8 @@
 // conditions with generous deadlines; what they assert is counted in cycles, never timed.
 #include "components/sensor/sensor.h"
 
+#include "host/runner.h"
+
 #include "arm/can/local_bus.h"
 #include "component_test_support.h"
 #include "rtm_test/can/emulated_pa10.h"
@@ -323,7 +325,7 @@ TEST(SensorParams, ARecoveryBudgetOfZeroCyclesIsRefusedNamingIt) {
   // The command line (rtm-sensor --recovery-timeout-periods) checks the same range.
   rtm::comp::SensorParams parsed;
   CLI::App app;
-  parsed.add_options(app);
+  rtm::add_parameter_options(app, rtm::comp::sensor_parameters(), parsed);
   try {
     app.parse("--recovery-timeout-periods 0", false);
     FAIL() << "0 was taken";

@@ -15,7 +15,8 @@
 #                serve/ (rtm serve): the browser and the launcher, not the scaffold
 #                scaffold/ (rtm new): writes files, asks nothing of a running system
 #                rtm/ (the command line) is on no other room's include path
-#   components/  included only by components (a composite includes its members) and tests
+#   components/  included only by components (a composite includes its members) and tests;
+#                a component's logic (all but its main.cpp) stands on the core: no host/
 #   bench/       tests' code only through tests/support's libraries (rtm_test/...)
 # usage: check_includes.sh SOURCE_DIR   prints each violation as file:line: rule: the #include;
 #        exits 1 if there is any
@@ -68,6 +69,13 @@ forbid_call tools/browser 'std::(cout|cerr|clog)|fmt::print|(^|[^a-z_])(printf|f
 forbid tools/launcher "serve/|scaffold/" "the launcher calls the browser only"
 forbid tools/serve "scaffold/" "the web server calls the browser and the launcher only"
 forbid tools/scaffold "browser/|launcher/|serve/" "the scaffold writes files and asks nothing of a running system"
+
+while IFS=: read -r file line text; do
+  [[ $file == */main.cpp ]] && continue
+  text=${text#"${text%%[![:space:]]*}"}
+  echo "$file:$line: a component's logic stands on the core (host/ is for its main.cpp): $text"
+  violations=$((violations + 1))
+done < <(grep -rnE --include='*.h' --include='*.cpp' '^[[:space:]]*#[[:space:]]*include[[:space:]]*[<"]host/' components 2>/dev/null)
 
 if ((violations)); then
   echo "$violations layering violation(s)"

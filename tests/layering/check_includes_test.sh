@@ -11,6 +11,7 @@ tree=$scratch
 mkdir -p "$tree"/{src/rtm,src/rt,host,arm/can,sim,tools/rtm,tools/browser,tools/serve,tools/scaffold,components/controller,components/servo,tests/components,bench/can}
 echo '#include "rtm/component.h"' >"$tree/components/controller/controller.h"
 echo '#include "components/controller/controller.h"' >"$tree/components/servo/servo.h"
+echo '#include "host/runner.h"' >"$tree/components/servo/main.cpp"
 echo '#include "components/controller/controller.h"' >"$tree/tests/components/controller_test.cpp"
 echo '#include "arm/can/bus.h"' >"$tree/sim/drive.cpp"
 echo '#include "rt/activity.h"' >"$tree/sim/runner.cpp"
@@ -35,6 +36,7 @@ echo '#include "../../tests/tools/run_command.h"' >"$tree/bench/cli_bench.cpp"
 echo '#include "serve/serve.h"' >"$tree/tools/browser/values.cpp"
 printf 'void f() {\n  fmt::print("{}", 1);\n}\n' >"$tree/tools/browser/json.cpp"
 echo '#include "browser/browser.h"' >"$tree/tools/scaffold/scaffold.cpp"
+printf '#include "rtm/component.h"\n#include "host/runner.h"\n' >"$tree/components/controller/controller.cpp"
 run_check "$check" "$tree"
 expect "violations fail the check" test $status -eq 1
 expect "the core including robot code is named with its line" grep -q "^src/rtm/runner.cpp:2: the core knows nothing of robots" <<<"$output"
@@ -49,6 +51,7 @@ expect "a benchmark reaching into tests/ is found" grep -q "^bench/cli_bench.cpp
 expect "the browser including the web server is found" grep -q "^tools/browser/values.cpp:1: the browser knows nothing of the launcher" <<<"$output"
 expect "the browser printing is found, with its line" grep -q "^tools/browser/json.cpp:2: the browser prints nothing" <<<"$output"
 expect "the scaffold asking the browser is found" grep -q "^tools/scaffold/scaffold.cpp:1: the scaffold writes files" <<<"$output"
-expect "the count is given" grep -q "^13 layering violation(s)" <<<"$output"
+expect "a component's logic including host/ is found (its main.cpp may)" grep -q "^components/controller/controller.cpp:2: a component's logic stands on the core" <<<"$output"
+expect "the count is given" grep -q "^14 layering violation(s)" <<<"$output"
 
 finish

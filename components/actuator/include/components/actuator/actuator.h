@@ -65,12 +65,10 @@ struct ActuatorParams {
   // Throws std::invalid_argument for a negative or non-finite limit, watchdog_periods 0, or
   // sensor_recovery_periods out of [1, kMaxSensorRecoveryPeriods].
   void validate() const;
-  // Registers --limit, --watchdog-periods and --sensor-recovery-periods on app, bound to these fields (rtm-actuator and
-  // rtm-servo share them); call validate() after parsing.
-  void add_options(CLI::App& app);
 };
 
-// Each of the actuator's parameters, declared once (rtm/parameters.h).
+// Each of the actuator's parameters, declared once (rtm/parameters.h); rtm-actuator and
+// rtm-servo register their options with rtm::add_parameter_options.
 const rtm::ParameterTable<ActuatorParams>& actuator_parameters();
 
 // Fig. 7: each component clamped to [-limit[i], +limit[i]].

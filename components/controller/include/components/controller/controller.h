@@ -38,10 +38,6 @@
 #include <cstdint>
 #include <string>
 
-namespace CLI {
-class App;
-}
-
 namespace rtm::comp {
 
 struct ControllerParams {
@@ -59,13 +55,11 @@ struct ControllerParams {
   // Throws std::invalid_argument naming the bad value (NaN/inf gain, a negative approach
   // speed, a contact force not above 0, stale_periods 0), as controller_parameters() bounds it.
   void validate() const;
-  // Registers --gain, --free-gain, --approach-speed, --contact-force and --stale-periods on
-  // app, bound to these fields (rtm-controller and rtm-servo share them); call validate() after
-  // parsing.
-  void add_options(CLI::App& app);
 };
 
-// Each of the controller's parameters, declared once (rtm/parameters.h): its option, its help,
+// Each of the controller's parameters, declared once (rtm/parameters.h): its option (an
+// executable registers them with rtm::add_parameter_options; rtm-controller and rtm-servo both
+// do), its help,
 // its bounds, what `rtm cat` shows and `rtm set` changes.
 const rtm::ParameterTable<ControllerParams>& controller_parameters();
 

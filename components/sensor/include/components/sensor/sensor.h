@@ -37,10 +37,6 @@
 #include <memory>
 #include <string>
 
-namespace CLI {
-class App;
-}
-
 namespace rtm::comp {
 
 struct SensorParams {
@@ -54,12 +50,10 @@ struct SensorParams {
   // Throws std::invalid_argument naming the bad value (recovery_timeout_periods 0 or above the
   // maximum).
   void validate() const;
-  // Registers --recovery-timeout-periods on app, bound to this field; call validate() after
-  // parsing.
-  void add_options(CLI::App& app);
 };
 
-// The sensor's parameter, declared once (rtm/parameters.h).
+// The sensor's parameter, declared once (rtm/parameters.h); rtm-sensor registers its option
+// with rtm::add_parameter_options.
 const rtm::ParameterTable<SensorParams>& sensor_parameters();
 
 // What the sensor counts: each field is also the statistic of its name (`rtm cat`).
