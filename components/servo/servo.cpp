@@ -400,23 +400,11 @@ rtm::ComponentServant& SharedTickServo::servant(const std::string& member) {
   throw std::logic_error("servo " + name() + ": no member " + member);
 }
 
-namespace {
-
-template <class Port>
-Port* port_named(const std::vector<Port*>& ports, const std::string& name) {
-  for (auto* p : ports) {
-    if (p->port_name() == name) return p;
-  }
-  return nullptr;
-}
-
-}  // namespace
-
 std::string SharedTickServo::connect_members() {
   disconnect_members();  // a connection left from an earlier run is replaced
   for (const auto& c : diagram_.connections) {
-    auto* out = port_named(servant(c.from.member).component().out_ports(), c.from.port);
-    auto* in = port_named(servant(c.to.member).component().in_ports(), c.to.port);
+    auto* out = rtm::out_port_of(servant(c.from.member).component(), c.from.port);
+    auto* in = rtm::in_port_of(servant(c.to.member).component(), c.to.port);
     if (!out || !in) return c.text() + ": no such port";  // the constructor's check makes this unreachable
     if (!out->connect_local(*in, c.policy)) return c.text() + ": " + out->last_error_text();
   }
@@ -425,8 +413,8 @@ std::string SharedTickServo::connect_members() {
 
 void SharedTickServo::disconnect_members() {
   for (const auto& c : diagram_.connections) {
-    auto* out = port_named(servant(c.from.member).component().out_ports(), c.from.port);
-    auto* in = port_named(servant(c.to.member).component().in_ports(), c.to.port);
+    auto* out = rtm::out_port_of(servant(c.from.member).component(), c.from.port);
+    auto* in = rtm::in_port_of(servant(c.to.member).component(), c.to.port);
     if (out && in) out->disconnect_local(*in);
   }
 }

@@ -31,8 +31,8 @@ std::optional<std::size_t> index_alias(std::string_view text, std::string_view p
 }
 
 template <class Port>
-const Port* find_port(const std::vector<Port*>& ports, std::string_view name, std::string_view prefix) {
-  for (const auto* p : ports) {
+Port* find_port(const std::vector<Port*>& ports, std::string_view name, std::string_view prefix) {
+  for (auto* p : ports) {
     if (p->port_name() == name) return p;
   }
   if (const auto index = index_alias(name, prefix); index && *index < ports.size()) return ports[*index];
@@ -53,8 +53,17 @@ std::string unit_text(const std::string& unit) { return unit.empty() ? "no unit"
 PortRef PortRef::parse(std::string_view text) {
   const auto dot = text.rfind('.');
   if (dot == std::string_view::npos || dot == 0 || dot + 1 == text.size())
-    throw std::invalid_argument(fmt::format("'{}' is no port: write <component>.<port>, e.g. sensor0.wrench", text));
+    throw std::invalid_argument(
+        fmt::format("'{}' is not a port address: expected <component>.<port>, e.g. sensor0.out0", text));
   return {std::string(text.substr(0, dot)), std::string(text.substr(dot + 1))};
+}
+
+InPortBase* in_port_of(const Component& component, std::string_view port) {
+  return find_port(component.in_ports(), port, "in");
+}
+
+OutPortBase* out_port_of(const Component& component, std::string_view port) {
+  return find_port(component.out_ports(), port, "out");
 }
 
 PortCatalogue catalogue_of(const std::vector<const Component*>& members) {
@@ -69,8 +78,8 @@ PortCatalogue catalogue_of(const std::vector<const Component*>& members) {
         const Component* m = member(ref.member);
         if (!m) return std::nullopt;
         if (in) {
-          if (const auto* port = find_port(m->in_ports(), ref.port, "in")) return shape_of(*port, true);
-        } else if (const auto* port = find_port(m->out_ports(), ref.port, "out")) {
+          if (const auto* port = in_port_of(*m, ref.port)) return shape_of(*port, true);
+        } else if (const auto* port = out_port_of(*m, ref.port)) {
           return shape_of(*port, false);
         }
         return std::nullopt;

@@ -3,6 +3,7 @@
 #include "browser/json.h"
 
 #include "rtm/data.h"
+#include "rtm/diagram.h"
 #include "host/tls.h"
 
 #include <fmt/format.h>
@@ -147,13 +148,8 @@ PortInfo inspect_out(RTM::OutPort_ptr port, int index) {
 std::string to_string(Direction d) { return d == Direction::in ? "in" : "out"; }
 
 PortAddress PortAddress::parse(std::string_view text) {
-  auto dot = text.rfind('.');
-  if (dot == std::string_view::npos || dot == 0 || dot + 1 == text.size()) {
-    throw std::invalid_argument(
-        fmt::format("'{}' is not a port address: expected <component>.<port>, e.g. sensor0.out0",
-                    text));
-  }
-  return {std::string(text.substr(0, dot)), std::string(text.substr(dot + 1))};
+  rtm::PortRef ref = rtm::PortRef::parse(text);
+  return {std::move(ref.member), std::move(ref.port)};
 }
 
 Browser::Browser(CORBA::ORB_ptr orb, NamingAddress naming, std::chrono::milliseconds call_timeout)

@@ -40,11 +40,6 @@ std::string scalar_field(const SystemFile& f, const YAML::Node& map, const char*
   return scalar(f, node, what);
 }
 
-std::string component_of(const std::string& port_address) {
-  auto dot = port_address.rfind('.');
-  return dot == std::string::npos ? port_address : port_address.substr(0, dot);
-}
-
 // One entry of 'components': its name (the one name rule) and its command.
 SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) {
   SystemFile::Component comp;
@@ -93,12 +88,14 @@ SystemFile::Connection parse_connection(const SystemFile& f, const YAML::Node& c
     fail(f, p ? p : c, e.what());
   }
   for (const auto* end : {&conn.from, &conn.to}) {
-    if (end->find('.') == std::string::npos) {
-      fail(f, c, fmt::format("'{}' is not <component>.<port>", *end));
+    std::string member;
+    try {
+      member = rtm::PortRef::parse(*end).member;
+    } catch (const std::invalid_argument& e) {
+      fail(f, c, e.what());
     }
-    if (!names.count(component_of(*end))) {
-      fail(f, c, fmt::format("'{}' names component '{}', which 'components' does not list",
-                             *end, component_of(*end)));
+    if (!names.count(member)) {
+      fail(f, c, fmt::format("'{}' names component '{}', which 'components' does not list", *end, member));
     }
   }
   return conn;

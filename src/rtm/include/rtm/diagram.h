@@ -33,6 +33,8 @@
 namespace rtm {
 
 class Component;
+class InPortBase;
+class OutPortBase;
 
 // "<member>.<port>", split at the last '.' (a member may be "host/name"; a port may be "in0").
 struct PortRef {
@@ -61,6 +63,10 @@ struct PortCatalogue {
 
 // The ports of components of this process, by name (and "in<N>"/"out<N>").
 PortCatalogue catalogue_of(const std::vector<const Component*>& members);
+// The InPort / OutPort of a component of this process that a PortRef's port names (its name,
+// or "in<N>"/"out<N>"), as catalogue_of() finds it; nullptr when it has none.
+InPortBase* in_port_of(const Component& component, std::string_view port);
+OutPortBase* out_port_of(const Component& component, std::string_view port);
 
 // A diagram that does not hold: every problem, one per line, in what().
 class DiagramError : public std::invalid_argument {
