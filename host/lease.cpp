@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "host/lease.h"
 
+#include "rtm/log.h"
+
 #include <stdexcept>
 #include <vector>
 
@@ -62,6 +64,49 @@ void Leases::run() {
     lock.unlock();
     for (const auto& [holder, lease_ms] : ended) expired_(holder, lease_ms);
     lock.lock();
+  }
+}
+
+HoldRenewal::HoldRenewal(std::string holder, std::vector<RTM::RtComponentEx_var> targets, std::uint32_t lease_ms)
+    : holder_(std::move(holder)), targets_(std::move(targets)), lease_ms_(lease_ms) {
+  if (lease_ms_ < Leases::kMinLeaseMs || lease_ms_ > Leases::kMaxLeaseMs)
+    throw std::invalid_argument("lease of " + std::to_string(lease_ms_) + " ms: want 50..60000 ms");
+  thread_ = std::thread([this] { run(); });
+}
+
+HoldRenewal::~HoldRenewal() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  stop_.notify_all();
+  thread_.join();
+  for (const auto& target : targets_) {
+    try {
+      target->release(holder_.c_str());
+    } catch (const CORBA::Exception&) {
+      // Gone or unreachable: its lease ends the hold.
+    }
+  }
+}
+
+void HoldRenewal::run() {
+  std::vector<bool> failing(targets_.size(), false);
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    lock.unlock();
+    for (std::size_t i = 0; i < targets_.size(); ++i) {
+      try {
+        targets_[i]->hold(holder_.c_str(), lease_ms_);
+        failing[i] = false;
+      } catch (const CORBA::Exception& e) {
+        if (!failing[i]) log().warn("{}: renewing its hold on a member raised {}", holder_, e._name());
+        failing[i] = true;
+      }
+    }
+    rounds_.fetch_add(1);
+    lock.lock();
+    stop_.wait_for(lock, std::chrono::milliseconds(lease_ms_ / 5), [this] { return stopping_; });
   }
 }
 

@@ -8,13 +8,19 @@
 // arm's bus (--bus, --sensor-bus) and run by one periodic tick, sensor -> controller ->
 // actuator in that order; they are also bound by those names, for browsing.
 // In both modes the servo's InPort 0 is the controller's InPort "reference"; the wiring is
-// servo_diagram(), checked against the members' ports before anything is connected.
+// servo_diagram(), checked against the members' ports before anything is connected, and the
+// host runs it: rtm::RemoteComposite in paper mode, rtm::TickedComposite with --shared-tick.
 // --cpu pins the tick and the bus master's thread, not the whole process.
+#include "components/actuator/actuator.h"
+#include "components/controller/controller.h"
+#include "components/sensor/sensor.h"
 #include "components/servo/servo.h"
 
+#include "host/remote_composite.h"
+#include "host/runner.h"
+#include "host/ticked_composite.h"
 #include "rtm/naming.h"
 #include "rtm/orb.h"
-#include "host/runner.h"
 
 #include <CLI/CLI.hpp>
 
@@ -89,27 +95,28 @@ RTM::RtComponent_var wait_for_component(const rtm::NamingClient& naming, const s
 }
 
 // Paper mode: the members are other processes, found by name.
-std::unique_ptr<rtm::comp::RemoteServo> make_remote_servo(const ServoOptions& o, const rtm::RunContext& context) {
+std::unique_ptr<rtm::RemoteComposite> make_remote_servo(const ServoOptions& o, const rtm::RunContext& context) {
   const rtm::NamingClient naming(context.orb.orb(), context.settings.naming);
-  auto sensor = wait_for_component(naming, o.sensor, o.wait_s);
-  auto controller = wait_for_component(naming, o.controller, o.wait_s);
-  auto actuator = wait_for_component(naming, o.actuator, o.wait_s);
-  const std::int64_t period_ns = context.settings.period_ns;
-  const auto phase_offset = o.phase_offset_us < 0
-                                ? std::chrono::nanoseconds(period_ns / 4)
-                                : std::chrono::nanoseconds(static_cast<std::int64_t>(o.phase_offset_us * 1000));
-  return std::make_unique<rtm::comp::RemoteServo>(context.settings.name, sensor, controller, actuator, phase_offset);
+  std::vector<rtm::RemoteComposite::Member> members;
+  for (const auto& name : {o.sensor, o.controller, o.actuator})
+    members.push_back({name, wait_for_component(naming, name, o.wait_s)});
+  const std::int64_t phase_offset_ns = o.phase_offset_us < 0 ? context.settings.period_ns / 4
+                                                             : static_cast<std::int64_t>(o.phase_offset_us * 1000);
+  return std::make_unique<rtm::RemoteComposite>(
+      context.settings.name, "servo",
+      rtm::comp::servo_diagram(context.settings.name, o.sensor, o.controller, o.actuator, false, phase_offset_ns),
+      std::move(members));
 }
 
 // Shared-tick mode: the members live here, on the arm's bus, run by one tick.
-std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions& o, const rtm::RunContext& context) {
+std::unique_ptr<rtm::TickedComposite> make_shared_tick_servo(ServoOptions& o, const rtm::RunContext& context) {
   const rtm::RunSettings& settings = context.settings;
   o.hardware.period_ns = settings.period_ns;
   o.hardware.rt_priority = settings.rt_priority;
   o.hardware.cpu = settings.cpu;
   auto arm = std::make_unique<rtm::pa10::ArmHardware>(o.hardware);
   rtm::can::Pa10Master* master = &arm->master();  // owned by the actuator, outlives the tick
-  rtm::comp::TickPhase phase;
+  rtm::TickPhase phase;
   rtm::TickStage* bus = nullptr;  // the master's SYNC cycle, a stage of the tick
   if (o.bus_cycle == "tick") {
     bus = master;
@@ -117,13 +124,14 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions&
     phase.next_reference_deadline_ns = [master] { return master->next_cycle_deadline_ns(); };
     phase.lead_ns = static_cast<std::int64_t>(o.tick_lead_us * 1000);
   }
-  auto sensor = std::make_unique<rtm::comp::Sensor>(o.sensor, std::make_unique<rtm::comp::MasterWristSource>(*master),
-                                                    rtm::pa10::Kinematics::pa10(o.hardware.urdf));
-  auto controller = std::make_unique<rtm::comp::Controller>(o.controller, o.controller_params);
-  auto actuator = std::make_unique<rtm::comp::Actuator>(o.actuator, std::move(arm), o.actuator_params);
-  auto servo = std::make_unique<rtm::comp::SharedTickServo>(settings.name, std::move(sensor), std::move(controller),
-                                                            std::move(actuator), settings.periodic_options(),
-                                                            std::move(phase), bus);
+  std::vector<std::unique_ptr<rtm::Component>> members;
+  members.push_back(std::make_unique<rtm::comp::Sensor>(o.sensor, std::make_unique<rtm::comp::MasterWristSource>(*master),
+                                                        rtm::pa10::Kinematics::pa10(o.hardware.urdf)));
+  members.push_back(std::make_unique<rtm::comp::Controller>(o.controller, o.controller_params));
+  members.push_back(std::make_unique<rtm::comp::Actuator>(o.actuator, std::move(arm), o.actuator_params));
+  auto servo = std::make_unique<rtm::TickedComposite>(
+      settings.name, "servo", rtm::comp::servo_diagram(settings.name, o.sensor, o.controller, o.actuator, true),
+      std::move(members), settings.periodic_options(), std::move(phase), bus);
   servo->activate_members(context.orb);
   return servo;
 }
@@ -132,7 +140,7 @@ std::unique_ptr<rtm::comp::SharedTickServo> make_shared_tick_servo(ServoOptions&
 
 int main(int argc, char** argv) {
   ServoOptions options;
-  rtm::comp::SharedTickServo* shared = nullptr;  // owned by the servant, in shared-tick mode
+  rtm::TickedComposite* shared = nullptr;  // owned by the servant, in shared-tick mode
   RTM::InPort_var reference;                     // the controller's InPort "reference"
   return rtm::run_component(argc, argv, {
       .kind = "servo",
@@ -142,14 +150,15 @@ int main(int argc, char** argv) {
       .validate = [&](const rtm::RunSettings&) { options.validate(); },
       .create_with_orb =
           [&](const rtm::RunContext& context) -> std::unique_ptr<rtm::Component> {
+            const rtm::PortRef reference_port{options.controller, rtm::comp::kServoReferencePort};
             if (!options.shared_tick) {
               auto servo = make_remote_servo(options, context);
-              reference = servo->reference_port();
+              reference = servo->in_port(reference_port);
               return servo;
             }
             auto servo = make_shared_tick_servo(options, context);
             shared = servo.get();
-            reference = servo->reference_port();
+            reference = servo->in_port(reference_port);
             return servo;
           },
       .activity = [](const rtm::RunSettings&, rtm::Component&) { return rtm::ActivitySpec{rtm::ExternalTick{}}; },
@@ -161,9 +170,7 @@ int main(int argc, char** argv) {
             if (shared == nullptr) return members;
             servant.set_timing_source(&shared->tick());
             shared->add_to_tick(servant.cycle_function());
-            for (auto* member : {&shared->sensor(), &shared->controller(), &shared->actuator()}) {
-              members.push_back({member->component().name(), member->reference()});
-            }
+            for (auto* member : shared->members()) members.push_back({member->component().name(), member->reference()});
             return members;
           },
       .pin_process_to_cpu = false,

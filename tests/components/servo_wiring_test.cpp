@@ -1,11 +1,17 @@
 // SPDX-License-Identifier: Apache-2.0
 // The servo composite through real CORBA and a real omniNames: members found by name, on()
-// subscribes and turns them on, the servo's InPort 0 is the controller's InPort 1 (a put on it
-// lands in the controller), data flows sensor -> controller -> actuator, off() undoes it all.
-// The members live in this process as ExternalTick servants, so the test runs their cycles.
+// subscribes and turns them on, the servo's InPort 0 is the controller's InPort "reference" (a
+// put on it lands in the controller), data flows sensor -> controller -> actuator, off()
+// undoes it all. The members live in this process as ExternalTick servants, so the test runs
+// their cycles. The servo is its declaration (servo_diagram) run by the host's composites.
+#include "components/actuator/actuator.h"
+#include "components/controller/controller.h"
+#include "components/sensor/sensor.h"
 #include "components/servo/servo.h"
 
 #include "component_test_support.h"
+#include "host/remote_composite.h"
+#include "host/ticked_composite.h"
 #include "rtm/naming.h"
 #include "rtm/orb.h"
 #include "rtm_test/eventually.h"
@@ -37,6 +43,19 @@ using rtm_test::FakeWristSource;
 
 using rtm_test::RecordingArm;
 
+// The servo of paper mode, as rtm-servo makes it: its declaration run by a RemoteComposite.
+std::unique_ptr<rtm::RemoteComposite> remote_servo(const std::string& name, const std::string (&names)[3],
+                                                   RTM::RtComponent_ptr sensor, RTM::RtComponent_ptr controller,
+                                                   RTM::RtComponent_ptr actuator, std::int64_t phase_offset_ns = 0) {
+  std::vector<rtm::RemoteComposite::Member> members;
+  members.push_back({names[0], RTM::RtComponent::_duplicate(sensor)});
+  members.push_back({names[1], RTM::RtComponent::_duplicate(controller)});
+  members.push_back({names[2], RTM::RtComponent::_duplicate(actuator)});
+  return std::make_unique<rtm::RemoteComposite>(
+      name, "servo", rtm::comp::servo_diagram(name, names[0], names[1], names[2], false, phase_offset_ns),
+      std::move(members));
+}
+
 class ServoWiringTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -61,10 +80,11 @@ class ServoWiringTest : public ::testing::Test {
       RTM::RtComponentEx_var ref = member->activate(test_orb());
       naming.bind(rtm::ComponentPath::on_this_host(member->component().name()), ref);
     }
-    auto servo = std::make_unique<rtm::comp::RemoteServo>("servo0", naming.resolve_component("sensor0"),
-                                                          naming.resolve_component("controller0"),
-                                                          naming.resolve_component("actuator0"));
-    RTM::InPort_var reference = servo->reference_port();
+    const std::string names[3] = {"sensor0", "controller0", "actuator0"};
+    RTM::RtComponent_var refs[3];
+    for (int i = 0; i < 3; ++i) refs[i] = naming.resolve_component(names[i]);
+    auto servo = remote_servo("servo0", names, refs[0], refs[1], refs[2]);
+    RTM::InPort_var reference = servo->in_port({"controller0", rtm::comp::kServoReferencePort});
     servo_ = new rtm::ComponentServant(std::move(servo), rtm::ExternalTick{});
     servo_ref_ = servo_->activate(test_orb());
     servo_->expose_in_port(0, reference);
@@ -158,9 +178,10 @@ TEST_F(ServoWiringTest, AMemberWithoutTheExpectedPortFailsOnNamingTheLinkAndTurn
   RTM::RtComponentEx_var portless_ref = portless->activate(test_orb());
   RTM::RtComponentEx_var controller_ref = controller_->reference();
   RTM::RtComponentEx_var actuator_ref = actuator_->reference();
-  rtm::comp::RemoteServo servo("servo1", portless_ref, controller_ref, actuator_ref);
+  auto servo = remote_servo("servo1", {"sensor9", "controller0", "actuator0"}, portless_ref, controller_ref,
+                            actuator_ref);
   try {
-    servo.on_start();
+    servo->on_start();
     FAIL() << "no exception";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("sensor9.wrench -> controller0.wrench: sensor9 has no OutPort wrench"),
@@ -202,9 +223,10 @@ std::vector<std::string> order_of_on(std::chrono::nanoseconds phase_offset) {
                                            rtm::ExternalTick{});
     refs[i] = members[i]->activate(test_orb());
   }
-  rtm::comp::RemoteServo servo("servo_order", refs[0], refs[1], refs[2], phase_offset);
-  servo.on_start();
-  servo.on_stop();
+  auto servo = remote_servo("servo_order", {names[0], names[1], names[2]}, refs[0], refs[1], refs[2],
+                            phase_offset.count());
+  servo->on_start();
+  servo->on_stop();
   for (auto& member : members) member->deactivate();
   return turned_on;
 }
@@ -222,14 +244,14 @@ TEST(RemoteServoOrder, ANegativePhaseOffsetIsRefused) {
   std::vector<std::string> turned_on;
   probe = new rtm::ComponentServant(std::make_unique<OrderProbe>("probe_x", turned_on), rtm::ExternalTick{});
   RTM::RtComponentEx_var ref = probe->activate(test_orb());
-  EXPECT_THROW(rtm::comp::RemoteServo("servo_bad", ref, ref, ref, std::chrono::nanoseconds(-1)), std::invalid_argument);
+  EXPECT_THROW(remote_servo("servo_bad", {"a", "b", "c"}, ref, ref, ref, -1), rtm::DiagramError);
   probe->deactivate();
 }
 
 TEST(SharedTickPhase, TheTickStartsTheLeadBeforeTheBusMastersNextCycle) {
   constexpr std::int64_t kPeriod_ns = 2'000'000;
   const std::int64_t master_next_ns = 1'000 * kPeriod_ns + 456'789;
-  const std::int64_t first = rtm::comp::phased_first_deadline(master_next_ns, 300'000, kPeriod_ns);
+  const std::int64_t first = rtm::phased_first_deadline(master_next_ns, 300'000, kPeriod_ns);
   EXPECT_EQ(first, master_next_ns - 300'000);
   // Whichever cycle the tick actually starts on, it stays on that grid (first_deadline()).
   const std::int64_t now = master_next_ns + 3 * kPeriod_ns;
@@ -240,13 +262,13 @@ TEST(SharedTickPhase, TheTickStartsTheLeadBeforeTheBusMastersNextCycle) {
 }
 
 TEST(SharedTickPhase, WithoutAReferenceTheTickStartsAtOnce) {
-  EXPECT_EQ(rtm::comp::phased_first_deadline(0, 300'000, 2'000'000), 0);
+  EXPECT_EQ(rtm::phased_first_deadline(0, 300'000, 2'000'000), 0);
 }
 
 TEST(SharedTickPhase, ALeadOfAPeriodOrMoreOrNegativeIsRefused) {
-  EXPECT_THROW(rtm::comp::phased_first_deadline(5'000'000, 2'000'000, 2'000'000), std::invalid_argument);
-  EXPECT_THROW(rtm::comp::phased_first_deadline(5'000'000, -1, 2'000'000), std::invalid_argument);
-  EXPECT_EQ(rtm::comp::phased_first_deadline(5'000'000, 0, 2'000'000), 5'000'000);
+  EXPECT_THROW(rtm::phased_first_deadline(5'000'000, 2'000'000, 2'000'000), std::invalid_argument);
+  EXPECT_THROW(rtm::phased_first_deadline(5'000'000, -1, 2'000'000), std::invalid_argument);
+  EXPECT_EQ(rtm::phased_first_deadline(5'000'000, 0, 2'000'000), 5'000'000);
 }
 
 // ---- the shared tick running the bus master's cycle -------------------------------------
@@ -316,27 +338,29 @@ bool BusLog::transmit(std::int64_t) {
   return true;
 }
 
-std::unique_ptr<rtm::comp::SharedTickServo> make_shared_servo(const std::string& name, BusLog& log,
-                                                              rtm::TickStage* bus, rtm::comp::TickPhase phase = {}) {
+std::unique_ptr<rtm::TickedComposite> make_shared_servo(const std::string& name, BusLog& log, rtm::TickStage* bus,
+                                                       rtm::TickPhase phase = {}) {
   auto source = std::make_unique<FakeWristSource>();
   source->sample.q_rad = {0, 0.360534478941, 0, 1.828143726078, 0, 0.952914448571, 0};
   source->sample.sequence = 1;
   source->sample.valid = true;
   rtm::comp::ControllerParams gains;
   rtm::comp::ActuatorParams limits;
-  return std::make_unique<rtm::comp::SharedTickServo>(
-      name,
-      std::make_unique<rtm::comp::Sensor>(name + "_sensor", std::move(source),
-                                          rtm::pa10::Kinematics::pa10()),
-      std::make_unique<rtm::comp::Controller>(name + "_controller", gains),
-      std::make_unique<rtm::comp::Actuator>(name + "_actuator", logging_arm(log), limits),
-      rtm::PeriodicOptions{}, std::move(phase), bus);
+  std::vector<std::unique_ptr<rtm::Component>> members;
+  members.push_back(
+      std::make_unique<rtm::comp::Sensor>(name + "_sensor", std::move(source), rtm::pa10::Kinematics::pa10()));
+  members.push_back(std::make_unique<rtm::comp::Controller>(name + "_controller", gains));
+  members.push_back(std::make_unique<rtm::comp::Actuator>(name + "_actuator", logging_arm(log), limits));
+  return std::make_unique<rtm::TickedComposite>(
+      name, "servo",
+      rtm::comp::servo_diagram(name, name + "_sensor", name + "_controller", name + "_actuator", true),
+      std::move(members), rtm::PeriodicOptions{}, std::move(phase), bus);
 }
 
 // As rtm-servo runs it: a shared-tick servo on the logging bus whose own servant runs last in
 // the tick and reports its members; activated.
 struct ServoInTick {
-  rtm::comp::SharedTickServo* shared = nullptr;
+  rtm::TickedComposite* shared = nullptr;
   PortableServer::Servant_var<rtm::ComponentServant> servo;
   RTM::RtComponentEx_var ref;
   ServoInTick(const std::string& name, BusLog& log) {
@@ -358,7 +382,7 @@ TEST(SharedTickBusCycle, EachTickReceivesThenCommandsThenTransmitsFromTheDeadlin
   BusLog log;
   auto servo = make_shared_servo("servo_bus", log, &log);
   servo->activate_members(test_orb());
-  ASSERT_TRUE(servo->runs_bus_cycle());
+  ASSERT_TRUE(servo->runs_stage());
   servo->on_start();
   wait_for_transmits(log, 10);
   servo->on_stop();
@@ -382,14 +406,14 @@ TEST(SharedTickBusCycle, EachTickReceivesThenCommandsThenTransmitsFromTheDeadlin
   const std::int64_t period_ns = servo->tick().options().period_ns;
   EXPECT_EQ((log.hand_backs[0] - log.take_over_ns) % period_ns, 0);
   EXPECT_GE(log.hand_backs[0], log.take_over_ns + transmits * period_ns);
-  EXPECT_EQ(servo->actuator().current_state(), RTM::COMPONENT_OFF);
+  EXPECT_EQ(servo->member("servo_bus_actuator").current_state(), RTM::COMPONENT_OFF);
 }
 
 TEST(SharedTickBusCycle, AFailingActuatorPutsTheServoInErrorAndHandsTheBusBackAfterItsZeroCommandLeft) {
   BusLog log;
   log.fail_on_order = 4;
   ServoInTick in_tick("servo_fail", log);
-  rtm::comp::SharedTickServo* shared = in_tick.shared;
+  rtm::TickedComposite* shared = in_tick.shared;
   rtm::ComponentServant* servo = in_tick.servo.in();
   servo->on();
   // Each half is checked below.
@@ -398,7 +422,7 @@ TEST(SharedTickBusCycle, AFailingActuatorPutsTheServoInErrorAndHandsTheBusBackAf
   ASSERT_EQ(servo->current_state(), RTM::COMPONENT_ERROR) << "the servo must not stay on with a failed member";
   EXPECT_NE(servo->error_text().find("servo_fail_actuator failed"), std::string::npos) << servo->error_text();
   EXPECT_FALSE(shared->tick().running());
-  EXPECT_EQ(shared->actuator().current_state(), RTM::COMPONENT_ERROR);
+  EXPECT_EQ(shared->member("servo_fail_actuator").current_state(), RTM::COMPONENT_ERROR);
   // The failing cycle still transmits (the actuator's on_stop set zero), then the cycles go
   // back once, due one period after that cycle: the drives miss no SYNC.
   EXPECT_EQ(log.transmits.load(), 5);
@@ -451,10 +475,10 @@ TEST(SharedTickBusCycle, CyclesTakenBackByTheBusMasterAreTakenAgainFromTheDeadli
 
 TEST(SharedTickBusCycle, ABusCycleWithAPhaseReferenceIsRefused) {
   BusLog log;
-  rtm::comp::TickPhase phase;
+  rtm::TickPhase phase;
   phase.next_reference_deadline_ns = [] { return std::int64_t{0}; };
   EXPECT_THROW(make_shared_servo("servo_both", log, &log, phase), std::invalid_argument);
-  EXPECT_FALSE(make_shared_servo("servo_plain", log, nullptr)->runs_bus_cycle());
+  EXPECT_FALSE(make_shared_servo("servo_plain", log, nullptr)->runs_stage());
 }
 
 }  // namespace

@@ -3,7 +3,8 @@
 # The project's layering, checked on its #include lines (see docs/architecture.md):
 #   src/         the framework core: no robot code (arm/, sim/, components/), no tools/, and
 #                nothing of host/ (it keeps hooks that host/ fills)
-#   host/        the runner, access screen, TLS and leases: no robot code, no tools/
+#   host/        the runner, composites, access screen, TLS and leases: no robot code, no
+#                tools/
 #   src/rt/      the real-time base under everything: no CORBA (nor the core), no robot code
 #   arm/         the arm and CAN library: no CORBA (omniORB, the IDL stubs, the core rtm/),
 #                no simulator, no component
@@ -15,7 +16,8 @@
 #                serve/ (rtm serve): the browser and the launcher, not the scaffold
 #                scaffold/ (rtm new): writes files, asks nothing of a running system
 #                rtm/ (the command line) is on no other room's include path
-#   components/  included only by components (a composite includes its members) and tests;
+#   components/  included only by components (a composite's executable makes its members)
+#                and tests;
 #                a component's logic (all but its main.cpp) stands on the core: no host/
 #   bench/       tests' code only through tests/support's libraries (rtm_test/...)
 # usage: check_includes.sh SOURCE_DIR   prints each violation as file:line: rule: the #include;
