@@ -1,33 +1,67 @@
 // SPDX-License-Identifier: Apache-2.0
-// rtm-sensor: the wrist force/torque sensor as an RT component (paper Fig. 5). A passive
-// listener on the arm's bus: it reads the wrist sensor's TPDOs and the drives' joint
-// positions, and writes the wrench in the arm's base frame to out0 each cycle. A heartbeat
-// loss of the sensor node is waited out for --recovery-timeout-periods cycles, writing nothing.
+// rtm-sensor and rtm-joystick: a force/torque sensor of the arm's bus as an RT component, the
+// wrist's (paper Fig. 5) or the operator's joystick (the reference generator). Both are this
+// file: rtm-joystick is built with RTM_SENSOR_JOYSTICK and reads the joystick node; rtm-sensor
+// reads the node --node names (default the wrist). A passive listener: it reads the node's
+// TPDOs (the wrist sensor: and the drives' joint positions, to turn the wrench into the arm's
+// base frame) and writes each new wrench to out0. A heartbeat loss of the node is waited out
+// for --recovery-timeout-periods cycles, writing nothing.
 #include "components/sensor/sensor.h"
 
 #include "arm/can/bus_options.h"
 #include "host/runner.h"
 
+#include <string>
+
+namespace {
+
+namespace pc = rtm::can;
+
+#ifdef RTM_SENSOR_JOYSTICK
+constexpr bool kJoystickOnly = true;
+#else
+constexpr bool kJoystickOnly = false;
+#endif
+
+}  // namespace
+
 int main(int argc, char** argv) {
-  rtm::can::BusOptions buses;
+  pc::BusOptions buses;
+  std::string node_name = kJoystickOnly ? "joystick" : "wrist";
   std::string urdf;  // "" = the arm library's built-in PA10 model
   rtm::comp::SensorParams params;
   return rtm::run_component(argc, argv, {
-      .kind = "sensor",
+      .kind = kJoystickOnly ? "joystick" : "sensor",
       .description =
-          "rtm-sensor: wrist F/T sensor; out0 = TimedFloat6 wrench on the tool, base frame "
-          "(Fx Fy Fz N, Tx Ty Tz N·m; pressing on the table reads +Fz)",
+          kJoystickOnly
+              ? "rtm-joystick: force-sensor joystick (reference generator, node 0x11); out0 = TimedFloat6 operator "
+                "force, base-aligned frame (Fx Fy Fz N, Tx Ty Tz N·m; pushing down reads -Fz)"
+              : "rtm-sensor: a force/torque sensor of the arm's bus; out0 = TimedFloat6 wrench in the base frame "
+                "(Fx Fy Fz N, Tx Ty Tz N·m): --node wrist (0x10, the default), the wrench on the tool (pressing on "
+                "the table reads +Fz), or --node joystick (0x11), the operator's force (as rtm-joystick)",
       .add_options =
           [&](CLI::App& app) {
             buses.add_options(app);
-            app.add_option("--urdf", urdf, "arm model URDF, for the sensor frame's orientation (default: the built-in PA10 model)");
+            if (!kJoystickOnly) {
+              app.add_option("--node", node_name, "which force sensor: wrist (0x10) or joystick (0x11)")
+                  ->check(CLI::IsMember({"wrist", "joystick"}))
+                  ->capture_default_str();
+              app.add_option("--urdf", urdf,
+                             "arm model URDF, for the wrist sensor frame's orientation (default: the built-in PA10 "
+                             "model)");
+            }
             rtm::add_parameter_options(app, rtm::comp::sensor_parameters(), params);
           },
       .validate = [&](const rtm::RunSettings&) { params.validate(); },
       .create =
-          [&](const rtm::RunSettings& settings) {
-            return std::make_unique<rtm::comp::Sensor>(
-                settings.name, std::make_unique<rtm::comp::BusWristSource>(buses.bus, buses.sensor_bus),
+          [&](const rtm::RunSettings& settings) -> std::unique_ptr<rtm::Component> {
+            if (node_name == "joystick")
+              return rtm::comp::Sensor::joystick(
+                  settings.name, std::make_unique<rtm::comp::BusForceSource>(buses.sensors(), pc::ForceSensor::joystick),
+                  params);
+            return rtm::comp::Sensor::wrist(
+                settings.name,
+                std::make_unique<rtm::comp::BusForceSource>(buses.sensors(), pc::ForceSensor::wrist, buses.bus),
                 rtm::pa10::Kinematics::pa10(urdf), params);
           },
   });

@@ -17,7 +17,7 @@ const rtm::ParameterTable<SensorParams>& sensor_parameters() {
   static const rtm::ParameterTable<P> table{
       "sensor",
       {{"recovery_timeout_periods", &P::recovery_timeout_periods, "cycles",
-        "cycles a heartbeat loss of the F/T node may last before the component goes to error",
+        "cycles a heartbeat loss of the sensor node may last before the component goes to error",
         rtm::ParameterAccess::when_off, rtm::between(1, P::kMaxRecoveryTimeoutPeriods)}}};
   return table;
 }
@@ -31,13 +31,41 @@ std::array<double, 6> wrench_sensor_to_base(const Eigen::Matrix3d& rotation_base
   return {force.x(), force.y(), force.z(), torque.x(), torque.y(), torque.z()};
 }
 
-Sensor::Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm::pa10::Kinematics kinematics,
-               SensorParams params)
-    : Component(std::move(name), "sensor"), source_(std::move(source)), kinematics_(std::move(kinematics)),
-      params_(params) {
-  if (!source_) throw std::invalid_argument("Sensor " + this->name() + ": no wrist sample source");
+namespace {
+
+bool is_wrist(rtm::can::ForceSensor node) { return node == rtm::can::ForceSensor::wrist; }
+
+}  // namespace
+
+std::unique_ptr<Sensor> Sensor::wrist(std::string name, std::unique_ptr<ForceSource> source,
+                                      rtm::pa10::Kinematics kinematics, SensorParams params) {
+  return std::make_unique<Sensor>(std::move(name), rtm::can::ForceSensor::wrist, std::move(source),
+                                  std::move(kinematics), params);
+}
+
+std::unique_ptr<Sensor> Sensor::joystick(std::string name, std::unique_ptr<ForceSource> source, SensorParams params) {
+  return std::make_unique<Sensor>(std::move(name), rtm::can::ForceSensor::joystick, std::move(source), std::nullopt,
+                                  params);
+}
+
+Sensor::Sensor(std::string name, rtm::can::ForceSensor node, std::unique_ptr<ForceSource> source,
+               std::optional<rtm::pa10::Kinematics> kinematics, SensorParams params)
+    : Component(std::move(name), is_wrist(node) ? "sensor" : "joystick"),
+      node_(node),
+      source_(std::move(source)),
+      kinematics_(is_wrist(node) ? std::move(kinematics) : std::nullopt),
+      params_(params),
+      out_(is_wrist(node) ? add_out_port<RTM::TimedFloat6>(
+                                "wrench", {"wrench the world exerts on the tool, base frame", rtm::wrench_elements()})
+                          : add_out_port<RTM::TimedFloat6>(
+                                "reference", {"reference wrench: the operator's force, base frame",
+                                              rtm::wrench_elements()})) {
+  if (!source_) throw std::invalid_argument("Sensor " + this->name() + ": no force source");
+  if (is_wrist(node) && !kinematics_)
+    throw std::invalid_argument("Sensor " + this->name() + ": the wrist sensor needs the arm's kinematics");
   params_.validate();
-  set_description("wrist force/torque sensor: the wrench on the tool in the arm's base frame");
+  set_description(is_wrist(node) ? "wrist force/torque sensor: the wrench on the tool in the arm's base frame"
+                                 : "force-sensor joystick: the operator's force is the reference wrench");
   add_counters(counters_);
   add_parameters(sensor_parameters(), params_live_);
 }
@@ -52,11 +80,13 @@ void Sensor::on_start() {
   lost_flag_.store(false, std::memory_order_relaxed);
 }
 
-void Sensor::write(const WristSample& sample) {
+void Sensor::write(const ForceSample& sample) {
   last_sequence_ = sample.sequence;
-  for (int j = 0; j < rtm::pa10::kJointCount; ++j) q_rad_[j] = sample.q_rad[static_cast<std::size_t>(j)];
-  const Eigen::Isometry3d tool = kinematics_.tool_pose(q_rad_);
-  const auto wrench_base = wrench_sensor_to_base(tool.linear(), sample.wrench_sensor);
+  std::array<double, 6> wrench_base = sample.wrench_sensor;  // the joystick's frame is base-aligned
+  if (kinematics_) {
+    for (int j = 0; j < rtm::pa10::kJointCount; ++j) q_rad_[j] = sample.q_rad[static_cast<std::size_t>(j)];
+    wrench_base = wrench_sensor_to_base(kinematics_->tool_pose(q_rad_).linear(), sample.wrench_sensor);
+  }
   for (CORBA::ULong i = 0; i < 6; ++i) datum_.val[i] = static_cast<float>(wrench_base[i]);
   datum_.tm = rtm::now();
   out_.write(datum_);
@@ -98,10 +128,9 @@ void Sensor::give_up(std::int64_t period_ns) const {
 }
 
 void Sensor::on_cycle(const rtm::CycleContext& ctx) {
-  const WristSample sample = source_->latest();
-  const bool fresh = sample.valid && sample.sequence != last_sequence_;
+  const ForceSample sample = source_->latest();
   if (!lost_) {
-    if (fresh) {
+    if (fresh(sample)) {
       write(sample);
       return;
     }
@@ -123,7 +152,7 @@ void Sensor::on_cycle(const rtm::CycleContext& ctx) {
     if (fault.kind != FaultKind::none && fault.kind != FaultKind::heartbeat_lost)
       throw std::runtime_error(fault.reason);
   }
-  if (kind == FaultKind::none && sample.valid && sample.sequence > loss_sequence_) {
+  if (kind == FaultKind::none && fresh(sample) && sample.sequence > loss_sequence_) {
     lost_ = false;
     lost_flag_.store(false, std::memory_order_relaxed);
     const std::uint64_t event = counters_.heartbeat_recoveries.add();

@@ -125,8 +125,9 @@ std::unique_ptr<rtm::TickedComposite> make_shared_tick_servo(ServoOptions& o, co
     phase.lead_ns = static_cast<std::int64_t>(o.tick_lead_us * 1000);
   }
   std::vector<std::unique_ptr<rtm::Component>> members;
-  members.push_back(std::make_unique<rtm::comp::Sensor>(o.sensor, std::make_unique<rtm::comp::MasterWristSource>(*master),
-                                                        rtm::pa10::Kinematics::pa10(o.hardware.urdf)));
+  members.push_back(rtm::comp::Sensor::wrist(
+      o.sensor, std::make_unique<rtm::comp::MasterForceSource>(*master, rtm::can::ForceSensor::wrist),
+      rtm::pa10::Kinematics::pa10(o.hardware.urdf)));
   members.push_back(std::make_unique<rtm::comp::Controller>(o.controller, o.controller_params));
   members.push_back(std::make_unique<rtm::comp::Actuator>(o.actuator, std::move(arm), o.actuator_params));
   auto servo = std::make_unique<rtm::TickedComposite>(

@@ -5,7 +5,6 @@
 // operator's hand is a profile file given to pa10-sim. Everything is measured in bus time.
 #include "components/actuator/actuator.h"
 #include "components/controller/controller.h"
-#include "components/joystick/joystick.h"
 #include "components/sensor/sensor.h"
 
 #include "component_test_support.h"
@@ -48,10 +47,10 @@ class ClosedLoopTest : public ::testing::Test {
     options.run_master_thread = false;
     auto hardware = std::make_unique<rtm::pa10::ArmHardware>(options);
     hardware_ = hardware.get();
-    joystick_ = std::make_unique<rtm::comp::Joystick>(
-        "joystick0", std::make_unique<rtm::comp::MasterJoystickSource>(hardware_->master()));
-    sensor_ = std::make_unique<rtm::comp::Sensor>(
-        "sensor0", std::make_unique<rtm::comp::MasterWristSource>(hardware_->master()),
+    joystick_ = rtm::comp::Sensor::joystick(
+        "joystick0", std::make_unique<rtm::comp::MasterForceSource>(hardware_->master(), rtm::can::ForceSensor::joystick));
+    sensor_ = rtm::comp::Sensor::wrist(
+        "sensor0", std::make_unique<rtm::comp::MasterForceSource>(hardware_->master(), rtm::can::ForceSensor::wrist),
         rtm::pa10::Kinematics::pa10());
     controller_ = std::make_unique<rtm::comp::Controller>("controller0", controller_params);
     actuator_ = std::make_unique<rtm::comp::Actuator>("actuator0", std::move(hardware), rtm::comp::ActuatorParams{});
@@ -108,7 +107,7 @@ class ClosedLoopTest : public ::testing::Test {
   std::string bus_spec_;
   std::unique_ptr<rtm_test::ChildProcess> sim_;
   rtm::pa10::ArmHardware* hardware_ = nullptr;
-  std::unique_ptr<rtm::comp::Joystick> joystick_;
+  std::unique_ptr<rtm::comp::Sensor> joystick_;
   std::unique_ptr<rtm::comp::Sensor> sensor_;
   std::unique_ptr<rtm::comp::Controller> controller_;
   std::unique_ptr<rtm::comp::Actuator> actuator_;

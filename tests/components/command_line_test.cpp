@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The component executables' command lines: the controller's and the actuator's parameters are
 // registered once, by their parameter structs, so rtm-servo offers the same options with the
-// same checks; a bad value is refused with exit status 2 naming it, before anything starts.
+// same checks; a bad value is refused with exit status 2 naming it, before anything starts. The
+// force sensor is one component for both nodes: rtm-joystick is rtm-sensor on the joystick's.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -120,6 +121,22 @@ TEST(ComponentCommandLine, TheServoRefusesATickLeadWithoutTheMasterRunningTheBus
   const auto r = run({RTM_SERVO_EXE, "--shared-tick", "--tick-lead-us", "50"});
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("--tick-lead-us: applies to --bus-cycle master only"), std::string::npos) << r.output;
+}
+
+TEST(ComponentCommandLine, TheSensorsNodeIsOneOfTheTwoAndTheJoystickIsTheSensorOnItsNode) {
+  const auto bad = run({RTM_SENSOR_EXE, "--node", "elbow", "--bus", "local:/nonexistent/dir/bus"});
+  EXPECT_EQ(bad.code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("--node: elbow not in {wrist,joystick}"), std::string::npos) << bad.output;
+  EXPECT_EQ(bad.output.find("/nonexistent/dir/bus"), std::string::npos) << "the bus was opened:\n" << bad.output;
+  const auto sensor = run({RTM_SENSOR_EXE, "--help"});
+  const auto joystick = run({RTM_JOYSTICK_EXE, "--help"});
+  ASSERT_EQ(sensor.code, 0) << sensor.output;
+  ASSERT_EQ(joystick.code, 0) << joystick.output;
+  EXPECT_NE(help_entry(sensor.output, "--node"), "");
+  EXPECT_EQ(help_entry(joystick.output, "--node"), "") << "rtm-joystick reads the joystick's node only";
+  EXPECT_NE(help_entry(joystick.output, "--recovery-timeout-periods"), "");
+  EXPECT_EQ(help_entry(joystick.output, "--recovery-timeout-periods"),
+            help_entry(sensor.output, "--recovery-timeout-periods"));
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// The Sensor component's fault policy with its real bus source (BusWristSource: SensorListener
+// The Sensor component's fault policy with its real bus source (BusForceSource: SensorListener
 // and JointListener) against pa10-sim's CAN nodes (tests/support/rtm_test/can/emulated_pa10.h: the simulator's
 // own ForceSensorDevice and DriveDevices, in lock-step) on the user-space bus. The test is the
 // bus master: NMT start, then one SYNC per step. The wrist sensor node is cut off the bus as a
@@ -50,7 +50,7 @@ struct SensorOnTheBus {
   std::string spec = "local:" + dir.file("bus");
   std::unique_ptr<pc::Bus> master_side;  // the test as the bus master: NMT and SYNC
   std::unique_ptr<pc::testing::EmulatedPa10> nodes;
-  rtm::comp::BusWristSource* source = nullptr;  // owned by the sensor
+  rtm::comp::BusForceSource* source = nullptr;  // owned by the sensor
   std::unique_ptr<rtm::comp::Sensor> sensor;
   std::uint8_t sync_counter = 0;
   std::uint64_t n = 0;
@@ -60,10 +60,9 @@ struct SensorOnTheBus {
     const pc::FrameFilter nothing[] = {{0x7ff, 0x7ff}};
     master_side = pc::open_bus(spec, nothing);
     // Listening before the nodes power on, so the wrist's boot-up message counts as heard.
-    auto bus_source = std::make_unique<rtm::comp::BusWristSource>(spec, "");
+    auto bus_source = std::make_unique<rtm::comp::BusForceSource>(spec, pc::ForceSensor::wrist, spec);
     source = bus_source.get();
-    sensor = std::make_unique<rtm::comp::Sensor>("sensor0", std::move(bus_source), rtm::pa10::Kinematics::pa10(),
-                                                 params);
+    sensor = rtm::comp::Sensor::wrist("sensor0", std::move(bus_source), rtm::pa10::Kinematics::pa10(), params);
     nodes = std::make_unique<pc::testing::EmulatedPa10>(spec);
     nodes->set_wrench(pc::ForceSensor::wrist, {0, 0, -10, 0, 0, 0});
     master_side->send(*pc::encode_nmt(pc::NmtCommand::start, pc::kNmtAllNodes));
@@ -251,7 +250,8 @@ TEST(SensorRecoverySharedTick, TheMastersWristHeartbeatLossIsTheSensorsAndClears
   rig.master->start();
   rtm::comp::SensorParams params;
   params.recovery_timeout_periods = rtm::comp::SensorParams::kMaxRecoveryTimeoutPeriods;  // never the limit here
-  rtm::comp::Sensor sensor("sensor0", std::make_unique<rtm::comp::MasterWristSource>(*rig.master),
+  rtm::comp::Sensor sensor("sensor0", pc::ForceSensor::wrist,
+                           std::make_unique<rtm::comp::MasterForceSource>(*rig.master, pc::ForceSensor::wrist),
                            rtm::pa10::Kinematics::pa10(), params);
   sensor.on_start();
   std::uint64_t n = 0;
@@ -317,9 +317,10 @@ TEST(SensorParams, ARecoveryBudgetOfZeroCyclesIsRefusedNamingIt) {
   // The component refuses it before it listens to anything.
   pc::testing::TempDir dir;
   pc::LocalHub hub(dir.file("bus"));
-  EXPECT_THROW(rtm::comp::Sensor("sensor0",
-                                 std::make_unique<rtm::comp::BusWristSource>("local:" + dir.file("bus"), ""),
-                                 rtm::pa10::Kinematics::pa10(), zero),
+  const std::string spec = "local:" + dir.file("bus");
+  EXPECT_THROW(rtm::comp::Sensor::wrist("sensor0",
+                                        std::make_unique<rtm::comp::BusForceSource>(spec, pc::ForceSensor::wrist, spec),
+                                        rtm::pa10::Kinematics::pa10(), zero),
                std::invalid_argument);
 
   // The command line (rtm-sensor --recovery-timeout-periods) checks the same range.
@@ -338,7 +339,9 @@ TEST(SensorParams, ARecoveryBudgetOfZeroCyclesIsRefusedNamingIt) {
 TEST(SensorParams, TheRecoveryBudgetIsAParameterSetWhileOffInRange) {
   pc::testing::TempDir dir;
   pc::LocalHub hub(dir.file("bus"));
-  rtm::comp::Sensor sensor("sensor0", std::make_unique<rtm::comp::BusWristSource>("local:" + dir.file("bus"), ""),
+  const std::string spec = "local:" + dir.file("bus");
+  rtm::comp::Sensor sensor("sensor0", pc::ForceSensor::wrist,
+                           std::make_unique<rtm::comp::BusForceSource>(spec, pc::ForceSensor::wrist, spec),
                            rtm::pa10::Kinematics::pa10());
   const rtm::Parameter& p = comp_test::parameter(sensor, "recovery_timeout_periods");
   EXPECT_EQ(p.access, rtm::ParameterAccess::when_off);

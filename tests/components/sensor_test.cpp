@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
-// The wrist Sensor component without CORBA: the frame change to the base frame, one datum per
-// new wrench, fresh stamps, and source faults (the heartbeat-loss recovery against the
-// simulator's sensor node is in sensor_recovery_test.cpp).
+// The force-sensor component without CORBA, on the wrist's node: the frame change to the base
+// frame, one datum per new wrench, fresh stamps, and source faults (the heartbeat-loss recovery
+// against the simulator's sensor node is in sensor_recovery_test.cpp); on the joystick's node:
+// the operator's force passes unchanged (its frame is base-aligned) under the same rules.
 #include "components/sensor/sensor.h"
 
 #include "component_test_support.h"
-#include "rtm_test/fake_wrist_source.h"
+#include "rtm_test/fake_force_source.h"
 
 #include <gtest/gtest.h>
 
@@ -21,24 +22,20 @@ using comp_test::values;
 // The "ready" keyframe of sim/models/pa10_scene.xml: tool pointing straight down.
 constexpr std::array<double, 7> kReadyPose_rad{0, 0.360534478941, 0, 1.828143726078, 0, 0.952914448571, 0};
 
-using rtm_test::FakeWristSource;
+using rtm_test::FakeForceSource;
 
 rtm::pa10::Kinematics model() { return rtm::pa10::Kinematics::pa10(); }
 
 struct SensorUnderTest {
-  FakeWristSource* source = nullptr;
+  FakeForceSource* source = nullptr;
   std::unique_ptr<rtm::comp::Sensor> sensor;
   SensorUnderTest() {
-    auto fake = std::make_unique<FakeWristSource>();
+    auto fake = std::make_unique<FakeForceSource>();
     source = fake.get();
     source->sample.q_rad = kReadyPose_rad;
-    sensor = std::make_unique<rtm::comp::Sensor>("sensor0", std::move(fake), model());
+    sensor = rtm::comp::Sensor::wrist("sensor0", std::move(fake), model());
   }
-  void new_wrench(std::array<double, 6> w) {
-    source->sample.wrench_sensor = w;
-    source->sample.valid = true;
-    ++source->sample.sequence;
-  }
+  void new_wrench(std::array<double, 6> w) { source->push(w); }
 };
 
 TEST(SensorFrame, RotationTurnsForceAndTorqueIntoTheBaseFrame) {
@@ -137,11 +134,144 @@ TEST(Sensor, AfterAHeartbeatLossOnlyAWrenchNewerThanTheLossIsWritten) {
 
 TEST(Sensor, MissingSourceIsRefusedWithTheComponentName) {
   try {
-    rtm::comp::Sensor sensor("wrist7", nullptr, model());
+    rtm::comp::Sensor::wrist("wrist7", nullptr, model());
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("wrist7"), std::string::npos);
   }
+}
+
+TEST(Sensor, TheWristWritesNothingUntilTheJointsAreHeardAndNeedsTheArmModel) {
+  SensorUnderTest t;
+  t.sensor->on_start();
+  t.new_wrench({0, 0, -10, 0, 0, 0});
+  t.source->sample.q_valid = false;  // no SYNC answered by every drive yet
+  t.sensor->on_cycle(cycle(0));
+  EXPECT_EQ(t.sensor->counters().samples, 0u) << "a wrench in a frame it cannot turn";
+  t.source->sample.q_valid = true;
+  t.sensor->on_cycle(cycle(1));
+  EXPECT_EQ(t.sensor->counters().samples, 1u);
+  try {
+    rtm::comp::Sensor("wrist8", rtm::can::ForceSensor::wrist, std::make_unique<FakeForceSource>(), std::nullopt);
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("wrist8: the wrist sensor needs the arm's kinematics"), std::string::npos)
+        << e.what();
+  }
+}
+
+// ---- the same component on the joystick's node ----------------------------------------------
+
+struct JoystickUnderTest {
+  FakeForceSource* source = nullptr;
+  std::unique_ptr<rtm::comp::Sensor> joystick;
+  JoystickUnderTest() {
+    auto fake = std::make_unique<FakeForceSource>();
+    source = fake.get();
+    joystick = rtm::comp::Sensor::joystick("joystick0", std::move(fake));
+  }
+  void push(std::array<double, 6> w) {
+    source->push(w);
+    source->sample.q_valid = false;  // its frame needs no joints
+  }
+  void fault(rtm::can::FaultKind kind, std::string why) { source->why = {kind, rtm::can::kJoystickSensorNode, 0, why}; }
+};
+
+TEST(SensorAsJoystick, IsTheJoystickKindWritingItsReferencePort) {
+  JoystickUnderTest t;
+  EXPECT_EQ(t.joystick->kind(), "joystick");
+  EXPECT_EQ(t.joystick->node(), rtm::can::ForceSensor::joystick);
+  ASSERT_EQ(t.joystick->out_ports().size(), 1u);
+  EXPECT_EQ(t.joystick->out_ports()[0]->full_name(), "joystick0.reference");
+  SensorUnderTest wrist;
+  EXPECT_EQ(wrist.sensor->kind(), "sensor");
+  EXPECT_EQ(wrist.sensor->out_ports()[0]->full_name(), "sensor0.wrench");
+}
+
+TEST(SensorAsJoystick, OperatorPushingDownIsADownwardReferenceUnchanged) {
+  JoystickUnderTest t;
+  t.joystick->on_start();
+  t.push({0.5, -1.5, -10, 0.1, 0, -0.2});
+  t.joystick->on_cycle(cycle(0));
+  RTM::TimedFloat6 out{};
+  ASSERT_TRUE(t.joystick->out().latest(out));
+  const std::array<float, 6> expected{0.5f, -1.5f, -10.0f, 0.1f, 0.0f, -0.2f};
+  EXPECT_EQ(values(out), expected);
+}
+
+TEST(SensorAsJoystick, WritesOnlyNewReadings) {
+  JoystickUnderTest t;
+  t.joystick->on_start();
+  t.joystick->on_cycle(cycle(0));
+  EXPECT_EQ(t.joystick->counters().samples, 0u) << "nothing read yet";
+  t.push({1, 0, 0, 0, 0, 0});
+  t.joystick->on_cycle(cycle(1));
+  t.joystick->on_cycle(cycle(2));
+  EXPECT_EQ(t.joystick->counters().samples, 1u);
+  t.push({2, 0, 0, 0, 0, 0});
+  t.joystick->on_cycle(cycle(3));
+  EXPECT_EQ(t.joystick->counters().samples, 2u);
+}
+
+TEST(SensorAsJoystick, SourceFaultThrowsTheReason) {
+  JoystickUnderTest t;
+  t.joystick->on_start();
+  t.fault(rtm::can::FaultKind::emergency, "joystick sensor 0x11: EMCY 0x7300");
+  try {
+    t.joystick->on_cycle(cycle(0));
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "joystick sensor 0x11: EMCY 0x7300");
+  }
+}
+
+// A silent joystick node (the simulator's process stalled) is waited out: nothing is written
+// meanwhile, not even a wrench read before the loss; heard again with a newer one, the
+// joystick writes again, the loss and the recovery counted once each.
+TEST(SensorAsJoystick, AHeartbeatGapIsWaitedOutAndTheJoystickWritesAgainWhenHeard) {
+  JoystickUnderTest t;
+  t.joystick->on_start();
+  t.push({1, 0, 0, 0, 0, 0});
+  t.joystick->on_cycle(cycle(0));
+  ASSERT_EQ(t.joystick->counters().samples, 1u);
+  t.fault(rtm::can::FaultKind::heartbeat_lost, "joystick sensor 0x11: no heartbeat for 301 ms");
+  for (int i = 1; i < 50; ++i) EXPECT_NO_THROW(t.joystick->on_cycle(cycle(i))) << i;
+  EXPECT_EQ(t.joystick->counters().heartbeat_losses, 1u);
+  t.fault(rtm::can::FaultKind::none, "");
+  t.joystick->on_cycle(cycle(50));
+  EXPECT_EQ(t.joystick->counters().samples, 1u) << "heard again, but no new wrench yet";
+  t.push({-2, 0, 0, 0, 0, 0});
+  t.joystick->on_cycle(cycle(51));
+  EXPECT_EQ(t.joystick->counters().samples, 2u);
+  EXPECT_EQ(t.joystick->counters().heartbeat_recoveries, 1u);
+  RTM::TimedFloat6 out{};
+  ASSERT_TRUE(t.joystick->out().latest(out));
+  EXPECT_EQ(out.val[0], -2.0f);
+}
+
+TEST(SensorAsJoystick, AHeartbeatGapLongerThanTheBudgetIsAnError) {
+  JoystickUnderTest t;
+  t.joystick->on_start();
+  t.fault(rtm::can::FaultKind::heartbeat_lost, "joystick sensor 0x11: no heartbeat for 301 ms");
+  const std::uint32_t budget = rtm::comp::SensorParams{}.recovery_timeout_periods;
+  std::uint64_t n = 0;
+  for (; n < budget; ++n) ASSERT_NO_THROW(t.joystick->on_cycle(cycle(n))) << n;
+  try {
+    t.joystick->on_cycle(cycle(n));
+    FAIL() << "no error after the budget";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("joystick sensor 0x11: no heartbeat for 301 ms: not back within the "
+                                         "recovery budget of 1000 cycles"),
+              std::string::npos)
+        << e.what();
+  }
+  // Another fault while the node is silent is no stall: thrown at once.
+  JoystickUnderTest other;
+  other.joystick->on_start();
+  other.fault(rtm::can::FaultKind::heartbeat_lost, "joystick sensor 0x11: no heartbeat for 301 ms");
+  other.joystick->on_cycle(cycle(0));
+  other.fault(rtm::can::FaultKind::emergency, "joystick sensor 0x11: EMCY 0x7300");
+  EXPECT_THROW(other.joystick->on_cycle(cycle(1)), std::runtime_error);
 }
 
 }  // namespace

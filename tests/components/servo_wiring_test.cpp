@@ -16,7 +16,7 @@
 #include "rtm/orb.h"
 #include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
-#include "rtm_test/fake_wrist_source.h"
+#include "rtm_test/fake_force_source.h"
 #include "rtm_test/recording_arm.h"
 
 #include <gtest/gtest.h>
@@ -39,7 +39,7 @@ rtm::Orb& test_orb() {
   return orb;
 }
 
-using rtm_test::FakeWristSource;
+using rtm_test::FakeForceSource;
 
 using rtm_test::RecordingArm;
 
@@ -59,7 +59,7 @@ std::unique_ptr<rtm::RemoteComposite> remote_servo(const std::string& name, cons
 class ServoWiringTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    auto source = std::make_unique<FakeWristSource>();
+    auto source = std::make_unique<FakeForceSource>();
     source_ = source.get();
     // The ready pose: tool pointing down (sensor +z = base -z).
     source_->sample.q_rad = {0, 0.360534478941, 0, 1.828143726078, 0, 0.952914448571, 0};
@@ -69,9 +69,8 @@ class ServoWiringTest : public ::testing::Test {
     gains.gain = {1, 1, 1, 1, 1, 1};
     rtm::comp::ActuatorParams limits;
     limits.limit = {100, 100, 100, 100, 100, 100};
-    sensor_ = new rtm::ComponentServant(
-        std::make_unique<rtm::comp::Sensor>("sensor0", std::move(source), rtm::pa10::Kinematics::pa10()),
-        rtm::ExternalTick{});
+    sensor_ = new rtm::ComponentServant(rtm::comp::Sensor::wrist("sensor0", std::move(source), rtm::pa10::Kinematics::pa10()),
+                                        rtm::ExternalTick{});
     controller_ = new rtm::ComponentServant(std::make_unique<rtm::comp::Controller>("controller0", gains), rtm::ExternalTick{});
     actuator_ = new rtm::ComponentServant(std::make_unique<rtm::comp::Actuator>("actuator0", std::move(arm), limits),
                                           rtm::ExternalTick{});
@@ -106,7 +105,7 @@ class ServoWiringTest : public ::testing::Test {
   }
 
   rtm_test::OmniNames names_;
-  FakeWristSource* source_ = nullptr;
+  FakeForceSource* source_ = nullptr;
   RecordingArm* arm_ = nullptr;
   PortableServer::Servant_var<rtm::ComponentServant> sensor_, controller_, actuator_, servo_;
   RTM::RtComponentEx_var servo_ref_;
@@ -144,9 +143,7 @@ TEST_F(ServoWiringTest, DataFlowsFromSensorThroughControllerToTheArm) {
   CORBA::Any any;
   any <<= float6({0, 0, -10, 0, 0, 0});
   servo_ins[0]->put(any);
-  source_->sample.wrench_sensor = {0, 0, 4, 0, 0, 0};  // sensor frame: tool down, so -4 N in base z
-  source_->sample.valid = true;
-  source_->sample.sequence = 1;
+  source_->push({0, 0, 4, 0, 0, 0});  // sensor frame: tool down, so -4 N in base z
   run_members_once(0);
   ASSERT_FALSE(arm_->ordered.empty());
   EXPECT_NEAR(arm_->ordered.back()[2], 1.0 * (-10 + -4), 1e-3) << "gain * (ref + sen) reached the arm";
@@ -340,15 +337,13 @@ bool BusLog::transmit(std::int64_t) {
 
 std::unique_ptr<rtm::TickedComposite> make_shared_servo(const std::string& name, BusLog& log, rtm::TickStage* bus,
                                                        rtm::TickPhase phase = {}) {
-  auto source = std::make_unique<FakeWristSource>();
+  auto source = std::make_unique<FakeForceSource>();
   source->sample.q_rad = {0, 0.360534478941, 0, 1.828143726078, 0, 0.952914448571, 0};
-  source->sample.sequence = 1;
-  source->sample.valid = true;
+  source->push({0, 0, 0, 0, 0, 0});
   rtm::comp::ControllerParams gains;
   rtm::comp::ActuatorParams limits;
   std::vector<std::unique_ptr<rtm::Component>> members;
-  members.push_back(
-      std::make_unique<rtm::comp::Sensor>(name + "_sensor", std::move(source), rtm::pa10::Kinematics::pa10()));
+  members.push_back(rtm::comp::Sensor::wrist(name + "_sensor", std::move(source), rtm::pa10::Kinematics::pa10()));
   members.push_back(std::make_unique<rtm::comp::Controller>(name + "_controller", gains));
   members.push_back(std::make_unique<rtm::comp::Actuator>(name + "_actuator", logging_arm(log), limits));
   return std::make_unique<rtm::TickedComposite>(

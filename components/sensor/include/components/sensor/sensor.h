@@ -1,30 +1,40 @@
 // SPDX-License-Identifier: Apache-2.0
-// Sensor: the wrist force/torque sensor as an RT component (paper Fig. 5). Each cycle it takes
-// the newest wrench, turns it into the arm's base frame, stamps the time and writes it to
-// OutPort 0 ("wrench", alias "out0", RTM::TimedFloat6). Statistics: samples,
-// heartbeat_losses, heartbeat_recoveries. Parameter: recovery_timeout_periods (while off).
+// Sensor: a 6-axis force/torque sensor of the arm's bus as an RT component, one class for both
+// of the system's: the wrist sensor (paper Fig. 5) and the operator's joystick (its twin, the
+// reference generator). The node is its one difference, and it sets the rest:
 //
-// Faults of the source (WristSampleSource::fault()):
-//   - heartbeat_lost (the F/T node silent longer than its heartbeat timeout, e.g. a pulled
-//     cable): the component writes nothing (no stale or zero datum: the controller sees its
-//     input go stale, withholds its command, and the actuator's watchdog brakes; a master
-//     that watches the node itself latches its own fault, see docs/safety.md), counts the
-//     event and logs it once. When the node's heartbeat is back and a wrench newer than the
-//     loss arrives, it writes again, counting and logging the recovery once. A node not back
-//     within recovery_timeout_periods cycles of the loss puts the component in
-//     COMPONENT_ERROR with a reason naming the node and how long it was silent;
+//   node      kind      OutPort 0 (alias out0)  frame of what it writes
+//   wrist     sensor    "wrench"                base: rotated with the forward kinematics of
+//                                               the joint positions heard on the bus
+//   joystick  joystick  "reference"             base: the joystick's frame is base-aligned
+//
+// Each cycle it takes the newest wrench, stamps the time and writes it (RTM::TimedFloat6), only
+// once per wrench. Statistics: samples, heartbeat_losses, heartbeat_recoveries. Parameter:
+// recovery_timeout_periods (while off).
+//
+// Faults of the source (ForceSource::fault()):
+//   - heartbeat_lost (the node silent longer than its heartbeat timeout, e.g. a pulled cable,
+//     or the simulator's process stalled): the component writes nothing (no stale or zero
+//     datum: the controller sees its input go stale, withholds its command, and the actuator's
+//     watchdog brakes; a master that watches the node itself latches its own fault, see
+//     docs/safety.md), counts the event and logs it once. When the node's heartbeat is back
+//     and a wrench newer than the loss arrives, it writes again, counting and logging the
+//     recovery once. A node not back within recovery_timeout_periods cycles of the loss puts
+//     the component in COMPONENT_ERROR with a reason naming the node and how long it was silent;
 //   - emergency (an EMCY with a non-zero code) or bus_error: COMPONENT_ERROR at once.
 //
-// Sign and frame (what the controller's gain*(ref + sen) relies on): the value is the wrench
-// the outside world exerts on the tool, in the BASE frame (N, N·m, torque about the sensor
-// origin). Pressing the tool down on the table therefore reads +Fz (the table pushes up). The
-// sim's sensor (sim/pa10_plant.cpp, site wrist_ft) reports exactly that wrench in the sensor
-// frame, whose axes are those of the URDF's tool0 (ft_sensor_to_tool0 has no rotation); so
-// wrench_base = R_base_tool0(q) * wrench_sensor, with R from the forward kinematics of the
-// joint positions heard on the bus.
+// Sign and frame (what the controller's gain*(ref + sen) relies on): the wrist's value is the
+// wrench the outside world exerts on the tool, in the BASE frame (N, N·m, torque about the
+// sensor origin). Pressing the tool down on the table therefore reads +Fz (the table pushes
+// up). The sim's sensor (sim/pa10_plant.cpp, site wrist_ft) reports exactly that wrench in the
+// sensor frame, whose axes are those of the URDF's tool0 (ft_sensor_to_tool0 has no rotation);
+// so wrench_base = R_base_tool0(q) * wrench_sensor. The joystick reports the force the operator
+// applies to the handle, in a frame aligned with the base (sim/profiles: x forward, z up):
+// pushing the handle down reads -Fz, a downward reference; gain*(ref + sen) then drives the
+// tool down until the table's reaction (+Fz at the wrist) balances it.
 #pragma once
 
-#include "components/sensor/wrist_source.h"
+#include "components/sensor/force_source.h"
 
 #include "arm/pa10/kinematics.h"
 #include "rtm/component.h"
@@ -35,12 +45,13 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace rtm::comp {
 
 struct SensorParams {
-  // Cycles a heartbeat loss of the F/T node may last, from the moment it is seen (the node's
+  // Cycles a heartbeat loss of the node may last, from the moment it is seen (the node's
   // heartbeat timeout after its last heartbeat), before the component gives up: 1000 cycles
   // are 2 s at 2 ms.
   std::uint32_t recovery_timeout_periods = 1000;
@@ -59,9 +70,10 @@ const rtm::ParameterTable<SensorParams>& sensor_parameters();
 // What the sensor counts: each field is also the statistic of its name (`rtm cat`).
 struct SensorCounters : rtm::CounterSet {
   rtm::Counter samples{*this, "samples", "wrenches written"};
-  rtm::Counter heartbeat_losses{*this, "heartbeat_losses", "the F/T node's heartbeat went silent (nothing written meanwhile)"};
+  rtm::Counter heartbeat_losses{*this, "heartbeat_losses",
+                                "the sensor node's heartbeat went silent (nothing written meanwhile)"};
   rtm::Counter heartbeat_recoveries{*this, "heartbeat_recoveries",
-                                    "the F/T node came back with fresh wrenches in time, writing resumed"};
+                                    "the sensor node came back with fresh wrenches in time, writing resumed"};
 };
 
 // wrench_sensor (Fx Fy Fz Tx Ty Tz, sensor frame) rotated into the base frame, given the
@@ -71,10 +83,16 @@ std::array<double, 6> wrench_sensor_to_base(const Eigen::Matrix3d& rotation_base
 
 class Sensor final : public rtm::Component {
  public:
-  // kinematics: the arm model (e.g. Kinematics::pa10()), chain
+  // The wrist sensor. kinematics: the arm model (e.g. Kinematics::pa10()), chain
   // base_link -> tool0. Throws std::invalid_argument for a missing source or bad params.
-  Sensor(std::string name, std::unique_ptr<WristSampleSource> source, rtm::pa10::Kinematics kinematics,
-         SensorParams params = {});
+  static std::unique_ptr<Sensor> wrist(std::string name, std::unique_ptr<ForceSource> source,
+                                       rtm::pa10::Kinematics kinematics, SensorParams params = {});
+  // The operator's joystick. Throws std::invalid_argument for a missing source or bad params.
+  static std::unique_ptr<Sensor> joystick(std::string name, std::unique_ptr<ForceSource> source,
+                                          SensorParams params = {});
+  // kinematics: required for the wrist (std::invalid_argument without), unused for the joystick.
+  Sensor(std::string name, rtm::can::ForceSensor node, std::unique_ptr<ForceSource> source,
+         std::optional<rtm::pa10::Kinematics> kinematics, SensorParams params = {});
 
   // Writes a datum only for a wrench not written before. A source fault, asked only in a
   // cycle without a new wrench, is handled as described at the top: a heartbeat loss is
@@ -83,18 +101,24 @@ class Sensor final : public rtm::Component {
   void on_start() override;
 
   rtm::OutPort<RTM::TimedFloat6>& out() { return out_; }
+  rtm::can::ForceSensor node() const { return node_; }
   const SensorCounters& counters() const { return counters_; }
   SensorParams params() const { return params_live_.published(); }
   // In a heartbeat loss now (nothing is written).
   bool in_heartbeat_loss() const { return lost_flag_.load(std::memory_order_relaxed); }
 
  private:
-  void write(const WristSample& sample);
+  void write(const ForceSample& sample);
+  // A sample not written before, with what writing it needs (the wrist: the joints).
+  bool fresh(const ForceSample& sample) const {
+    return sample.valid && sample.sequence != last_sequence_ && (!kinematics_ || sample.q_valid);
+  }
   void begin_loss(const Fault& fault, std::int64_t period_ns);
   [[noreturn]] void give_up(std::int64_t period_ns) const;
 
-  std::unique_ptr<WristSampleSource> source_;
-  rtm::pa10::Kinematics kinematics_;
+  rtm::can::ForceSensor node_;
+  std::unique_ptr<ForceSource> source_;
+  std::optional<rtm::pa10::Kinematics> kinematics_;  // the wrist's: its frame turned into the base's
   SensorParams params_;  // as on_start() took them: recovery_timeout_periods changes only while off
   rtm::LiveValue<SensorParams> params_live_{params_};  // as `rtm set` leaves them
   std::uint32_t recovery_budget_ = params_.recovery_timeout_periods;  // the cycle's copy (on_start)
@@ -109,9 +133,7 @@ class Sensor final : public rtm::Component {
   std::string loss_reason_;
   std::atomic<bool> lost_flag_{false};
   SensorCounters counters_;
-  rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>(
-      "wrench", {"wrench the world exerts on the tool, base frame",
-                 rtm::wrench_elements()});
+  rtm::OutPort<RTM::TimedFloat6>& out_;
 };
 
 }  // namespace rtm::comp
