@@ -11,8 +11,9 @@
 
 namespace rtm::can {
 
-SensorListener::SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node, std::int64_t heartbeat_timeout_ns)
-    : bus_(std::move(bus)), node_(node), heartbeat_timeout_ns_(heartbeat_timeout_ns) {
+SensorListener::SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node, std::int64_t heartbeat_timeout_ns,
+                               const rtm::Clock& clock)
+    : bus_(std::move(bus)), node_(node), heartbeat_timeout_ns_(heartbeat_timeout_ns), clock_(clock) {
   if (!bus_) throw std::invalid_argument("SensorListener: no bus");
   if (!is_sensor_node(node)) {
     throw std::invalid_argument("SensorListener: " + node_description(node) +
@@ -33,9 +34,10 @@ std::array<FrameFilter, 2> sensor_filters(std::uint8_t node) {
 
 }  // namespace
 
-SensorListener::SensorListener(std::string_view bus_spec, ForceSensor sensor, std::int64_t heartbeat_timeout_ns)
+SensorListener::SensorListener(std::string_view bus_spec, ForceSensor sensor, std::int64_t heartbeat_timeout_ns,
+                               const rtm::Clock& clock)
     : SensorListener(open_bus(bus_spec, sensor_filters(sensor_node(sensor))), sensor_node(sensor),
-                     heartbeat_timeout_ns) {}
+                     heartbeat_timeout_ns, clock) {}
 
 SensorListener::~SensorListener() { stop(); }
 
@@ -68,7 +70,7 @@ void SensorListener::handle(const can_frame& frame, std::int64_t received_ns) {
     }
     case FrameType::heartbeat: {
       if (!decode_heartbeat(frame)) { ++counters_.malformed_frames; return; }
-      last_heartbeat_ns_ = received_ns;
+      last_heartbeat_ns_ = clock_.now_ns();
       ++counters_.heartbeats;
       return;
     }
@@ -139,12 +141,12 @@ FaultKind SensorListener::fault_kind_locked(std::int64_t now_ns) const {
 
 FaultKind SensorListener::fault_kind() const {
   std::lock_guard lock(mutex_);
-  return fault_kind_locked(monotonic_ns());
+  return fault_kind_locked(clock_.now_ns());
 }
 
 Fault SensorListener::fault() const {
   std::lock_guard lock(mutex_);
-  const std::int64_t now_ns = monotonic_ns();
+  const std::int64_t now_ns = clock_.now_ns();
   Fault f{fault_kind_locked(now_ns), node_, 0, {}};
   char text[160];
   switch (f.kind) {

@@ -25,8 +25,8 @@ Fault MasterForceSource::fault() const {
 }
 
 BusForceSource::BusForceSource(std::string_view sensor_bus_spec, pc::ForceSensor node, std::string_view drive_bus_spec,
-                               std::int64_t heartbeat_timeout_ns)
-    : wrench_(sensor_bus_spec, node, heartbeat_timeout_ns) {
+                               std::int64_t heartbeat_timeout_ns, const rtm::Clock& clock)
+    : wrench_(sensor_bus_spec, node, heartbeat_timeout_ns, clock) {
   if (!drive_bus_spec.empty()) joints_.emplace(drive_bus_spec);
   wrench_.start();
   if (joints_) joints_->start();

@@ -3,6 +3,7 @@
 // Jacobian, and the velocity IK's damping, limit handling and input checks.
 #include "arm/pa10/kinematics.h"
 #include "rtm_test/allocation_counter.h"
+#include "rtm_test/urdf.h"
 
 #include <gtest/gtest.h>
 
@@ -61,6 +62,37 @@ std::filesystem::path write_temp_file(const std::string& name, const std::string
   const std::filesystem::path path = std::filesystem::path(testing::TempDir()) / name;
   std::ofstream(path) << text;
   return path;
+}
+
+// ---- a model written inline -----------------------------------------------------------------
+
+// Seven joints about z, 0.1 m apart, the tool 0.05 m above the last, turned half about x
+// (pointing down); joint 4 turns about y instead, 0.2 m up the chain.
+std::string tower_urdf() {
+  std::vector<rtm_test::UrdfJoint> joints(7, {.xyz = {0, 0, 0.1}, .velocity_rad_s = 2});
+  joints[3].axis = {0, 1, 0};
+  joints[3].lower_rad = -0.5;
+  return rtm_test::serial_chain_urdf(joints, {0, 0, 0.05}, {kPi, 0, 0});
+}
+
+TEST(InlineModel, TheToolPoseOfAChainWrittenInlineIsWhatItsOffsetsSay) {
+  Kinematics k = Kinematics::from_urdf_string(tower_urdf(), "tower.urdf");
+  EXPECT_EQ(k.source(), "tower.urdf");
+  EXPECT_DOUBLE_EQ(k.limits().lower_rad[3], -0.5);
+  EXPECT_DOUBLE_EQ(k.limits().velocity_rad_s[0], 2.0);
+  const Eigen::Isometry3d zero = k.tool_pose(JointVector::Zero());
+  EXPECT_TRUE(zero.translation().isApprox(Eigen::Vector3d(0, 0, 0.75), 1e-12)) << zero.translation().transpose();
+  EXPECT_TRUE((zero.linear() * Eigen::Vector3d::UnitZ()).isApprox(-Eigen::Vector3d::UnitZ(), 1e-12))
+      << "the tool points down";
+  // Joint 4 (at 0.4 m, about y) tipped a quarter turn: the 0.35 m above it lie along +x.
+  JointVector q = JointVector::Zero();
+  q[3] = kPi / 2;
+  const Eigen::Isometry3d tipped = k.tool_pose(q);
+  EXPECT_TRUE(tipped.translation().isApprox(Eigen::Vector3d(0.35, 0, 0.4), 1e-12)) << tipped.translation().transpose();
+  // Joint 1 (about z) a quarter turn more: that arm now lies along +y.
+  q[0] = kPi / 2;
+  EXPECT_TRUE(k.tool_pose(q).translation().isApprox(Eigen::Vector3d(0, 0.35, 0.4), 1e-12))
+      << k.tool_pose(q).translation().transpose();
 }
 
 // ---- the model -----------------------------------------------------------------------------
@@ -183,13 +215,7 @@ TEST(Pa10ModelErrors, MissingFileGivesAnErrorNamingTheFile) {
 }
 
 TEST(Pa10ModelErrors, ChainWithoutSevenRevoluteJointsIsRejected) {
-  const std::string two_joints = R"(<robot name="short">
-    <link name="base_link"/><link name="a"/><link name="tool0"/>
-    <joint name="j1" type="revolute"><parent link="base_link"/><child link="a"/>
-      <axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
-    <joint name="j2" type="revolute"><parent link="a"/><child link="tool0"/>
-      <axis xyz="0 1 0"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
-  </robot>)";
+  const std::string two_joints = rtm_test::serial_chain_urdf({{}, {.axis = {0, 1, 0}}});
   try {
     Kinematics::from_urdf_string(two_joints, "short.urdf");
     FAIL() << "expected ModelError";

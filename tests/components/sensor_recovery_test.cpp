@@ -7,8 +7,9 @@
 //   - a heartbeat loss writes nothing, is counted once, and is recovered from when the node's
 //     heartbeat and a new wrench are back;
 //   - silence beyond the recovery budget, or an EMCY of the sensor, is COMPONENT_ERROR.
-// Heartbeat silence is measured on the wall clock (as on the real bus), so the tests wait for
-// conditions with generous deadlines; what they assert is counted in cycles, never timed.
+// Heartbeat silence is measured on a manual clock that the test moves (rtm_test::ManualClock):
+// a pulled cable's timeout passes in one step, and a node that is connected is never silent
+// however slow the machine. What they assert is counted in cycles, never timed.
 #include "components/sensor/sensor.h"
 
 #include "host/runner.h"
@@ -18,6 +19,7 @@
 #include "rtm_test/can/emulated_pa10.h"
 #include "rtm_test/can/master_rig.h"
 #include "rtm_test/eventually.h"
+#include "rtm_test/manual_clock.h"
 #include "rtm_test/can/test_paths.h"
 
 #include <CLI/CLI.hpp>
@@ -50,6 +52,7 @@ struct SensorOnTheBus {
   std::string spec = "local:" + dir.file("bus");
   std::unique_ptr<pc::Bus> master_side;  // the test as the bus master: NMT and SYNC
   std::unique_ptr<pc::testing::EmulatedPa10> nodes;
+  rtm_test::ManualClock clock;  // what the wrist node's heartbeat silence is measured on
   rtm::comp::BusForceSource* source = nullptr;  // owned by the sensor
   std::unique_ptr<rtm::comp::Sensor> sensor;
   std::uint8_t sync_counter = 0;
@@ -60,7 +63,8 @@ struct SensorOnTheBus {
     const pc::FrameFilter nothing[] = {{0x7ff, 0x7ff}};
     master_side = pc::open_bus(spec, nothing);
     // Listening before the nodes power on, so the wrist's boot-up message counts as heard.
-    auto bus_source = std::make_unique<rtm::comp::BusForceSource>(spec, pc::ForceSensor::wrist, spec);
+    auto bus_source = std::make_unique<rtm::comp::BusForceSource>(
+        spec, pc::ForceSensor::wrist, spec, rtm::comp::BusForceSource::kDefaultHeartbeatTimeout_ns, clock);
     source = bus_source.get();
     sensor = rtm::comp::Sensor::wrist("sensor0", std::move(bus_source), rtm::pa10::Kinematics::pa10(), params);
     nodes = std::make_unique<pc::testing::EmulatedPa10>(spec);
@@ -84,7 +88,7 @@ struct SensorOnTheBus {
     return eventually(
         [&] {
           const auto s = source->latest();
-          return s.valid && s.sequence > before;
+          return s.valid && s.q_valid && s.sequence > before;
         },
         kDeadline);
   }
@@ -109,15 +113,17 @@ struct SensorOnTheBus {
     ASSERT_NEAR(force_magnitude(last_datum()), 10.0, 0.02);
   }
 
-  // Cuts the wrist node off and steps (a SYNC each cycle, the drives still answering) until
-  // the sensor has seen the heartbeat loss. Nothing may be written meanwhile.
+  // Cuts the wrist node off and steps (a SYNC each cycle, the drives still answering, the
+  // clock a heartbeat timeout on) until the sensor has seen the heartbeat loss: at the latest
+  // once a heartbeat still on its way when the cable was pulled has been read. Nothing may be
+  // written meanwhile.
   void pull_the_cable() {
     const std::uint64_t written = sensor->counters().samples;
     nodes->set_connected(pc::kWristSensorNode, false);
     const bool lost = eventually(
         [&] {
           sync();
-          std::this_thread::sleep_for(1ms);
+          clock.advance(rtm::comp::BusForceSource::kDefaultHeartbeatTimeout_ns + 1'000'000);
           cycle();
           EXPECT_EQ(sensor->counters().samples, written) << "a datum was written while the node was silent";
           return sensor->counters().heartbeat_losses > 0;

@@ -7,6 +7,7 @@
 
 #include "component_test_support.h"
 #include "rtm_test/fake_force_source.h"
+#include "rtm_test/urdf.h"
 
 #include <gtest/gtest.h>
 
@@ -61,6 +62,32 @@ TEST(SensorFrame, TableReactionOnTheDownwardToolReadsUpwardInTheBaseFrame) {
   EXPECT_NEAR(v[0], 0.0, 1e-3);
   EXPECT_NEAR(v[1], 0.0, 1e-3);
   EXPECT_NEAR(v[2], 10.0, 1e-3);
+}
+
+// On a chain written inline (seven joints about z; the tool turned half about x, pointing
+// down): the frame change can be worked out by hand. Sensor z (along the tool) is base -z, and
+// a quarter turn of joint 1 takes sensor x to base y.
+TEST(SensorFrame, OnAnInlineChainTheWrenchTurnsAsTheChainDoes) {
+  const std::string urdf = rtm_test::serial_chain_urdf(std::vector<rtm_test::UrdfJoint>(7, {.xyz = {0, 0, 0.1}}),
+                                                       {0, 0, 0.05}, {std::numbers::pi, 0, 0});
+  auto fake = std::make_unique<FakeForceSource>();
+  FakeForceSource* source = fake.get();
+  auto sensor = rtm::comp::Sensor::wrist("sensor_inline", std::move(fake),
+                                         rtm::pa10::Kinematics::from_urdf_string(urdf, "inline.urdf"));
+  sensor->on_start();
+  source->sample.q_rad = {};
+  source->push({2, 0, -10, 0, 0.5, 0});
+  sensor->on_cycle(cycle(0));
+  RTM::TimedFloat6 out{};
+  ASSERT_TRUE(sensor->out().latest(out));
+  std::array<float, 6> expected{2, 0, 10, 0, -0.5f, 0};  // R = Rx(pi): y and z change sign
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_NEAR(values(out)[i], expected[i], 1e-5) << i;
+  source->sample.q_rad = {std::numbers::pi / 2, 0, 0, 0, 0, 0, 0};
+  source->push({2, 0, -10, 0, 0.5, 0});
+  sensor->on_cycle(cycle(1));
+  ASSERT_TRUE(sensor->out().latest(out));
+  expected = {0, 2, 10, 0.5f, 0, 0};  // R = Rz(pi/2) Rx(pi)
+  for (std::size_t i = 0; i < 6; ++i) EXPECT_NEAR(values(out)[i], expected[i], 1e-5) << i;
 }
 
 TEST(Sensor, WritesEachNewWrenchOnceWithTheTimeItWasRead) {

@@ -9,6 +9,9 @@
 //   auto probe = open_bus(rig.spec);    // before the nodes send
 //   rig.nodes->inject_fault(drive_node(3), emcy::kRpdoTimeout);
 //   ASSERT_TRUE(seen_and_delivered(*probe, cob::kEmcyBase + drive_node(3)));
+//
+//   master.transmit_cycle();            // a SYNC
+//   ASSERT_TRUE(all_seen_and_delivered(*probe, sync_answers()));  // the next receive has them
 #pragma once
 
 #include <chrono>
@@ -16,6 +19,7 @@
 #include <vector>
 
 #include "arm/can/bus.h"
+#include "arm/can/protocol.h"
 
 namespace rtm::can::testing {
 
@@ -40,5 +44,17 @@ inline bool all_seen_and_delivered(Bus& probe, std::vector<canid_t> ids) {
 }
 
 inline bool seen_and_delivered(Bus& probe, canid_t id) { return all_seen_and_delivered(probe, {id}); }
+
+// What the PA10's nodes answer to one SYNC: every drive's TPDO1 (feedback) and each force
+// sensor's TPDO1 (force) and TPDO2 (torque).
+inline std::vector<canid_t> sync_answers() {
+  std::vector<canid_t> ids;
+  for (int j = 0; j < kDriveCount; ++j) ids.push_back(cob::kTpdo1Base + drive_node(j));
+  for (const std::uint8_t sensor : {kWristSensorNode, kJoystickSensorNode}) {
+    ids.push_back(cob::kTpdo1Base + sensor);
+    ids.push_back(cob::kTpdo2Base + sensor);
+  }
+  return ids;
+}
 
 }  // namespace rtm::can::testing

@@ -20,6 +20,7 @@
 #include "arm/can/protocol.h"
 #include "arm/can/receive_thread.h"
 #include "arm/can/wrench_assembly.h"
+#include "rt/clock.h"
 
 namespace rtm::can {
 
@@ -35,8 +36,12 @@ struct SensorListenerCounters {
 class SensorListener {
  public:
   // Listens on `bus` for the sensor `node` (0x10 or 0x11; std::invalid_argument otherwise).
-  SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node, std::int64_t heartbeat_timeout_ns = 300'000'000);
-  SensorListener(std::string_view bus_spec, ForceSensor sensor, std::int64_t heartbeat_timeout_ns = 300'000'000);
+  // clock: what a heartbeat's silence is measured on (it must outlive the listener); a test's
+  // manual clock passes the timeout in one step.
+  SensorListener(std::unique_ptr<Bus> bus, std::uint8_t node, std::int64_t heartbeat_timeout_ns = 300'000'000,
+                 const rtm::Clock& clock = rtm::monotonic_clock());
+  SensorListener(std::string_view bus_spec, ForceSensor sensor, std::int64_t heartbeat_timeout_ns = 300'000'000,
+                 const rtm::Clock& clock = rtm::monotonic_clock());
   ~SensorListener();  // stop()
   SensorListener(const SensorListener&) = delete;
   SensorListener& operator=(const SensorListener&) = delete;
@@ -76,6 +81,7 @@ class SensorListener {
   std::unique_ptr<Bus> bus_;
   std::uint8_t node_;
   std::int64_t heartbeat_timeout_ns_;
+  const rtm::Clock& clock_;
   mutable std::mutex mutex_;
   std::condition_variable new_wrench_;
   Wrench latest_;
@@ -85,7 +91,7 @@ class SensorListener {
   std::int64_t current_sync_time_ns_ = 0;
   WrenchAssembly assembly_;
   std::uint16_t emcy_code_ = 0;
-  std::optional<std::int64_t> last_heartbeat_ns_;
+  std::optional<std::int64_t> last_heartbeat_ns_;  // on clock_
   std::string bus_error_;  // set when the background thread lost the bus
   ReceiveThread receiver_;  // last: stops before the state it writes goes
 };

@@ -73,14 +73,15 @@ class MasterForceSource final : public ForceSource {
 
 // A process of its own: listens for the node on sensor_bus_spec and, when drive_bus_spec is
 // not empty, for the drives' joint positions on it. A node heard once and then silent for
-// longer than heartbeat_timeout_ns is a heartbeat loss. Throws rtm::can::BusError naming the
-// spec when a bus cannot be opened.
+// longer than heartbeat_timeout_ns (on clock, which must outlive the source) is a heartbeat
+// loss. Throws rtm::can::BusError naming the spec when a bus cannot be opened.
 class BusForceSource final : public ForceSource {
  public:
   static constexpr std::int64_t kDefaultHeartbeatTimeout_ns = 300'000'000;  // 3 heartbeats of 100 ms
 
   BusForceSource(std::string_view sensor_bus_spec, rtm::can::ForceSensor node, std::string_view drive_bus_spec = {},
-                 std::int64_t heartbeat_timeout_ns = kDefaultHeartbeatTimeout_ns);
+                 std::int64_t heartbeat_timeout_ns = kDefaultHeartbeatTimeout_ns,
+                 const rtm::Clock& clock = rtm::monotonic_clock());
   ForceSample latest() const override;
   FaultKind fault_kind() const override;
   Fault fault() const override;
