@@ -20,11 +20,7 @@ using rtm::test::float6;
 
 class ComponentTest : public rtm::test::OrbTest {};
 
-rtm::PeriodicOptions fast() {
-  rtm::PeriodicOptions o;
-  o.period_ns = 1'000'000;
-  return o;
-}
+using rtm::test::fast;
 
 TEST(Component, LogicRunsWithoutAnOrb) {
   Doubler d;

@@ -127,11 +127,7 @@ std::vector<std::unique_ptr<rtm::Component>> chain_members(TickLog& log, Sink** 
   return members;
 }
 
-rtm::PeriodicOptions fast() {
-  rtm::PeriodicOptions o;
-  o.period_ns = 1'000'000;
-  return o;
-}
+using rtm::test::fast;
 
 TEST(TickedComposite, RunsAnyDeclaredChainInTheDiagramsOrderBetweenTheStagesHalves) {
   TickLog log;

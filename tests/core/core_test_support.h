@@ -48,6 +48,13 @@ inline RTM::TimedFloat3 float3(float first) {
 }
 
 // Reads a TimedFloat6 in0, writes 2 * it on out0; can be told to throw in a given cycle.
+// A 1 ms period: the tests' activities cycle fast.
+inline PeriodicOptions fast() {
+  PeriodicOptions o;
+  o.period_ns = 1'000'000;
+  return o;
+}
+
 class Doubler final : public Component {
  public:
   explicit Doubler(std::string name = "doubler0", InPortPolicy policy = InPortPolicy::latest())
