@@ -106,20 +106,6 @@ DiagramError::DiagramError(const std::string& diagram, std::vector<std::string> 
       }()),
       problems_(std::move(problems)) {}
 
-const Diagram::Member* Diagram::member(std::string_view name) const {
-  for (const auto& m : members) {
-    if (m.name == name) return &m;
-  }
-  return nullptr;
-}
-
-const Diagram::Connection* Diagram::writer_of(const PortRef& to) const {
-  for (const auto& c : connections) {
-    if (c.to == to) return &c;
-  }
-  return nullptr;
-}
-
 std::vector<std::string> Diagram::problems(const PortCatalogue* ports) const {
   std::vector<std::string> out;
   std::map<std::string, std::size_t> position;

@@ -106,10 +106,6 @@ struct Diagram {
   void check(const PortCatalogue& ports) const;
   // Throws DiagramError listing problems() (no port looked at).
   void check_structure() const;
-
-  const Member* member(std::string_view name) const;
-  // The connection that writes to `to`, nullptr when none does.
-  const Connection* writer_of(const PortRef& to) const;
 };
 
 }  // namespace rtm
