@@ -8,6 +8,15 @@
 
 namespace rtm {
 
+namespace {
+
+void check_lease(std::uint32_t lease_ms) {
+  if (lease_ms < Leases::kMinLeaseMs || lease_ms > Leases::kMaxLeaseMs)
+    throw std::invalid_argument("lease of " + std::to_string(lease_ms) + " ms: want 50..60000 ms");
+}
+
+}  // namespace
+
 Leases::Leases(std::function<void(const std::string&, std::uint32_t)> expired) : expired_(std::move(expired)) {}
 
 Leases::~Leases() {
@@ -21,8 +30,7 @@ Leases::~Leases() {
 }
 
 void Leases::hold(const std::string& holder, std::uint32_t lease_ms) {
-  if (lease_ms < kMinLeaseMs || lease_ms > kMaxLeaseMs)
-    throw std::invalid_argument("lease of " + std::to_string(lease_ms) + " ms: want 50..60000 ms");
+  check_lease(lease_ms);
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return;
@@ -69,8 +77,7 @@ void Leases::run() {
 
 HoldRenewal::HoldRenewal(std::string holder, std::vector<RTM::RtComponentEx_var> targets, std::uint32_t lease_ms)
     : holder_(std::move(holder)), targets_(std::move(targets)), lease_ms_(lease_ms) {
-  if (lease_ms_ < Leases::kMinLeaseMs || lease_ms_ > Leases::kMaxLeaseMs)
-    throw std::invalid_argument("lease of " + std::to_string(lease_ms_) + " ms: want 50..60000 ms");
+  check_lease(lease_ms_);
   thread_ = std::thread([this] { run(); });
 }
 

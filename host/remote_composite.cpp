@@ -82,15 +82,13 @@ RemoteComposite::RemoteComposite(std::string name, std::string kind, Diagram dia
     throw std::invalid_argument(this->name() + ": diagram " + diagram_.name +
                                 " is ticked: its members cannot run on a tick of this process");
   diagram_.check_structure();
-  for (const auto& m : diagram_.members) {
-    auto it = std::find_if(members.begin(), members.end(), [&](const Member& g) { return g.name == m.name; });
-    if (it == members.end()) throw std::invalid_argument(this->name() + ": diagram member " + m.name + " was not given");
-    if (CORBA::is_nil(it->ref)) throw std::invalid_argument(this->name() + ": the reference of " + m.name + " is nil");
-    members_.push_back(std::move(*it));
-    members.erase(it);
+  std::vector<std::string> names;
+  for (const auto& m : members) names.push_back(m.name);
+  for (const std::size_t i : diagram_.arrange(names, this->name())) {
+    if (CORBA::is_nil(members[i].ref))
+      throw std::invalid_argument(this->name() + ": the reference of " + members[i].name + " is nil");
+    members_.push_back(std::move(members[i]));
   }
-  if (!members.empty())
-    throw std::invalid_argument(this->name() + ": member " + members.front().name + " is not in the diagram");
 }
 
 RemoteComposite::~RemoteComposite() = default;
@@ -182,6 +180,7 @@ void RemoteComposite::undo(const std::vector<std::size_t>& turned_on, const std:
 void RemoteComposite::on_start() {
   std::vector<std::size_t> turned_on;
   std::vector<Link> subscribed;
+  const std::vector<std::size_t> order = turn_on_order();
   std::string step = "check the wiring";
   try {
     for (const Link& l : links()) {
@@ -192,7 +191,7 @@ void RemoteComposite::on_start() {
       subscribed.push_back(l);
     }
     const auto first = std::chrono::steady_clock::now();
-    for (const std::size_t i : turn_on_order()) {
+    for (const std::size_t i : order) {
       std::this_thread::sleep_until(first + std::chrono::nanoseconds(diagram_.members[i].phase_ns));
       step = "on() " + members_[i].name;
       members_[i].ref->on();
@@ -211,12 +210,12 @@ void RemoteComposite::on_start() {
     if (!CORBA::is_nil(ex)) held.push_back(ex);  // a plain RtComponent cannot be held
   }
   holds_ = std::make_unique<HoldRenewal>(name(), std::move(held), kLeaseMs);
-  std::string order;
-  for (const std::size_t i : turn_on_order()) {
-    order += fmt::format("{}{}", order.empty() ? "" : ", ", members_[i].name);
-    if (diagram_.members[i].phase_ns != 0) order += fmt::format(" at +{} us", diagram_.members[i].phase_ns / 1000);
+  std::string text;
+  for (const std::size_t i : order) {
+    text += fmt::format("{}{}", text.empty() ? "" : ", ", members_[i].name);
+    if (diagram_.members[i].phase_ns != 0) text += fmt::format(" at +{} us", diagram_.members[i].phase_ns / 1000);
   }
-  log().info("{}: members connected and on ({})", name(), order);
+  log().info("{}: members connected and on ({})", name(), text);
 }
 
 void RemoteComposite::on_stop() {

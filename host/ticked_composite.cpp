@@ -7,7 +7,6 @@
 #include <fmt/format.h>
 #include <spdlog/logger.h>
 
-#include <algorithm>
 #include <stdexcept>
 
 namespace rtm {
@@ -21,28 +20,6 @@ std::int64_t phased_first_deadline(std::int64_t reference_ns, std::int64_t lead_
   return reference_ns > lead_ns ? reference_ns - lead_ns : reference_ns - lead_ns + period_ns;
 }
 
-namespace {
-
-// The members in the diagram's order; throws std::invalid_argument naming what does not match.
-std::vector<std::unique_ptr<Component>> in_diagram_order(const std::string& composite, const Diagram& diagram,
-                                                         std::vector<std::unique_ptr<Component>> members) {
-  std::vector<std::unique_ptr<Component>> ordered;
-  for (const auto& m : diagram.members) {
-    auto it = std::find_if(members.begin(), members.end(), [&](const auto& c) { return c && c->name() == m.name; });
-    if (it == members.end())
-      throw std::invalid_argument(fmt::format("{}: diagram member {} was not given", composite, m.name));
-    ordered.push_back(std::move(*it));
-    members.erase(it);
-  }
-  for (const auto& c : members) {
-    if (!c) throw std::invalid_argument(composite + ": a member is missing");
-    throw std::invalid_argument(fmt::format("{}: member {} is not in the diagram", composite, c->name()));
-  }
-  return ordered;
-}
-
-}  // namespace
-
 TickedComposite::TickedComposite(std::string name, std::string kind, Diagram diagram,
                                  std::vector<std::unique_ptr<Component>> members, PeriodicOptions tick,
                                  TickPhase phase, TickStage* stage)
@@ -53,9 +30,17 @@ TickedComposite::TickedComposite(std::string name, std::string kind, Diagram dia
       stage_(stage) {
   if (!diagram_.ticked) throw std::invalid_argument(this->name() + ": diagram " + diagram_.name + " is not ticked");
   diagram_.check_structure();
-  auto ordered = in_diagram_order(this->name(), diagram_, std::move(members));
+  std::vector<std::string> names;
+  for (const auto& c : members) {
+    if (!c) throw std::invalid_argument(this->name() + ": a member is missing");
+    names.push_back(c->name());
+  }
+  std::vector<std::unique_ptr<Component>> ordered;
   std::vector<const Component*> view;
-  for (const auto& c : ordered) view.push_back(c.get());
+  for (const std::size_t i : diagram_.arrange(names, this->name())) {
+    ordered.push_back(std::move(members[i]));
+    view.push_back(ordered.back().get());
+  }
   diagram_.check(catalogue_of(view));
   if (stage_ && phase_.next_reference_deadline_ns)
     throw std::invalid_argument(this->name() + ": a tick that runs its stage cannot also be phased against it");

@@ -35,6 +35,22 @@ namespace {
 
 bool is_wrist(rtm::can::ForceSensor node) { return node == rtm::can::ForceSensor::wrist; }
 
+// What the node makes of the component (the table in sensor.h).
+struct Role {
+  const char* kind;
+  const char* port;
+  const char* port_text;
+  const char* description;
+};
+
+const Role& role_of(rtm::can::ForceSensor node) {
+  static const Role wrist{"sensor", "wrench", "wrench the world exerts on the tool, base frame",
+                          "wrist force/torque sensor: the wrench on the tool in the arm's base frame"};
+  static const Role joystick{"joystick", "reference", "reference wrench: the operator's force, base frame",
+                             "force-sensor joystick: the operator's force is the reference wrench"};
+  return is_wrist(node) ? wrist : joystick;
+}
+
 }  // namespace
 
 std::unique_ptr<Sensor> Sensor::wrist(std::string name, std::unique_ptr<ForceSource> source,
@@ -50,22 +66,17 @@ std::unique_ptr<Sensor> Sensor::joystick(std::string name, std::unique_ptr<Force
 
 Sensor::Sensor(std::string name, rtm::can::ForceSensor node, std::unique_ptr<ForceSource> source,
                std::optional<rtm::pa10::Kinematics> kinematics, SensorParams params)
-    : Component(std::move(name), is_wrist(node) ? "sensor" : "joystick"),
+    : Component(std::move(name), role_of(node).kind),
       node_(node),
       source_(std::move(source)),
       kinematics_(is_wrist(node) ? std::move(kinematics) : std::nullopt),
       params_(params),
-      out_(is_wrist(node) ? add_out_port<RTM::TimedFloat6>(
-                                "wrench", {"wrench the world exerts on the tool, base frame", rtm::wrench_elements()})
-                          : add_out_port<RTM::TimedFloat6>(
-                                "reference", {"reference wrench: the operator's force, base frame",
-                                              rtm::wrench_elements()})) {
+      out_(add_out_port<RTM::TimedFloat6>(role_of(node).port, {role_of(node).port_text, rtm::wrench_elements()})) {
   if (!source_) throw std::invalid_argument("Sensor " + this->name() + ": no force source");
   if (is_wrist(node) && !kinematics_)
     throw std::invalid_argument("Sensor " + this->name() + ": the wrist sensor needs the arm's kinematics");
   params_.validate();
-  set_description(is_wrist(node) ? "wrist force/torque sensor: the wrench on the tool in the arm's base frame"
-                                 : "force-sensor joystick: the operator's force is the reference wrench");
+  set_description(role_of(node).description);
   add_counters(counters_);
   add_parameters(sensor_parameters(), params_live_);
 }

@@ -106,6 +106,22 @@ DiagramError::DiagramError(const std::string& diagram, std::vector<std::string> 
       }()),
       problems_(std::move(problems)) {}
 
+std::vector<std::size_t> Diagram::arrange(const std::vector<std::string>& given, std::string_view owner) const {
+  std::vector<std::size_t> order;
+  std::vector<bool> taken(given.size(), false);
+  for (const auto& m : members) {
+    std::size_t i = 0;
+    while (i < given.size() && (taken[i] || given[i] != m.name)) ++i;
+    if (i == given.size()) throw std::invalid_argument(fmt::format("{}: diagram member {} was not given", owner, m.name));
+    taken[i] = true;
+    order.push_back(i);
+  }
+  for (std::size_t i = 0; i < given.size(); ++i) {
+    if (!taken[i]) throw std::invalid_argument(fmt::format("{}: member {} is not in the diagram", owner, given[i]));
+  }
+  return order;
+}
+
 std::vector<std::string> Diagram::problems(const PortCatalogue* ports) const {
   std::vector<std::string> out;
   std::map<std::string, std::size_t> position;

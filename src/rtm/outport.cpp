@@ -271,6 +271,10 @@ void OutPortBase::refuse(const std::string& why) {
   last_error_ = why;
 }
 
+void OutPortBase::refuse_types(const std::string& peer, CORBA::TypeCode_ptr their_type) {
+  refuse(full_name() + " (" + type_name(type_code()) + ") -> " + peer + " (" + type_name(their_type) + "): types differ");
+}
+
 std::string OutPortBase::peer_name(RTM::InPort_ptr port, std::uint32_t call_timeout_ms) {
   CORBA::String_var name = port->name();
   RTM::InPortEx_var ex = RTM::InPortEx::_narrow(port);

@@ -159,4 +159,21 @@ TEST(Diagram, APortReferenceIsSplitAtTheLastDot) {
   EXPECT_THROW(rtm::PortRef::parse("sensor0."), std::invalid_argument);
 }
 
+TEST(Diagram, ArrangeFindsEachMemberInWhatACompositeWasGivenInTheDiagramsOrder) {
+  const rtm::Diagram d{.name = "d", .members = {{"a"}, {"b"}, {"c"}}};
+  EXPECT_EQ(d.arrange({"c", "a", "b"}, "comp"), (std::vector<std::size_t>{1, 2, 0}));
+  try {
+    d.arrange({"c", "a"}, "comp");
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "comp: diagram member b was not given");
+  }
+  try {
+    d.arrange({"c", "a", "b", "a"}, "comp");
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "comp: member a is not in the diagram");
+  }
+}
+
 }  // namespace

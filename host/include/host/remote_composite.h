@@ -64,7 +64,7 @@ class RemoteComposite final : public Component {
   // The ports of the diagram's connections, found by name. Throws DiagramError listing every
   // problem of the diagram against the members' ports.
   std::vector<Link> links() const;
-  // The order on() turns the members on (indexes into members_), and whether it is paced.
+  // The order on() turns the members on (indexes into members_): by phase, or last first.
   std::vector<std::size_t> turn_on_order() const;
   void undo(const std::vector<std::size_t>& turned_on, const std::vector<Link>& subscribed);
 

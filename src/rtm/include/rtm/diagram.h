@@ -106,6 +106,10 @@ struct Diagram {
   void check(const PortCatalogue& ports) const;
   // Throws DiagramError listing problems() (no port looked at).
   void check_structure() const;
+  // For a composite handed its members: where each member is in `given` (their names), in the
+  // diagram's order. Throws std::invalid_argument "<owner>: diagram member <m> was not given"
+  // or "<owner>: member <m> is not in the diagram".
+  std::vector<std::size_t> arrange(const std::vector<std::string>& given, std::string_view owner) const;
 };
 
 }  // namespace rtm

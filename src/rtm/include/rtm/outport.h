@@ -193,6 +193,9 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void conns_changed_locked();
   void reap_retired();  // joins parked threads; never from a delivery thread
   void refuse(const std::string& why);
+  // refuse(): "<this port> (<its type>) -> <peer> (<their type>): types differ" (their_type
+  // borrowed).
+  void refuse_types(const std::string& peer, CORBA::TypeCode_ptr their_type);
   // "owner.name" of a subscriber, each call bounded by call_timeout_ms (RTM::InPort without
   // owner: its name only).
   static std::string peer_name(RTM::InPort_ptr port, std::uint32_t call_timeout_ms);

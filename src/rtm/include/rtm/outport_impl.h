@@ -103,8 +103,7 @@ template <PortData T>
 bool OutPort<T>::connect_local(InPortBase& in, const ConnPolicy& policy) {
   auto* typed = dynamic_cast<InPort<T>*>(&in);
   if (!typed) {
-    refuse(full_name() + " (" + type_name(type_code()) + ") -> " + in.full_name() + " (" + type_name(in.type_code()) +
-           "): types differ");
+    refuse_types(in.full_name(), in.type_code());
     return false;
   }
   return connect(*typed, policy);
@@ -245,8 +244,7 @@ bool OutPort<T>::negotiate(Subscriber& who, RTM::InPort_ptr i_port) {
     return false;
   }
   if (!their_type->equivalent(type_code())) {
-    refuse(full_name() + " (" + type_name(type_code()) + ") -> " + who.peer + " (" + type_name(their_type.in()) +
-           "): types differ");
+    refuse_types(who.peer, their_type.in());
     return false;
   }
   if (options_.in_process) {
