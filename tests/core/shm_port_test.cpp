@@ -39,6 +39,18 @@ class ShmPortTest : public rtm::test::OrbTest {
   PortableServer::Servant_var<In6> make_in(rtm::InPortPolicy policy = rtm::InPortPolicy::latest()) {
     return new In6("in0", "controller0", std::move(policy));
   }
+  // An OutPort through a ring and an InPort of policy, activated and subscribed.
+  struct Wired {
+    PortableServer::Servant_var<Out6> out;
+    PortableServer::Servant_var<In6> in;
+    RTM::InPortEx_var ref;
+  };
+  Wired wired(rtm::InPortPolicy policy = rtm::InPortPolicy::latest()) {
+    Wired w{make_out(), make_in(std::move(policy)), {}};
+    w.ref = w.in->activate(orb());
+    if (!w.out->subscribe(RTM::repeated, w.ref.in())) ADD_FAILURE() << "the subscription was refused";
+    return w;
+  }
   static std::string path_of(Out6& out) {
     RTM::SubscriptionInfoList_var subs = out.subscriptions();
     if (subs->length() != 1) return "not one subscription";
@@ -74,10 +86,7 @@ TEST_F(ShmPortTest, AFifoSubscriberTakesEveryDatumInOrderWhenItReadsAndNoCallIsM
 }
 
 TEST_F(ShmPortTest, ALatestSubscriberGetsTheNewestAndCountsWhatItSkippedAsDropped) {
-  auto out = make_out();
-  auto in = make_in();
-  RTM::InPortEx_var ref = in->activate(orb());
-  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  auto [out, in, ref] = wired();
   RTM::TimedFloat6 got{};
   EXPECT_EQ(in->read(got), ReadResult::NoData);
   for (int i = 1; i <= 10; ++i) out->write(float6(static_cast<float>(i)));
@@ -118,10 +127,7 @@ TEST_F(ShmPortTest, AFifoSubscriberFarBehindCountsTheDataTheRingNoLongerHeldAsDr
 // it still keeps only its capacity's newest, counts the rest as dropped, and a put that
 // arrives between ring data is read in its place, after the ring data written before it.
 TEST_F(ShmPortTest, AFifoThatDropsItsOldestTakesTheNewestOfItsCapacityAndPutsInArrivalOrder) {
-  auto out = make_out();
-  auto in = make_in(rtm::InPortPolicy::fifo(4));
-  RTM::InPortEx_var ref = in->activate(orb());
-  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  auto [out, in, ref] = wired(rtm::InPortPolicy::fifo(4));
   for (int i = 1; i <= 10; ++i) out->write(float6(static_cast<float>(i)));
   RTM::TimedFloat6 got{};
   std::vector<float> taken;
@@ -154,10 +160,7 @@ TEST_F(ShmPortTest, AFifoThatDropsItsOldestTakesTheNewestOfItsCapacityAndPutsInA
 // as much again: it times one call in kWriteCostSampling. One that may call is always timed
 // (OutPortTest.AnIdleRemoteSubscriptionIsDeliveredByWriteItselfInOrder).
 TEST_F(ShmPortTest, WriteTimesOneCallInSixteenWhileItOnlyFillsRings) {
-  auto out = make_out();
-  auto in = make_in(rtm::InPortPolicy::fifo(8));
-  RTM::InPortEx_var ref = in->activate(orb());
-  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  auto [out, in, ref] = wired(rtm::InPortPolicy::fifo(8));
   for (int i = 1; i <= 160; ++i) out->write(float6(static_cast<float>(i)));
   EXPECT_EQ(out->write_cost().count, 160u / rtm::kWriteCostSampling);
   EXPECT_EQ(out->counters_snapshot().written, 160u);
@@ -169,10 +172,7 @@ TEST_F(ShmPortTest, WriteTimesOneCallInSixteenWhileItOnlyFillsRings) {
 // cycle, bounded: the ring's next write wakes it (one futex wait), and so does a put.
 TEST_F(ShmPortTest, AReaderAwaitingANewDatumIsWokenByTheRingsNextWriteAndByAPut) {
   using Awaited = rtm::InPortBase::Awaited;
-  auto out = make_out();
-  auto in = make_in(rtm::InPortPolicy::fifo(8));
-  RTM::InPortEx_var ref = in->activate(orb());
-  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  auto [out, in, ref] = wired(rtm::InPortPolicy::fifo(8));
   for (const bool by_put : {false, true}) {
     const std::int64_t deadline = rtm::monotonic_ns() + 60'000'000'000;
     std::atomic<int> found{-1};
@@ -203,10 +203,7 @@ TEST_F(ShmPortTest, AReaderAwaitingANewDatumIsWokenByTheRingsNextWriteAndByAPut)
 
 TEST_F(ShmPortTest, AnAwaitFindsADatumAlreadyThereAtOnceAndEndsAtItsBoundWhenNoneComes) {
   using Awaited = rtm::InPortBase::Awaited;
-  auto out = make_out();
-  auto in = make_in();
-  RTM::InPortEx_var ref = in->activate(orb());
-  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  auto [out, in, ref] = wired();
   out->write(float6(1.0f));
   EXPECT_EQ(in->wait_new_until(rtm::monotonic_ns() + 60'000'000'000), Awaited::there);
   RTM::TimedFloat6 got{};
@@ -219,10 +216,7 @@ TEST_F(ShmPortTest, AnAwaitFindsADatumAlreadyThereAtOnceAndEndsAtItsBoundWhenNon
 }
 
 TEST_F(ShmPortTest, AfterUnsubscribeNothingMoreArrivesButWhatCameBeforeIsKept) {
-  auto out = make_out();
-  auto in = make_in(rtm::InPortPolicy::fifo(8));
-  RTM::InPortEx_var ref = in->activate(orb());
-  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  auto [out, in, ref] = wired(rtm::InPortPolicy::fifo(8));
   out->write(float6(1.0f));
   out->write(float6(2.0f));
   ASSERT_TRUE(out->unsubscribe(RTM::repeated, ref.in()));
@@ -296,10 +290,7 @@ TEST_F(ShmPortTest, PortsThatActOnArrivalAreWokenByTheRingAndStoreEachDatumInOrd
 // An arrival signal set after the ring was attached (a component that makes its activity
 // later) is bumped by data from the ring from then on, without a read.
 TEST_F(ShmPortTest, AnArrivalSignalSetLaterIsBumpedByTheRing) {
-  auto out = make_out();
-  auto in = make_in(rtm::InPortPolicy::fifo(16));
-  RTM::InPortEx_var ref = in->activate(orb());
-  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  auto [out, in, ref] = wired(rtm::InPortPolicy::fifo(16));
   EXPECT_EQ(in->ring_waiters(), 0u) << "a FIFO that drops is read in its reader's cycle";
   auto signal = std::make_shared<rtm::ArrivalSignal>();
   in->set_arrival_signal(signal);
@@ -354,10 +345,7 @@ TEST_F(ShmPortTest, AnInPortRefusesARingOfAnotherHostTypeOrNameAndSaysWhy) {
 }
 
 TEST_F(ShmPortTest, ASecondSubscribeOfTheSamePortIsRefusedAndTheFirstKeepsReading) {
-  auto out = make_out();
-  auto in = make_in(rtm::InPortPolicy::fifo(8));
-  RTM::InPortEx_var ref = in->activate(orb());
-  ASSERT_TRUE(out->subscribe(RTM::repeated, ref.in()));
+  auto [out, in, ref] = wired(rtm::InPortPolicy::fifo(8));
   EXPECT_FALSE(out->subscribe(RTM::repeated, ref.in()));
   EXPECT_EQ(in->attached_rings(), 1u);
   out->write(float6(4.0f));
