@@ -14,17 +14,7 @@
 namespace rtm::comp {
 
 const rtm::ParameterTable<ActuatorParams>& actuator_parameters() {
-  using P = ActuatorParams;
-  using rtm::ParameterAccess;
-  static const rtm::ParameterTable<P> table{
-      "actuator",
-      {{"limit", &P::limit, "m/s, rad/s", "6 limits of |v|: vx vy vz, then wx wy wz", ParameterAccess::live,
-        rtm::at_least(0)},
-       {"watchdog_periods", &P::watchdog_periods, "cycles", "cycles without a new command before the drives brake",
-        ParameterAccess::when_off, rtm::between(1, P::kMaxWatchdogPeriods)},
-       {"sensor_recovery_periods", &P::sensor_recovery_periods, "cycles",
-        "cycles a silent force sensor node is waited for (drives stopped) before the actuator fails",
-        ParameterAccess::when_off, rtm::between(1, P::kMaxSensorRecoveryPeriods)}}};
+  static const rtm::ParameterTable<ActuatorParams> table{"actuator"};
   return table;
 }
 
@@ -71,14 +61,14 @@ void Actuator::retry_sensor_loss(bool faulted) {
     sensor_loss_cycles_ = 0;
     const std::uint64_t event = counters_.sensor_heartbeat_losses.add();
     log().warn("{}: {}: drives stopped, retrying for up to {} cycles (event {})", name(), arm_->fault().reason,
-               params_.sensor_recovery_periods, event);
+               params_.sensor_recovery_periods.value(), event);
     command_freshness_.reset();
     command_bad_ = false;
     twist_ = {};
   }
   if (++sensor_loss_cycles_ > params_.sensor_recovery_periods)
     throw std::runtime_error(fmt::format("arm fault: {}: not heard again within {} cycles", arm_->fault().reason,
-                                         params_.sensor_recovery_periods));
+                                         params_.sensor_recovery_periods.value()));
   if (faulted && sensor_loss_cycles_ % ActuatorParams::kSensorRetryPeriods == 0) {
     counters_.sensor_reset_attempts.add();
     arm_->reset();
@@ -219,7 +209,7 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
   if (watchdog_fired) {
     log().warn("{}: watchdog: no new command for {} periods since bus cycle {} (SYNC counter {}): quick stop "
                "after bus cycle {} (SYNC counter {}) (event {})",
-               name(), params_.watchdog_periods, last_command_bus_.cycle, last_command_bus_.sync_counter, bus.cycle,
+               name(), params_.watchdog_periods.value(), last_command_bus_.cycle, last_command_bus_.sync_counter, bus.cycle,
                bus.sync_counter, counters_.watchdog_events.value());
   }
   handle_arm_status(status);

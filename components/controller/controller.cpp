@@ -13,23 +13,7 @@
 namespace rtm::comp {
 
 const rtm::ParameterTable<ControllerParams>& controller_parameters() {
-  using P = ControllerParams;
-  using rtm::ParameterAccess;
-  static const rtm::ParameterTable<P> table{
-      "controller",
-      {{"gain", &P::gain, "(m/s)/N, (rad/s)/(N·m)", "6 gains in contact: x y z, then rx ry rz", ParameterAccess::live},
-       {"free_gain", &P::free_gain, "(m/s)/N, (rad/s)/(N·m)",
-        "6 gains in free space while approach_speed is on: x y z, then rx ry rz", ParameterAccess::live},
-       {"approach_speed", &P::approach_speed_m_s, "m/s",
-        "free-space speed limit, so the tool meets a surface at most this fast; 0: the paper's plain P (gain "
-        "everywhere)",
-        ParameterAccess::live, rtm::at_least(0)},
-       {"contact_force", &P::contact_force_N, "N",
-        "|force| from which the tool is in contact (left after 10 cycles below half of it)", ParameterAccess::live,
-        rtm::above(0)},
-       {"stale_periods", &P::stale_periods, "cycles",
-        "cycles without a new input datum before the command is withheld (the actuator brakes)",
-        ParameterAccess::when_off, rtm::between(1, 1'000'000)}}};
+  static const rtm::ParameterTable<ControllerParams> table{"controller"};
   return table;
 }
 
@@ -106,7 +90,7 @@ bool Controller::usable(Input& input, rtm::Freshness::Change change, const char*
   if (change == rtm::Freshness::Change::went_stale) {
     counters_.stale_events.add();
     log().warn("{}: {} input stale (no new datum for {} periods): command withheld, the actuator brakes", name(), what,
-               params_.stale_periods);
+               params_.stale_periods.value());
   }
   if (!input.freshness.fresh()) return false;
   const bool bad = rtm::has_non_finite(input.datum);

@@ -13,12 +13,7 @@
 namespace rtm::comp {
 
 const rtm::ParameterTable<SensorParams>& sensor_parameters() {
-  using P = SensorParams;
-  static const rtm::ParameterTable<P> table{
-      "sensor",
-      {{"recovery_timeout_periods", &P::recovery_timeout_periods, "cycles",
-        "cycles a heartbeat loss of the sensor node may last before the component goes to error",
-        rtm::ParameterAccess::when_off, rtm::between(1, P::kMaxRecoveryTimeoutPeriods)}}};
+  static const rtm::ParameterTable<SensorParams> table{"sensor"};
   return table;
 }
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// A parameter declared once in a ParameterTable: the same line gives the executable's option
-// and its help, the check of a value from the command line, from `rtm set` and from code, and
-// what a component shows and changes.
+// A parameter declared once, as an rtm::Param field of its struct: the same line gives the
+// executable's option and its help, the check of a value from the command line, from `rtm set`
+// and from code, and what a component shows and changes.
 #include "host/runner.h"
 #include "rtm/component.h"
 #include "rtm/parameters.h"
@@ -19,19 +19,14 @@
 namespace {
 
 struct GripParams {
-  std::array<float, 6> gain{1, 2, 3, 0, 0, 0};
-  float force_N = 5;
-  std::uint32_t settle_periods = 10;
+  rtm::Param<std::array<float, 6>> gain{{1, 2, 3, 0, 0, 0}, {"gain", "1/s", "6 gains", rtm::ParameterAccess::live}};
+  rtm::Param<float> force_N{5, {"force", "N", "grip force", rtm::ParameterAccess::live, rtm::above(0)}};
+  rtm::Param<std::uint32_t> settle_periods{
+      10, {"settle_periods", "cycles", "cycles to settle", rtm::ParameterAccess::when_off, rtm::between(1, 1000)}};
 };
 
 const rtm::ParameterTable<GripParams>& grip_parameters() {
-  using rtm::ParameterAccess;
-  static const rtm::ParameterTable<GripParams> table{
-      "grip",
-      {{"gain", &GripParams::gain, "1/s", "6 gains", ParameterAccess::live},
-       {"force", &GripParams::force_N, "N", "grip force", ParameterAccess::live, rtm::above(0)},
-       {"settle_periods", &GripParams::settle_periods, "cycles", "cycles to settle", ParameterAccess::when_off,
-        rtm::between(1, 1000)}}};
+  static const rtm::ParameterTable<GripParams> table{"grip"};
   return table;
 }
 
@@ -118,11 +113,26 @@ TEST(ParameterTable, SetParsesTextChecksItAndLeavesTheValueAloneWhenItIsBad) {
 }
 
 TEST(ParameterTable, ANameDeclaredTwiceIsRefused) {
-  using P = GripParams;
-  EXPECT_THROW((rtm::ParameterTable<P>{"grip",
-                                       {{"force", &P::force_N, "N", "", rtm::ParameterAccess::live},
-                                        {"force", &P::force_N, "N", "", rtm::ParameterAccess::live}}}),
-               std::invalid_argument);
+  struct Twice {
+    rtm::Param<float> force_N{5, {"force", "N", "", rtm::ParameterAccess::live}};
+    rtm::Param<float> grip_force_N{5, {"force", "N", "", rtm::ParameterAccess::live}};
+  };
+  EXPECT_THROW(rtm::ParameterTable<Twice>{"grip"}, std::invalid_argument);
+}
+
+TEST(ParameterTable, FindsEveryFieldOfTheStructInItsOrderWithItsDeclaration) {
+  const auto& entries = grip_parameters().entries();
+  ASSERT_EQ(entries.size(), 3u);
+  EXPECT_EQ(entries[0].name, "gain");
+  EXPECT_EQ(entries[1].name, "force");
+  EXPECT_EQ(entries[1].bounds.min, 0.0);
+  EXPECT_TRUE(entries[1].bounds.min_open);
+  EXPECT_EQ(entries[2].name, "settle_periods");
+  EXPECT_EQ(entries[2].unit, "cycles");
+  EXPECT_EQ(entries[2].bounds.max, 1000.0);
+  GripParams params;
+  params.settle_periods = 7;
+  EXPECT_EQ(entries[2].get(params), "7") << "the entry reads the field of its own position";
 }
 
 class Grip final : public rtm::Component {

@@ -164,22 +164,20 @@ void add_parameter_options(CLI::App& app, const ParameterTable<P>& table, P& par
     std::string option = "--" + decl.name;
     std::replace(option.begin(), option.end(), '_', '-');
     const std::string help = decl.unit.empty() ? decl.description : decl.description + " [" + decl.unit + "]";
-    std::visit(
-        [&](auto member) {
-          auto& field = params.*member;
-          using T = std::remove_cvref_t<decltype(field)>;
-          if constexpr (std::is_integral_v<T>) {
-            app.add_option(option, field, help)
-                ->check(CLI::Range(static_cast<T>(std::max(decl.bounds.min, 0.0)),
-                                   static_cast<T>(std::min(decl.bounds.max, double(std::numeric_limits<T>::max())))))
-                ->capture_default_str();
-          } else if constexpr (std::is_same_v<T, float>) {
-            app.add_option(option, field, help)->capture_default_str();
-          } else {
-            add_array_option(app, option, field, help);
-          }
-        },
-        decl.field);
+    decl.visit(params, [&](auto& param) {
+      auto& field = param.value();
+      using T = std::remove_cvref_t<decltype(field)>;
+      if constexpr (std::is_integral_v<T>) {
+        app.add_option(option, field, help)
+            ->check(CLI::Range(static_cast<T>(std::max(decl.bounds.min, 0.0)),
+                               static_cast<T>(std::min(decl.bounds.max, double(std::numeric_limits<T>::max())))))
+            ->capture_default_str();
+      } else if constexpr (std::is_same_v<T, float>) {
+        app.add_option(option, field, help)->capture_default_str();
+      } else {
+        add_array_option(app, option, field, help);
+      }
+    });
   }
 }
 

@@ -1,20 +1,24 @@
 // SPDX-License-Identifier: Apache-2.0
-// A component's parameters, each declared once. One line names the parameter, points at the
-// field of the component's parameters struct P that holds it (the struct's initialiser is its
-// default), and gives its unit, what it is, when it may change and the values it may take.
-// From that line come
+// A component's parameters, each declared once: a field of its parameters struct that holds the
+// value beside what it is (its name, unit, description, when it may change, the values it may
+// take). From that one line come
 //   - the option of every executable that runs the component (host/runner.h,
 //     add_parameter_options(): --name with '-' for '_', "description [unit]" as its help, the
-//     field's value as its default),
+//     value as its default),
 //   - the check of a value however it comes: the command line, `rtm set`, or code (validate()),
 //   - what `rtm cat` shows and `rtm set` changes (Component::add_parameters),
-//   - the typed value tests read: the struct's field.
+//   - the typed value the cycle and the tests read (`params.force_N` is a float, `gain[2]` one
+//     of six).
 //
-//   struct GripParams { float force_N = 5; std::uint32_t settle_periods = 10; };
-//   const rtm::ParameterTable<GripParams> kGripParameters{"grip", {
-//       {"force", &GripParams::force_N, "N", "grip force", rtm::ParameterAccess::live, rtm::above(0)},
-//       {"settle_periods", &GripParams::settle_periods, "cycles", "cycles to settle",
-//        rtm::ParameterAccess::when_off, rtm::between(1, 1000)}}};
+//   struct GripParams {
+//     rtm::Param<float> force_N{5, {"force", "N", "grip force", rtm::ParameterAccess::live, rtm::above(0)}};
+//     rtm::Param<std::uint32_t> settle_periods{
+//         10, {"settle_periods", "cycles", "cycles to settle", rtm::ParameterAccess::when_off, rtm::between(1, 1000)}};
+//   };
+//   const rtm::ParameterTable<GripParams> kGripParameters{"grip"};
+//
+// The struct holds nothing but rtm::Param fields (at most kMaxParameters), so that the table finds
+// them without a list of its own. It stays trivially copyable: the cycle takes it whole.
 #pragma once
 
 #include "rtm/describe.h"
@@ -28,7 +32,7 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
-#include <variant>
+#include <utility>
 #include <vector>
 
 namespace rtm {
@@ -49,100 +53,208 @@ constexpr Bounds between(double min, double max) { return {.min = min, .max = ma
 // a finite number", ": must be at least 0", "must be at least 1" (a count), ": at most 1000".
 void check_bounds(double value, const Bounds& bounds, std::string_view owner, std::string_view what, bool count);
 
-template <class P>
-struct ParameterDecl {
-  using Field = std::variant<std::array<float, 6> P::*, float P::*, std::uint32_t P::*>;
-
-  // field: the member of P that holds the value (six numbers, one number, or a count).
-  template <class T>
-  ParameterDecl(std::string name_, T P::*field_, std::string unit_, std::string description_,
-                ParameterAccess access_, Bounds bounds_ = {})
-      : name(std::move(name_)),
-        field(field_),
-        unit(std::move(unit_)),
-        description(std::move(description_)),
-        access(access_),
-        bounds(bounds_),
-        get_(&get_of<T>),
-        check_(&check_of<T>),
-        parse_(&parse_of<T>) {}
-
-  std::string name;         // snake_case: "contact_force"
-  Field field;              // &P::contact_force_N
-  std::string unit;         // "N"; "cycles" for a count
-  std::string description;  // one line
+// What a parameter is. The texts are literals: a copy of the struct copies views of them.
+struct ParameterSpec {
+  std::string_view name;         // snake_case: "contact_force"
+  std::string_view unit;         // "N"; "cycles" for a count
+  std::string_view description;  // one line
   ParameterAccess access = ParameterAccess::fixed;
   Bounds bounds = {};
+};
+
+template <class P>
+class ParameterTable;
+
+// A parameter's value (T: float, a count std::uint32_t, or six numbers std::array<float, 6>)
+// with its declaration. Reads as a const T&; assigning a T changes the value. The declaration
+// that counts is the one the struct's initialiser gives the field: only ParameterTable reads it,
+// from a default-made struct, so a field assigned from another (`gain = free_gain`) takes its
+// value and nothing else that matters.
+template <class T>
+  requires std::is_same_v<T, float> || std::is_same_v<T, std::uint32_t> || std::is_same_v<T, std::array<float, 6>>
+class Param {
+ public:
+  constexpr Param(T initial, const ParameterSpec& spec) : value_(initial), spec_(spec) {}
+  constexpr Param& operator=(const T& value) {
+    value_ = value;
+    return *this;
+  }
+
+  constexpr operator const T&() const { return value_; }  // NOLINT(google-explicit-constructor)
+  constexpr const T& value() const { return value_; }
+  constexpr T& value() { return value_; }
+
+  constexpr float operator[](std::size_t i) const
+    requires(!std::is_arithmetic_v<T>)
+  {
+    return value_[i];
+  }
+  constexpr float& operator[](std::size_t i)
+    requires(!std::is_arithmetic_v<T>)
+  {
+    return value_[i];
+  }
+  friend constexpr bool operator==(const Param& a, const T& b) { return a.value_ == b; }
+
+ private:
+  template <class P>
+  friend class ParameterTable;
+  T value_;
+  ParameterSpec spec_;
+};
+
+inline constexpr std::size_t kMaxParameters = 8;
+
+namespace detail {
+// Converts to any Param: only named where nothing is evaluated, to count a struct's fields.
+struct AnyParam {
+  template <class T>
+  operator Param<T>() const;  // NOLINT(google-explicit-constructor)
+};
+template <std::size_t>
+using AnyParamAt = AnyParam;
+template <class P, std::size_t... I>
+constexpr bool initialisable_from(std::index_sequence<I...>) {
+  return requires { P{AnyParamAt<I>{}...}; };
+}
+// The number of leading Param fields of the aggregate P.
+template <class P, std::size_t N = 0>
+constexpr std::size_t param_count() {
+  if constexpr (N < kMaxParameters + 1 && initialisable_from<P>(std::make_index_sequence<N + 1>{}))
+    return param_count<P, N + 1>();
+  else
+    return N;
+}
+}  // namespace detail
+
+// Calls f(param) for each Param field of p, in the struct's order (p: a parameters struct).
+template <class P, class F>
+constexpr void for_each_param(P& p, F&& f) {
+  constexpr std::size_t n = detail::param_count<std::remove_const_t<P>>();
+  static_assert(n >= 1 && n <= kMaxParameters,
+                "a parameters struct holds 1 to kMaxParameters fields, each an rtm::Param, and nothing else");
+  // A struct with a field that is not a Param has more fields than n: the binding below refuses it.
+  if constexpr (n == 1) {
+    auto& [a] = p;
+    f(a);
+  } else if constexpr (n == 2) {
+    auto& [a, b] = p;
+    (f(a), f(b));
+  } else if constexpr (n == 3) {
+    auto& [a, b, c] = p;
+    (f(a), f(b), f(c));
+  } else if constexpr (n == 4) {
+    auto& [a, b, c, d] = p;
+    (f(a), f(b), f(c), f(d));
+  } else if constexpr (n == 5) {
+    auto& [a, b, c, d, e] = p;
+    (f(a), f(b), f(c), f(d), f(e));
+  } else if constexpr (n == 6) {
+    auto& [a, b, c, d, e, g] = p;
+    (f(a), f(b), f(c), f(d), f(e), f(g));
+  } else if constexpr (n == 7) {
+    auto& [a, b, c, d, e, g, h] = p;
+    (f(a), f(b), f(c), f(d), f(e), f(g), f(h));
+  } else {
+    auto& [a, b, c, d, e, g, h, i] = p;
+    (f(a), f(b), f(c), f(d), f(e), f(g), f(h), f(i));
+  }
+}
+
+// One parameter of a table: its declaration and where it is in the struct.
+template <class P>
+struct ParameterDecl {
+  std::string name;
+  std::string unit;
+  std::string description;
+  ParameterAccess access = ParameterAccess::fixed;
+  Bounds bounds = {};
+  std::size_t index = 0;  // the field's position in P
+
+  // Calls f(param), param being this parameter's Param field of p.
+  template <class Q, class F>
+    requires std::is_same_v<std::remove_const_t<Q>, P>
+  void visit(Q& p, F&& f) const {
+    std::size_t i = 0;
+    for_each_param(p, [&](auto& param) {
+      if (i++ == index) f(param);
+    });
+  }
 
   // p's value as `rtm set` takes it: "0.003 0.003 0 0 0 0", "1", "3".
-  std::string get(const P& p) const { return get_(*this, p); }
+  std::string get(const P& p) const {
+    std::string text;
+    visit(p, [&](const auto& param) {
+      const auto& v = param.value();
+      using T = std::remove_cvref_t<decltype(v)>;
+      if constexpr (std::is_same_v<T, float>)
+        text = format_numbers(std::span<const float>(&v, 1));
+      else if constexpr (std::is_integral_v<T>)
+        text = std::to_string(v);
+      else
+        text = format_numbers(std::span<const float>(v));
+    });
+    return text;
+  }
   // Throws std::invalid_argument naming owner, the parameter (and the element) and the value
   // when p's value breaks the bounds.
-  void check(const P& p, std::string_view owner) const { check_(*this, p, owner); }
+  void check(const P& p, std::string_view owner) const {
+    visit(p, [&](const auto& param) {
+      const auto& v = param.value();
+      using T = std::remove_cvref_t<decltype(v)>;
+      if constexpr (std::is_arithmetic_v<T>) {
+        check_bounds(static_cast<double>(v), bounds, owner, name, std::is_integral_v<T>);
+      } else {
+        for (std::size_t i = 0; i < v.size(); ++i)
+          check_bounds(v[i], bounds, owner, name + "[" + std::to_string(i) + "]", false);
+      }
+    });
+  }
   // Parses text as `rtm set` gives it into p's field, checked; p is unchanged when it throws
   // (std::invalid_argument saying what is wrong).
   void set(P& p, std::string_view text, std::string_view owner) const {
     P changed = p;
-    parse_(*this, changed, text);
+    visit(changed, [&](auto& param) {
+      auto& v = param.value();
+      using T = std::remove_cvref_t<decltype(v)>;
+      if constexpr (std::is_integral_v<T>) {
+        constexpr double kMax = std::numeric_limits<T>::max();
+        v = static_cast<T>(parse_whole_number(text, static_cast<std::uint64_t>(std::max(bounds.min, 0.0)),
+                                              static_cast<std::uint64_t>(std::min(bounds.max, kMax))));
+      } else if constexpr (std::is_same_v<T, float>) {
+        v = static_cast<float>(parse_numbers(text, 1)[0]);
+      } else {
+        const auto numbers = parse_numbers(text, v.size());
+        for (std::size_t i = 0; i < v.size(); ++i) v[i] = static_cast<float>(numbers[i]);
+      }
+    });
     check(changed, owner);
     p = changed;
   }
-
- private:
-  template <class T>
-  static std::string get_of(const ParameterDecl& d, const P& p) {
-    const T& v = p.*std::get<T P::*>(d.field);
-    if constexpr (std::is_same_v<T, float>)
-      return format_numbers(std::span<const float>(&v, 1));
-    else if constexpr (std::is_integral_v<T>)
-      return std::to_string(v);
-    else
-      return format_numbers(std::span<const float>(v));
-  }
-  template <class T>
-  static void check_of(const ParameterDecl& d, const P& p, std::string_view owner) {
-    const T& v = p.*std::get<T P::*>(d.field);
-    if constexpr (std::is_same_v<T, float> || std::is_integral_v<T>) {
-      check_bounds(static_cast<double>(v), d.bounds, owner, d.name, std::is_integral_v<T>);
-    } else {
-      for (std::size_t i = 0; i < v.size(); ++i)
-        check_bounds(v[i], d.bounds, owner, d.name + "[" + std::to_string(i) + "]", false);
-    }
-  }
-  template <class T>
-  static void parse_of(const ParameterDecl& d, P& p, std::string_view text) {
-    T& v = p.*std::get<T P::*>(d.field);
-    if constexpr (std::is_integral_v<T>) {
-      constexpr double kMax = std::numeric_limits<T>::max();
-      v = static_cast<T>(parse_whole_number(text, static_cast<std::uint64_t>(std::max(d.bounds.min, 0.0)),
-                                            static_cast<std::uint64_t>(std::min(d.bounds.max, kMax))));
-    } else if constexpr (std::is_same_v<T, float>) {
-      v = static_cast<float>(parse_numbers(text, 1)[0]);
-    } else {
-      const auto numbers = parse_numbers(text, v.size());
-      for (std::size_t i = 0; i < v.size(); ++i) v[i] = static_cast<float>(numbers[i]);
-    }
-  }
-
-  std::string (*get_)(const ParameterDecl&, const P&);
-  void (*check_)(const ParameterDecl&, const P&, std::string_view);
-  void (*parse_)(const ParameterDecl&, P&, std::string_view);
 };
 
-// The parameters of one kind of component, in the order `rtm cat` lists them.
+// The parameters of one kind of component, found in its struct P, in the struct's order (the
+// order `rtm cat` lists them in).
 template <class P>
 class ParameterTable {
  public:
   // owner: the kind, as messages name it ("controller gain[2] = nan is not a finite number").
   // Throws std::invalid_argument for a name used twice.
-  ParameterTable(std::string owner, std::vector<ParameterDecl<P>> entries)
-      : owner_(std::move(owner)), entries_(std::move(entries)) {
-    for (std::size_t i = 0; i < entries_.size(); ++i) {
-      for (std::size_t j = 0; j < i; ++j) {
-        if (entries_[i].name == entries_[j].name)
-          throw std::invalid_argument(owner_ + ": parameter '" + entries_[i].name + "' declared twice");
+  explicit ParameterTable(std::string owner) : owner_(std::move(owner)) {
+    const P defaults{};
+    for_each_param(defaults, [&](const auto& param) {
+      const ParameterSpec& s = param.spec_;
+      for (const auto& e : entries_) {
+        if (e.name == s.name)
+          throw std::invalid_argument(owner_ + ": parameter '" + e.name + "' declared twice");
       }
-    }
+      entries_.push_back({.name = std::string(s.name),
+                          .unit = std::string(s.unit),
+                          .description = std::string(s.description),
+                          .access = s.access,
+                          .bounds = s.bounds,
+                          .index = entries_.size()});
+    });
   }
 
   const std::string& owner() const { return owner_; }

@@ -50,25 +50,35 @@ using rtm::pa10::FaultKind;
 using rtm::pa10::VelocityArm;
 
 struct ActuatorParams {
-  // |component| limits: m/s for vx vy vz, rad/s for wx wy wz.
-  std::array<float, 6> limit{0.05f, 0.05f, 0.05f, 0.3f, 0.3f, 0.3f};
-  std::uint32_t watchdog_periods = 3;
   // A watchdog longer than this is none: 1000 cycles are 2 s at 2 ms.
   static constexpr std::uint32_t kMaxWatchdogPeriods = 1000;
-  // How long a force sensor node may stay silent, after its heartbeat loss was detected, before
-  // the actuator gives up retrying (cycles: 1000 are 2 s at 2 ms).
-  std::uint32_t sensor_recovery_periods = 1000;
+  // 30000 cycles are a minute at 2 ms.
   static constexpr std::uint32_t kMaxSensorRecoveryPeriods = 30000;
   // Cycles between fault resets while a force sensor node is silent (100 ms at 2 ms).
   static constexpr std::uint32_t kSensorRetryPeriods = 50;
+
+  rtm::Param<std::array<float, 6>> limit{{0.05f, 0.05f, 0.05f, 0.3f, 0.3f, 0.3f},
+                                         {"limit", "m/s, rad/s", "6 limits of |v|: vx vy vz, then wx wy wz",
+                                          rtm::ParameterAccess::live, rtm::at_least(0)}};
+  rtm::Param<std::uint32_t> watchdog_periods{
+      3,
+      {"watchdog_periods", "cycles", "cycles without a new command before the drives brake",
+       rtm::ParameterAccess::when_off, rtm::between(1, kMaxWatchdogPeriods)}};
+  // How long a force sensor node may stay silent, after its heartbeat loss was detected, before
+  // the actuator gives up retrying (1000 cycles are 2 s at 2 ms).
+  rtm::Param<std::uint32_t> sensor_recovery_periods{
+      1000,
+      {"sensor_recovery_periods", "cycles",
+       "cycles a silent force sensor node is waited for (drives stopped) before the actuator fails",
+       rtm::ParameterAccess::when_off, rtm::between(1, kMaxSensorRecoveryPeriods)}};
 
   // Throws std::invalid_argument for a negative or non-finite limit, watchdog_periods 0, or
   // sensor_recovery_periods out of [1, kMaxSensorRecoveryPeriods].
   void validate() const;
 };
 
-// Each of the actuator's parameters, declared once (rtm/parameters.h); rtm-actuator and
-// rtm-servo register their options with rtm::add_parameter_options.
+// The actuator's parameters (rtm/parameters.h); rtm-actuator and rtm-servo register their
+// options with rtm::add_parameter_options.
 const rtm::ParameterTable<ActuatorParams>& actuator_parameters();
 
 // Fig. 7: each component clamped to [-limit[i], +limit[i]].

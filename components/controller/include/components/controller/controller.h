@@ -41,26 +41,40 @@
 namespace rtm::comp {
 
 struct ControllerParams {
-  // (m/s)/N for x y z, (rad/s)/(N·m) for the rotations: the contact gain. On pa10-sim's
-  // default steel surface (10^5 N/m, 400 rad/s drives) the largest stable gain is 0.00066 with
-  // the paper's five processes and 0.0012 on the shared tick (bench/sim/stability_study);
-  // the default keeps a margin below both.
-  std::array<float, 6> gain{0.0004f, 0.0004f, 0.0004f, 0.0f, 0.0f, 0.0f};
+  // The contact gain. On pa10-sim's default steel surface (10^5 N/m, 400 rad/s drives) the
+  // largest stable gain is 0.00066 with the paper's five processes and 0.0012 on the shared
+  // tick (bench/sim/stability_study); the default keeps a margin below both.
+  rtm::Param<std::array<float, 6>> gain{{0.0004f, 0.0004f, 0.0004f, 0.0f, 0.0f, 0.0f},
+                                        {"gain", "(m/s)/N, (rad/s)/(N·m)", "6 gains in contact: x y z, then rx ry rz",
+                                         rtm::ParameterAccess::live}};
   // The bounded touch-down (see above); approach_speed 0: the paper's P everywhere.
-  std::array<float, 6> free_gain{0.003f, 0.003f, 0.003f, 0.0f, 0.0f, 0.0f};
-  float approach_speed_m_s = 0.005f;
-  float contact_force_N = 1.0f;
-  std::uint32_t stale_periods = 3;  // cycles without a new datum before an input is stale
+  rtm::Param<std::array<float, 6>> free_gain{
+      {0.003f, 0.003f, 0.003f, 0.0f, 0.0f, 0.0f},
+      {"free_gain", "(m/s)/N, (rad/s)/(N·m)", "6 gains in free space while approach_speed is on: x y z, then rx ry rz",
+       rtm::ParameterAccess::live}};
+  rtm::Param<float> approach_speed_m_s{
+      0.005f,
+      {"approach_speed", "m/s",
+       "free-space speed limit, so the tool meets a surface at most this fast; 0: the paper's plain P (gain "
+       "everywhere)",
+       rtm::ParameterAccess::live, rtm::at_least(0)}};
+  rtm::Param<float> contact_force_N{
+      1.0f,
+      {"contact_force", "N", "|force| from which the tool is in contact (left after 10 cycles below half of it)",
+       rtm::ParameterAccess::live, rtm::above(0)}};
+  rtm::Param<std::uint32_t> stale_periods{
+      3,
+      {"stale_periods", "cycles", "cycles without a new input datum before the command is withheld (the actuator brakes)",
+       rtm::ParameterAccess::when_off, rtm::between(1, 1'000'000)}};
 
   // Throws std::invalid_argument naming the bad value (NaN/inf gain, a negative approach
-  // speed, a contact force not above 0, stale_periods 0), as controller_parameters() bounds it.
+  // speed, a contact force not above 0, stale_periods 0), as the fields' bounds say.
   void validate() const;
 };
 
-// Each of the controller's parameters, declared once (rtm/parameters.h): its option (an
-// executable registers them with rtm::add_parameter_options; rtm-controller and rtm-servo both
-// do), its help,
-// its bounds, what `rtm cat` shows and `rtm set` changes.
+// The controller's parameters (rtm/parameters.h): its options (an executable registers them
+// with rtm::add_parameter_options; rtm-controller and rtm-servo both do), their help and
+// bounds, what `rtm cat` shows and `rtm set` changes.
 const rtm::ParameterTable<ControllerParams>& controller_parameters();
 
 // Fig. 6: out[i] = gain[i] * (ref[i] + sen[i]).

@@ -51,20 +51,23 @@
 namespace rtm::comp {
 
 struct SensorParams {
-  // Cycles a heartbeat loss of the node may last, from the moment it is seen (the node's
-  // heartbeat timeout after its last heartbeat), before the component gives up: 1000 cycles
-  // are 2 s at 2 ms.
-  std::uint32_t recovery_timeout_periods = 1000;
   // 30000 cycles are a minute at 2 ms: a sensor silent that long is not coming back by itself.
   static constexpr std::uint32_t kMaxRecoveryTimeoutPeriods = 30000;
+  // Counted from the moment the loss is seen (the node's heartbeat timeout after its last
+  // heartbeat): 1000 cycles are 2 s at 2 ms.
+  rtm::Param<std::uint32_t> recovery_timeout_periods{
+      1000,
+      {"recovery_timeout_periods", "cycles",
+       "cycles a heartbeat loss of the sensor node may last before the component goes to error",
+       rtm::ParameterAccess::when_off, rtm::between(1, kMaxRecoveryTimeoutPeriods)}};
 
   // Throws std::invalid_argument naming the bad value (recovery_timeout_periods 0 or above the
   // maximum).
   void validate() const;
 };
 
-// The sensor's parameter, declared once (rtm/parameters.h); rtm-sensor registers its option
-// with rtm::add_parameter_options.
+// The sensor's parameter (rtm/parameters.h); rtm-sensor registers its option with
+// rtm::add_parameter_options.
 const rtm::ParameterTable<SensorParams>& sensor_parameters();
 
 // What the sensor counts: each field is also the statistic of its name (`rtm cat`).
