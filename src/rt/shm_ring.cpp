@@ -18,8 +18,7 @@ namespace rtm {
 
 namespace shm_detail {
 
-// "RTMRING1", little-endian. Stored last (release) by the writer: a reader that sees it sees
-// the whole layout.
+// "RTMRING1", little-endian. Stored last (release) by the writer: a reader that sees it sees all the layout.
 constexpr std::uint64_t kMagic = 0x31474E49524D5452ULL;
 constexpr std::uint32_t kVersion = 1;
 constexpr std::uint32_t kMaxPayloadBytes = 1U << 26;  // 64 MiB: a larger datum is not a port's

@@ -51,8 +51,8 @@ struct SchedAttr {
   std::uint32_t util_max;
 };
 
-// Asks for a slice of slice_ns at the thread's own policy and nice value; false (errno set)
-// when the kernel refuses.
+// Asks for a slice of slice_ns for a SCHED_OTHER thread, keeping its nice value; false (errno set)
+// when the kernel refuses. Under any other policy it asks nothing and returns true.
 bool request_slice(long slice_ns) {
   SchedAttr attr{};
   if (::syscall(SYS_sched_getattr, 0, &attr, sizeof attr, 0) != 0) return false;

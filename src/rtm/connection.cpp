@@ -18,11 +18,10 @@ Connection::Connection(ConnectionHost& host, ConnKind kind, Subscriber who)
 void Connection::start() {
   if (!has_thread()) return;
   thread_ = std::thread([this] { run(); });
-  // Named here, not by the thread itself: whoever lists the threads once subscribe() has
-  // returned sees the name, as it sees the priority set below.
+  // Named here, not by the thread itself: whoever lists the threads once subscribe() has returned sees the
+  // name and the priority. Data pass a delivery thread on their way to the subscriber: with real-time
+  // priorities on it runs at the path's (rt/thread.h), as the thread of the put that receives them does.
   pthread_setname_np(thread_.native_handle(), "rtm-deliver");
-  // Data pass a delivery thread on their way to the subscriber: with real-time priorities on
-  // it runs at the path's (rt/thread.h), as the thread of the put that receives them does.
   if (const int priority = path_thread_priority(); priority > 0 && carries_data())
     set_thread_fifo_priority(thread_.native_handle(), priority);
 }
@@ -129,10 +128,9 @@ WriterReferences make_writer_references(const Subscriber& who, std::uint32_t wri
   // A reference of write()'s own, unmarshalled anew (omniORB keeps call timeouts per reference).
   CORBA::String_var ior = orb->orb()->object_to_string(who.port.in());
   CORBA::Object_var copy = orb->orb()->string_to_object(ior.in());
-  // One round trip on it under the long bound first: the first call through a reference runs
-  // code and touches memory no later call does, and on a loaded machine outlived the short
-  // bound (the first datum then failed as TIMEOUT). A subscriber that does not answer here
-  // is found out by the first write() as before.
+  // One round trip on it under the long bound first: the first call through a reference runs code and touches
+  // memory no later call does, and on a loaded machine outlived the short bound (the first datum then failed
+  // as TIMEOUT). A subscriber that does not answer here is found out by the first write() as before.
   omniORB::setClientCallTimeout(copy.in(), who.policy.call_timeout_ms);
   try {
     (void)copy->_non_existent();

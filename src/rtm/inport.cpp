@@ -155,7 +155,6 @@ CORBA::Boolean InPortBase::attach_ring(const char* segment, const char* host, CO
   std::string reason;
   {
     std::lock_guard lock(mu_);
-    // Rings of publishers that are gone (killed, or restarted as another process) are let go.
     for (auto it = rings_.begin(); it != rings_.end();) {
       if (process_start_ticks((*it)->writer_pid) == (*it)->writer_start) {
         ++it;

@@ -35,9 +35,7 @@ CORBA::ULong to_millis(std::chrono::milliseconds ms) {
 
 }  // namespace
 
-// ---------------------------------------------------------------------------------------------
-// Values
-// ---------------------------------------------------------------------------------------------
+// ---- Values ----
 
 NamingAddress NamingAddress::parse(std::string_view text) {
   NamingAddress address;
@@ -149,9 +147,7 @@ std::string local_host_name() {
   return std::string(buffer.data());
 }
 
-// ---------------------------------------------------------------------------------------------
-// NamingClient
-// ---------------------------------------------------------------------------------------------
+// ---- NamingClient ----
 
 NamingClient::NamingClient(CORBA::ORB_ptr orb, NamingAddress address,
                            std::chrono::milliseconds call_timeout)

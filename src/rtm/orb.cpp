@@ -48,10 +48,9 @@ void remove_stale_unix_sockets() {
   if (removed > 0) log().debug("removed {} giop:unix: sockets of processes that no longer exist from {}", removed, folder);
 }
 
-// omniORB's SSL transport is linked into every program; a process without certificates
-// (host/tls.h) would see its warning "SSL transport disabled" at every start. It is the only
-// trace-level-1 message ORB_init gives for a usable setup, so that level is lowered for the
-// call unless the user chose a level.
+// omniORB's SSL transport is linked into every program; a process without certificates (host/tls.h) would see
+// its warning "SSL transport disabled" at every start. It is the only trace-level-1 message ORB_init gives
+// for a usable setup, so that level is lowered for the call unless the user chose a level.
 bool user_chose_trace_level(const std::vector<std::string>& args) {
   if (std::getenv("ORBtraceLevel")) return true;
   for (const auto& a : args)
@@ -193,11 +192,10 @@ Orb* Orb::instance() { return g_instance.load(); }
 
 }  // namespace rtm
 
-// omniORB's shortcut stubs (-Wbshortcut) cache the servant in the object reference
-// (_enableShortcut) on a collocated call while other threads calling through the same
-// reference read that pointer: an unsynchronised pointer-sized store omniORB relies on. It is
-// suppressed here (every program using RTM servants links this file) rather than in a file
-// each ThreadSanitizer run would have to name.
+// omniORB's shortcut stubs (-Wbshortcut) cache the servant in the object reference (_enableShortcut) on a
+// collocated call while other threads calling through the same reference read that pointer: an unsynchronised
+// pointer-sized store omniORB relies on. It is suppressed here (every program using RTM servants links this
+// file) rather than in a file each ThreadSanitizer run would have to name.
 #if defined(__SANITIZE_THREAD__)
 extern "C" const char* __tsan_default_suppressions() { return "race:_enableShortcut\n"; }
 #endif

@@ -92,7 +92,6 @@ RTM::OutPortEx_ptr OutPortBase::reference() const {
 }
 
 void OutPortBase::stop_and_join(std::unique_ptr<Connection> c, std::vector<std::unique_ptr<Connection>>& parked) {
-  // A delivery thread that unsubscribes itself (e.g. from a callback) cannot join itself.
   if (!c->stop_and_join()) parked.push_back(std::move(c));
 }
 
@@ -217,7 +216,6 @@ ConnPolicy OutPortBase::resolve(const ConnPolicy& asked) const {
   if (p.delivery == ConnPolicy::Delivery::port_default)
     p.delivery = delivery() == OutPortOptions::Delivery::thread ? ConnPolicy::Delivery::thread
                                                                  : ConnPolicy::Delivery::writer_when_idle;
-  // A once-subscription is served by its thread, under the call bound (OutPortOptions::delivery).
   if (p.once) p.delivery = ConnPolicy::Delivery::thread;
   return p;
 }

@@ -57,9 +57,8 @@ struct PeriodicOptions {
   ThreadSettings thread_settings() const { return {thread_name, fifo_priority, cpu, lock_memory}; }
 };
 
-// Runs cycle on a PeriodicSchedule: clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME) to the
-// deadline, next deadline = deadline + period (see next_deadline()), timer slack 1 ns.
-// Nothing in the loop allocates, locks or logs.
+// Runs cycle on a PeriodicSchedule: clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME) to the deadline, next
+// deadline = deadline + period (next_deadline()), timer slack 1 ns. The loop never allocates, locks or logs.
 class PeriodicActivity final : public Activity {
  public:
   PeriodicActivity(CycleFunction cycle, PeriodicOptions options = {});
@@ -69,19 +68,17 @@ class PeriodicActivity final : public Activity {
   bool running() const override;
   ActivityStats stats() const override;
   const PeriodicOptions& options() const { return options_; }
-  // Sets PeriodicOptions::first_deadline_ns for the next start(), e.g. from another activity's
-  // grid known only then. Only while stopped: std::logic_error otherwise; std::invalid_argument
-  // when negative.
+  // Sets PeriodicOptions::first_deadline_ns for the next start(), e.g. from another activity's grid known
+  // only then. Only while stopped: std::logic_error otherwise; std::invalid_argument when negative.
   void set_first_deadline_ns(std::int64_t first_deadline_ns);
   // The CLOCK_MONOTONIC deadline of the cycle the schedule runs next: while running, the one it
   // waits for or runs; once stopped, the first one it did not run (a stop() requested before a
   // deadline ends the activity without running that cycle). 0 before the first start().
   std::int64_t next_deadline_ns() const { return schedule_.deadline_ns(); }
-  // Hands the grid over: the activity runs the cycle in progress, or else its next one, then
-  // ends; returns the first deadline it did not run, about one period ahead, where another
-  // activity started with set_first_deadline_ns() continues with no cycle lost or doubled.
-  // Waits at most one period plus a cycle. While stopped: next_deadline_ns() at once. Not from
-  // the activity's own thread (std::logic_error).
+  // Hands the grid over: the activity runs the cycle in progress, or else its next one, then ends; returns
+  // the first deadline it did not run, about one period ahead, where another activity started with
+  // set_first_deadline_ns() continues with no cycle lost or doubled. Waits at most one period plus a cycle.
+  // While stopped: next_deadline_ns() at once. Not from the activity's own thread (std::logic_error).
   std::int64_t stop_after_cycle();
 
  private:

@@ -3,11 +3,10 @@
 //   monotonic_ns()  CLOCK_MONOTONIC: schedules, deadlines, timeouts
 //   realtime_ns()   CLOCK_REALTIME: stamps compared across processes and machines (data
 //                   samples, the moment a command left for the bus)
-//   Clock           CLOCK_MONOTONIC as a value, for what measures a silence against a timeout
-//                   (a node's heartbeat): monotonic_clock() in a program, a manual clock that
-//                   the test moves in a test (tests/support: rtm_test::ManualClock), so a
-//                   timeout is passed by a step instead of by sleeping through it. What waits
-//                   for I/O or a deadline stays on monotonic_ns().
+//   Clock           CLOCK_MONOTONIC as a value, for what measures a silence against a timeout (a node's
+//                   heartbeat): monotonic_clock() in a program, a manual clock that the test moves in a test
+//                   (tests/support: rtm_test::ManualClock), so a timeout is passed by a step instead of by
+//                   sleeping through it. What waits for I/O or a deadline stays on monotonic_ns().
 #pragma once
 
 #include <time.h>
@@ -44,8 +43,7 @@ constexpr timespec to_timespec(std::int64_t ns) {
   return timespec{static_cast<time_t>(ns / kNsPerSecond), static_cast<long>(ns % kNsPerSecond)};
 }
 
-// Sleeps until the CLOCK_MONOTONIC time deadline_ns (clock_nanosleep, TIMER_ABSTIME; an
-// interrupted sleep is resumed).
+// Sleeps until CLOCK_MONOTONIC deadline_ns (clock_nanosleep, TIMER_ABSTIME; an interrupted sleep is resumed).
 void sleep_until_ns(std::int64_t deadline_ns);
 
 }  // namespace rtm

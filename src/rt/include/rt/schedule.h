@@ -1,8 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// The periodic schedule every loop of the project runs on: deadlines on a fixed grid of
-// CLOCK_MONOTONIC, what a late cycle does to the grid, and the loop's timing statistics.
-// PeriodicActivity sleeps on it (clock_nanosleep); pa10-sim's loop, which also waits for CAN
-// frames between its steps, drives the same schedule from ppoll.
+// The periodic schedule every loop of the project runs on: deadlines on a fixed grid of CLOCK_MONOTONIC, what
+// a late cycle does to the grid, and the loop's timing statistics. PeriodicActivity sleeps on it
+// (clock_nanosleep); pa10-sim's loop, which also waits for CAN frames between steps, drives it from ppoll.
 #pragma once
 
 #include <atomic>
@@ -27,9 +26,8 @@ struct ScheduleStep {
 ScheduleStep next_deadline(std::int64_t deadline_ns, std::int64_t period_ns, std::int64_t now_ns,
                            std::int64_t catch_up_ns = 0);
 
-// The first point of the grid origin_ns + k * period_ns (k any integer) at or after now_ns:
-// how an activity joins another one's grid (e.g. the bus master's SYNC cycles) whenever it
-// starts. period_ns > 0.
+// The first point of the grid origin_ns + k * period_ns (k any integer) at or after now_ns: how an activity
+// joins another one's grid (e.g. the bus master's SYNC cycles) whenever it starts. period_ns > 0.
 std::int64_t grid_point_at_or_after(std::int64_t origin_ns, std::int64_t period_ns, std::int64_t now_ns);
 
 // A periodic loop's first deadline: now_ns when requested_ns is 0 (start at once),
@@ -53,7 +51,7 @@ struct CycleContext {
 struct ActivityStats {
   std::int64_t period_ns = 0;
   std::uint64_t cycles = 0;
-  std::uint64_t overruns = 0;     // cycles that woke, or ended, more than one period late
+  std::uint64_t overruns = 0;     // cycles that woke more than a period late, or ended past the catch-up bound
   std::uint64_t skipped = 0;      // deadlines skipped after overruns
   std::int64_t lateness_p50_ns = 0;  // wake - deadline; histogram bucket upper edge
   std::int64_t lateness_p99_ns = 0;
@@ -68,8 +66,7 @@ struct ActivityStats {
 // any thread meanwhile. Nothing allocates, locks or logs.
 class PeriodicSchedule {
  public:
-  // period_ns > 0; catch_up_ns as in next_deadline() (0: one period). std::invalid_argument
-  // otherwise.
+  // period_ns > 0; catch_up_ns as in next_deadline() (0: one period). std::invalid_argument otherwise.
   explicit PeriodicSchedule(std::int64_t period_ns, std::int64_t catch_up_ns = 0);
 
   // The first deadline from first_deadline(requested_ns, period, now_ns). Keeps the statistics

@@ -58,8 +58,8 @@ struct SlotHeader;
 
 // ================================ writer ================================
 
-// The one writer of a ring. Not thread-safe: one thread writes (a port's write() is already
-// serialised by its component's cycle).
+// The one writer of a ring. Not thread-safe: one thread writes at a time (the OutPort writes it
+// under its own lock).
 class ShmRingWriter {
  public:
   // Lays a ring of that shape out in memory (bytes >= shm_ring_bytes(shape), 64-byte aligned,
@@ -92,47 +92,40 @@ class ShmRingReader {
   // newest datum there: take_next() returns data written from now on.
   ShmRingReader(void* memory, std::size_t bytes, std::uint64_t expected_type_id);
 
-  // The newest datum, copied into buffer (at least payload_bytes). new_data when it was not
-  // taken by this reader before, old_data when it was (copied again), no_data before the
-  // first write. Wait-free in practice: gives up (no_data) only after a writer lapped the
-  // ring 64 times during one read.
+  // The newest datum, copied into buffer (at least payload_bytes). new_data when it was not taken by this
+  // reader before, old_data when it was (copied again), no_data before the first write. Wait-free in
+  // practice: gives up (no_data) only after a writer lapped the ring 64 times during one read.
   RingRead take_latest(std::span<std::byte> buffer);
 
   // The oldest datum this reader has not taken yet (FIFO), with how many older ones it missed
   // because the writer overwrote them first. no_data when there is none newer.
   RingRead take_next(std::span<std::byte> buffer);
 
-  // Waits until a datum newer than the last one this reader took (or saw at construction) is
-  // published: true at once when there is one, else when a write wakes it; false when
-  // deadline_ns (CLOCK_MONOTONIC) passed first. kNoDeadline waits for a write however long
-  // it takes and saves arming a timer at each wait. cancel, when given, is looked at after
-  // every wake-up: once true the wait ends (false) at the next interrupt() or write.
+  // Waits until a datum newer than the last one this reader took (or saw at construction) is published: true
+  // at once when there is one, else when a write wakes it; false when deadline_ns (CLOCK_MONOTONIC) passed
+  // first. kNoDeadline waits however long it takes and saves arming a timer at each wait. cancel, when given,
+  // is looked at after every wake-up: once true, the next interrupt() ends the wait (false); a write ends it
+  // with true, as always.
   static constexpr std::int64_t kNoDeadline = INT64_MAX;
   bool wait_for_data(std::int64_t deadline_ns, const std::atomic<bool>* cancel = nullptr);
-  // The same wait for a datum newer than `number`, touching nothing of this reader but the
-  // ring's own words: another thread may take from this reader meanwhile (under its owner's
-  // lock) while one waits here without it.
+  // The same wait for a datum newer than `number`, touching nothing of this reader but the ring's own words:
+  // another thread may take from this reader (under its owner's lock) while one waits here without it.
   bool wait_past(std::uint64_t number, std::int64_t deadline_ns, const std::atomic<bool>* cancel = nullptr) const;
-  // Wakes every reader of this ring waiting in wait_for_data(), in any process: each looks at
-  // its cancel flag and its data again (one spurious wake-up for those with nothing new). Set
-  // the flag first.
+  // Wakes every reader of this ring waiting in wait_for_data(), in any process: each looks at its cancel flag
+  // and its data again (one spurious wake-up for those with nothing new). Set the flag first.
   void interrupt();
 
-  // Number of the newest datum published (0: none yet). One load of the line the writer
-  // writes at every datum.
+  // Number of the newest datum published (0: none). One load of the line the writer writes at every datum.
   std::uint64_t published() const;
-  // Whether a datum newer than the last one this reader took (or saw at construction) is
-  // there. A reader still behind the head its take_next() saw last answers from that and
-  // loads nothing shared: a reader polling a backlog does not pull the writer's head line
-  // away from it at every datum (which would cost the writer a cache miss per write).
+  // Whether a datum newer than the last one this reader took (or saw at construction) is there. A reader
+  // still behind the head its take_next() saw last answers from that and loads nothing shared: polling a
+  // backlog does not pull the writer's head line away at every datum (a cache miss per write).
   bool has_new();
-  // Skips all but the newest `keep` of the data not taken yet, of those behind the head that
-  // take_next() or has_new() loaded last (it loads nothing); returns how many it skipped. A
-  // reader that keeps at most `keep` calls it before it takes a backlog, so that it is never
-  // more than that behind what it last saw.
+  // Skips all but the newest `keep` of the data not taken yet, of those behind the head that take_next() or
+  // has_new() loaded last (it loads nothing); returns how many it skipped. A reader that keeps at most `keep`
+  // calls it before it takes a backlog, so that it is never more than that behind what it last saw.
   std::uint64_t skip_older(std::uint64_t keep);
-  // On-arrival readers in wait_for_data() now, in any process (a reader killed while waiting
-  // stays counted).
+  // On-arrival readers in wait_for_data() now, in any process (a reader killed while waiting stays counted).
   std::uint32_t waiting() const;
   // True when the slot after the newest datum is half-written: the writer is in a write now,
   // or died in one (then it stays true).
@@ -151,7 +144,7 @@ class ShmRingReader {
   ShmRingShape shape_;
   std::uint32_t slot_bytes_;
   std::uint64_t last_taken_ = 0;  // number of the last datum taken (or seen at construction)
-  std::uint64_t known_head_ = 0;  // the head take_next() loaded last
+  std::uint64_t known_head_ = 0;  // the head take_next() or has_new() loaded last
 };
 
 }  // namespace rtm

@@ -6,13 +6,12 @@
 //   ... hand seg.name() to a reader of this user (over the port's CORBA negotiation) ...
 //   ShmSegment mine = ShmSegment::open(name);   // in the reader's process
 //
-// The folder is $XDG_RUNTIME_DIR/rtm-shm when XDG_RUNTIME_DIR is a tmpfs folder of this user,
-// else /dev/shm/rtm-<uid>; it is made 0700 and refused when another user owns it, it is a
-// link, or others may enter it. Segment files are 0600: another user can neither map one
-// nor plant one where a reader would open it. A name carries the maker's pid and start time:
-// create() first removes the segments of processes that no longer exist, so a killed process
-// leaves nothing behind after the next start. Pages are faulted in at create and open: the
-// periodic path touches no page for the first time.
+// The folder is $XDG_RUNTIME_DIR/rtm-shm when XDG_RUNTIME_DIR is a tmpfs folder of this user, else
+// /dev/shm/rtm-<uid>; it is made 0700 and refused when another user owns it, it is a link, or others may
+// enter it. Segment files are 0600: another user can neither map one nor plant one where a reader would open
+// it. A name carries the maker's pid and start time: create() first removes the segments of processes that no
+// longer exist, so a killed process leaves nothing behind after the next start. Pages are faulted in at
+// create and open: the periodic path touches no page for the first time.
 #pragma once
 
 #include <cstddef>
@@ -34,18 +33,15 @@ std::string shm_host_identity();
 
 class ShmSegment {
  public:
-  // The folder of this user's segments (made when missing). Throws std::runtime_error saying
-  // why it cannot be used.
+  // The folder of this user's segments (made when missing); std::runtime_error saying why it cannot be used.
   static std::filesystem::path folder();
 
-  // A new zero-filled segment of bytes, 0600, named after label (characters outside
-  // [A-Za-z0-9._-] become '_'), this process and a counter. Removes stale segments first.
-  // Throws std::runtime_error with the reason.
+  // A new zero-filled segment of bytes, 0600, named after label (characters outside [A-Za-z0-9._-] become
+  // '_'), this process and a counter. Removes stale segments first. std::runtime_error with the reason.
   static ShmSegment create(std::size_t bytes, std::string_view label);
 
-  // Maps the segment called name (a file name in folder(), no path) for reading and waiting.
-  // Refused (std::runtime_error, saying why) unless it is a regular 0600 file of this user
-  // of at most 256 MiB.
+  // Maps the segment called name (a file name in folder(), no path) for reading and waiting. Refused
+  // (std::runtime_error, saying why) unless it is a regular 0600 file of this user of at most 256 MiB.
   static ShmSegment open(std::string_view name);
 
   // Removes the segment files of processes that no longer exist from folder(); returns how

@@ -1,8 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// Thread settings of a real-time loop, applied one way everywhere (activities of the core,
-// the CAN master, the simulator). Each privileged setting that the system refuses is reported
-// once through the warning sink and skipped: a developer machine without CAP_SYS_NICE still
-// runs everything, only with worse timing.
+// Thread settings of a real-time loop, applied one way everywhere (activities of the core, the CAN master,
+// the simulator). Each privileged setting that the system refuses is reported once through the warning sink
+// and skipped: a developer machine without CAP_SYS_NICE still runs everything, only with worse timing.
 #pragma once
 
 #include <pthread.h>
@@ -32,9 +31,9 @@ void apply_thread_settings(const ThreadSettings& settings);
 // 6.12 and later), 0 where it reports none or the call fails.
 long current_slice_ns();
 
-// The SCHED_FIFO priority of the threads on the real-time path that are not an activity: the
-// CAN listeners' receive threads, which hand a sensor's frames to its loop. 0 (SCHED_OTHER)
-// unless the process's runner set it, before building the component, from the real-time
+// The SCHED_FIFO priority of the threads on the real-time path that are not an activity: the CAN listeners'
+// receive threads, which hand a sensor's frames to its loop, and the core's delivery and ring-waiter threads.
+// 0 (SCHED_OTHER) unless the process's runner set it, before building the component, from the real-time
 // priority of its activity. Thread-safe.
 void set_path_thread_priority(int fifo_priority);
 int path_thread_priority();

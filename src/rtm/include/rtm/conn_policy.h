@@ -6,14 +6,12 @@
 //   repeated                 the subscription lives until unsubscribed (RTM.idl's repeated)
 //   once                     ... or ends after its first delivered datum (RTM.idl's once)
 //   reader=latest|fifo[:N]|callback
-//                            what the InPort must keep; the subscribe is refused when it keeps
-//                            anything else (unset: whatever it keeps; `rtm cat` shows it)
-//   depth=N                  data a subscription may fall behind by before the oldest are
-//                            dropped (counted): its queue, pre-allocated (0: the port's
-//                            OutPortOptions::queue_depth)
-//   delivery=writer|thread   who makes a remote call: write() itself when the subscription is
-//                            idle, or always its delivery thread (unset: the port's default,
-//                            e.g. a runner's --delivery)
+//                            what the InPort must keep; the subscribe is refused when it keeps anything else
+//                            (unset: whatever it keeps; `rtm cat` shows it)
+//   depth=N                  data a subscription may fall behind by before the oldest are dropped (counted):
+//                            its queue, pre-allocated (0: the port's OutPortOptions::queue_depth)
+//   delivery=writer|thread   who makes a remote call: write() itself when the subscription is idle, or always
+//                            its delivery thread (unset: the port's default, e.g. a runner's --delivery)
 //   call=Nms                 bound on one remote call by the delivery thread (0: the port's
 //                            OutPortOptions::call_timeout_ms)
 //   path=auto|corba          auto: the fastest kind the peer speaks; corba: never shared memory
@@ -71,8 +69,7 @@ struct ConnPolicy {
   }
 };
 
-// The text form above; fields left at their defaults are not written ("repeated" alone for
-// the default policy).
+// The text form above; fields at their defaults are not written ("repeated" alone for the default policy).
 std::string to_string(const ConnPolicy& policy);
 // Parses the text form; std::invalid_argument naming the token that is wrong and what it may
 // be (an unknown key, a number out of range, a value twice). "" is the default policy.
@@ -87,7 +84,7 @@ ReaderPolicy parse_reader_policy(std::string_view text);
 bool satisfies(const ReaderPolicy& kept, const ReaderPolicy& wanted);
 
 // To and from RTMExt.idl's ConnPolicy. from_idl throws std::invalid_argument on an enum value
-// out of range (a peer of a newer build, or a hostile one).
+// out of range or a depth above ConnPolicy::kMaxDepth (a peer of a newer build, or a hostile one).
 RTM::ConnPolicy to_idl(const ConnPolicy& policy);
 ConnPolicy from_idl(const RTM::ConnPolicy& policy);
 

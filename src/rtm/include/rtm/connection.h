@@ -4,16 +4,15 @@
 // kind is a class. The OutPort keeps a list of connections and hands each datum to each
 // (TypedConnection<T>::push); what happens to the datum then is the kind's:
 //
-//   DirectConnection<T>   in_process, to an InPort that stores without waiting: write()
-//                         stores into it (a copy under the InPort's lock; no thread, no any)
-//   QueuedConnection<T>   in_process, to an InPort whose storing may wait or runs user code:
-//                         write() queues, the connection's delivery thread delivers
-//   RemoteConnection<T>   remote_by_writer / remote_by_thread: queued, and each delivery is a
-//                         CORBA call; while the connection is idle write() may make the call
-//                         itself (remote_by_writer), bounded by the port
-//   RingConnection<T>     shared_memory: the subscriber reads the port's ring in its own
-//                         cycle; write() only counts, and a probe thread finds a subscriber
-//                         that is gone
+//   DirectConnection<T>   in_process, to an InPort that stores without waiting: write() stores into it (a
+//                         copy under the InPort's lock; no thread, no any)
+//   QueuedConnection<T>   in_process, to an InPort whose storing may wait or runs user code: write() queues,
+//                         the connection's delivery thread delivers
+//   RemoteConnection<T>   remote_by_writer / remote_by_thread: queued, and each delivery is a CORBA call;
+//                         while the connection is idle write() may make the call itself (remote_by_writer),
+//                         bounded by the port
+//   RingConnection<T>     shared_memory: the subscriber reads the port's ring in its own cycle; write() only
+//                         counts, and a probe thread finds a subscriber that is gone
 //
 // A queued connection keeps a pre-allocated ring of policy().depth data not yet delivered and
 // its thread takes them oldest first with no lock held; a subscriber that falls further behind
@@ -52,13 +51,11 @@ struct ConnectionHost {
   std::atomic<std::uint64_t> failed{0};
   std::atomic<std::uint64_t> timed_out{0};
   std::atomic<std::uint64_t> by_writer{0};
-  // Takes a connection off the port's list (from the connection's own thread, no lock held);
-  // the port joins it later.
+  // Takes a connection off the port's list (from its own thread, no lock held); the port joins it later.
   std::function<void(Connection*)> retire;
 };
 
-// Whom a subscribe/connect found at the other end, and on what terms: what the OutPort
-// negotiates before it makes the connection.
+// Whom a subscribe/connect found at the other end, and on what terms: what the OutPort negotiates first.
 struct Subscriber {
   ConnPolicy asked;    // as subscribe/connect was given it
   ConnPolicy policy;   // what it is: asked, with the port's defaults filled in
@@ -90,10 +87,9 @@ class Connection {
   // Starts the kind's thread, if it has one: named "rtm-deliver", and at the real-time path's
   // priority (rt/thread.h) when data pass it, set before this returns.
   void start();
-  // Stops the connection: its thread, and a call write() is making for it, end first; then the
-  // kind's goodbye (a ring's subscriber is told to detach). False when called from the
-  // connection's own thread (a callback that unsubscribes): its owner must keep it and
-  // detach_thread() later, as a thread cannot join itself.
+  // Stops the connection: its thread, and a call write() is making for it, end first; then the kind's goodbye
+  // (a ring's subscriber is told to detach). False when called from the connection's own thread (a callback
+  // that unsubscribes): its owner must keep it and detach_thread() later, as a thread cannot join itself.
   bool stop_and_join();
   void detach_thread();
 
@@ -121,8 +117,7 @@ class Connection {
   // storage (a CORBA exception's _name()); refused_minor: a NO_PERMISSION's minor code, else 0.
   bool count_failure(const char* exception_name, bool dead_kind, std::uint32_t refused_minor = 0);
   void count_pushed();
-  // Runs call() (a delivery) and counts what came of it: true when it returned; *dead when the
-  // connection must go.
+  // Runs call() (a delivery), counts the outcome: true when it returned; *dead when the connection must go.
   template <class Call>
   bool guarded_call(Call call, bool* dead);
   // From the connection's own thread: marks it done and takes it off the port's list.

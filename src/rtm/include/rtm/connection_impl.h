@@ -190,7 +190,6 @@ std::uint64_t RemoteConnection<T>::take_call_locked(bool may_call) {
 template <PortData T>
 void RemoteConnection<T>::writer_call(const T& value, std::uint64_t seq, bool within_budget) {
   if (!within_budget) {
-    // A call write() took on but will not make: the datum goes to the thread after all.
     std::lock_guard slot_lock(this->slot_mu_);
     this->ring_[(this->written_seq_ - 1) % this->ring_.size()] = value;
     --this->delivered_seq_;

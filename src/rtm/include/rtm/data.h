@@ -26,8 +26,7 @@ RTM::Time now();
 std::int64_t to_ns(const RTM::Time& t);
 RTM::Time from_ns(std::int64_t ns);
 
-// CLOCK_MONOTONIC in nanoseconds, the clock activities schedule on: rtm::monotonic_ns() of
-// rt/clock.h.
+// CLOCK_MONOTONIC in nanoseconds, the clock activities schedule on: rtm::monotonic_ns() of rt/clock.h.
 
 // ================================ types ===============================
 

@@ -1,11 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // How fresh a periodic input is: the age, in cycles, of its newest datum.
 //
-// A component that reads an input each cycle calls tick() once per cycle, saying whether a new
-// datum came. The input is fresh from its first datum until `limit` cycles pass without
-// another; tick() reports the cycle it goes stale, once per event, so a caller can count and
-// log each event without repeating itself. The controller's "stale input" and the actuator's
-// watchdog are both this.
+// A component that reads an input each cycle calls tick() once per cycle, saying whether a new datum came.
+// The input is fresh from its first datum until `limit` cycles pass without another; tick() reports the cycle
+// it goes stale, once per event, so a caller can count and log each event without repeating itself. The
+// controller's "stale input" and the actuator's watchdog are both this.
 #pragma once
 
 #include <cstdint>

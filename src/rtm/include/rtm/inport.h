@@ -152,13 +152,12 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   // What wait_new_until() found: a datum read() has not given yet was there at once, came
   // while it waited, or did not come before the deadline.
   enum class Awaited { there, arrived, none };
-  // Waits, with no lock held, until there is a datum read() has not given yet, or until
-  // deadline_ns (CLOCK_MONOTONIC) passed. A periodic reader on a phase
-  // just after its writer's calls it at the start of its cycle with a bound inside the period
-  // (the runner's --await): a writer a little late then costs the chain that lateness, not a
-  // period. From the ring of a sole same-host publisher it is one futex wait, woken by that
-  // publisher's next write (which pays one futex wake only while someone waits); from a put
-  // or an in-process delivery, a condition variable. No allocation.
+  // Waits, with no lock held, until there is a datum read() has not given yet, or until deadline_ns
+  // (CLOCK_MONOTONIC) passed. A periodic reader on a phase just after its writer's calls it at the start of
+  // its cycle with a bound inside the period (the runner's --await): a writer a little late then costs the
+  // chain that lateness, not a period. From the ring of a sole same-host publisher it is one futex wait,
+  // woken by that publisher's next write (which pays one futex wake only while someone waits); from a put or
+  // an in-process delivery, a condition variable. No allocation.
   Awaited wait_new_until(std::int64_t deadline_ns);
   std::size_t awaiting() const;  // threads in wait_new_until() now
 
@@ -186,13 +185,12 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   void admit_writer() override {}  // the access screen (host/access.h) is the whole answer
   char* reader_policy() override;  // to_string(reader())
   ReaderPolicy reader() const;     // what policy() keeps, as a connection policy names it
-  // The same-host path (RTMExt.idl's InPortShm): maps a publisher's ring and takes data from
-  // it in read(), from then on; false with why when the port keeps CORBA: another host or
-  // network namespace, another type, a datum that is not plain memory, a segment this user
-  // cannot map. A port that acts on arrival (callback, an arrival signal, a FIFO that blocks)
-  // gets a thread per ring that waits on the ring's futex and stores each datum as a put
-  // would, at the path's priority: one wake-up per datum, no call. Rings of publishers that
-  // are gone are let go here.
+  // The same-host path (RTMExt.idl's InPortShm): maps a publisher's ring and takes data from it in read(),
+  // from then on; false with why when the port keeps CORBA: another host or network namespace, another type,
+  // a datum that is not plain memory, a segment this user cannot map. A port that acts on arrival (callback,
+  // an arrival signal, a FIFO that blocks) gets a thread per ring that waits on the ring's futex and stores
+  // each datum as a put would, at the path's priority: one wake-up per datum, no call. Rings of publishers
+  // that are gone (killed, or restarted as another process) are let go here.
   CORBA::Boolean attach_ring(const char* segment, const char* host, CORBA::ULongLong type_id, CORBA::Long writer_pid,
                              CORBA::ULongLong writer_start, CORBA::String_out why) override;
   // Takes what the ring still holds for this port, then unmaps it.
@@ -239,10 +237,9 @@ class InPortBase : public virtual POA_RTM::InPortShm {
     for (const auto& ring : rings_)
       if (!ring->has_waiter) const_cast<InPortBase*>(this)->take_from_ring_locked(*ring);
   }
-  // On arrival: stores each datum ring holds that this port did not take yet, as a put would
-  // (callback, arrival signal, a FIFO that waits for room), oldest first. No lock held; only
-  // the ring's waiter (or, once it is joined, whoever took the ring off) calls it. Returns how
-  // many data it took from the ring.
+  // On arrival: stores each datum ring holds that this port did not take yet, as a put would (callback,
+  // arrival signal, a FIFO that waits for room), oldest first. No lock held; only the ring's waiter (or, once
+  // it is joined, whoever took the ring off) calls it. Returns how many data it took from the ring.
   virtual std::size_t store_from_ring(AttachedRing& ring) = 0;
   // Whether data must be stored as they arrive rather than when read (caller holds mu_).
   bool acts_on_arrival_locked() const { return !stores_without_waiting() || signal_ != nullptr; }
@@ -251,8 +248,7 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   // Stops and joins ring's waiter (no lock held); keep_rest: then stores what the ring still
   // holds (an unsubscribe keeps what came before it).
   void stop_waiter(AttachedRing& ring, bool keep_rest);
-  // Takes every ring with a waiter off and stops it (~InPort, deactivate): no callback runs
-  // after either.
+  // Takes every ring with a waiter off and stops it (~InPort, deactivate): no callback runs after either.
   void stop_ring_waiters();
   // guarded by mu_; shared: wait_new_until() keeps the ring it waits on without the lock
   std::vector<std::shared_ptr<AttachedRing>> rings_;
@@ -288,8 +284,7 @@ class InPortBase : public virtual POA_RTM::InPortShm {
 
 // ============================ InPort<T> ===============================
 
-// An InPort carrying T. Storage is allocated at construction: for a fixed-size T neither
-// put/deliver nor read allocates.
+// An InPort of T. Storage is allocated at construction: put/deliver/read of a fixed-size T allocate nothing.
 template <PortData T>
 class InPort final : public InPortBase {
  public:
@@ -298,10 +293,9 @@ class InPort final : public InPortBase {
 
   // Latest/callback: copies the newest value. FIFO: pops the oldest.
   ReadResult read(T& out);
-  // The new data, oldest first, as many as out holds, under one lock: FIFO pops up to
-  // out.size(); latest/callback gives the newest if it is unread (then 1). Returns how many
-  // were copied (0: nothing new). A reader that drains a FIFO each cycle pays one lock for
-  // all, not one per datum.
+  // The new data, oldest first, as many as out holds, under one lock: FIFO pops up to out.size();
+  // latest/callback gives the newest if it is unread (then 1). Returns how many were copied (0: nothing new).
+  // A reader that drains a FIFO each cycle pays one lock for all, not one per datum.
   std::size_t read_many(std::span<T> out);
   // Stores value as a put would (the in-process path; counted in counters().in_process).
   void deliver(const T& value);
@@ -319,15 +313,13 @@ class InPort final : public InPortBase {
 
  private:
   const T& extract(const CORBA::Any& value);  // the datum, or reject() and BAD_PARAM
-  // order: checked under the same lock as the store. Caller holds no lock. False when the
-  // datum was dropped.
+  // order: checked under the same lock as the store. Caller holds no lock. False when the datum was dropped.
   bool store(const T& value, bool in_process, const SenderSeq* order = nullptr);
   bool has_unread_locked() override;
-  // A FIFO that drops its oldest, with nothing queued (caller holds mu_): takes up to
-  // out.size() data straight from the rings no thread waits on, oldest first, without
-  // copying them into the queue. Of a backlog longer than the queue's capacity only the
-  // newest `capacity` are taken, the rest counted as dropped, as keep() would drop them: a
-  // reader slower than its writer pays per datum it takes, not per datum written.
+  // A FIFO that drops its oldest, with nothing queued (caller holds mu_): takes up to out.size() data
+  // straight from the rings no thread waits on, oldest first, without copying them into the queue. Of a
+  // backlog longer than the queue's capacity only the newest `capacity` are taken, the rest counted as
+  // dropped, as keep() would: a reader slower than its writer pays per datum it takes, not per datum written.
   std::size_t take_straight_locked(std::span<T> out);
   bool reads_rings_straight() const {
     return policy_.kind() == InPortPolicy::Kind::Fifo && policy_.full_policy() == FullPolicy::DropOldest;

@@ -2,15 +2,12 @@
 // Naming: where RT components are found.
 //
 // A component's RtComponent reference is bound in the CORBA naming service (omniNames) at
-// `<host>.host_cxt/<name>.rtc` (NameComponent id/kind {"<host>","host_cxt"},
-// {"<name>","rtc"}), the OpenRTM convention, so OpenRTM's tools can browse an RTM system.
-//
-// Two layers here:
+// `<host>.host_cxt/<name>.rtc` (NameComponent id/kind {"<host>","host_cxt"}, {"<name>","rtc"}), the
+// OpenRTM convention, so OpenRTM's tools can browse an RTM system. Two layers here:
 //   - NamingAddress / ComponentPath: plain values, parsed and printed.
-//   - NamingClient: one naming service; bind, unbind, resolve and list, each call bounded by
-//     a timeout, every failure a NamingError whose message a user can act on.
-// The runner's NameBinding (host/name_binding.h) keeps one component bound for its lifetime
-// on top of them.
+//   - NamingClient: one naming service; bind, unbind, resolve and list, each call bounded by a timeout,
+//     every failure a NamingError whose message a user can act on.
+// The runner's NameBinding (host/name_binding.h) keeps one component bound for its lifetime on top of them.
 #pragma once
 
 #include <omniORB4/CORBA.h>
@@ -27,9 +24,7 @@
 
 namespace rtm {
 
-// ---------------------------------------------------------------------------------------------
-// Values
-// ---------------------------------------------------------------------------------------------
+// ---- Values ----
 
 // Any failure to reach or use the naming service, or to find a component in it.
 class NamingError : public std::runtime_error {
@@ -98,14 +93,12 @@ struct ComponentEntry {
   CORBA::Object_var object;  // the bound reference (RtComponent or a derived interface)
 };
 
-// ---------------------------------------------------------------------------------------------
-// NamingClient: one naming service
-// ---------------------------------------------------------------------------------------------
+// ---- NamingClient: one naming service ----
 
-// Talks to one naming service. Constructing it makes no remote call, so it succeeds whether
-// or not the service is up; each operation contacts the service and throws NamingError on
-// failure, e.g. "naming service at 127.0.0.1:2809 unreachable: TRANSIENT". Thread-safe as far
-// as omniORB object references are (every method is const).
+// Talks to one naming service. Constructing it makes no remote call, so it succeeds whether or not the
+// service is up; each operation contacts it and throws NamingError on failure, e.g. "naming service at
+// 127.0.0.1:2809 unreachable: TRANSIENT". Thread-safe as far as omniORB object references are (every method
+// is const).
 class NamingClient {
  public:
   static constexpr std::chrono::milliseconds kDefaultCallTimeout{2000};
@@ -115,8 +108,7 @@ class NamingClient {
 
   const NamingAddress& address() const { return address_; }
 
-  // Binds object at path, creating the host context when missing and replacing an existing
-  // binding of the same name.
+  // Binds object at path, creating the host context when missing and replacing a binding of the same name.
   void bind(const ComponentPath& path, CORBA::Object_ptr object) const;
   // Removes the binding; a binding already gone is not an error. The host context stays.
   void unbind(const ComponentPath& path) const;
@@ -126,12 +118,11 @@ class NamingClient {
   // True when path is bound (to anything); throws only when the service cannot be reached.
   bool is_bound(const ComponentPath& path) const;
 
-  // Resolves "host/name", or "name" searched in every host context, to an RtComponent, and
-  // stores where it was found in *found when given. Throws NamingError when nothing matches,
-  // or when "name" matches on more than one host (the message lists them). With certificates
-  // configured (host/tls.h) it first checks that the component is a member of this system on
-  // that host, and throws NotAMember with the reason when it is not: a name re-bound by
-  // someone else leads nowhere.
+  // Resolves "host/name", or "name" searched in every host context, to an RtComponent, and stores where it
+  // was found in *found when given. Throws NamingError when nothing matches, or when "name" matches on more
+  // than one host (the message lists them). With certificates configured (host/tls.h) it first checks that
+  // the component is a member of this system on that host, and throws NotAMember with the reason when it is
+  // not: a name re-bound by someone else leads nowhere.
   RTM::RtComponent_var resolve_component(std::string_view host_slash_name, ComponentPath* found = nullptr) const;
   // The same check for an object bound at path (a listing): throws NotAMember.
   void check_member(const ComponentPath& path, CORBA::Object_ptr object) const;
@@ -148,6 +139,5 @@ class NamingClient {
   NamingAddress address_;
   std::chrono::milliseconds call_timeout_;
 };
-
 
 }  // namespace rtm

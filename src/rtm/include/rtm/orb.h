@@ -11,11 +11,10 @@
 
 namespace rtm {
 
-// What a process adds around the core, process-wide: the host library (host/access.h,
-// host/tls.h: the runner and `rtm` link it) sets these before the first Orb. The core calls
-// them and knows nothing more of either. A process that sets none serves without the access
-// screen, and its Orb says so (a warning) when it activates its first servant: any local user
-// may then change its servants over TCP.
+// What a process adds around the core, process-wide: the host library (host/access.h, host/tls.h: the runner
+// and `rtm` link it) sets these before the first Orb. The core calls them and knows nothing more of either. A
+// process that sets none serves without the access screen, and its Orb says so (a warning) when it activates
+// its first servant: any local user may then change its servants over TCP.
 struct ProcessHooks {
   std::function<void()> after_orb_init;  // right after ORB_init, before any servant: the screen
   bool certificates = false;             // omniORB's SSL transport has certificates
@@ -25,13 +24,11 @@ struct ProcessHooks {
 };
 ProcessHooks& process_hooks();
 
-// Owns the process's ORB and the POA every RTM servant is activated in.
-//
-// The POA "rtm" carries omniORB's LOCAL_CALLS_SHORTCUT policy: together with the
-// -Wbshortcut stubs of rtm_idl a call on a servant of this process costs about a virtual
-// call. Construct one Orb per process (omniORB has one ORB); the destructor shuts it down and
-// destroys it, releasing what omniORB allocated. Servants may outlive it: destroying the Orb
-// releases them from its POA, and their deactivate() then does nothing.
+// Owns the process's ORB and the POA every RTM servant is activated in. The POA "rtm" carries omniORB's
+// LOCAL_CALLS_SHORTCUT policy: together with the -Wbshortcut stubs of rtm_idl a call on a servant of this
+// process costs about a virtual call. Construct one Orb per process (omniORB has one ORB); the destructor
+// shuts it down and destroys it, releasing what omniORB allocated. Servants may outlive it: destroying the
+// Orb releases them from its POA, and their deactivate() then does nothing.
 class Orb {
  public:
   // args: ORB options as on a command line, e.g. {"-ORBendPoint", "giop:unix:/tmp/x.sock"}.

@@ -27,23 +27,21 @@ class Orb;
 // Data a port's shared-memory ring keeps at least (16 KiB for RTM::TimedFloat6).
 inline constexpr std::uint32_t kMinRingSlots = 256;
 
-// Delivery settings of one OutPort.
+// Delivery settings of one OutPort: queue_depth, delivery and call_timeout_ms are the defaults a ConnPolicy
+// (rtm/conn_policy.h) leaves to the port; the rest bound the port as a whole.
 struct OutPortOptions {
-  // The defaults a ConnPolicy (rtm/conn_policy.h) leaves to the port: queue_depth, delivery,
-  // call_timeout_ms. The rest bound the port as a whole.
   // Consecutive COMM_FAILURE / TRANSIENT / OBJECT_NOT_EXIST before a subscriber is dropped.
   std::uint32_t max_failures = 3;
   // Bound on one remote put (omniORB client call timeout), ms.
   std::uint32_t call_timeout_ms = 1000;
   // Deliver T straight into InPorts of this process (no any, no ORB). Off: always put(any).
   bool in_process = true;
-  // To InPorts of other processes on this host that read a ring (RTM::InPortShm): data go
-  // through the port's shared-memory ring (rt/shm_ring.h) and no call is made per datum; the
-  // subscriber takes them when its component reads. Repeated subscriptions of plain-memory
-  // data only; a subscriber that declines (another host or user, a segment it cannot map) keeps
-  // CORBA. Off: CORBA for every subscriber of another process. The ring keeps
-  // max(2 x queue_depth, kMinRingSlots) data: a FIFO reader that looks at it every 20 ms (a
-  // recorder) loses nothing at 500 Hz even a few hundred ms late.
+  // To InPorts of other processes on this host that read a ring (RTM::InPortShm): data go through the port's
+  // shared-memory ring (rt/shm_ring.h) and no call is made per datum; the subscriber takes them when its
+  // component reads. Repeated subscriptions of plain-memory data only; a subscriber that declines (another
+  // host or user, a segment it cannot map) keeps CORBA. Off: CORBA for every subscriber of another process.
+  // The ring keeps max(2 x queue_depth, kMinRingSlots, the first subscriber's depth) data: a FIFO reader that
+  // looks at it every 20 ms (a recorder) loses nothing at 500 Hz even a few hundred ms late.
   bool shared_memory = true;
   // To RTM::InPortEx subscribers use the oneway push() instead of put(): more throughput,
   // but a dead subscriber is only detected by COMM_FAILURE / TRANSIENT.
@@ -56,24 +54,22 @@ struct OutPortOptions {
   // a flood of subscribe() calls must not make threads without bound).
   std::uint32_t max_subscriptions = 32;
   // Who makes the remote call for a datum.
-  //   writer_when_idle: write() itself, when the subscription has nothing in flight or queued
-  //     (no thread wake-up between the writer and the wire: the datum leaves at once); else,
-  //     and after a call of the writer's failed, the subscription's delivery thread, until
-  //     that thread has delivered again.
+  //   writer_when_idle: write() itself, when the subscription has nothing in flight or queued (no thread
+  //     wake-up between the writer and the wire: the datum leaves at once); else, and after a call of the
+  //     writer's failed, the subscription's delivery thread, until that thread has delivered again.
   //   thread: always the delivery thread; write() never makes a CORBA call.
   // A once-subscription is always served by its thread, under call_timeout_ms: it takes the
   // first datum written after it was made and, should that delivery fail, the next, until one
   // is delivered (a call that timed out may still have arrived: then the subscriber has two).
   enum class Delivery { writer_when_idle, thread };
   Delivery delivery = Delivery::writer_when_idle;
-  // Bound on one call made by write() (omniORB client call timeout on a reference of its
-  // own), ms; a call that takes longer fails (counted) and moves that subscription to its
-  // thread. write() begins no call once writer_call_timeout_ms have passed since it was
-  // entered (the rest go to their threads), and makes at most writer_calls (≤ 8): it holds its
-  // caller for less than 2 x writer_call_timeout_ms beyond copying into the rings.
-  // 0: no bound: write() waits for a stalled subscriber as long as it stalls (as OpenRTM's
-  // flush policy does) and saves what omniORB's bound costs each call (a poll() before the
-  // send and a timer armed while waiting: docs/performance.md measures it). Opt-in only.
+  // Bound on one call made by write() (omniORB client call timeout on a reference of its own), ms; a call
+  // that takes longer fails (counted) and moves that subscription to its thread. write() begins no call once
+  // writer_call_timeout_ms have passed since it was entered (the rest go to their threads), and makes at most
+  // writer_calls (≤ 8): it holds its caller for less than 2 x writer_call_timeout_ms beyond copying into the
+  // rings. 0: no bound: write() waits for a stalled subscriber as long as it stalls (as OpenRTM's flush
+  // policy does) and saves what omniORB's bound costs each call (a poll() before the send and a timer armed
+  // while waiting: docs/performance.md measures it). Opt-in only.
   std::uint32_t writer_call_timeout_ms = 2;
   std::uint32_t writer_calls = 4;
 };
@@ -98,7 +94,7 @@ struct OutPortCounters {
 inline constexpr std::uint64_t kWriteCostSampling = 16;
 struct WriteCost {
   std::uint64_t count = 0;  // write() calls measured
-  std::int64_t p50_ns = 0, p99_ns = 0;  // upper edges of the 1 us buckets holding them
+  std::int64_t p50_ns = 0, p99_ns = 0;  // upper edges of the histogram buckets holding them (rt/histogram.h)
   std::int64_t max_ns = 0;
 };
 
@@ -170,9 +166,8 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   // return. A duplicate, a full or a closed port is refused with the reason (refuse()), and
   // the connection stopped (a ring's subscriber detaches).
   bool add_connection(std::unique_ptr<Connection> connection);
-  // subscribe(): false (refused, with the reason) when the InPort's access control would
-  // refuse every datum of this port; a subscriber that does not answer now passes (the first
-  // write() finds it out, as for any subscriber).
+  // subscribe(): false (refused, with the reason) when the InPort's access control would refuse every datum
+  // of this port; one not answering now passes (the first write() finds it out, as for any subscriber).
   bool admitted(const Subscriber& who);
   // The asked policy with the port's defaults filled in.
   ConnPolicy resolve(const ConnPolicy& asked) const;
@@ -193,11 +188,9 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   void conns_changed_locked();
   void reap_retired();  // joins parked threads; never from a delivery thread
   void refuse(const std::string& why);
-  // refuse(): "<this port> (<its type>) -> <peer> (<their type>): types differ" (their_type
-  // borrowed).
+  // refuse(): "<this port> (<its type>) -> <peer> (<their type>): types differ" (their_type borrowed).
   void refuse_types(const std::string& peer, CORBA::TypeCode_ptr their_type);
-  // "owner.name" of a subscriber, each call bounded by call_timeout_ms (RTM::InPort without
-  // owner: its name only).
+  // "owner.name" of a subscriber, each call bounded by call_timeout_ms (RTM::InPort without owner: its name).
   static std::string peer_name(RTM::InPort_ptr port, std::uint32_t call_timeout_ms);
   std::string full_port_text() const;  // why a subscribe to a full port is refused
 
@@ -235,17 +228,15 @@ class OutPort final : public OutPortBase {
   OutPort(std::string name, std::string owner, OutPortOptions options = {});
   ~OutPort() override;
 
-  // Publishes value: keeps it for get(), fills every subscription. With Delivery::thread it
-  // makes no CORBA call and, for a fixed-size T, allocates nothing (except when a
-  // once-subscription is retired); with writer_when_idle it also makes the calls it takes on
-  // (each marshals an any), bounded as OutPortOptions says.
+  // Publishes value: keeps it for get(), fills every subscription. With Delivery::thread it makes no CORBA
+  // call and, for a fixed-size T, allocates nothing (except when a once-subscription is retired); with
+  // writer_when_idle it also makes the calls it takes on (each marshals an any), bounded per OutPortOptions.
   void write(const T& value);
   // The last written value; false before the first write().
   bool latest(T& out) const;
 
-  // Direct C++ connection to an InPort of this process, without the ORB (composites). The
-  // same rules as subscribe(): false (with last_error_text()) for a duplicate or a reader policy
-  // the InPort does not keep.
+  // Direct C++ connection to an InPort of this process, without the ORB (composites). The same rules as
+  // subscribe(): false (with last_error_text()) for a duplicate or a reader policy the InPort does not keep.
   bool connect(InPort<T>& in, const ConnPolicy& policy = ConnPolicy::repeated());
   bool disconnect(InPort<T>& in);
   bool connect_local(InPortBase& in, const ConnPolicy& policy) override;

@@ -30,8 +30,7 @@ void OutPort<T>::write(const T& value) {
   bool timed = calling_connections_.load(std::memory_order_relaxed) != 0 ||
                written_.load(std::memory_order_relaxed) % kWriteCostSampling == 0;
   std::int64_t start_ns = timed ? monotonic_ns() : 0;
-  // Connections write() makes a call for itself, after its lock is released (fixed capacity:
-  // write() allocates nothing).
+  // Connections write() makes a call for itself, after its lock is released (fixed capacity: no allocation).
   struct Call {
     TypedConnection<T>* connection;
     std::uint64_t seq;
@@ -64,7 +63,6 @@ void OutPort<T>::write(const T& value) {
     timed = true;
     start_ns = monotonic_ns();
   }
-  // write() begins no call once its budget is spent: those data go to their threads.
   const std::int64_t budget_ns = std::int64_t{options_.writer_call_timeout_ms} * 1'000'000;
   for (std::size_t k = 0; k < call_count; ++k)
     calls[k].connection->writer_call(value, calls[k].seq, budget_ns <= 0 || monotonic_ns() - start_ns < budget_ns);
@@ -271,10 +269,9 @@ std::unique_ptr<Connection> OutPort<T>::make_connection(Subscriber who) {
     // Refused later (a duplicate, a full port), it is stopped as any other: its attach undone.
     return std::make_unique<RingConnection<T>>(host_, std::move(who), std::move(reader), std::move(segment));
   }
-  // A subscriber that cannot put data in order (no InPortOrdered: a 2004 client) is called by
-  // the subscription's thread alone, one call after another under the long bound: write()'s
-  // own call, bounded short, may time out and still arrive after the next datum, which such a
-  // subscriber would keep as the newer.
+  // A subscriber that cannot put data in order (no InPortOrdered: a 2004 client) is called by the
+  // subscription's thread alone, one call after another under the long bound: write()'s own call, bounded
+  // short, may time out yet arrive after the next datum, which such a subscriber would keep as the newer.
   if (who.policy.delivery == ConnPolicy::Delivery::writer_when_idle && CORBA::is_nil(who.port_ordered))
     who.policy.delivery = ConnPolicy::Delivery::thread;
   const bool by_writer = who.policy.delivery == ConnPolicy::Delivery::writer_when_idle;

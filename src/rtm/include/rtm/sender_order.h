@@ -1,8 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
-// The order check behind RTM::InPortOrdered: remembers, per sender, the number of the last
-// datum taken, for the few senders a port has at once (fixed storage, no allocation). Not
-// thread-safe: the port calls it under the lock that also guards what it stores, so that the
-// check and the store are one step.
+// The order check behind RTM::InPortOrdered: remembers, per sender, the number of the last datum taken, for
+// the few senders a port has at once (fixed storage, no allocation). Not thread-safe: the port calls it under
+// the lock that also guards what it stores, so that the check and the store are one step.
 #pragma once
 
 #include <array>
@@ -19,9 +18,8 @@ class SenderOrder {
  public:
   static constexpr std::size_t kSenders = 8;
 
-  // True when seq is above the last number taken from sender (or sender is new), and then
-  // remembers it; false for a late datum. A sender not heard from for longest makes room
-  // for a new one when all slots are used.
+  // True when seq is above the last number taken from sender (or sender is new), and then remembers it; false
+  // for a late datum. A sender not heard from for longest makes room for a new one when all slots are used.
   bool admit(std::uint64_t sender, std::uint64_t seq) {
     ++clock_;
     Slot* oldest = &slots_[0];
