@@ -19,8 +19,8 @@ using rtm::ConnPolicy;
 using rtm::test::eventually;
 using rtm::test::float6;
 
-using In6 = rtm::InPort<RTM::TimedFloat6>;
-using Out6 = rtm::OutPort<RTM::TimedFloat6>;
+using rtm::test::In6;
+using rtm::test::Out6;
 
 class ConnPolicyPortTest : public rtm::test::OrbTest {
  protected:

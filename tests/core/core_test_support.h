@@ -4,7 +4,9 @@
 
 #include "rtm/component.h"
 #include "rtm/data.h"
+#include "rtm/inport.h"
 #include "rtm/orb.h"
+#include "rtm/outport.h"
 
 #include <gtest/gtest.h>
 
@@ -20,6 +22,10 @@
 namespace rtm::test {
 
 using rtm_test::eventually;
+
+// The ports most of these tests wire: the paper's six numbers.
+using In6 = rtm::InPort<RTM::TimedFloat6>;
+using Out6 = rtm::OutPort<RTM::TimedFloat6>;
 
 // A real ORB for the tests of one suite (no naming service needed).
 class OrbTest : public ::testing::Test {

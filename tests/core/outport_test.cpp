@@ -22,11 +22,7 @@
 namespace {
 
 using rtm::ReadResult;
-using rtm::test::eventually;
-using rtm::test::float6;
-
-using In6 = rtm::InPort<RTM::TimedFloat6>;
-using Out6 = rtm::OutPort<RTM::TimedFloat6>;
+using namespace rtm::test;  // eventually, float6, In6, Out6, OrbTest
 
 enum class Path { in_process, shared_memory, corba };
 

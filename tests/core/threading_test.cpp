@@ -14,8 +14,8 @@ using rtm::test::float6;
 
 class ThreadingTest : public rtm::test::OrbTest {};
 
-using In6 = rtm::InPort<RTM::TimedFloat6>;
-using Out6 = rtm::OutPort<RTM::TimedFloat6>;
+using rtm::test::In6;
+using rtm::test::Out6;
 
 TEST_F(ThreadingTest, SubscribeAndUnsubscribeWhileWriting) {
   for (const int path : {0, 1, 2}) {
