@@ -3,9 +3,13 @@
 // an ideal brake, and the sign and frame of both force sensors.
 #include "sim/pa10_plant.h"
 
+#include "rtm_test/mjcf.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
+#include <string>
 
 using rtm::sim::JointCommand;
 using rtm::sim::Pa10Plant;
@@ -113,6 +117,48 @@ TEST(Pa10Plant, MissingOrBrokenSceneIsAClearError) {
               std::string::npos);
   }
   EXPECT_THROW(Pa10Plant plant(RTM_PA10_URDF), SceneError) << "a URDF without the scene's names";
+}
+
+TEST(Pa10Plant, ASceneLackingAnyNameItDrivesOrReadsIsRefusedNamingIt) {
+  {
+    const rtm_test::SceneFile complete(rtm_test::plant_scene_mjcf({}));
+    EXPECT_NO_THROW(Pa10Plant plant(complete.path())) << "the inline scene has every name";
+  }
+  for (const char* name : {"s1", "s2", "s3", "e1", "e2", "w1", "w2", "joystick_handle", "joystick_ft", "tool_tip",
+                           "wrist_force", "wrist_torque", "joystick_force", "joystick_torque", "ready"}) {
+    rtm_test::MjcfScene scene;
+    scene.renamed = name;
+    const rtm_test::SceneFile file(rtm_test::plant_scene_mjcf(scene));
+    try {
+      Pa10Plant plant(file.path());
+      ADD_FAILURE() << "a scene without '" << name << "' was taken";
+    } catch (const SceneError& error) {
+      EXPECT_NE(std::string(error.what()).find(std::string("'") + name + "'"), std::string::npos) << error.what();
+    }
+  }
+}
+
+TEST(Pa10Plant, TheWristSensorReadsTheWeightOfAToolOfKnownMassInItsOwnFrame) {
+  // s2 turns about x by 90 degrees: the rest of the chain lies along -y, and the tool's y axis
+  // points up. Held there, the tool's weight is -m g along its y, and about the sensor (the
+  // tool's origin, its centre of mass c along its z) the torque (0, 0, c) x (0, -m g, 0).
+  rtm_test::MjcfScene scene;
+  scene.tool_mass_kg = 0.5;
+  scene.tool_com_m = 0.05;
+  scene.joints[1].axis = {1, 0, 0};
+  scene.joints[1].ready_rad = std::numbers::pi / 2;
+  const rtm_test::SceneFile file(rtm_test::plant_scene_mjcf(scene));
+  Pa10Plant plant(file.path());
+  for (int i = 0; i < 200; ++i) plant.step();
+  EXPECT_NEAR(plant.joint_state(1).position_rad, std::numbers::pi / 2, 1e-4) << "the brake holds the lever";
+  const double weight_N = scene.tool_mass_kg * kGravity_m_s2;
+  const Wrench wrench = plant.wrist_wrench();
+  EXPECT_NEAR(wrench.force_N[0], 0.0, 1e-3);
+  EXPECT_NEAR(wrench.force_N[1], -weight_N, 1e-3);
+  EXPECT_NEAR(wrench.force_N[2], 0.0, 1e-3);
+  EXPECT_NEAR(wrench.torque_Nm[0], scene.tool_com_m * weight_N, 1e-4);
+  EXPECT_NEAR(wrench.torque_Nm[1], 0.0, 1e-4);
+  EXPECT_NEAR(wrench.torque_Nm[2], 0.0, 1e-4);
 }
 
 }  // namespace
