@@ -98,9 +98,11 @@ function(rtm_debian_package)
   set(CPACK_PACKAGE_VENDOR "RTM developers")
   set(CPACK_PACKAGE_CONTACT "RTM developers <rtm-dev@lists.example.org>")
   set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "RT-Middleware component framework for robot control")
-  set(CPACK_PACKAGE_DESCRIPTION "Components with ports (omniORB), the rtm browser and launcher,\n"
-      "a PA10 force servo on SocketCAN or on a MuJoCo stand-in, and the CMake package\n"
-      "for components of one's own (find_package(RTM), rtm new component).")
+  # One string: separate arguments would make a list, its ';' written into the control file.
+  string(CONCAT CPACK_PACKAGE_DESCRIPTION
+         "Components with ports (omniORB), the rtm browser and launcher,\n"
+         "a PA10 force servo on SocketCAN or on a MuJoCo stand-in, and the CMake package\n"
+         "for components of one's own (find_package(RTM), rtm new component).")
   set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
   set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
   set(CPACK_DEBIAN_PACKAGE_SECTION devel)

@@ -28,6 +28,9 @@ for f in ./usr/bin/rtm ./usr/bin/rtm-servo ./usr/bin/rtm-controller ./usr/bin/pa
          ./usr/share/bash-completion/completions/rtm; do
   grep -qxF "$f" <<<"$listing" || fail "the package lacks $f"
 done
+description=$(dpkg-deb -f "$deb" Description)
+[[ $description == *"a PA10 force servo"* ]] || fail "Description lacks its text: $description"
+! grep -q ';' <<<"$description" || fail "Description holds a CMake list separator: $description"
 depends=$(dpkg-deb -f "$deb" Depends)
 for p in omniorb-nameserver omniidl libomniorb4-dev libmujoco libssl3 liburdfdom cmake; do
   [[ $depends == *"$p"* ]] || fail "Depends lacks $p: $depends"
