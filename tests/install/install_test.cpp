@@ -199,9 +199,11 @@ TEST_F(Installed, ACustomIdlTypeRoundTripsThroughTheInstalledRtmPutGetAndWatch) 
 }
 
 TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
+  // A description with a quote and a backslash: the generated literal must still compile.
+  const std::string description = R"(closes the "gripper" as the wrist is pushed \ along z)";
   const CommandResult made = rtm_test::run_command({bin("rtm").string(), "new", "component", "gripper_ctl", "--in",
-                                                    "wrench:TimedFloat6", "--out", "twist:TimedFloat6", "--dir",
-                                                    root_.string()});
+                                                    "wrench:TimedFloat6", "--out", "twist:TimedFloat6", "--description",
+                                                    description, "--dir", root_.string()});
   ASSERT_EQ(made.exit_code, 0) << made.err;
   const fs::path project = root_ / "gripper_ctl", build = project / "build";
   CommandResult r = rtm_test::run_command({CMAKE_COMMAND, "-S", project.string(), "-B", build.string(),
@@ -213,6 +215,9 @@ TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
   r = rtm_test::run_command({"ctest", "--test-dir", build.string(), "--output-on-failure"}, {}, 120s);
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("100% tests passed"), std::string::npos) << r.out;
+  r = rtm_test::run_command({(build / "bin" / "rtm-gripper_ctl").string(), "--help"}, {}, 30s);
+  EXPECT_NE(r.out.find("rtm-gripper_ctl: " + description + ". InPorts: wrench RTM::TimedFloat6"), std::string::npos)
+      << r.out;
   // Its system file, from its folder, with the installed rtm and a runtime folder of the test's.
   const fs::path runtime = root_ / "run";
   fs::create_directories(runtime);

@@ -240,6 +240,31 @@ TEST_F(RtmScaffold, PortNamesThatWouldHideAnotherPortsIndexAliasAreRefused) {
   EXPECT_EQ(refusal(o), "");
 }
 
+TEST_F(RtmScaffold, TheDescriptionLeadsTheHelpLineWithItsQuotesEscapedAndNoTodoIsLeft) {
+  auto o = options("gripper_ctl");
+  o.description = R"(closes the "gripper" \ gently.)";
+  rtm::cli::scaffold_component(o);
+  const std::string main_cpp = read_text(parent_ / "gripper_ctl" / "src" / "main.cpp");
+  EXPECT_NE(main_cpp.find(R"("rtm-gripper_ctl: closes the \"gripper\" \\ gently. InPorts: in0)"), std::string::npos)
+      << main_cpp;
+  EXPECT_EQ(main_cpp.find("TODO"), std::string::npos) << main_cpp;
+
+  auto plain = options("plain_ctl");
+  rtm::cli::scaffold_component(plain);
+  EXPECT_NE(read_text(parent_ / "plain_ctl" / "src" / "main.cpp").find(R"("rtm-plain_ctl: InPorts: in0)"),
+            std::string::npos)
+      << "without a description, the ports alone";
+}
+
+TEST_F(RtmScaffold, ADescriptionOfMoreThanOneLineOrTooLongIsRefusedAndNothingIsWritten) {
+  auto o = options("gripper_ctl");
+  o.description = "two\nlines";
+  EXPECT_NE(refusal(o).find("control character"), std::string::npos) << refusal(o);
+  o.description = std::string(301, 'x');
+  EXPECT_NE(refusal(o).find("at most 300"), std::string::npos) << refusal(o);
+  EXPECT_TRUE(parent_is_empty());
+}
+
 TEST_F(RtmScaffold, ABadPeriodIsRefusedNamingIt) {
   auto o = options("relay");
   o.period = "2 fortnights";

@@ -17,6 +17,7 @@ void NewCommand::add_to(CLI::App& app) {
   component->add_option("--out", out, "an OutPort, name:Type (repeatable)");
   component->add_option("--period", period, "the cycle period its system file starts it with")
       ->capture_default_str();
+  component->add_option("--description", description, "what it does, in one line: its --help says it");
   component->add_option("--dir", parent, "the folder to make the project in")->capture_default_str();
 }
 
@@ -29,6 +30,7 @@ void NewCommand::run(bool json) const {
   for (const auto& spec : out) options.out.push_back(parse_port_spec(spec));
   options.period = period;
   options.parent = parent;
+  options.description = description;
   const auto files = scaffold_component(options);
   const std::filesystem::path project = options.parent / options.name;
   if (json) {

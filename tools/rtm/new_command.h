@@ -16,6 +16,7 @@ struct NewCommand {
   std::string name;
   std::vector<std::string> in, out;  // "name:Type"
   std::string period = "2ms";
+  std::string description;
   std::string parent = ".";
 
   // Adds `new` and its subcommand `component` to app.

@@ -175,6 +175,7 @@ struct Plan {
   std::string name;
   std::string class_name;
   std::string period;
+  std::string description;  // one line, printable, without its final '.'
   std::vector<Port> in, out;
   // For each OutPort, the InPort the generated step() passes to it (-1: none): the InPort of
   // the same type and the same rank among the ports of that type.
@@ -213,12 +214,29 @@ std::vector<int> pass_through_sources(const std::vector<Port>& in, const std::ve
   return sources;
 }
 
+// One line of at most kMaxDescription printable characters (it becomes a C++ literal and a
+// --help line), without the '.' that ends it.
+constexpr std::size_t kMaxDescription = 300;
+std::string checked_description(std::string text) {
+  if (text.size() > kMaxDescription)
+    throw std::invalid_argument(fmt::format("the description is {} characters long: one line of at most {}, please",
+                                            text.size(), kMaxDescription));
+  for (const char c : text) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+      throw std::invalid_argument("the description holds a control character (a line break, a tab...): one line "
+                                  "of text, please");
+  }
+  while (!text.empty() && (text.back() == '.' || text.back() == ' ')) text.pop_back();
+  return text;
+}
+
 Plan make_plan(const ScaffoldOptions& options) {
   Plan plan;
   plan.name = options.name;
   plan.class_name = class_name_of(options.name);
   rtm::parse_period_ns(options.period);  // throws naming the text
   plan.period = options.period;
+  plan.description = checked_description(options.description);
   std::set<std::string> seen;
   if (options.in.empty() && options.out.empty()) {
     plan.in = {{"in0", &kTypes[0]}};
@@ -370,7 +388,10 @@ std::string wrapped_literal(std::string_view text, std::string_view indent) {
     const auto space = text.find(' ', at);
     const auto word = text.substr(at, space == std::string_view::npos ? std::string_view::npos : space + 1 - at);
     if (!lines.back().empty() && lines.back().size() + word.size() > 80) lines.emplace_back();
-    lines.back() += word;
+    for (const char c : word) {
+      if (c == '"' || c == '\\') lines.back() += '\\';
+      lines.back() += c;
+    }
     at += word.size();
   }
   std::string out;
@@ -378,7 +399,7 @@ std::string wrapped_literal(std::string_view text, std::string_view indent) {
   return out;
 }
 
-// The --help line: what the component does (for its author to say) and its ports.
+// The --help line: what the component does, as its author said, and its ports.
 std::string description(const Plan& p) {
   const auto list = [](const std::vector<Port>& ports) {
     std::string text;
@@ -386,7 +407,8 @@ std::string description(const Plan& p) {
     return text.empty() ? std::string("none") : text;
   };
   return wrapped_literal(
-      fmt::format("rtm-{}: TODO: say what it does. InPorts: {}; OutPorts: {}", p.name, list(p.in), list(p.out)),
+      fmt::format("rtm-{}: {}{}InPorts: {}; OutPorts: {}", p.name, p.description, p.description.empty() ? "" : ". ",
+                  list(p.in), list(p.out)),
       "          ");
 }
 

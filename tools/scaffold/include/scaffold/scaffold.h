@@ -44,6 +44,8 @@ struct ScaffoldOptions {
   std::vector<PortSpec> in;
   std::vector<PortSpec> out;
   std::string period = "2ms";  // as the runner's --period takes it; written into the system file
+  // What it does, in one line, for its --help (before the list of its ports); "" for the list alone.
+  std::string description;
   std::filesystem::path parent = ".";  // the project is written to parent / name
 };
 
