@@ -5,6 +5,7 @@
 
 #include "rtm_test/child_process.h"
 #include "rtm_test/eventually.h"
+#include "rtm_test/free_port.h"
 #include "rtm_test/omni_names.h"
 
 #include <gtest/gtest.h>
@@ -597,6 +598,19 @@ TEST_F(RtmUpDown, UpWithAMissingProgramStartsNothing) {
   auto up = rtm_env({"up", file.string()});
   EXPECT_EQ(up.exit_code, 1);
   EXPECT_NE(up.err.find("program 'rtm-no-such-component' not found"), std::string::npos) << up.err;
+}
+
+TEST_F(RtmUpDown, UpWithTheNamingServiceDownStartsNothingAndSaysWhereItLooked) {
+  auto file = write_system("components: [{name: a, command: rtm-test-talker}]\nactivate: [a]\n");
+  const std::string nowhere = "127.0.0.1:" + std::to_string(rtm_test::free_loopback_port());
+  auto up = rtm_test::run_command({RTM_CLI_PATH, "--naming", nowhere, "up", file.string()},
+                                  {"RTM_BIN_PATH=" + std::string(RTM_TEST_BIN_DIR), "XDG_RUNTIME_DIR=" + dir_.string()},
+                                  std::chrono::seconds(30));
+  EXPECT_EQ(up.exit_code, 1);
+  EXPECT_NE(up.err.find("naming service at " + nowhere + " unreachable"), std::string::npos) << up.err;
+  EXPECT_EQ((up.out + up.err).find("started a"), std::string::npos) << up.out << up.err;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir_))
+    EXPECT_NE(entry.path().extension(), ".log") << "a component was started: " << entry.path();
 }
 
 TEST_F(RtmUpDown, ANameThatEscapesTheRuntimeFolderIsRefusedBeforeAnythingStarts) {

@@ -70,7 +70,8 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
 std::vector<std::string> system_down(const SystemState& state, const Browser* browser,
                                      const LaunchOptions& options);
 
-// True while the recorded process still runs (not a zombie, same start time).
+// True while the recorded process still runs (same start time; a zombie only while threads of
+// it are still exiting, as they hold its files).
 bool process_alive(const LaunchedProcess& p);
 
 }  // namespace rtm::cli
