@@ -12,6 +12,8 @@
 //   rtm put <comp>.<in> <values>...       inject one datum
 //   rtm watch <comp>.<out>                stream a port live (--rate, --csv, --count, --duration)
 //   rtm up <system.yaml> / rtm down <system.yaml|name>
+//   rtm names [--stop]                    a naming service of one's own on loopback: prints
+//                                         `export RTM_NAMING=…` (eval "$(rtm names)")
 //   rtm tls init <folder> / rtm tls issue <authority> <folder>   certificates across hosts
 //   rtm new component <name> [--in n:Type]... [--out n:Type]...  a project of your own
 //   rtm serve [--listen 127.0.0.1:PORT]   the component editor in a browser (serve.h)
@@ -20,6 +22,7 @@
 // --json; exit code 0 ok, 1 failed, 2 usage.
 #include "browser/browser.h"
 #include "launcher/launcher.h"
+#include "launcher/private_naming.h"
 #include "report.h"
 #include "launcher/system_file.h"
 #include "new_command.h"
@@ -71,7 +74,8 @@ struct Cli {
   int timeout_ms = 5000;  // on() of a composite makes several remote calls of its own
   CLI::App *ls = nullptr, *cat = nullptr, *set = nullptr, *connect = nullptr, *disconnect = nullptr, *on = nullptr,
            *off = nullptr, *reset = nullptr, *get = nullptr, *put = nullptr, *watch = nullptr, *up = nullptr,
-           *down = nullptr, *serve = nullptr;
+           *down = nullptr, *serve = nullptr, *names = nullptr;
+  bool names_stop = false;
   std::string ls_path;
   bool ls_long = false, ls_clean = false, ls_names = false;
   bool cat_names = false, cat_parameters = false;
@@ -149,6 +153,9 @@ void add_system_commands(CLI::App& app, Cli& c) {
   c.serve = app.add_subcommand("serve", "the component editor in a browser: prints its URL, serves until Ctrl-C");
   c.serve->add_option("--listen", c.listen, "HOST:PORT to listen on (port 0: any free one)")->capture_default_str();
   c.down->add_option("system", c.down_what, "the system file, or the system's name")->required();
+  c.names = app.add_subcommand("names", "start (or find running) a naming service of your own on loopback; prints "
+                                        "`export RTM_NAMING=...` for eval \"$(rtm names)\"");
+  c.names->add_flag("--stop", c.names_stop, "stop it and remove its data");
 }
 
 // ------------------------------------------------------------------ commands
@@ -307,6 +314,34 @@ int run_up(const Browser& browser, const Cli& c, const SystemFile& system, const
   return kOk;
 }
 
+// The user's own naming service: started or found, its address as a shell line on stdout (the
+// rest on stderr, so that eval "$(rtm names)" takes only the export); or stopped.
+int run_names(const Cli& c) {
+  if (c.names_stop) {
+    const auto stopped = private_naming_down();
+    if (c.json) {
+      fmt::print("{}\n", json{{"stopped", stopped.has_value()},
+                              {"address", stopped ? stopped->address.to_string() : std::string()}}
+                             .dump());
+    } else if (stopped) {
+      fmt::print("stopped the naming service on {} (pid {})\n", stopped->address.to_string(), stopped->process.pid);
+    } else {
+      fmt::print("no naming service of yours was running\n");
+    }
+    return kOk;
+  }
+  const PrivateNaming n = private_naming_up();
+  if (c.json) {
+    fmt::print("{}\n",
+               json{{"address", n.address.to_string()}, {"pid", n.process.pid}, {"started", n.started}}.dump());
+    return kOk;
+  }
+  fmt::print(stderr, "naming service {} on {} (pid {}; `rtm names --stop` stops it)\n",
+             n.started ? "started" : "running", n.address.to_string(), n.process.pid);
+  fmt::print("export RTM_NAMING={}\n", n.address.to_string());
+  return kOk;
+}
+
 int run_down(const Browser& browser, const Cli& c, const LaunchOptions& launch) {
   std::string name = c.down_what;
   if (std::filesystem::exists(c.down_what) && std::filesystem::is_regular_file(c.down_what)) {
@@ -377,6 +412,7 @@ int run(const Cli& c) {
     c.new_command.run(c.json);
     return kOk;
   }
+  if (c.names->parsed()) return run_names(c);
   if (!c.tls.empty()) {
     try {
       rtm::configure_tls(rtm::check_tls_folder(c.tls));

@@ -14,7 +14,7 @@ _rtm_ports() {
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat set connect disconnect on off reset get put watch up down tls new"
+  local commands="ls cat set connect disconnect on off reset get put watch up down names serve tls new"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
@@ -53,11 +53,12 @@ _rtm() {
       [[ $cmd == connect && $cur == -* ]] && COMPREPLY=($(compgen -W "--once --policy" -- "$cur"))
       ;;
     up|down) COMPREPLY=($(compgen -f -X '!*.@(yaml|yml)' -- "$cur")) ;;
+    names) COMPREPLY=($(compgen -W "--stop" -- "$cur")) ;;
     new)
       if [[ $prev == new ]]; then
         COMPREPLY=($(compgen -W "component" -- "$cur"))
       elif [[ $cur == -* ]]; then
-        COMPREPLY=($(compgen -W "--in --out --period --dir" -- "$cur"))
+        COMPREPLY=($(compgen -W "--in --out --period --description --dir" -- "$cur"))
       fi
       ;;
     tls)
