@@ -395,11 +395,39 @@ TEST_F(RtmCli, WatchStreamsDataThenUnsubscribes) {
   EXPECT_EQ(summary["dropped_display"], 0);
   std::ifstream csv_in(csv);
   int csv_lines = 0;
-  for (std::string line; std::getline(csv_in, line);) ++csv_lines;
+  long long first_ns = 0, last_ns = 0;
+  for (std::string line; std::getline(csv_in, line);) {
+    if (csv_lines++ == 0) continue;  // the header
+    last_ns = std::stoll(line.substr(0, line.find(',')));
+    if (first_ns == 0) first_ns = last_ns;
+  }
   EXPECT_EQ(csv_lines, 51);  // header + data
+  ASSERT_GT(last_ns, first_ns);
+  EXPECT_NEAR(summary["rate_hz"].get<double>(), 49 * 1e9 / static_cast<double>(last_ns - first_ns), 1e-6)
+      << "the rate of the data, by their own stamps: 49 intervals over the time they span";
   std::filesystem::remove(csv);
   auto t = rtm_json({"cat", "t"});
   EXPECT_TRUE((*port(t, "force"))["subscriptions"].empty()) << "watch unsubscribed on exit";
+}
+
+TEST_F(RtmCli, WatchWritesItsCsvAsTheDataComeNotOnlyAtTheEnd) {
+  talker("t", {"--on", "--period", "100ms"});  // a few lines a second: nowhere near a buffer's worth
+  const auto csv = std::filesystem::temp_directory_path() / ("rtm-watch-live-" + std::to_string(::getpid()) + ".csv");
+  ChildProcess::Options opts;
+  opts.echo_output = false;
+  ChildProcess watcher({RTM_CLI_PATH, "--naming", names_.address(), "watch", "t.force", "--csv", csv.string()}, opts);
+  const auto lines_in_csv = [&] {
+    std::ifstream in(csv);
+    int n = 0;
+    for (std::string line; std::getline(in, line);) ++n;
+    return n;
+  };
+  eventually([&] { return lines_in_csv() >= 3; }, 10s);
+  EXPECT_GE(lines_in_csv(), 3) << "the header and two data, read while rtm watch still runs";
+  EXPECT_TRUE(watcher.running());
+  watcher.send_signal(SIGINT);
+  ASSERT_TRUE(watcher.wait_for_exit(10s).has_value());
+  std::filesystem::remove(csv);
 }
 
 TEST_F(RtmCli, WatchUnsubscribesOnCtrlC) {

@@ -35,8 +35,10 @@ class WatchDisplay {
   }
   bool live() const { return live_; }
 
-  void show(const CORBA::Any& any) {
-    if (csv_.is_open()) write_csv(to_sample(any));
+  // Shows one datum; returns its own time stamp (ns).
+  long long show(const CORBA::Any& any) {
+    const Sample sample = to_sample(any);
+    if (csv_.is_open()) write_csv(sample);
     if (options_.json) {
       fmt::print("{}\n", format_json(any).dump());
     } else if (!live_) {
@@ -44,6 +46,11 @@ class WatchDisplay {
     } else {
       latest_ = terminal_text(format_text(any, units_));
     }
+    return sample.time_ns;
+  }
+  // What was shown reaches the CSV file now: a reader (a plot, `tail -f`) sees it as it comes.
+  void flush() {
+    if (csv_.is_open()) csv_.flush();
   }
 
   void refresh(std::uint64_t shown, double rate, unsigned long long dropped_publisher, std::uint64_t dropped_display) {
@@ -124,15 +131,32 @@ struct WatchSubscription {
   }
 };
 
+// The rate of the data shown, by their own stamps: intervals over the time they span (0 when
+// fewer than two, or stamps that do not advance). Not the watch's own wall time, which holds
+// the wait for the first datum.
+struct StampSpan {
+  long long first_ns = 0, last_ns = 0;
+  std::uint64_t count = 0;
+  void add(long long stamp_ns) {
+    if (count++ == 0) first_ns = stamp_ns;
+    last_ns = stamp_ns;
+  }
+  double rate_hz() const {
+    if (count < 2 || last_ns <= first_ns) return 0.0;
+    return static_cast<double>(count - 1) * 1e9 / static_cast<double>(last_ns - first_ns);
+  }
+};
+
 // path: how the data came, "shared memory" (the publisher's ring) or "CORBA" (a put each).
 void print_summary(const ResolvedPort& port, const WatchSubscription& sub, std::uint64_t shown, double elapsed,
-                   unsigned long long dropped_publisher, const char* path, bool as_json) {
+                   double rate_hz, unsigned long long dropped_publisher, const char* path, bool as_json) {
   if (as_json) {
     fmt::print("{}\n", json{{"summary",
                              {{"port", port.address},
                               {"path", path},
                               {"received", shown},
                               {"seconds", elapsed},
+                              {"rate_hz", rate_hz},
                               {"dropped_publisher", dropped_publisher},
                               {"dropped_display", sub.servant->overflowed()},
                               {"shared_memory", sub.servant->shared_memory()},
@@ -142,9 +166,9 @@ void print_summary(const ResolvedPort& port, const WatchSubscription& sub, std::
     return;
   }
   fmt::print(stderr,
-             "{}: received {} in {:.2f} s ({:.1f} Hz, through {}), dropped {} by the publisher, {} by the display, {} "
-             "late (after a later one), {} of a wrong type\n",
-             port.address, shown, elapsed, elapsed > 0 ? shown / elapsed : 0.0, path, dropped_publisher,
+             "{}: received {} in {:.2f} s ({:.1f} Hz by their stamps, through {}), dropped {} by the publisher, {} by "
+             "the display, {} late (after a later one), {} of a wrong type\n",
+             port.address, shown, elapsed, rate_hz, path, dropped_publisher,
              sub.servant->overflowed(), sub.servant->late(), sub.servant->rejected());
 }
 
@@ -162,12 +186,14 @@ int watch(const Browser& browser, rtm::Orb& orb, const std::string& address, con
   auto next_refresh = start, window_start = start;
   std::vector<CORBA::Any> batch;
   std::uint64_t shown = 0, window_count = 0;
+  StampSpan stamps;
   double rate = 0;
   const auto done = [&] { return options.count > 0 && static_cast<long>(shown) >= options.count; };
   while (!interrupted.load() && !done()) {
     batch.clear();
     sub.servant->drain(batch, std::chrono::milliseconds(50));
-    for (std::size_t i = 0; i < batch.size() && !done(); ++i, ++shown, ++window_count) display.show(batch[i]);
+    for (std::size_t i = 0; i < batch.size() && !done(); ++i, ++shown, ++window_count) stamps.add(display.show(batch[i]));
+    if (!batch.empty()) display.flush();
     const auto now = Clock::now();
     if (now - window_start >= std::chrono::seconds(1)) {
       rate = window_count / std::chrono::duration<double>(now - window_start).count();
@@ -185,7 +211,7 @@ int watch(const Browser& browser, rtm::Orb& orb, const std::string& address, con
   const char* path = sub.servant->reads_ring() ? "shared memory" : "CORBA";
   const bool unsubscribed = sub.finish(orb, port.address);
   if (display.live()) fmt::print("\n\n");
-  print_summary(port, sub, shown, elapsed, dropped_publisher, path, options.json);
+  print_summary(port, sub, shown, elapsed, stamps.rate_hz(), dropped_publisher, path, options.json);
   return unsubscribed ? 0 : 1;
 }
 
