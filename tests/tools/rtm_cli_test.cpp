@@ -365,6 +365,20 @@ TEST_F(RtmCli, PutInjectsOneValueTheInPortCounts) {
   EXPECT_EQ((*port(rtm_json({"cat", "t"}), "in0"))["counters"]["accepted"], 1);
 }
 
+TEST_F(RtmCli, PutAtARatePutsOnePerGridPointForTheTimeGivenAndEachArrives) {
+  talker("t");
+  auto r = rtm({"--json", "put", "t.in0", "1", "2", "3", "4", "5", "6", "--rate", "100", "--for", "0.5"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json summary = json::parse(r.out);
+  const auto sent = summary["put"].get<std::uint64_t>();
+  EXPECT_GE(sent, 1u);
+  EXPECT_EQ(summary["failed"], 0);
+  EXPECT_LE(sent + summary["skipped"].get<std::uint64_t>(), 50u) << "0.5 s of a 10 ms grid has 50 points";
+  EXPECT_EQ((*port(rtm_json({"cat", "t"}), "in0"))["counters"]["accepted"], sent) << "every put arrived";
+  auto bad = rtm({"put", "t.in0", "1", "2", "3", "4", "5", "6", "--rate", "0.5"});
+  EXPECT_EQ(bad.exit_code, 2) << "a rate below 1 Hz is refused: " << bad.err;
+}
+
 TEST_F(RtmCli, WatchStreamsDataThenUnsubscribes) {
   talker("t", {"--on", "--period", "2ms"});
   const auto csv = std::filesystem::temp_directory_path() / ("rtm-watch-" + std::to_string(::getpid()) + ".csv");

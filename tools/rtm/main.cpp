@@ -9,7 +9,7 @@
 //   rtm connect|disconnect <out> <in>     subscribe/unsubscribe (RTM.idl), --once, --policy
 //   rtm on|off|reset <comp>...            reset: leave COMPONENT_ERROR (RTMExt)
 //   rtm get <comp>.<out>                  pull one datum
-//   rtm put <comp>.<in> <values>...       inject one datum
+//   rtm put <comp>.<in> <values>...       inject one datum (--rate HZ [--for S]: again and again)
 //   rtm watch <comp>.<out>                stream a port live (--rate, --csv, --count, --duration)
 //   rtm up <system.yaml> / rtm down <system.yaml|name>
 //   rtm names [--stop]                    a naming service of one's own on loopback: prints
@@ -36,12 +36,17 @@
 #include "rtm/log.h"
 #include "rtm/orb.h"
 #include "host/tls.h"
+#include "rt/clock.h"
+#include "rt/schedule.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -88,6 +93,7 @@ struct Cli {
   std::vector<std::string> components;  // on, off, reset
   std::string port;                     // get, put, watch
   WatchOptions watch_options;
+  double put_rate_hz = 0, put_for_s = 0;
   std::string up_file, down_what;
   int up_timeout_ms = 10000;
   TlsCommand tls_command;
@@ -136,6 +142,11 @@ void add_data_commands(CLI::App& app, Cli& c) {
   c.put = app.add_subcommand("put", "send one datum to an InPort");
   c.put->add_option("port", c.port, "<component>.<InPort>")->required();
   c.put->add_option("values", c.values, "the values (6 for TimedFloat6)")->required()->allow_extra_args();
+  c.put->add_option("--rate", c.put_rate_hz,
+                    "put it again and again, freshly stamped, at this rate (Hz, 1 to 10000) on a fixed grid of the "
+                    "monotonic clock; until --for is over or Ctrl-C")
+      ->check(CLI::Range(1.0, 10000.0));
+  c.put->add_option("--for", c.put_for_s, "with --rate: for this long (s)")->check(CLI::PositiveNumber);
   c.watch = app.add_subcommand("watch", "stream an OutPort's data live");
   auto& w = c.watch_options;
   c.watch->add_option("port", c.port, "<component>.<OutPort>")->required();
@@ -279,6 +290,48 @@ int run_get(const Browser& browser, const Cli& c) {
   return kOk;
 }
 
+// --rate: one put per period of the grid (rt/schedule.h: a late put does not shift it; puts
+// missed by more than a period are skipped and counted), each datum stamped when it is made.
+// A put that fails is counted and the next one tried; the summary says how many went.
+int put_repeatedly(const ResolvedPort& p, RTM::InPort_ptr in, const Cli& c) {
+  const auto period_ns = static_cast<std::int64_t>(std::llround(1e9 / c.put_rate_hz));
+  rtm::PeriodicSchedule schedule(period_ns);
+  const std::int64_t start_ns = rtm::monotonic_ns();
+  const std::int64_t end_ns =
+      c.put_for_s > 0 ? start_ns + static_cast<std::int64_t>(c.put_for_s * 1e9) : std::numeric_limits<std::int64_t>::max();
+  schedule.start(0, start_ns);
+  std::uint64_t sent = 0, failed = 0;
+  std::string last_failure;
+  while (!g_interrupted.load()) {
+    rtm::sleep_until_ns(schedule.deadline_ns());
+    const std::int64_t wake_ns = rtm::monotonic_ns();
+    if (wake_ns >= end_ns || g_interrupted.load()) break;
+    schedule.begin(wake_ns);
+    try {
+      in->put(parse_value(p.type, c.values));
+      ++sent;
+    } catch (const CORBA::Exception& e) {
+      ++failed;
+      last_failure = corba_name(e);
+    }
+    schedule.end(rtm::monotonic_ns());
+  }
+  const double seconds = static_cast<double>(rtm::monotonic_ns() - start_ns) / 1e9;
+  const rtm::ActivityStats stats = schedule.stats();
+  if (c.json) {
+    fmt::print("{}\n", json{{"port", p.address}, {"put", sent}, {"failed", failed}, {"skipped", stats.skipped},
+                            {"seconds", seconds}, {"rate_hz", c.put_rate_hz},
+                            {"lateness_p99_us", stats.lateness_p99_ns / 1000}}
+                           .dump());
+  } else {
+    fmt::print("put {} {} times in {:.2f} s at {} Hz ({} failed{}, {} skipped as late, lateness p99 {} us)\n",
+               p.address, sent, seconds, c.put_rate_hz, failed,
+               failed ? fmt::format(", the last: {}", last_failure) : std::string(), stats.skipped,
+               stats.lateness_p99_ns / 1000);
+  }
+  return failed == 0 ? kOk : kFailed;
+}
+
 int run_put(const Browser& browser, const Cli& c) {
   const ResolvedPort p = browser.port(PortAddress::parse(c.port));
   if (p.direction != Direction::in) throw Failure(p.address + " is an OutPort; put writes InPorts", kFailed);
@@ -289,6 +342,7 @@ int run_put(const Browser& browser, const Cli& c) {
     throw Failure(fmt::format("{}: {}", p.address, e.what()), kUsage);
   }
   RTM::InPort_var in = RTM::InPort::_narrow(p.object);
+  if (c.put_rate_hz > 0) return put_repeatedly(p, in, c);
   in->put(value);
   if (c.json) {
     json j = format_json(value);

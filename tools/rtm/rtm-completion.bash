@@ -51,6 +51,7 @@ _rtm() {
       fi
       [[ $cmd == watch && $cur == -* ]] && COMPREPLY=($(compgen -W "--rate --csv --count --duration" -- "$cur"))
       [[ $cmd == connect && $cur == -* ]] && COMPREPLY=($(compgen -W "--once --policy" -- "$cur"))
+      [[ $cmd == put && $cur == -* ]] && COMPREPLY=($(compgen -W "--rate --for" -- "$cur"))
       ;;
     up|down) COMPREPLY=($(compgen -f -X '!*.@(yaml|yml)' -- "$cur")) ;;
     names) COMPREPLY=($(compgen -W "--stop" -- "$cur")) ;;
