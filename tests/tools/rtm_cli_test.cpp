@@ -377,6 +377,8 @@ TEST_F(RtmCli, PutAtARatePutsOnePerGridPointForTheTimeGivenAndEachArrives) {
   EXPECT_EQ((*port(rtm_json({"cat", "t"}), "in0"))["counters"]["accepted"], sent) << "every put arrived";
   auto bad = rtm({"put", "t.in0", "1", "2", "3", "4", "5", "6", "--rate", "0.5"});
   EXPECT_EQ(bad.exit_code, 2) << "a rate below 1 Hz is refused: " << bad.err;
+  bad = rtm({"put", "t.in0", "1", "2", "3", "4", "5", "6", "--for", "1"});
+  EXPECT_EQ(bad.exit_code, 2) << "--for without --rate is refused: " << bad.err;
 }
 
 TEST_F(RtmCli, WatchStreamsDataThenUnsubscribes) {

@@ -142,11 +142,11 @@ void add_data_commands(CLI::App& app, Cli& c) {
   c.put = app.add_subcommand("put", "send one datum to an InPort");
   c.put->add_option("port", c.port, "<component>.<InPort>")->required();
   c.put->add_option("values", c.values, "the values (6 for TimedFloat6)")->required()->allow_extra_args();
-  c.put->add_option("--rate", c.put_rate_hz,
+  CLI::Option* rate = c.put->add_option("--rate", c.put_rate_hz,
                     "put it again and again, freshly stamped, at this rate (Hz, 1 to 10000) on a fixed grid of the "
                     "monotonic clock; until --for is over or Ctrl-C")
       ->check(CLI::Range(1.0, 10000.0));
-  c.put->add_option("--for", c.put_for_s, "with --rate: for this long (s)")->check(CLI::PositiveNumber);
+  c.put->add_option("--for", c.put_for_s, "with --rate: for this long (s)")->check(CLI::PositiveNumber)->needs(rate);
   c.watch = app.add_subcommand("watch", "stream an OutPort's data live");
   auto& w = c.watch_options;
   c.watch->add_option("port", c.port, "<component>.<OutPort>")->required();
