@@ -372,7 +372,7 @@ void ComponentServant::set_parameter(const char* name, const char* value) {
   if (it == params.end()) {
     std::string known;
     for (const auto& p : params) known += (known.empty() ? "" : ", ") + p.name;
-    refuse(fmt::format("{} has no parameter '{}' (parameters: {})", me, name, known.empty() ? "none" : known));
+    refuse(fmt::format("no parameter '{}' (parameters: {})", name, known.empty() ? "none" : known));
   }
   std::lock_guard lock(control_mu_);  // no on()/off() in between: a when-off check holds
   if (it->access == ParameterAccess::fixed)
@@ -383,7 +383,7 @@ void ComponentServant::set_parameter(const char* name, const char* value) {
   try {
     it->set(value);
   } catch (const std::exception& e) {
-    refuse(fmt::format("'{}' = '{}': {}", name, value, e.what()));
+    refuse(e.what());  // it names the parameter, and the value where it helps
   }
   log().info("{}: parameter {} = {} (was {})", me, name, it->get(), before);
 }

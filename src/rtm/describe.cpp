@@ -73,15 +73,14 @@ std::uint64_t parse_whole_number(std::string_view text, std::uint64_t min, std::
 }
 
 void check_bounds(double value, const Bounds& bounds, std::string_view owner, std::string_view what, bool count) {
-  if (!std::isfinite(value))
-    throw std::invalid_argument(fmt::format("{} {} = {} is not a finite number", owner, what, value));
-  if (count && value < bounds.min)
-    throw std::invalid_argument(fmt::format("{} {} must be at least {}", owner, what, bounds.min));
+  const std::string who = owner.empty() ? std::string(what) : fmt::format("{} {}", owner, what);
+  if (!std::isfinite(value)) throw std::invalid_argument(fmt::format("{} = {} is not a finite number", who, value));
+  if (count && value < bounds.min) throw std::invalid_argument(fmt::format("{} must be at least {}", who, bounds.min));
   if (bounds.min_open ? !(value > bounds.min) : value < bounds.min) {
     throw std::invalid_argument(
-        fmt::format("{} {} = {}: must be {} {}", owner, what, value, bounds.min_open ? "above" : "at least", bounds.min));
+        fmt::format("{} = {}: must be {} {}", who, value, bounds.min_open ? "above" : "at least", bounds.min));
   }
-  if (value > bounds.max) throw std::invalid_argument(fmt::format("{} {} = {}: at most {}", owner, what, value, bounds.max));
+  if (value > bounds.max) throw std::invalid_argument(fmt::format("{} = {}: at most {}", who, value, bounds.max));
 }
 
 std::string format_numbers(std::span<const float> values) { return format_all(values); }

@@ -155,6 +155,10 @@ TEST(ParameterTable, AComponentShowsEachParameterAndASetPublishesTheWholeStructF
   EXPECT_FALSE(grip.live_.take(cycle)) << "nothing published yet";
   shown[1].set("8");
   EXPECT_THROW(shown[2].set("0"), std::invalid_argument);
+  // What `rtm set` says after "<component>: ": the parameter once, the value where it helps.
+  EXPECT_EQ(error_of([&] { shown[1].set("-1"); }), "force = -1: must be above 0");
+  EXPECT_EQ(error_of([&] { shown[0].set("1 2 3"); }), "gain: '1 2 3' holds 3 numbers; 6 expected");
+  EXPECT_EQ(error_of([&] { shown[0].set("1 1 nan 1 1 1"); }), "gain: 'nan' is not a finite number");
   shown[2].set("30");
   ASSERT_TRUE(grip.live_.take(cycle));
   EXPECT_EQ(cycle.force_N, 8.0f);

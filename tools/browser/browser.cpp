@@ -405,7 +405,7 @@ std::string Browser::set_parameter(std::string_view name, const std::string& par
     }
     return value;
   } catch (const RTM::ParameterRefused& e) {
-    throw BrowseError(fmt::format("{} refused {} = '{}': {}", name, parameter, value, e.reason.in()));
+    throw BrowseError(fmt::format("{}: {}", name, e.reason.in()));  // the reason names the parameter
   }
 }
 

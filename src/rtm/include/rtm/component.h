@@ -138,9 +138,9 @@ class Component {
                      .description = decl->description,
                      .access = decl->access,
                      .get = [decl, &value] { return decl->get(value.published()); },
-                     .set = [decl, &table, &value](std::string_view text) {
+                     .set = [decl, &value](std::string_view text) {
                        P changed = value.published();
-                       decl->set(changed, text, table.owner());
+                       decl->set(changed, text, "");  // the refusal names the component
                        value.publish(changed);
                      }});
     }

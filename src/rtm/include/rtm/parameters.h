@@ -51,6 +51,7 @@ constexpr Bounds between(double min, double max) { return {.min = min, .max = ma
 
 // Throws std::invalid_argument "<owner> <what> = <value> ..." when value breaks bounds: "is not
 // a finite number", ": must be at least 0", "must be at least 1" (a count), ": at most 1000".
+// An empty owner leaves it out ("gain[2] = nan is not a finite number").
 void check_bounds(double value, const Bounds& bounds, std::string_view owner, std::string_view what, bool count);
 
 // What a parameter is. The texts are literals: a copy of the struct copies views of them.
@@ -211,9 +212,21 @@ struct ParameterDecl {
     });
   }
   // Parses text as `rtm set` gives it into p's field, checked; p is unchanged when it throws
-  // (std::invalid_argument saying what is wrong).
+  // (std::invalid_argument saying what is wrong, after the parameter's name: "gain: '1 2' holds
+  // 2 numbers; 6 expected", "gain[2] = nan is not a finite number"; owner before it when given).
   void set(P& p, std::string_view text, std::string_view owner) const {
     P changed = p;
+    try {
+      parse_into(changed, text);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument((owner.empty() ? name : std::string(owner) + " " + name) + ": " + e.what());
+    }
+    check(changed, owner);
+    p = changed;
+  }
+
+ private:
+  void parse_into(P& changed, std::string_view text) const {
     visit(changed, [&](auto& param) {
       auto& v = param.value();
       using T = std::remove_cvref_t<decltype(v)>;
@@ -228,8 +241,6 @@ struct ParameterDecl {
         for (std::size_t i = 0; i < v.size(); ++i) v[i] = static_cast<float>(numbers[i]);
       }
     });
-    check(changed, owner);
-    p = changed;
   }
 };
 
