@@ -331,7 +331,7 @@ TEST_F(RtmCli, SetRefusesAnUnknownAFixedAWhenOffWhileOnOrABadValueAndChangesNoth
   talker("t", {"--on"});
   auto unknown = rtm({"set", "t", "nope", "1"});
   EXPECT_EQ(unknown.exit_code, 1);
-  EXPECT_NE(unknown.err.find("has no parameter 'nope' (parameters: offset, fail_after, name)"), std::string::npos)
+  EXPECT_NE(unknown.err.find("t: no parameter 'nope' (parameters: offset, fail_after, name)"), std::string::npos)
       << unknown.err;
   auto fixed = rtm({"set", "t", "name", "x"});
   EXPECT_EQ(fixed.exit_code, 1);
@@ -635,6 +635,29 @@ activate: [a, b]
       << up.err;
   EXPECT_EQ(up.out.find("connected"), std::string::npos) << "a connection was made first:\n" << up.out;
   EXPECT_TRUE(rtm_json({"ls"}).empty()) << "what was started is stopped again";
+}
+
+TEST_F(RtmUpDown, UpSetsTheFilesParametersBeforeItTurnsTheComponentOn) {
+  // fail_after may change only while the talker is off: set after `on`, it would be refused.
+  auto file = write_system(
+      "components:\n  - name: a\n    command: rtm-test-talker\n    parameters: {offset: 7, fail_after: 1000}\n"
+      "activate: [a]\n");
+  auto up = rtm_env({"up", file.string()});
+  ASSERT_EQ(up.exit_code, 0) << up.err << up.out;
+  EXPECT_NE(up.out.find("set a offset = 7"), std::string::npos) << up.out;
+  const json a = rtm_json({"cat", "a"});
+  EXPECT_EQ(a["state"], "on");
+  EXPECT_EQ(a["parameters"]["offset"]["value"], "7");
+  EXPECT_EQ(a["parameters"]["fail_after"]["value"], "1000");
+}
+
+TEST_F(RtmUpDown, UpWithAParameterTheComponentRefusesSaysWhyOnceAndLeavesNothingRunning) {
+  auto file = write_system("components:\n  - {name: a, command: rtm-test-talker, parameters: {nope: 1}}\n");
+  auto up = rtm_env({"up", file.string()});
+  EXPECT_EQ(up.exit_code, 1);
+  EXPECT_NE(up.err.find("a: no parameter 'nope' (parameters: offset, fail_after, name)"), std::string::npos)
+      << up.err;
+  EXPECT_TRUE(rtm_json({"ls"}).empty()) << "what up started is stopped again";
 }
 
 TEST_F(RtmUpDown, UpWithAMissingProgramStartsNothing) {

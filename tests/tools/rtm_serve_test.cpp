@@ -332,9 +332,13 @@ TEST_F(RtmServe, SaveWritesASystemFileRtmUpAcceptsAndApplyingItRestoresTheWiring
                  with_token())
                 ->status,
             200);
+  // A live parameter changed while it runs is saved with the file; a fixed one ('name') is in
+  // the command already.
+  ASSERT_EQ(rtm_test::run_command({RTM_CLI_PATH, "--naming", names_.address(), "set", "src", "offset", "5"}).exit_code, 0);
   const json saved = get_json("/api/system-file?name=pair");
   const std::string yaml = saved["yaml"];
   EXPECT_TRUE(saved["left_out"].empty()) << saved.dump();
+  EXPECT_NE(yaml.find("parameters:\n      offset: 5\n      fail_after: 0\n"), std::string::npos) << yaml;
   // The policy as it was asked, not the port's defaults filled in.
   EXPECT_NE(yaml.find("{from: src.force, to: dst.in0, policy: depth=16 delivery=thread}"), std::string::npos) << yaml;
   EXPECT_NE(yaml.find("rtm-test-talker"), std::string::npos) << yaml;
@@ -361,6 +365,8 @@ TEST_F(RtmServe, SaveWritesASystemFileRtmUpAcceptsAndApplyingItRestoresTheWiring
   auto cat = rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "cat", "src"});
   EXPECT_NE(cat.out.find("-> dst.in0 (repeated, shared memory)"), std::string::npos) << cat.out;
   EXPECT_NE(cat.out.find("shared memory: repeated depth=16 delivery=thread call=1000ms"), std::string::npos) << cat.out;
+  auto offset = rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "--json", "cat", "src"});
+  EXPECT_EQ(json::parse(offset.out)["parameters"]["offset"]["value"], "5") << "the saved parameter, set by rtm up";
   rtm_test::run_command({RTM_CLI_PATH, "--naming", other.address(), "down", "pair"},
                         {"XDG_RUNTIME_DIR=" + dir.string(), "RTM_TLS="}, 30s);
   std::filesystem::remove_all(dir);

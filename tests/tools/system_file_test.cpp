@@ -66,8 +66,8 @@ TEST(RtmSystemFile, ToYamlReadsBackToTheSameSystemQuotingWhatNeedsIt) {
   f.path = kFile;
   f.name = "saved";
   f.naming = "127.0.0.1:2999";
-  f.components = {{"src", {"/opt/rtm/bin/rtm-example-source", "--period", "2ms", "--note", "a: b, [c]"}},
-                  {"sink", {"rtm-example-sink"}}};
+  f.components = {{"src", {"/opt/rtm/bin/rtm-example-source", "--period", "2ms", "--note", "a: b, [c]"}, {}},
+                  {"sink", {"rtm-example-sink"}, {{"gain", "0.5 0.5 0 0 0 0"}, {"note", "a: b"}}}};
   ConnPolicy deep = ConnPolicy::one_shot();
   deep.depth = 64;
   deep.reader = {ReaderPolicy::Kind::latest, 0};
@@ -80,12 +80,74 @@ TEST(RtmSystemFile, ToYamlReadsBackToTheSameSystemQuotingWhatNeedsIt) {
   EXPECT_EQ(back.naming, f.naming);
   ASSERT_EQ(back.components.size(), 2u);
   EXPECT_EQ(back.components[0].command, f.components[0].command);
+  EXPECT_EQ(back.components[1].parameters, f.components[1].parameters) << "in their order";
   ASSERT_EQ(back.connections.size(), 3u);
   EXPECT_EQ(back.connections[1].to, "sink.in1");
   EXPECT_EQ(back.connections[0].policy, ConnPolicy::repeated());
   EXPECT_EQ(back.connections[1].policy, ConnPolicy::one_shot());
   EXPECT_EQ(back.connections[2].policy, deep);
   EXPECT_EQ(back.activate, f.activate);
+}
+
+TEST(RtmSystemFile, AComponentsParametersAreKeptAsTheTextRtmSetTakesInTheFilesOrder) {
+  auto f = SystemFile::parse("components:\n"
+                             "  - name: c\n"
+                             "    command: rtm-controller\n"
+                             "    parameters:\n"
+                             "      stale_periods: 3\n"
+                             "      gain: [0.0004, 0.0004, 0.0004, 0, 0, 0]\n"
+                             "      approach_speed: \"0.01\"\n",
+                             kFile);
+  ASSERT_EQ(f.components.size(), 1u);
+  EXPECT_EQ(f.components[0].parameters,
+            (std::vector<std::pair<std::string, std::string>>{
+                {"stale_periods", "3"}, {"gain", "0.0004 0.0004 0.0004 0 0 0"}, {"approach_speed", "0.01"}}));
+}
+
+TEST(RtmSystemFile, MalformedParametersAndUnknownComponentKeysAreRefusedWithTheLine) {
+  const auto refusal = [](const std::string& yaml) {
+    try {
+      SystemFile::parse(yaml, kFile);
+    } catch (const rtm::cli::SystemFileError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(refusal("components:\n  - {name: c, command: x, parameters: [1, 2]}\n")
+                .find("component 'c': 'parameters' must be a mapping of names to values"),
+            std::string::npos);
+  EXPECT_NE(refusal("components:\n  - {name: c, command: x, parameters: {gain: {a: 1}}}\n")
+                .find("component 'c': parameter 'gain' must be a non-empty string"),
+            std::string::npos);
+  EXPECT_NE(refusal("components:\n  - name: c\n    command: x\n    parameters: {gain: 1, gain: 2}\n").find("given twice"),
+            std::string::npos)
+      << "or YAML's own refusal of a repeated key";
+  const std::string unknown = refusal("components:\n  - name: c\n    command: x\n    paramters: {gain: 1}\n");
+  EXPECT_NE(unknown.find(":4: unknown key 'paramters' in a component (known: name, command, parameters)"),
+            std::string::npos)
+      << unknown;
+}
+
+TEST(RtmSystemFile, TheExampleOfTheDocsIsAFileRtmUpTakes) {
+  std::ifstream in(std::string(RTM_SOURCE_DIR) + "/docs/system-files.md");
+  ASSERT_TRUE(in) << "docs/system-files.md";
+  std::string yaml, line;
+  bool inside = false;
+  while (std::getline(in, line)) {
+    if (!inside && line == "```yaml") {
+      inside = true;
+    } else if (inside && line == "```") {
+      break;
+    } else if (inside) {
+      yaml += line + "\n";
+    }
+  }
+  const SystemFile f = SystemFile::parse(yaml, kFile);
+  EXPECT_EQ(f.name, "gripper");
+  ASSERT_EQ(f.components.size(), 3u);
+  EXPECT_EQ(f.components[1].parameters.size(), 2u);
+  EXPECT_EQ(f.connections.size(), 2u);
+  EXPECT_EQ(f.activate.size(), 3u);
 }
 
 TEST(RtmSystemFile, NameDefaultsToTheFileStem) {

@@ -255,6 +255,13 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
       say(fmt::format("bound {}", p.name));
     }
     check_wiring(file, browser);
+    for (const auto& c : file.components) {
+      for (const auto& [parameter, value] : c.parameters) {
+        check_interrupt();
+        const std::string now = browser.set_parameter(c.name, parameter, value);
+        say(fmt::format("set {} {} = {}", c.name, parameter, now));
+      }
+    }
     for (const auto& c : file.connections) {
       check_interrupt();
       browser.connect(PortAddress::parse(c.from), PortAddress::parse(c.to), c.policy);

@@ -40,9 +40,39 @@ std::string scalar_field(const SystemFile& f, const YAML::Node& map, const char*
   return scalar(f, node, what);
 }
 
-// One entry of 'components': its name (the one name rule) and its command.
+// A component's 'parameters': a mapping of names to a number, a list of numbers, or text, each
+// kept as the text `rtm set` takes. The component itself checks the values when `rtm up` sets them.
+std::vector<std::pair<std::string, std::string>> parse_parameters(const SystemFile& f, const YAML::Node& node,
+                                                                  const std::string& component) {
+  if (!node.IsMap()) fail(f, node, fmt::format("component '{}': 'parameters' must be a mapping of names to values", component));
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& kv : node) {
+    const std::string name = scalar(f, kv.first, "a parameter's name");
+    std::string value;
+    if (kv.second.IsSequence() && kv.second.size() > 0) {
+      for (const auto& v : kv.second) {
+        if (!value.empty()) value += ' ';
+        value += scalar(f, v, fmt::format("a value of '{}'", name));
+      }
+    } else {
+      value = scalar(f, kv.second, fmt::format("component '{}': parameter '{}'", component, name));
+    }
+    for (const auto& [seen, ignored] : out) {
+      if (seen == name) fail(f, kv.first, fmt::format("component '{}': parameter '{}' given twice", component, name));
+    }
+    out.emplace_back(name, std::move(value));
+  }
+  return out;
+}
+
+// One entry of 'components': its name (the one name rule), its command and its parameters.
 SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) {
   SystemFile::Component comp;
+  for (const auto& kv : c) {
+    const auto key = kv.first.as<std::string>();
+    if (key != "name" && key != "command" && key != "parameters")
+      fail(f, kv.first, fmt::format("unknown key '{}' in a component (known: name, command, parameters)", key));
+  }
   comp.name = scalar_field(f, c, "name", "a component's 'name'");
   try {
     rtm::check_name(comp.name);  // it names the component's log file
@@ -58,6 +88,7 @@ SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) 
     fail(f, cmd ? cmd : c,
          fmt::format("component '{}' needs a 'command' (program, or list of program and arguments)", comp.name));
   }
+  if (const YAML::Node params = c["parameters"]) comp.parameters = parse_parameters(f, params, comp.name);
   return comp;
 }
 
@@ -214,7 +245,13 @@ std::string SystemFile::to_yaml() const {
   out << YAML::Key << "components" << YAML::Value << YAML::BeginSeq;
   for (const auto& c : components) {
     out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << c.name << YAML::Key << "command" << YAML::Value
-        << YAML::Flow << c.command << YAML::EndMap;
+        << YAML::Flow << c.command;
+    if (!c.parameters.empty()) {
+      out << YAML::Key << "parameters" << YAML::Value << YAML::BeginMap;
+      for (const auto& [name, value] : c.parameters) out << YAML::Key << name << YAML::Value << value;
+      out << YAML::EndMap;
+    }
+    out << YAML::EndMap;
   }
   out << YAML::EndSeq;
   if (!connections.empty()) {

@@ -247,7 +247,8 @@ json preview_system_file(const Browser& browser, const std::string& yaml) {
 }
 
 // The running system as a system file `rtm up` accepts: this host's components with the
-// commands that started them, every subscription, and those on. A component whose command
+// commands that started them and the values of their parameters that may change while they
+// run (a fixed one is in the command), every subscription, and those on. A component whose command
 // cannot be read from here (another host, another user's process) is left out, with why.
 json save_system_file(const Browser& browser, const std::string& name) {
   SystemFile file;
@@ -267,7 +268,10 @@ json save_system_file(const Browser& browser, const std::string& name) {
       left_out.push_back({{"name", c.path.name}, {"why", "its command cannot be read from this host"}});
       continue;
     }
-    file.components.push_back({c.path.name, std::move(command)});
+    SystemFile::Component saved{c.path.name, std::move(command), {}};
+    for (const auto& p : c.parameters)
+      if (p.access != "fixed") saved.parameters.emplace_back(p.name, p.value);
+    file.components.push_back(std::move(saved));
     if (c.state == "on") file.activate.push_back(c.path.name);
     for (const auto& p : c.ports)
       for (const auto& s : p.subscriptions)

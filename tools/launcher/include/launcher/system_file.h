@@ -7,6 +7,11 @@
 //   components:
 //     - name: sensor0
 //       command: [rtm-sensor, --bus, "local:/tmp/pa10.bus"]   # program + arguments
+//     - name: controller0
+//       command: rtm-controller
+//       parameters:                  # optional: set (`rtm set`) once it is bound, before any
+//         gain: [0.0004, 0.0004, 0.0004, 0, 0, 0]  # connection and before it is turned on;
+//         stale_periods: 3           # a number, a list of numbers, or their text
 //   connections:
 //     - {from: sensor0.out0, to: controller0.in0}              # type: repeated (default)|once
 //     - {from: joystick0.out0, to: controller0.in1, policy: "reader=latest depth=4"}
@@ -15,6 +20,7 @@
 //
 // A program without a '/' is searched in $RTM_BIN_PATH (':'-separated), then $PATH; one with
 // a '/' is taken relative to the file's folder. `rtm up` adds `--name <name> --naming <addr>`.
+// docs/system-files.md describes the format and what `rtm up` does with it, step by step.
 #pragma once
 
 #include "rtm/conn_policy.h"
@@ -24,6 +30,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace rtm::cli {
@@ -38,6 +45,8 @@ struct SystemFile {
   struct Component {
     std::string name;
     std::vector<std::string> command;  // program, then arguments
+    // In the file's order: the name and the value as `rtm set` takes it ("0.0004 0.0004 ...").
+    std::vector<std::pair<std::string, std::string>> parameters;
   };
   struct Connection {
     std::string from, to;  // "<component>.<port>"
