@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <regex>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace {
@@ -70,6 +71,20 @@ TEST_F(RtmNames, StartsOneOnLoopbackThatRtmUsesReusesItAndStopsIt) {
   EXPECT_FALSE(rtm_test::loopback_port_accepts(port_of(address))) << "stopped before --stop returned";
   EXPECT_FALSE(fs::exists(runtime_ / "rtm" / "names")) << "its data removed";
   EXPECT_NE(rtm({"names", "--stop"}).out.find("no naming service of yours was running"), std::string::npos);
+}
+
+TEST_F(RtmNames, TwoStartedAtOnceGiveOneService) {
+  CommandResult first, second;
+  std::thread other([&] { first = rtm({"names"}); });
+  second = rtm({"names"});
+  other.join();
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  EXPECT_EQ(exported(first.out), exported(second.out)) << first.err << second.err;
+  EXPECT_EQ((first.err + second.err).find("started") != std::string::npos &&
+                (first.err + second.err).find("running") != std::string::npos,
+            true)
+      << "one started it, the other found it running: " << first.err << second.err;
 }
 
 TEST_F(RtmNames, OneThatDiedIsReplacedByAFreshOne) {

@@ -7,11 +7,15 @@
 #include <yaml-cpp/yaml.h>
 
 #include <arpa/inet.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <stdexcept>
 #include <string>
@@ -23,6 +27,27 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path names_folder() { return SystemState::directory() / "names"; }
+
+// Held while one `rtm names` looks at, starts or stops the service: two at once would start
+// two, and the one recorded last would leave the other running unrecorded.
+class NamesLock {
+ public:
+  NamesLock() : fd_(::open((SystemState::directory() / "names.lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600)) {
+    if (fd_ < 0) throw std::runtime_error(fmt::format("rtm names: cannot open its lock: {}", std::strerror(errno)));
+    while (::flock(fd_, LOCK_EX) != 0) {
+      if (errno != EINTR) {
+        ::close(fd_);
+        throw std::runtime_error(fmt::format("rtm names: cannot take its lock: {}", std::strerror(errno)));
+      }
+    }
+  }
+  ~NamesLock() { ::close(fd_); }  // closing releases the lock
+  NamesLock(const NamesLock&) = delete;
+  NamesLock& operator=(const NamesLock&) = delete;
+
+ private:
+  int fd_;
+};
 fs::path state_file() { return names_folder() / "state.yaml"; }
 
 // A loopback address of port, to connect() or bind().
@@ -115,6 +140,7 @@ std::optional<PrivateNaming> private_naming_running() {
 }
 
 PrivateNaming private_naming_up(std::chrono::milliseconds timeout) {
+  const NamesLock lock;
   if (auto running = private_naming_running()) return *running;
   fs::remove_all(names_folder());  // what a service gone since left behind
   fs::create_directories(names_folder());
@@ -137,6 +163,7 @@ PrivateNaming private_naming_up(std::chrono::milliseconds timeout) {
 }
 
 std::optional<PrivateNaming> private_naming_down(std::chrono::milliseconds grace) {
+  const NamesLock lock;
   auto n = recorded();
   std::optional<PrivateNaming> stopped;
   if (n && process_alive(n->process)) {
