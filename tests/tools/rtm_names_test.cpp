@@ -13,7 +13,6 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <regex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -38,10 +37,16 @@ class RtmNames : public ::testing::Test {
     args.insert(args.begin(), RTM_CLI_PATH);
     return rtm_test::run_command(args, {"XDG_RUNTIME_DIR=" + runtime_.string()}, std::chrono::seconds(30));
   }
-  // The address of `export RTM_NAMING=<address>`, "" when out holds no such line.
+  // The address of `export RTM_NAMING=127.0.0.1:<port>`, "" unless out is that line alone.
   static std::string exported(const std::string& out) {
-    std::smatch m;
-    return std::regex_search(out, m, std::regex("^export RTM_NAMING=(127\\.0\\.0\\.1:[0-9]+)\n$")) ? m[1].str() : "";
+    const std::string prefix = "export RTM_NAMING=";
+    if (out.rfind(prefix, 0) != 0 || out.back() != '\n') return "";
+    const std::string address = out.substr(prefix.size(), out.size() - prefix.size() - 1);
+    const std::string host = "127.0.0.1:";
+    if (address.rfind(host, 0) != 0 || address.size() == host.size() ||
+        address.find_first_not_of("0123456789", host.size()) != std::string::npos)
+      return "";
+    return address;
   }
   static std::uint16_t port_of(const std::string& address) {
     return static_cast<std::uint16_t>(std::stoi(address.substr(address.rfind(':') + 1)));
