@@ -203,7 +203,8 @@ TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
   const std::string description = R"(closes the "gripper" as the wrist is pushed \ along z)";
   const CommandResult made = rtm_test::run_command({bin("rtm").string(), "new", "component", "gripper_ctl", "--in",
                                                     "wrench:TimedFloat6", "--out", "twist:TimedFloat6", "--description",
-                                                    description, "--dir", root_.string()});
+                                                    description, "--param", "gain:1/N:0.01:closing per newton",
+                                                    "--dir", root_.string()});
   ASSERT_EQ(made.exit_code, 0) << made.err;
   const fs::path project = root_ / "gripper_ctl", build = project / "build";
   CommandResult r = rtm_test::run_command({CMAKE_COMMAND, "-S", project.string(), "-B", build.string(),
@@ -218,6 +219,8 @@ TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
   r = rtm_test::run_command({(build / "bin" / "rtm-gripper_ctl").string(), "--help"}, {}, 30s);
   EXPECT_NE(r.out.find("rtm-gripper_ctl: " + description + ". InPorts: wrench RTM::TimedFloat6"), std::string::npos)
       << r.out;
+  EXPECT_NE(r.out.find("--gain"), std::string::npos) << "the parameter is an option: " << r.out;
+  EXPECT_NE(r.out.find("closing per newton [1/N]"), std::string::npos) << r.out;
   // Its system file, from its folder, with the installed rtm and a runtime folder of the test's.
   const fs::path runtime = root_ / "run";
   fs::create_directories(runtime);
@@ -238,6 +241,9 @@ TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
   r = rtm({"get", "gripper_ctl0.twist"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("1.000"), std::string::npos) << "the scaffold's logic passes its input on: " << r.out;
+  r = rtm({"set", "gripper_ctl0", "gain", "0.02"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("gripper_ctl0.gain = 0.02"), std::string::npos) << "a live parameter of the scaffold: " << r.out;
   r = rtm_here({"down", "gripper_ctl"});
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
 }

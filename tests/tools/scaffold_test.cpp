@@ -265,6 +265,52 @@ TEST_F(RtmScaffold, ADescriptionOfMoreThanOneLineOrTooLongIsRefusedAndNothingIsW
   EXPECT_TRUE(parent_is_empty());
 }
 
+TEST_F(RtmScaffold, AParameterIsOneParamLineThatStepTheRunnerAndTheTestAllUse) {
+  auto o = options("lowpass");
+  o.params = {rtm::cli::parse_param_spec("cutoff_hz:Hz:10:the filter's cut-off"),
+              rtm::cli::parse_param_spec("gain::0.5")};
+  rtm::cli::scaffold_component(o);
+  const fs::path project = parent_ / "lowpass";
+  const std::string header = read_text(project / "include" / "lowpass" / "lowpass.h");
+  EXPECT_NE(header.find(R"(rtm::Param<float> cutoff_hz{10.0f, {"cutoff_hz", "Hz", "the filter's cut-off", )"
+                        "rtm::ParameterAccess::live}};"),
+            std::string::npos)
+      << header;
+  EXPECT_NE(header.find(R"(rtm::Param<float> gain{0.5f, {"gain", "", "gain", rtm::ParameterAccess::live}};)"),
+            std::string::npos)
+      << header;
+  EXPECT_NE(header.find("static Outputs step(const Inputs& in, const Params& params, const RTM::Time& now);"),
+            std::string::npos)
+      << header;
+  const std::string source = read_text(project / "src" / "lowpass.cpp");
+  EXPECT_NE(source.find("params_live_.take(params_);"), std::string::npos) << source;
+  EXPECT_NE(source.find("add_parameters(parameters(), params_live_);"), std::string::npos) << source;
+  EXPECT_NE(source.find("step(inputs_, params_, rtm::now())"), std::string::npos) << source;
+  const std::string main_cpp = read_text(project / "src" / "main.cpp");
+  EXPECT_NE(main_cpp.find("rtm::add_parameter_options(app, Lowpass::parameters(), params)"), std::string::npos)
+      << main_cpp;
+  EXPECT_NE(read_text(project / "test" / "lowpass_test.cpp").find("Lowpass::step(in, Lowpass::Params{}, stamp(7, 250))"),
+            std::string::npos);
+}
+
+TEST(RtmScaffoldParamSpec, BadSpecsAreRefusedNamingTheText) {
+  const auto refusal = [](std::string_view text) {
+    try {
+      rtm::cli::parse_param_spec(text);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(refusal("gain").find("write name:unit:default"), std::string::npos);
+  EXPECT_NE(refusal("gain:1/N:abc").find("the default 'abc' is not a number"), std::string::npos);
+  EXPECT_NE(refusal("gain:1/N:nan").find("finite"), std::string::npos);
+  EXPECT_NE(refusal("Gain:1/N:1").find("parameter 'Gain'"), std::string::npos);
+  EXPECT_NE(refusal("gain:\"N:1").find("a quote, a backslash or a control character"), std::string::npos);
+  EXPECT_EQ(rtm::cli::parse_param_spec("k:N/m:2e3:a: b").description, "a: b") << "the rest is the description";
+  EXPECT_EQ(rtm::cli::parse_param_spec("k:N/m:2e3").default_value, 2000.0);
+}
+
 TEST_F(RtmScaffold, ABadPeriodIsRefusedNamingIt) {
   auto o = options("relay");
   o.period = "2 fortnights";

@@ -18,6 +18,9 @@ void NewCommand::add_to(CLI::App& app) {
   component->add_option("--period", period, "the cycle period its system file starts it with")
       ->capture_default_str();
   component->add_option("--description", description, "what it does, in one line: its --help says it");
+  component->add_option("--param", params,
+                        "a parameter its cycle reads and `rtm set` changes, name:unit:default[:description] "
+                        "(repeatable), e.g. cutoff_hz:Hz:10");
   component->add_option("--dir", parent, "the folder to make the project in")->capture_default_str();
 }
 
@@ -31,6 +34,7 @@ void NewCommand::run(bool json) const {
   options.period = period;
   options.parent = parent;
   options.description = description;
+  for (const auto& spec : params) options.params.push_back(parse_param_spec(spec));
   const auto files = scaffold_component(options);
   const std::filesystem::path project = options.parent / options.name;
   if (json) {

@@ -15,6 +15,7 @@ struct NewCommand {
   CLI::App* component = nullptr;
   std::string name;
   std::vector<std::string> in, out;  // "name:Type"
+  std::vector<std::string> params;   // "name:unit:default[:description]"
   std::string period = "2ms";
   std::string description;
   std::string parent = ".";

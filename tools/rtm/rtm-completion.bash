@@ -59,7 +59,7 @@ _rtm() {
       if [[ $prev == new ]]; then
         COMPREPLY=($(compgen -W "component" -- "$cur"))
       elif [[ $cur == -* ]]; then
-        COMPREPLY=($(compgen -W "--in --out --period --description --dir" -- "$cur"))
+        COMPREPLY=($(compgen -W "--in --out --param --period --description --dir" -- "$cur"))
       fi
       ;;
     tls)

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cerrno>
 #include <cstdio>
 #include <map>
@@ -176,6 +177,7 @@ struct Plan {
   std::string class_name;
   std::string period;
   std::string description;  // one line, printable, without its final '.'
+  std::vector<ParamSpec> params;
   std::vector<Port> in, out;
   // For each OutPort, the InPort the generated step() passes to it (-1: none): the InPort of
   // the same type and the same rank among the ports of that type.
@@ -230,6 +232,32 @@ std::string checked_description(std::string text) {
   return text;
 }
 
+// Text that goes into a C++ string literal as it is: printable, no quote, no backslash.
+void check_literal_text(std::string_view text, std::string_view what) {
+  for (const char c : text) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f || c == '"' || c == '\\')
+      throw std::invalid_argument(fmt::format("{} '{}' holds a quote, a backslash or a control character", what, text));
+  }
+}
+
+std::vector<ParamSpec> checked_params(std::vector<ParamSpec> params) {
+  if (params.size() > 8) throw std::invalid_argument(fmt::format("{} parameters: at most 8, please", params.size()));
+  std::set<std::string> seen;
+  for (auto& p : params) {
+    check_port_name(p.name, fmt::format("parameter '{}'", p.name));
+    if (!seen.insert(p.name).second) throw std::invalid_argument(fmt::format("parameter '{}' is given twice", p.name));
+    check_literal_text(p.unit, fmt::format("parameter '{}': the unit", p.name));
+    check_literal_text(p.description, fmt::format("parameter '{}': the description", p.name));
+    if (!std::isfinite(p.default_value) || std::abs(p.default_value) > 3.4e38)
+      throw std::invalid_argument(fmt::format("parameter '{}': the default must be a finite number a float holds", p.name));
+    if (p.description.empty()) {
+      p.description = p.name;
+      std::replace(p.description.begin(), p.description.end(), '_', ' ');
+    }
+  }
+  return params;
+}
+
 Plan make_plan(const ScaffoldOptions& options) {
   Plan plan;
   plan.name = options.name;
@@ -237,6 +265,7 @@ Plan make_plan(const ScaffoldOptions& options) {
   rtm::parse_period_ns(options.period);  // throws naming the text
   plan.period = options.period;
   plan.description = checked_description(options.description);
+  plan.params = checked_params(options.params);
   std::set<std::string> seen;
   if (options.in.empty() && options.out.empty()) {
     plan.in = {{"in0", &kTypes[0]}};
@@ -322,19 +351,50 @@ std::string port_members(const Plan& p) {
   return text;
 }
 
+// A float literal of value: "10.0f", "0.01f", "1e+06f".
+std::string float_literal(double value) {
+  std::string text = fmt::format("{:.9g}", static_cast<float>(value));
+  if (text.find_first_of(".en") == std::string::npos) text += ".0";
+  return text + "f";
+}
+
+// The parameters struct, one rtm::Param line each: the parameter's one declaration.
+std::string params_declaration(const Plan& p) {
+  if (p.params.empty()) return "";
+  std::string text =
+      "\n  // Its parameters, each declared once (rtm/parameters.h): its option and help, the check of a\n"
+      "  // value, what `rtm cat` shows and `rtm set` changes (live: the next cycle uses it).\n"
+      "  struct Params {\n";
+  for (const auto& param : p.params) {
+    text += fmt::format("    rtm::Param<float> {0}{{{1}, {{\"{0}\", \"{2}\", \"{3}\", rtm::ParameterAccess::live}}}};\n",
+                        param.name, float_literal(param.default_value), param.unit, param.description);
+  }
+  return text + "  };\n  static const rtm::ParameterTable<Params>& parameters();\n";
+}
+
 std::string render_header(const Plan& p) {
-  return substitute(kHeader, {{"NAME", p.name},
-                              {"CLASS", p.class_name},
-                              {"PORT_TABLE", port_table(p)},
-                              {"INPUT_FIELDS", fields(p.in, "the component has no InPort")},
-                              {"OUTPUT_FIELDS", fields(p.out, "the component has no OutPort")},
-                              {"PORT_MEMBERS", port_members(p)}});
+  const bool params = !p.params.empty();
+  return substitute(kHeader,
+                    {{"NAME", p.name},
+                     {"CLASS", p.class_name},
+                     {"PORT_TABLE", port_table(p)},
+                     {"INPUT_FIELDS", fields(p.in, "the component has no InPort")},
+                     {"OUTPUT_FIELDS", fields(p.out, "the component has no OutPort")},
+                     {"PARAMS_DECLARATION", params_declaration(p)},
+                     {"STEP_PARAMS", params ? "const Params& params, " : ""},
+                     {"CTOR_PARAMS", params ? fmt::format("  {}(std::string name, Params params);\n", p.class_name) : ""},
+                     {"PARAMS_MEMBERS", params ? "  rtm::LiveValue<Params> params_live_;  // as `rtm set` leaves them\n"
+                                                 "  Params params_;                       // the cycle's copy\n"
+                                               : ""},
+                     {"PORT_MEMBERS", port_members(p)}});
 }
 
 // on_cycle(): read every InPort, compute when something new came, write every OutPort.
 std::string cycle_lines(const Plan& p) {
   std::string text;
   std::string any_new;
+  const std::string params = p.params.empty() ? "" : "params_, ";
+  if (!p.params.empty()) text += "  params_live_.take(params_);  // what `rtm set` published since, whole\n";
   if (p.in.empty()) {
     text += "  // No InPort: new outputs every cycle.\n";
   } else {
@@ -349,10 +409,10 @@ std::string cycle_lines(const Plan& p) {
   }
   if (p.out.empty()) {
     text += "  // No OutPort: act on what step() computes here (a device, a file).\n"
-            "  step(inputs_, rtm::now());\n";
+            "  step(inputs_, " + params + "rtm::now());\n";
     return text;
   }
-  text += "  const Outputs out = step(inputs_, rtm::now());\n";
+  text += "  const Outputs out = step(inputs_, " + params + "rtm::now());\n";
   for (const auto& port : p.out) text += fmt::format("  {0}_out_.write(out.{0});\n", port.name);
   return text;
 }
@@ -373,12 +433,28 @@ std::string render_source(const Plan& p) {
       uses_now = true;
     }
   }
-  return substitute(kSource, {{"NAME", p.name},
-                              {"CLASS", p.class_name},
-                              {"IN_PARAMETER", maybe_unused(!uses_in) + "const Inputs& in"},
-                              {"NOW_PARAMETER", maybe_unused(!uses_now) + "const RTM::Time& now"},
-                              {"STEP_LINES", step_lines},
-                              {"CYCLE_LINES", cycle_lines(p)}});
+  const bool params = !p.params.empty();
+  const std::string table =
+      params ? fmt::format("\nconst rtm::ParameterTable<{0}::Params>& {0}::parameters() {{\n"
+                           "  static const rtm::ParameterTable<Params> table{{\"{1}\"}};\n"
+                           "  return table;\n}}\n\n"
+                           "{0}::{0}(std::string name) : {0}(std::move(name), Params{{}}) {{}}\n",
+                           p.class_name, p.name)
+             : "";
+  return substitute(
+      kSource, {{"NAME", p.name},
+                {"CLASS", p.class_name},
+                {"IN_PARAMETER", maybe_unused(!uses_in) + "const Inputs& in"},
+                {"PARAMS_PARAMETER", params ? "[[maybe_unused]] const Params& params, " : ""},
+                {"NOW_PARAMETER", maybe_unused(!uses_now) + "const RTM::Time& now"},
+                {"STEP_LINES", step_lines},
+                {"PARAMS_DEFINITION", table},
+                {"CTOR_PARAMS_DEFINITION", params ? ", Params params" : ""},
+                {"CTOR_BODY", params ? "\n    , params_live_(params), params_(params) {\n"
+                                       "  parameters().validate(params);\n"
+                                       "  add_parameters(parameters(), params_live_);\n}"
+                                     : " {}"},
+                {"CYCLE_LINES", cycle_lines(p)}});
 }
 
 // text as adjacent string literals of about 80 characters at most, one per line.
@@ -413,7 +489,20 @@ std::string description(const Plan& p) {
 }
 
 std::string render_main(const Plan& p) {
-  return substitute(kMain, {{"NAME", p.name}, {"CLASS", p.class_name}, {"DESCRIPTION", description(p)}});
+  const bool params = !p.params.empty();
+  return substitute(
+      kMain, {{"NAME", p.name},
+              {"CLASS", p.class_name},
+              {"DESCRIPTION", description(p)},
+              {"MAIN_PARAMS", params ? fmt::format("  {}::Params params;  // the defaults, then the options\n", p.class_name) : ""},
+              {"MAIN_PARAMS_OPTIONS",
+               params ? fmt::format("      .add_options = [&](CLI::App& app) {{ rtm::add_parameter_options(app, {0}::parameters(), "
+                                    "params); }},\n"
+                                    "      .validate = [&](const rtm::RunSettings&) {{ {0}::parameters().validate(params); }},\n",
+                                    p.class_name)
+                      : ""},
+              {"CREATE_CAPTURE", params ? "&" : ""},
+              {"CREATE_PARAMS", params ? ", params" : ""}});
 }
 
 // ---- the generated test: sample data per type ----
@@ -498,6 +587,11 @@ std::string expect_zero(const Port& port) {
   return text;
 }
 
+// The parameters a test hands step(): their defaults.
+std::string params_argument(const Plan& p) {
+  return p.params.empty() ? "" : fmt::format("{}::Params{{}}, ", p.class_name);
+}
+
 std::string pass_through_test(const Plan& p) {
   std::string fill;
   std::string expect;
@@ -510,8 +604,8 @@ std::string pass_through_test(const Plan& p) {
   if (fill.empty()) return "";
   return fmt::format("\nTEST({0}Step, OutPortsCarryTheInPortOfTheirTypeWithItsStamp) {{\n"
                      "  {0}::Inputs in;\n{1}"
-                     "  const {0}::Outputs out = {0}::step(in, stamp(7, 250));\n{2}}}\n",
-                     p.class_name, fill, expect);
+                     "  const {0}::Outputs out = {0}::step(in, {3}stamp(7, 250));\n{2}}}\n",
+                     p.class_name, fill, expect, params_argument(p));
 }
 
 std::string zero_test(const Plan& p) {
@@ -521,8 +615,8 @@ std::string zero_test(const Plan& p) {
   }
   if (expect.empty()) return "";
   return fmt::format("\nTEST({0}Step, OutPortsWithoutAnInPortOfTheirTypeCarryZerosStampedNow) {{\n"
-                     "  const {0}::Outputs out = {0}::step({0}::Inputs{{}}, stamp(7, 250));\n{1}}}\n",
-                     p.class_name, expect);
+                     "  const {0}::Outputs out = {0}::step({0}::Inputs{{}}, {2}stamp(7, 250));\n{1}}}\n",
+                     p.class_name, expect, params_argument(p));
 }
 
 std::string render_test(const Plan& p) {
@@ -531,8 +625,8 @@ std::string render_test(const Plan& p) {
     tests = fmt::format("\n// No OutPort: step() returns nothing yet. Test what it computes once it does.\n"
                         "TEST({0}Step, HasNoOutputsToCompute) {{\n"
                         "  EXPECT_TRUE(std::is_empty_v<{0}::Outputs>);\n"
-                        "  EXPECT_NO_THROW({0}::step({0}::Inputs{{}}, stamp(7, 250)));\n}}\n",
-                        p.class_name);
+                        "  EXPECT_NO_THROW({0}::step({0}::Inputs{{}}, {1}stamp(7, 250)));\n}}\n",
+                        p.class_name, params_argument(p));
   }
   return substitute(kTest, {{"NAME", p.name}, {"CLASS", p.class_name}, {"TESTS", tests}});
 }
@@ -671,6 +765,33 @@ PortSpec parse_port_spec(std::string_view text) {
   PortSpec spec{std::string(text.substr(0, colon)), ""};
   check_port_name(spec.name, what);
   spec.type = full_name(find_type(text.substr(colon + 1), what));
+  return spec;
+}
+
+ParamSpec parse_param_spec(std::string_view text) {
+  std::vector<std::string_view> parts;
+  std::size_t at = 0;
+  while (parts.size() < 3) {
+    const auto colon = text.find(':', at);
+    if (colon == std::string_view::npos) break;
+    parts.push_back(text.substr(at, colon - at));
+    at = colon + 1;
+  }
+  parts.push_back(text.substr(at));  // the default, or the description after it
+  if (parts.size() < 3)
+    throw std::invalid_argument(fmt::format("parameter '{}': write name:unit:default[:description], e.g. cutoff_hz:Hz:10",
+                                            text));
+  ParamSpec spec{std::string(parts[0]), std::string(parts[1]), 0, parts.size() > 3 ? std::string(parts[3]) : ""};
+  const std::string number(parts[2]);
+  std::size_t used = 0;
+  try {
+    spec.default_value = std::stod(number, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (number.empty() || used != number.size())
+    throw std::invalid_argument(fmt::format("parameter '{}': the default '{}' is not a number", text, number));
+  checked_params({spec});  // the name, the texts and the number, as make_plan checks them
   return spec;
 }
 

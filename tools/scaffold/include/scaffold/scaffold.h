@@ -37,6 +37,15 @@ struct PortSpec {
   std::string type;  // an RTM timed type, "RTM::TimedFloat6" (the "RTM::" may be left out)
 };
 
+// One parameter of the new component: a number its cycle reads and `rtm set` changes while it
+// runs (rtm/parameters.h).
+struct ParamSpec {
+  std::string name;         // a C identifier starting with a lower-case letter: "cutoff_hz"
+  std::string unit;         // "Hz"; may be empty
+  double default_value = 0;  // finite
+  std::string description;  // one line; "" gives the name in words
+};
+
 struct ScaffoldOptions {
   std::string name;  // "gripper_ctl"
   // Both empty: one InPort "in0" and one OutPort "out0", both RTM::TimedFloat6. One empty,
@@ -46,6 +55,7 @@ struct ScaffoldOptions {
   std::string period = "2ms";  // as the runner's --period takes it; written into the system file
   // What it does, in one line, for its --help (before the list of its ports); "" for the list alone.
   std::string description;
+  std::vector<ParamSpec> params;  // at most 8, names unique
   std::filesystem::path parent = ".";  // the project is written to parent / name
 };
 
@@ -57,6 +67,11 @@ const std::vector<std::string>& known_port_types();
 // std::invalid_argument naming the text when the name is not a usable port name or the type is
 // not a known port type (then the message lists the known ones).
 PortSpec parse_port_spec(std::string_view text);
+
+// "cutoff_hz:Hz:10" or "cutoff_hz:Hz:10:the filter's cut-off" -> a ParamSpec. Throws
+// std::invalid_argument naming the text when a part is missing, the name unusable, the unit or
+// description holds a quote, a backslash or a control character, or the default is no finite number.
+ParamSpec parse_param_spec(std::string_view text);
 
 // The class a component name makes: "gripper_ctl" -> "GripperCtl". Throws
 // std::invalid_argument naming the name when it is not a usable component name.
