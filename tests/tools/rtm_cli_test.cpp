@@ -651,6 +651,22 @@ TEST_F(RtmUpDown, UpSetsTheFilesParametersBeforeItTurnsTheComponentOn) {
   EXPECT_EQ(a["parameters"]["fail_after"]["value"], "1000");
 }
 
+TEST_F(RtmUpDown, UpWithASetPutsItsValuesOverTheParametersAndAnUnknownSetStartsNothing) {
+  auto file = write_system(
+      "components:\n  - name: a\n    command: rtm-test-talker\n    parameters: {offset: 7, fail_after: 1000}\n"
+      "    parameter_sets: {quick: {fail_after: 5}}\n");
+  auto unknown = rtm_env({"up", file.string(), "--set", "slow"});
+  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_NE(unknown.err.find("no component has the parameter set 'slow' (sets: quick)"), std::string::npos)
+      << unknown.err;
+  EXPECT_TRUE(rtm_json({"ls"}).empty()) << "nothing started";
+  auto up = rtm_env({"up", file.string(), "--set", "quick"});
+  ASSERT_EQ(up.exit_code, 0) << up.err << up.out;
+  const json a = rtm_json({"cat", "a"});
+  EXPECT_EQ(a["parameters"]["offset"]["value"], "7") << "the file's parameters";
+  EXPECT_EQ(a["parameters"]["fail_after"]["value"], "5") << "the set's value over them";
+}
+
 TEST_F(RtmUpDown, UpWithAParameterTheComponentRefusesSaysWhyOnceAndLeavesNothingRunning) {
   auto file = write_system("components:\n  - {name: a, command: rtm-test-talker, parameters: {nope: 1}}\n");
   auto up = rtm_env({"up", file.string()});

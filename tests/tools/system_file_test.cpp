@@ -66,8 +66,9 @@ TEST(RtmSystemFile, ToYamlReadsBackToTheSameSystemQuotingWhatNeedsIt) {
   f.path = kFile;
   f.name = "saved";
   f.naming = "127.0.0.1:2999";
-  f.components = {{"src", {"/opt/rtm/bin/rtm-example-source", "--period", "2ms", "--note", "a: b, [c]"}, {}},
-                  {"sink", {"rtm-example-sink"}, {{"gain", "0.5 0.5 0 0 0 0"}, {"note", "a: b"}}}};
+  f.components = {{"src", {"/opt/rtm/bin/rtm-example-source", "--period", "2ms", "--note", "a: b, [c]"}, {}, {}},
+                  {"sink", {"rtm-example-sink"}, {{"gain", "0.5 0.5 0 0 0 0"}, {"note", "a: b"}},
+                   {{"soft", {{"gain", "0.1 0.1 0 0 0 0"}}}}}};
   ConnPolicy deep = ConnPolicy::one_shot();
   deep.depth = 64;
   deep.reader = {ReaderPolicy::Kind::latest, 0};
@@ -81,6 +82,7 @@ TEST(RtmSystemFile, ToYamlReadsBackToTheSameSystemQuotingWhatNeedsIt) {
   ASSERT_EQ(back.components.size(), 2u);
   EXPECT_EQ(back.components[0].command, f.components[0].command);
   EXPECT_EQ(back.components[1].parameters, f.components[1].parameters) << "in their order";
+  EXPECT_EQ(back.components[1].parameter_sets, f.components[1].parameter_sets);
   ASSERT_EQ(back.connections.size(), 3u);
   EXPECT_EQ(back.connections[1].to, "sink.in1");
   EXPECT_EQ(back.connections[0].policy, ConnPolicy::repeated());
@@ -104,6 +106,23 @@ TEST(RtmSystemFile, AComponentsParametersAreKeptAsTheTextRtmSetTakesInTheFilesOr
                 {"stale_periods", "3"}, {"gain", "0.0004 0.0004 0.0004 0 0 0"}, {"approach_speed", "0.01"}}));
 }
 
+TEST(RtmSystemFile, AParameterSetsValuesGoOverTheComponentsParametersAndJoinThem) {
+  auto f = SystemFile::parse("components:\n"
+                             "  - name: c\n"
+                             "    command: rtm-controller\n"
+                             "    parameters: {stale_periods: 3, approach_speed: 0.005}\n"
+                             "    parameter_sets:\n"
+                             "      soft: {approach_speed: 0.002, contact_force: 2}\n"
+                             "  - {name: d, command: x, parameter_sets: {firm: {gain: 1}}}\n",
+                             kFile);
+  using P = rtm::cli::SystemFile::Component::Parameters;
+  EXPECT_EQ(f.components[0].parameters_with("soft"),
+            (P{{"stale_periods", "3"}, {"approach_speed", "0.002"}, {"contact_force", "2"}}));
+  EXPECT_EQ(f.components[0].parameters_with(""), f.components[0].parameters);
+  EXPECT_EQ(f.components[0].parameters_with("firm"), f.components[0].parameters) << "a set it does not have";
+  EXPECT_EQ(f.parameter_set_names(), (std::vector<std::string>{"firm", "soft"}));
+}
+
 TEST(RtmSystemFile, MalformedParametersAndUnknownComponentKeysAreRefusedWithTheLine) {
   const auto refusal = [](const std::string& yaml) {
     try {
@@ -123,7 +142,7 @@ TEST(RtmSystemFile, MalformedParametersAndUnknownComponentKeysAreRefusedWithTheL
             std::string::npos)
       << "or YAML's own refusal of a repeated key";
   const std::string unknown = refusal("components:\n  - name: c\n    command: x\n    paramters: {gain: 1}\n");
-  EXPECT_NE(unknown.find(":4: unknown key 'paramters' in a component (known: name, command, parameters)"),
+  EXPECT_NE(unknown.find(":4: unknown key 'paramters' in a component (known: name, command, parameters, parameter_sets)"),
             std::string::npos)
       << unknown;
 }
@@ -146,6 +165,8 @@ TEST(RtmSystemFile, TheExampleOfTheDocsIsAFileRtmUpTakes) {
   EXPECT_EQ(f.name, "gripper");
   ASSERT_EQ(f.components.size(), 3u);
   EXPECT_EQ(f.components[1].parameters.size(), 2u);
+  EXPECT_EQ(f.parameter_set_names(), (std::vector<std::string>{"gentle"}));
+  EXPECT_EQ(f.components[1].parameters_with("gentle").size(), 3u) << "gain replaced, approach_speed joined";
   EXPECT_EQ(f.connections.size(), 2u);
   EXPECT_EQ(f.activate.size(), 3u);
 }

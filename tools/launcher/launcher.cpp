@@ -16,6 +16,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -222,6 +223,15 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
       throw LaunchInterrupted(fmt::format("interrupted: stopped what `rtm up {}` had started", file.name));
   };
   refuse_if_up(file.name);
+  if (!options.parameter_set.empty()) {
+    const auto sets = file.parameter_set_names();
+    if (std::find(sets.begin(), sets.end(), options.parameter_set) == sets.end()) {
+      std::string known;
+      for (const auto& s : sets) known += (known.empty() ? "" : ", ") + s;
+      throw SystemFileError(fmt::format("{}: no component has the parameter set '{}' (sets: {})", file.path.string(),
+                                        options.parameter_set, known.empty() ? "none" : known));
+    }
+  }
   SystemState state;
   state.system = file.name;
   state.naming = naming.to_string();
@@ -256,7 +266,7 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
     }
     check_wiring(file, browser);
     for (const auto& c : file.components) {
-      for (const auto& [parameter, value] : c.parameters) {
+      for (const auto& [parameter, value] : c.parameters_with(options.parameter_set)) {
         check_interrupt();
         const std::string now = browser.set_parameter(c.name, parameter, value);
         say(fmt::format("set {} {} = {}", c.name, parameter, now));

@@ -70,8 +70,9 @@ SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) 
   SystemFile::Component comp;
   for (const auto& kv : c) {
     const auto key = kv.first.as<std::string>();
-    if (key != "name" && key != "command" && key != "parameters")
-      fail(f, kv.first, fmt::format("unknown key '{}' in a component (known: name, command, parameters)", key));
+    if (key != "name" && key != "command" && key != "parameters" && key != "parameter_sets")
+      fail(f, kv.first,
+           fmt::format("unknown key '{}' in a component (known: name, command, parameters, parameter_sets)", key));
   }
   comp.name = scalar_field(f, c, "name", "a component's 'name'");
   try {
@@ -89,6 +90,14 @@ SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) 
          fmt::format("component '{}' needs a 'command' (program, or list of program and arguments)", comp.name));
   }
   if (const YAML::Node params = c["parameters"]) comp.parameters = parse_parameters(f, params, comp.name);
+  if (const YAML::Node sets = c["parameter_sets"]) {
+    if (!sets.IsMap())
+      fail(f, sets, fmt::format("component '{}': 'parameter_sets' must map set names to parameters", comp.name));
+    for (const auto& kv : sets) {
+      const std::string set = scalar(f, kv.first, "a parameter set's name");
+      comp.parameter_sets.emplace_back(set, parse_parameters(f, kv.second, fmt::format("{}' set '{}", comp.name, set)));
+    }
+  }
   return comp;
 }
 
@@ -204,6 +213,28 @@ SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem
   return f;
 }
 
+SystemFile::Component::Parameters SystemFile::Component::parameters_with(const std::string& set) const {
+  Parameters out = parameters;
+  for (const auto& [name, values] : parameter_sets) {
+    if (name != set) continue;
+    for (const auto& [parameter, value] : values) {
+      const auto it = std::find_if(out.begin(), out.end(), [&](const auto& p) { return p.first == parameter; });
+      if (it != out.end())
+        it->second = value;
+      else
+        out.emplace_back(parameter, value);
+    }
+  }
+  return out;
+}
+
+std::vector<std::string> SystemFile::parameter_set_names() const {
+  std::set<std::string> names;
+  for (const auto& c : components)
+    for (const auto& [name, ignored] : c.parameter_sets) names.insert(name);
+  return {names.begin(), names.end()};
+}
+
 rtm::Diagram SystemFile::diagram() const {
   rtm::Diagram d{.name = name};
   for (const auto& c : components) d.members.push_back({c.name});
@@ -246,9 +277,21 @@ std::string SystemFile::to_yaml() const {
   for (const auto& c : components) {
     out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << c.name << YAML::Key << "command" << YAML::Value
         << YAML::Flow << c.command;
+    const auto write = [&](const Component::Parameters& parameters) {
+      out << YAML::BeginMap;
+      for (const auto& [name, value] : parameters) out << YAML::Key << name << YAML::Value << value;
+      out << YAML::EndMap;
+    };
     if (!c.parameters.empty()) {
-      out << YAML::Key << "parameters" << YAML::Value << YAML::BeginMap;
-      for (const auto& [name, value] : c.parameters) out << YAML::Key << name << YAML::Value << value;
+      out << YAML::Key << "parameters" << YAML::Value;
+      write(c.parameters);
+    }
+    if (!c.parameter_sets.empty()) {
+      out << YAML::Key << "parameter_sets" << YAML::Value << YAML::BeginMap;
+      for (const auto& [set, parameters] : c.parameter_sets) {
+        out << YAML::Key << set << YAML::Value;
+        write(parameters);
+      }
       out << YAML::EndMap;
     }
     out << YAML::EndMap;

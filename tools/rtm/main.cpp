@@ -11,7 +11,7 @@
 //   rtm get <comp>.<out>                  pull one datum
 //   rtm put <comp>.<in> <values>...       inject one datum (--rate HZ [--for S]: again and again)
 //   rtm watch <comp>.<out>                stream a port live (--rate, --csv, --count, --duration)
-//   rtm up <system.yaml> / rtm down <system.yaml|name>
+//   rtm up <system.yaml> [--set NAME] / rtm down <system.yaml|name>
 //   rtm names [--stop]                    a naming service of one's own on loopback: prints
 //                                         `export RTM_NAMING=…` (eval "$(rtm names)")
 //   rtm tls init <folder> / rtm tls issue <authority> <folder>   certificates across hosts
@@ -94,7 +94,7 @@ struct Cli {
   std::string port;                     // get, put, watch
   WatchOptions watch_options;
   double put_rate_hz = 0, put_for_s = 0;
-  std::string up_file, down_what;
+  std::string up_file, down_what, up_set;
   int up_timeout_ms = 10000;
   TlsCommand tls_command;
   NewCommand new_command;
@@ -160,6 +160,7 @@ void add_system_commands(CLI::App& app, Cli& c) {
   c.up = app.add_subcommand("up", "launch a system file's components, connect and turn them on");
   c.up->add_option("file", c.up_file, "system file (YAML)")->required();
   c.up->add_option("--bind-timeout", c.up_timeout_ms, "ms to wait for each component to bind");
+  c.up->add_option("--set", c.up_set, "a parameter set of the file: its values over the components' parameters");
   c.down = app.add_subcommand("down", "stop a system started by `rtm up`");
   c.serve = app.add_subcommand("serve", "the component editor in a browser: prints its URL, serves until Ctrl-C");
   c.serve->add_option("--listen", c.listen, "HOST:PORT to listen on (port 0: any free one)")->capture_default_str();
@@ -485,6 +486,7 @@ int run(const Cli& c) {
   std::signal(SIGTERM, on_interrupt);
   LaunchOptions launch;
   launch.bind_timeout = std::chrono::milliseconds(c.up_timeout_ms);
+  launch.parameter_set = c.up_set;
   if (!c.json) {
     launch.progress = [](const std::string& line) {
       fmt::print("{}\n", line);

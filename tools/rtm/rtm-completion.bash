@@ -53,7 +53,13 @@ _rtm() {
       [[ $cmd == connect && $cur == -* ]] && COMPREPLY=($(compgen -W "--once --policy" -- "$cur"))
       [[ $cmd == put && $cur == -* ]] && COMPREPLY=($(compgen -W "--rate --for" -- "$cur"))
       ;;
-    up|down) COMPREPLY=($(compgen -f -X '!*.@(yaml|yml)' -- "$cur")) ;;
+    up|down)
+      if [[ $cmd == up && $cur == -* ]]; then
+        COMPREPLY=($(compgen -W "--bind-timeout --set" -- "$cur"))
+      else
+        COMPREPLY=($(compgen -f -X '!*.@(yaml|yml)' -- "$cur"))
+      fi
+      ;;
     names) COMPREPLY=($(compgen -W "--stop" -- "$cur")) ;;
     new)
       if [[ $prev == new ]]; then

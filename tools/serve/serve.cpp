@@ -268,7 +268,7 @@ json save_system_file(const Browser& browser, const std::string& name) {
       left_out.push_back({{"name", c.path.name}, {"why", "its command cannot be read from this host"}});
       continue;
     }
-    SystemFile::Component saved{c.path.name, std::move(command), {}};
+    SystemFile::Component saved{c.path.name, std::move(command), {}, {}};
     for (const auto& p : c.parameters)
       if (p.access != "fixed") saved.parameters.emplace_back(p.name, p.value);
     file.components.push_back(std::move(saved));

@@ -49,6 +49,9 @@ struct SystemState {
 struct LaunchOptions {
   std::chrono::milliseconds bind_timeout{10000};
   std::chrono::milliseconds stop_timeout{5000};
+  // A parameter set of the file (`rtm up --set NAME`): its values over each component's
+  // parameters. "" for the parameters alone.
+  std::string parameter_set;
   std::function<void(const std::string&)> progress;  // one line per step
   // Polled between the steps of system_up and while it waits: true (Ctrl-C) stops what was
   // started and throws LaunchInterrupted.

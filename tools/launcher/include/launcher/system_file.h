@@ -12,6 +12,8 @@
 //       parameters:                  # optional: set (`rtm set`) once it is bound, before any
 //         gain: [0.0004, 0.0004, 0.0004, 0, 0, 0]  # connection and before it is turned on;
 //         stale_periods: 3           # a number, a list of numbers, or their text
+//       parameter_sets:              # optional: `rtm up FILE --set soft` sets these over them
+//         soft: {gain: [0.0002, 0.0002, 0.0002, 0, 0, 0]}
 //   connections:
 //     - {from: sensor0.out0, to: controller0.in0}              # type: repeated (default)|once
 //     - {from: joystick0.out0, to: controller0.in1, policy: "reader=latest depth=4"}
@@ -46,7 +48,14 @@ struct SystemFile {
     std::string name;
     std::vector<std::string> command;  // program, then arguments
     // In the file's order: the name and the value as `rtm set` takes it ("0.0004 0.0004 ...").
-    std::vector<std::pair<std::string, std::string>> parameters;
+    using Parameters = std::vector<std::pair<std::string, std::string>>;
+    Parameters parameters;
+    // Named sets (OpenRTM's configuration sets), in the file's order: a set's values replace
+    // or join `parameters` when `rtm up --set NAME` chooses it.
+    std::vector<std::pair<std::string, Parameters>> parameter_sets;
+
+    // parameters, with the set's values over them ("" or a set it lacks: parameters alone).
+    Parameters parameters_with(const std::string& set) const;
   };
   struct Connection {
     std::string from, to;  // "<component>.<port>"
@@ -65,6 +74,9 @@ struct SystemFile {
 // wiring that does not hold (diagram()).
   static SystemFile load(const std::filesystem::path& file);
   static SystemFile parse(const std::string& yaml_text, const std::filesystem::path& path);
+
+  // The names of the parameter sets its components declare, sorted, each once.
+  std::vector<std::string> parameter_set_names() const;
 
   // The file as YAML that parse() reads back to the same content (rtm serve's "save").
   std::string to_yaml() const;
