@@ -11,6 +11,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <sstream>
 #include <string>
@@ -27,6 +28,16 @@ std::string read_text(const fs::path& file) {
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+// The message of the std::invalid_argument f throws ("" when none).
+std::string message_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
 }
 
 // Each test writes into a folder of its own, removed afterwards.
@@ -49,12 +60,7 @@ class RtmScaffold : public ::testing::Test {
 
   // The message of the std::invalid_argument scaffold_component throws ("" when none).
   std::string refusal(const ScaffoldOptions& o) const {
-    try {
-      rtm::cli::scaffold_component(o);
-    } catch (const std::invalid_argument& e) {
-      return e.what();
-    }
-    return "";
+    return message_of([&] { rtm::cli::scaffold_component(o); });
   }
 
   bool parent_is_empty() const { return fs::is_empty(parent_); }
@@ -294,14 +300,7 @@ TEST_F(RtmScaffold, AParameterIsOneParamLineThatStepTheRunnerAndTheTestAllUse) {
 }
 
 TEST(RtmScaffoldParamSpec, BadSpecsAreRefusedNamingTheText) {
-  const auto refusal = [](std::string_view text) {
-    try {
-      rtm::cli::parse_param_spec(text);
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
+  const auto refusal = [](std::string_view text) { return message_of([&] { rtm::cli::parse_param_spec(text); }); };
   EXPECT_NE(refusal("gain").find("write name:unit:default"), std::string::npos);
   EXPECT_NE(refusal("gain:1/N:abc").find("the default 'abc' is not a number"), std::string::npos);
   EXPECT_NE(refusal("gain:1/N:nan").find("finite"), std::string::npos);
@@ -330,14 +329,7 @@ TEST(RtmScaffoldPortSpec, TakesTheTypeWithOrWithoutTheRtmModule) {
 }
 
 TEST(RtmScaffoldPortSpec, BadSpecsAreRefusedNamingTheText) {
-  const auto message = [](std::string_view text) {
-    try {
-      rtm::cli::parse_port_spec(text);
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
+  const auto message = [](std::string_view text) { return message_of([&] { rtm::cli::parse_port_spec(text); }); };
   EXPECT_NE(message("wrench").find("'wrench' has no type"), std::string::npos) << message("wrench");
   EXPECT_NE(message(":TimedFloat6").find("':TimedFloat6'"), std::string::npos) << message(":TimedFloat6");
   EXPECT_NE(message("Wrench:TimedFloat6").find("'Wrench:TimedFloat6'"), std::string::npos);

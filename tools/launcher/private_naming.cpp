@@ -27,6 +27,7 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path names_folder() { return SystemState::directory() / "names"; }
+fs::path state_file() { return names_folder() / "state.yaml"; }
 
 // Held while one `rtm names` looks at, starts or stops the service: two at once would start
 // two, and the one recorded last would leave the other running unrecorded.
@@ -48,7 +49,6 @@ class NamesLock {
  private:
   int fd_;
 };
-fs::path state_file() { return names_folder() / "state.yaml"; }
 
 // A loopback address of port, to connect() or bind().
 sockaddr_in loopback(std::uint16_t port) {

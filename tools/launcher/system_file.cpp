@@ -40,12 +40,13 @@ std::string scalar_field(const SystemFile& f, const YAML::Node& map, const char*
   return scalar(f, node, what);
 }
 
-// A component's 'parameters': a mapping of names to a number, a list of numbers, or text, each
-// kept as the text `rtm set` takes. The component itself checks the values when `rtm up` sets them.
-std::vector<std::pair<std::string, std::string>> parse_parameters(const SystemFile& f, const YAML::Node& node,
-                                                                  const std::string& component) {
-  if (!node.IsMap()) fail(f, node, fmt::format("component '{}': 'parameters' must be a mapping of names to values", component));
-  std::vector<std::pair<std::string, std::string>> out;
+// A component's 'parameters' (or one of its sets; owner names which, "component 'c'"): a mapping
+// of names to a number, a list of numbers, or text, each kept as the text `rtm set` takes. The
+// component itself checks the values when `rtm up` sets them.
+SystemFile::Component::Parameters parse_parameters(const SystemFile& f, const YAML::Node& node,
+                                                   const std::string& owner) {
+  if (!node.IsMap()) fail(f, node, fmt::format("{}: 'parameters' must be a mapping of names to values", owner));
+  SystemFile::Component::Parameters out;
   for (const auto& kv : node) {
     const std::string name = scalar(f, kv.first, "a parameter's name");
     std::string value;
@@ -55,10 +56,10 @@ std::vector<std::pair<std::string, std::string>> parse_parameters(const SystemFi
         value += scalar(f, v, fmt::format("a value of '{}'", name));
       }
     } else {
-      value = scalar(f, kv.second, fmt::format("component '{}': parameter '{}'", component, name));
+      value = scalar(f, kv.second, fmt::format("{}: parameter '{}'", owner, name));
     }
     for (const auto& [seen, ignored] : out) {
-      if (seen == name) fail(f, kv.first, fmt::format("component '{}': parameter '{}' given twice", component, name));
+      if (seen == name) fail(f, kv.first, fmt::format("{}: parameter '{}' given twice", owner, name));
     }
     out.emplace_back(name, std::move(value));
   }
@@ -89,13 +90,14 @@ SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) 
     fail(f, cmd ? cmd : c,
          fmt::format("component '{}' needs a 'command' (program, or list of program and arguments)", comp.name));
   }
-  if (const YAML::Node params = c["parameters"]) comp.parameters = parse_parameters(f, params, comp.name);
+  const std::string owner = fmt::format("component '{}'", comp.name);
+  if (const YAML::Node params = c["parameters"]) comp.parameters = parse_parameters(f, params, owner);
   if (const YAML::Node sets = c["parameter_sets"]) {
     if (!sets.IsMap())
-      fail(f, sets, fmt::format("component '{}': 'parameter_sets' must map set names to parameters", comp.name));
+      fail(f, sets, fmt::format("{}: 'parameter_sets' must map set names to parameters", owner));
     for (const auto& kv : sets) {
       const std::string set = scalar(f, kv.first, "a parameter set's name");
-      comp.parameter_sets.emplace_back(set, parse_parameters(f, kv.second, fmt::format("{}' set '{}", comp.name, set)));
+      comp.parameter_sets.emplace_back(set, parse_parameters(f, kv.second, fmt::format("{} set '{}'", owner, set)));
     }
   }
   return comp;

@@ -219,29 +219,27 @@ std::vector<int> pass_through_sources(const std::vector<Port>& in, const std::ve
 // One line of at most kMaxDescription printable characters (it becomes a C++ literal and a
 // --help line), without the '.' that ends it.
 constexpr std::size_t kMaxDescription = 300;
+bool is_control(char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }
 std::string checked_description(std::string text) {
   if (text.size() > kMaxDescription)
     throw std::invalid_argument(fmt::format("the description is {} characters long: one line of at most {}, please",
                                             text.size(), kMaxDescription));
-  for (const char c : text) {
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
-      throw std::invalid_argument("the description holds a control character (a line break, a tab...): one line "
-                                  "of text, please");
-  }
+  if (std::any_of(text.begin(), text.end(), is_control))
+    throw std::invalid_argument("the description holds a control character (a line break, a tab...): one line "
+                                "of text, please");
   while (!text.empty() && (text.back() == '.' || text.back() == ' ')) text.pop_back();
   return text;
 }
 
 // Text that goes into a C++ string literal as it is: printable, no quote, no backslash.
 void check_literal_text(std::string_view text, std::string_view what) {
-  for (const char c : text) {
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f || c == '"' || c == '\\')
-      throw std::invalid_argument(fmt::format("{} '{}' holds a quote, a backslash or a control character", what, text));
-  }
+  if (std::any_of(text.begin(), text.end(), [](char c) { return is_control(c) || c == '"' || c == '\\'; }))
+    throw std::invalid_argument(fmt::format("{} '{}' holds a quote, a backslash or a control character", what, text));
 }
 
 std::vector<ParamSpec> checked_params(std::vector<ParamSpec> params) {
-  if (params.size() > 8) throw std::invalid_argument(fmt::format("{} parameters: at most 8, please", params.size()));
+  if (params.size() > rtm::kMaxParameters)
+    throw std::invalid_argument(fmt::format("{} parameters: at most {}, please", params.size(), rtm::kMaxParameters));
   std::set<std::string> seen;
   for (auto& p : params) {
     check_port_name(p.name, fmt::format("parameter '{}'", p.name));
