@@ -251,10 +251,11 @@ void ComponentServant::on() {
 
 void ComponentServant::off() {
   std::lock_guard lock(control_mu_);
-  RTM::ComponentState expected = RTM::COMPONENT_ON;
-  const bool was_on = state_.compare_exchange_strong(expected, RTM::COMPONENT_OFF);
+  // The activity stops first: a cycle it counts is then always one on_cycle() ran, never one
+  // that found the state already OFF.
   if (activity_) activity_->stop();
-  if (!was_on) return;
+  RTM::ComponentState expected = RTM::COMPONENT_ON;
+  if (!state_.compare_exchange_strong(expected, RTM::COMPONENT_OFF)) return;
   try {
     component_->on_stop();
   } catch (const std::exception& e) {
