@@ -26,7 +26,7 @@ void datum_to_any(std::span<const std::byte> datum, CORBA::Any& out) {
                             " bytes, expected " + std::to_string(sizeof(T)));
   T value;
   std::memcpy(&value, datum.data(), sizeof(T));
-  out <<= value;
+  DataTraits<T>::insert(out, value);
 }
 
 template <PortData T>

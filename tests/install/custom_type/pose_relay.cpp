@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 // pose-relay: writes a TimedPose on out0 each cycle: a ramp on x until a datum reaches in0, then
 // that datum (re-stamped), so that a put comes back on a get.
-#include <TimedPose.hh>
-
-#include "rtm/data.h"
+// The rtm headers come first, the stub header after them: the order does not matter.
 #include "host/runner.h"
+#include "rtm/data.h"
+
+#include <TimedPose.hh>
 
 RTM_DATA_TYPE(My, TimedPose, 7);
 

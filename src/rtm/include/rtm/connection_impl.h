@@ -228,7 +228,7 @@ void RemoteConnection<T>::wait_for_writer(std::unique_lock<std::mutex>& slot_loc
 template <PortData T>
 void RemoteConnection<T>::call(const T& value, bool by_writer, std::uint64_t seq) {
   CORBA::Any any;
-  any <<= value;
+  DataTraits<T>::insert(any, value);
   RTM::InPortOrdered_ptr ordered = by_writer ? writer_.port_ordered.in() : this->who_.port_ordered.in();
   if (!CORBA::is_nil(ordered)) {
     if (this->host_.oneway) ordered->push_in_order(any, sender_, seq);

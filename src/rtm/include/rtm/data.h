@@ -51,11 +51,16 @@ enum class DataShape : std::uint8_t { scalar, array, sequence };
 template <class T>
 struct DataTraits;
 
-// A type a port can carry.
+// A type a port can carry. The ports put a datum into an Any and take it out only through
+// insert() and extract(): omniidl declares a type's Any operators at global scope, where a
+// template defined before the stub header would not see them, so the traits (written after
+// it) carry them and the order of the #include lines does not matter.
 template <class T>
-concept PortData = requires {
+concept PortData = requires(CORBA::Any& any, const CORBA::Any& in, const T& value, const T*& out) {
   { DataTraits<T>::type_code() } -> std::same_as<CORBA::TypeCode_ptr>;
   { DataTraits<T>::name } -> std::convertible_to<std::string_view>;
+  DataTraits<T>::insert(any, value);
+  { DataTraits<T>::extract(in, out) } -> std::same_as<bool>;
 };
 
 #define RTM_DATA_TRAITS(Type, Shape, Member, Elements, ElementType)                  \
@@ -73,6 +78,8 @@ concept PortData = requires {
     static constexpr std::string_view element = #ElementType;                     \
     static const auto& values(const RTM::Type& d) { return d.Member; }            \
     static auto& values(RTM::Type& d) { return d.Member; }                        \
+    static void insert(CORBA::Any& a, const RTM::Type& d) { a <<= d; }           \
+    static bool extract(const CORBA::Any& a, const RTM::Type*& d) { return a >>= d; } \
   };
 RTM_BUILTIN_DATA_TYPES(RTM_DATA_TRAITS)
 #undef RTM_DATA_TRAITS
@@ -86,16 +93,19 @@ void for_each_builtin_type(F&& f) {
 }
 
 // A data type of a project's own IDL (stubs made by rtm_add_idl in CMake), at global scope
-// after the stub header: RTM_DATA_TYPE(My, TimedPose, 7) makes rtm::InPort<My::TimedPose> and
-// rtm::OutPort<My::TimedPose> work, with the type checked at connect and on every put like the
-// built-in ones. Elements: the values in one datum, for the tools (0 for a sequence).
-#define RTM_DATA_TYPE(Module, Type, Elements)                                          \
-  template <>                                                                         \
-  struct rtm::DataTraits<Module::Type> {                                              \
-    static CORBA::TypeCode_ptr type_code() { return Module::_tc_##Type; }             \
-    static constexpr std::string_view name = #Module "::" #Type;                      \
-    static constexpr bool fixed_size = std::is_trivially_copyable_v<Module::Type>;    \
-    static constexpr std::size_t elements = Elements;                                 \
+// after the stub header (rtm headers may come before it or after): RTM_DATA_TYPE(My, TimedPose, 7)
+// makes rtm::InPort<My::TimedPose> and rtm::OutPort<My::TimedPose> work, with the type checked
+// at connect and on every put like the built-in ones. Elements: the values in one datum, for
+// the tools (0 for a sequence).
+#define RTM_DATA_TYPE(Module, Type, Elements)                                            \
+  template <>                                                                           \
+  struct rtm::DataTraits<Module::Type> {                                                \
+    static CORBA::TypeCode_ptr type_code() { return Module::_tc_##Type; }               \
+    static constexpr std::string_view name = #Module "::" #Type;                        \
+    static constexpr bool fixed_size = std::is_trivially_copyable_v<Module::Type>;      \
+    static constexpr std::size_t elements = Elements;                                   \
+    static void insert(CORBA::Any& a, const Module::Type& d) { a <<= d; }               \
+    static bool extract(const CORBA::Any& a, const Module::Type*& d) { return a >>= d; } \
   }
 
 // A readable name for any TypeCode: "RTM::TimedFloat6" for IDL:RTM/TimedFloat6:1.0, the

@@ -259,7 +259,7 @@ template <PortData T>
 const T& InPort<T>::extract(const CORBA::Any& value) {
   CORBA::TypeCode_var got = value.type();
   const T* datum = nullptr;
-  if (!got->equivalent(type_code()) || !(value >>= datum) || datum == nullptr) {
+  if (!got->equivalent(type_code()) || !DataTraits<T>::extract(value, datum) || datum == nullptr) {
     reject(got.in());
     throw CORBA::BAD_PARAM(kMinorWrongDataType, CORBA::COMPLETED_NO);
   }

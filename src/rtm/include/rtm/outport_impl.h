@@ -119,7 +119,7 @@ CORBA::Any* OutPort<T>::get() {
   {
     std::lock_guard lock(mu_);
     if (has_latest_) {
-      *any <<= latest_;
+      DataTraits<T>::insert(*any, latest_);
       return any;
     }
   }
