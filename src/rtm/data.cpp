@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm/data.h"
 
+#include <optional>
+
 #include <pwd.h>
 #include <time.h>
 #include <unistd.h>
@@ -76,6 +78,45 @@ std::string type_name(CORBA::TypeCode_ptr tc) {
     return out;
   }
   return id.empty() ? std::string("<unnamed type>") : id;
+}
+
+namespace {
+// The numbers in a value of tc, or nullopt when it holds a sequence (any number of them).
+std::optional<std::size_t> numbers_in(CORBA::TypeCode_ptr tc, bool top) {
+  CORBA::TypeCode_var t = CORBA::TypeCode::_duplicate(tc);
+  while (t->kind() == CORBA::tk_alias) t = t->content_type();
+  switch (t->kind()) {
+    case CORBA::tk_struct: {
+      std::size_t n = 0;
+      for (CORBA::ULong i = 0; i < t->member_count(); ++i) {
+        if (top && i == 0 && std::string_view(t->member_name(i)) == "tm") continue;  // the stamp
+        CORBA::TypeCode_var member = t->member_type(i);
+        const auto m = numbers_in(member, false);
+        if (!m) return std::nullopt;
+        n += *m;
+      }
+      return n;
+    }
+    case CORBA::tk_array: {
+      CORBA::TypeCode_var element = t->content_type();
+      const auto m = numbers_in(element, false);
+      if (!m) return std::nullopt;
+      return *m * t->length();
+    }
+    case CORBA::tk_sequence: return std::nullopt;
+    case CORBA::tk_short: case CORBA::tk_ushort: case CORBA::tk_long: case CORBA::tk_ulong:
+    case CORBA::tk_longlong: case CORBA::tk_ulonglong: case CORBA::tk_float: case CORBA::tk_double:
+    case CORBA::tk_boolean: case CORBA::tk_octet: case CORBA::tk_char: case CORBA::tk_wchar:
+    case CORBA::tk_enum:
+      return 1;
+    default: return 0;  // a string, or a kind that is no number
+  }
+}
+}  // namespace
+
+std::size_t count_values(CORBA::TypeCode_ptr tc) {
+  if (CORBA::is_nil(tc)) return 0;
+  return numbers_in(tc, true).value_or(0);
 }
 
 namespace {

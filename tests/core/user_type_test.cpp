@@ -12,8 +12,8 @@
 
 #include "test_types.hh"
 
-RTM_DATA_TYPE(RtmTest, TimedPose, 7);
-RTM_DATA_TYPE(RtmTest, TimedMixed, 0);
+RTM_DATA_TYPE(RtmTest, TimedPose);      // its values counted from its type
+RTM_DATA_TYPE(RtmTest, TimedMixed, 0);  // given: a sequence, any number
 
 #include <gtest/gtest.h>
 
@@ -118,6 +118,25 @@ TEST_F(UserTypeTest, AUserTypeWithASequenceTravelsThroughTheOrbWhole) {
   EXPECT_FLOAT_EQ(d.data[2], 1.5f);
   out->close();
   in->deactivate();
+}
+
+TEST(UserTypeValues, AreTheNumericLeavesAfterTheStampAndNoneWhenASequenceMakesTheirNumberFree) {
+  EXPECT_EQ(rtm::count_values(RtmTest::_tc_TimedPose), 7u);     // p.x p.y p.z q[0..3]
+  EXPECT_EQ(rtm::count_values(RtmTest::_tc_TimedScalars), 8u);  // every basic kind but the string
+  EXPECT_EQ(rtm::count_values(RtmTest::_tc_Plain), 2u);         // no stamp: every member counts
+  EXPECT_EQ(rtm::count_values(RtmTest::_tc_TimedPath), 0u);     // a sequence of structs
+  EXPECT_EQ(rtm::count_values(RTM::_tc_TimedFloat6), 6u);
+  EXPECT_EQ(rtm::count_values(CORBA::TypeCode::_nil()), 0u);
+}
+
+TEST_F(UserTypeTest, APortOfACountedTypeTakesADescriptionOfEveryValueAndRefusesAShortOne) {
+  PortableServer::Servant_var<rtm::OutPort<Pose>> out = new rtm::OutPort<Pose>("pose", "tracker0");
+  EXPECT_EQ(out->element_count(), 7u);
+  EXPECT_THROW(out->set_info({"a pose", rtm::elements("x y z", "m m m")}), std::invalid_argument);
+  EXPECT_NO_THROW(out->set_info({"a pose", rtm::elements("x y z qw qx qy qz", "m m m 1 1 1 1")}));
+  PortableServer::Servant_var<rtm::InPort<RtmTest::TimedMixed>> in =
+      new rtm::InPort<RtmTest::TimedMixed>("mixed", "sink0", rtm::InPortPolicy::latest());
+  EXPECT_EQ(in->element_count(), 0u);
 }
 
 }  // namespace

@@ -92,18 +92,41 @@ void for_each_builtin_type(F&& f) {
 #undef RTM_VISIT_TYPE
 }
 
+// The numbers in one datum of a type: the numeric leaves of its members after a leading stamp
+// `tm` (nested structs and arrays flattened; a boolean, an enum or a char is one, a string none),
+// or 0 when it holds a sequence (any number). 0 for a nil TypeCode.
+std::size_t count_values(CORBA::TypeCode_ptr tc);
+
+// DataTraits<T>::elements of a type whose count is read from its TypeCode (RTM_DATA_TYPE
+// without one).
+inline constexpr std::size_t kCountedElements = static_cast<std::size_t>(-1);
+constexpr std::size_t elements_given() { return kCountedElements; }
+constexpr std::size_t elements_given(std::size_t n) { return n; }
+
+// The values in one datum of T (0: a sequence, any number).
+template <class T>
+std::size_t data_elements() {
+  if constexpr (DataTraits<T>::elements == kCountedElements) {
+    static const std::size_t counted = count_values(DataTraits<T>::type_code());
+    return counted;
+  } else {
+    return DataTraits<T>::elements;
+  }
+}
+
 // A data type of a project's own IDL (stubs made by rtm_add_idl in CMake), at global scope
-// after the stub header (rtm headers may come before it or after): RTM_DATA_TYPE(My, TimedPose, 7)
+// after the stub header (rtm headers may come before it or after): RTM_DATA_TYPE(My, TimedPose)
 // makes rtm::InPort<My::TimedPose> and rtm::OutPort<My::TimedPose> work, with the type checked
-// at connect and on every put like the built-in ones. Elements: the values in one datum, for
-// the tools (0 for a sequence).
-#define RTM_DATA_TYPE(Module, Type, Elements)                                            \
+// at connect and on every put like the built-in ones. A third argument gives the values in one
+// datum (0 for a sequence); without it they are counted from the type (count_values).
+// rtm_add_idl(... TYPES My::TimedPose) writes these lines into a header of its own.
+#define RTM_DATA_TYPE(Module, Type, ...)                                                \
   template <>                                                                           \
   struct rtm::DataTraits<Module::Type> {                                                \
     static CORBA::TypeCode_ptr type_code() { return Module::_tc_##Type; }               \
     static constexpr std::string_view name = #Module "::" #Type;                        \
     static constexpr bool fixed_size = std::is_trivially_copyable_v<Module::Type>;      \
-    static constexpr std::size_t elements = Elements;                                   \
+    static constexpr std::size_t elements = rtm::elements_given(__VA_ARGS__);           \
     static void insert(CORBA::Any& a, const Module::Type& d) { a <<= d; }               \
     static bool extract(const CORBA::Any& a, const Module::Type*& d) { return a >>= d; } \
   }

@@ -134,7 +134,7 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   const InPortPolicy& policy() const { return policy_; }
   virtual CORBA::TypeCode_ptr type_code() const = 0;
   virtual const std::type_info& data_type() const = 0;
-  // Values in one datum (DataTraits<T>::elements; 0 for a sequence).
+  // Values in one datum (data_elements<T>(); 0 for a sequence).
   virtual std::size_t element_count() const = 0;
   // What the port carries. Set before activate() (the component's constructor); throws
   // std::invalid_argument when elements are given and their number is not element_count().
@@ -303,7 +303,7 @@ class InPort final : public InPortBase {
 
   CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
   const std::type_info& data_type() const override { return typeid(T); }
-  std::size_t element_count() const override { return DataTraits<T>::elements; }
+  std::size_t element_count() const override { return data_elements<T>(); }
 
   // IDL: extracts T; any other type raises BAD_PARAM(kMinorWrongDataType, COMPLETED_NO) and
   // stores nothing (see last_error for the reason).

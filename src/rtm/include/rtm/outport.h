@@ -112,7 +112,7 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   const std::string& owner_name() const { return owner_; }
   std::string full_name() const;  // "<owner>.<name>"
   virtual CORBA::TypeCode_ptr type_code() const = 0;
-  // Values in one datum (DataTraits<T>::elements; 0 for a sequence).
+  // Values in one datum (data_elements<T>(); 0 for a sequence).
   virtual std::size_t element_count() const = 0;
   // What the port carries: as InPortBase::set_info().
   void set_info(PortInfo info);
@@ -243,7 +243,7 @@ class OutPort final : public OutPortBase {
   bool disconnect_local(InPortBase& in) override;
 
   CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
-  std::size_t element_count() const override { return DataTraits<T>::elements; }
+  std::size_t element_count() const override { return data_elements<T>(); }
 
   // IDL: the last written value; before the first write raises
   // BAD_INV_ORDER(kMinorNoDataYet, COMPLETED_NO) and logs why.
