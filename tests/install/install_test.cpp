@@ -57,10 +57,14 @@ class Installed : public ::testing::Test {
 
   // Copies a project folder out of the tree and builds it against the prefix alone.
   static fs::path build_project(const fs::path& project, const std::string& as) {
-    const fs::path source = root_ / as, build = root_ / (as + "-build");
+    const fs::path source = root_ / as;
     fs::copy(project, source, fs::copy_options::recursive);
+    return build_in_place(source, root_ / (as + "-build"), prefix().string());
+  }
+  // Builds the project in source against the prefixes (a CMake list).
+  static fs::path build_in_place(const fs::path& source, const fs::path& build, const std::string& prefixes) {
     CommandResult r = rtm_test::run_command({CMAKE_COMMAND, "-S", source.string(), "-B", build.string(),
-                                             "-DCMAKE_PREFIX_PATH=" + prefix().string(),
+                                             "-DCMAKE_PREFIX_PATH=" + prefixes,
                                              "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON", "-DCMAKE_BUILD_TYPE=Release"},
                                             {"CMAKE_PREFIX_PATH=", "RTM_DIR="}, 300s);
     EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
@@ -201,10 +205,11 @@ TEST_F(Installed, ACustomIdlTypeRoundTripsThroughTheInstalledRtmPutGetAndWatch) 
 TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
   // A description with a quote and a backslash: the generated literal must still compile.
   const std::string description = R"(closes the "gripper" as the wrist is pushed \ along z)";
-  const CommandResult made = rtm_test::run_command({bin("rtm").string(), "new", "component", "gripper_ctl", "--in",
-                                                    "wrench:TimedFloat6", "--out", "twist:TimedFloat6", "--description",
-                                                    description, "--param", "gain:1/N:0.01:closing per newton",
-                                                    "--dir", root_.string()});
+  // With an OutPort of a type of its own IDL, which the project gets a copy of.
+  const CommandResult made = rtm_test::run_command(
+      {bin("rtm").string(), "new", "component", "gripper_ctl", "--in", "wrench:TimedFloat6", "--out",
+       "twist:TimedFloat6", "--out", "pose:My::TimedPose", "--idl", (kSource / "tests/install/custom_type/TimedPose.idl").string(),
+       "--description", description, "--param", "gain:1/N:0.01:closing per newton", "--dir", root_.string()});
   ASSERT_EQ(made.exit_code, 0) << made.err;
   const fs::path project = root_ / "gripper_ctl", build = project / "build";
   CommandResult r = rtm_test::run_command({CMAKE_COMMAND, "-S", project.string(), "-B", build.string(),
@@ -241,11 +246,46 @@ TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
   r = rtm({"get", "gripper_ctl0.twist"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("1.000"), std::string::npos) << "the scaffold's logic passes its input on: " << r.out;
+  r = rtm({"--json", "get", "gripper_ctl0.pose"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(json::parse(r.out)["type"], "My::TimedPose") << r.out;
   r = rtm({"set", "gripper_ctl0", "gain", "0.02"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("gripper_ctl0.gain = 0.02"), std::string::npos) << "a live parameter of the scaffold: " << r.out;
   r = rtm_here({"down", "gripper_ctl"});
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+}
+
+TEST_F(Installed, ATypesPackageInstallsItselfAndAComponentOfItsTypeFindsItBuildsAndCarriesIt) {
+  const fs::path types = root_ / "types-prefix";
+  const fs::path types_build = build_project(kSource / "tests/install/lab_types", "lab_types");
+  CommandResult r = rtm_test::run_command({CMAKE_COMMAND, "--install", types_build.string(), "--prefix", types.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  for (const char* file : {"include/lab_types/lab_types.h", "include/lab_types/LabTypes.hh", "share/lab_types/idl/LabTypes.idl"})
+    EXPECT_TRUE(fs::exists(types / file)) << file;
+  EXPECT_NE(read_file(types / "include/lab_types/lab_types.h").find("RTM_DATA_TYPE(Lab, TimedTarget);"),
+            std::string::npos);
+
+  r = rtm_test::run_command({bin("rtm").string(), "new", "component", "follower", "--in", "target:Lab::TimedTarget",
+                             "--out", "aim:Lab::TimedTarget", "--types", "lab_types", "--dir", root_.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const fs::path build = build_in_place(root_ / "follower", root_ / "follower" / "build",
+                                        prefix().string() + ";" + types.string());
+  r = rtm_test::run_command({"ctest", "--test-dir", build.string(), "--output-on-failure"}, {}, 120s);
+  EXPECT_NE(r.out.find("100% tests passed"), std::string::npos) << r.out << r.err;
+  start(build / "bin" / "rtm-follower", "follower0", {"--on"});
+  const CommandResult cat = rtm({"cat", "follower0"});
+  EXPECT_NE(cat.out.find("Lab::TimedTarget"), std::string::npos) << cat.out;
+  r = rtm({"put", "follower0.target", "0.5", "-1", "2", "7"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  json got;
+  eventually([&] {
+    r = rtm({"--json", "get", "follower0.aim"});
+    if (r.exit_code != 0) return false;
+    got = json::parse(r.out);
+    return got["fields"]["id"] == 7;
+  });
+  EXPECT_EQ(got["values"], json::parse("[0.5, -1.0, 2.0, 7]")) << "the scaffold passes its input on: " << got.dump();
 }
 
 TEST_F(Installed, AProjectBuildsAgainstTheBuildTreeToo) {

@@ -9,6 +9,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -88,7 +89,10 @@ TEST_F(RtmScaffold, DeclaresEveryPortInTheClassWithItsTypeAndMovesItThroughStep)
   const fs::path folder = parent_ / "gripper_ctl";
   const auto header = read_text(folder / "include/gripper_ctl/gripper_ctl.h");
   EXPECT_NE(header.find("class GripperCtl final : public rtm::Component"), std::string::npos);
-  EXPECT_NE(header.find("static Outputs step(const Inputs& in, const RTM::Time& now);"), std::string::npos);
+  EXPECT_NE(header.find("static Outputs step(const Inputs& in, State& state, const RTM::Time& now);"),
+            std::string::npos);
+  EXPECT_NE(header.find("struct State {};"), std::string::npos) << "a place for what step() remembers";
+  EXPECT_NE(header.find("State state_{};"), std::string::npos);
   EXPECT_NE(header.find("add_in_port<RTM::TimedFloat6>(\"wrench\""), std::string::npos);
   EXPECT_NE(header.find("add_in_port<RTM::TimedFloat>(\"width\""), std::string::npos);
   EXPECT_NE(header.find("add_out_port<RTM::TimedFloat6>(\"twist\""), std::string::npos);
@@ -100,6 +104,8 @@ TEST_F(RtmScaffold, DeclaresEveryPortInTheClassWithItsTypeAndMovesItThroughStep)
   EXPECT_NE(source.find("out.twist = in.wrench;"), std::string::npos) << source;  // same type: passed on
   EXPECT_NE(source.find("out.closed.tm = now;"), std::string::npos) << source;    // no InPort of its type
   EXPECT_NE(source.find("wrench_in_.read(inputs_.wrench)"), std::string::npos);
+  EXPECT_NE(source.find("step(inputs_, state_, rtm::now())"), std::string::npos) << source;
+  EXPECT_NE(source.find("void GripperCtl::on_start() { state_ = State{}; }"), std::string::npos) << source;
   EXPECT_NE(source.find("closed_out_.write(out.closed);"), std::string::npos);
 
   const auto test = read_text(folder / "test/gripper_ctl_test.cpp");
@@ -107,6 +113,7 @@ TEST_F(RtmScaffold, DeclaresEveryPortInTheClassWithItsTypeAndMovesItThroughStep)
   EXPECT_NE(test.find("TEST(GripperCtlStep, OutPortsWithoutAnInPortOfTheirTypeCarryZerosStampedNow)"),
             std::string::npos);
   EXPECT_NE(test.find("EXPECT_FALSE(out.closed.data);"), std::string::npos) << test;
+  EXPECT_NE(test.find("GripperCtl::State state;"), std::string::npos) << test;
 
   const auto main = read_text(folder / "src/main.cpp");
   EXPECT_NE(main.find("rtm::run_component(argc, argv"), std::string::npos);
@@ -285,17 +292,17 @@ TEST_F(RtmScaffold, AParameterIsOneParamLineThatStepTheRunnerAndTheTestAllUse) {
   EXPECT_NE(header.find(R"(rtm::Param<float> gain{0.5f, {"gain", "", "gain", rtm::ParameterAccess::live}};)"),
             std::string::npos)
       << header;
-  EXPECT_NE(header.find("static Outputs step(const Inputs& in, const Params& params, const RTM::Time& now);"),
+  EXPECT_NE(header.find("static Outputs step(const Inputs& in, const Params& params, State& state, const RTM::Time& now);"),
             std::string::npos)
       << header;
   const std::string source = read_text(project / "src" / "lowpass.cpp");
   EXPECT_NE(source.find("params_live_.take(params_);"), std::string::npos) << source;
   EXPECT_NE(source.find("add_parameters(parameters(), params_live_);"), std::string::npos) << source;
-  EXPECT_NE(source.find("step(inputs_, params_, rtm::now())"), std::string::npos) << source;
+  EXPECT_NE(source.find("step(inputs_, params_, state_, rtm::now())"), std::string::npos) << source;
   const std::string main_cpp = read_text(project / "src" / "main.cpp");
   EXPECT_NE(main_cpp.find("rtm::add_parameter_options(app, Lowpass::parameters(), params)"), std::string::npos)
       << main_cpp;
-  EXPECT_NE(read_text(project / "test" / "lowpass_test.cpp").find("Lowpass::step(in, Lowpass::Params{}, stamp(7, 250))"),
+  EXPECT_NE(read_text(project / "test" / "lowpass_test.cpp").find("Lowpass::step(in, Lowpass::Params{}, state, stamp(7, 250))"),
             std::string::npos);
 }
 
@@ -308,6 +315,93 @@ TEST(RtmScaffoldParamSpec, BadSpecsAreRefusedNamingTheText) {
   EXPECT_NE(refusal("gain:\"N:1").find("a quote, a backslash or a control character"), std::string::npos);
   EXPECT_EQ(rtm::cli::parse_param_spec("k:N/m:2e3:a: b").description, "a: b") << "the rest is the description";
   EXPECT_EQ(rtm::cli::parse_param_spec("k:N/m:2e3").default_value, 2000.0);
+}
+
+// An IDL file of the test's, in the test's folder (not the project's).
+fs::path write_idl(const fs::path& folder, const std::string& name, const std::string& text) {
+  fs::create_directories(folder);
+  std::ofstream(folder / name) << text;
+  return folder / name;
+}
+
+constexpr const char* kPoseIdl = R"(// poses /* with a comment */
+#include "RTM.idl"
+module My {
+  struct Position { double x; double y; double z; };
+  struct TimedPose { RTM::Time tm; Position p; double q[4]; };
+  module Arm { struct TimedGrip { RTM::Time tm; float width; }; };
+};
+struct Untimed { double a; };
+)";
+
+TEST_F(RtmScaffold, APortOfATypeOfYourOwnIdlCopiesTheFileAndCompilesItsTypesForTheComponent) {
+  auto o = options("tracker");
+  o.in = {{"pose", "My::TimedPose"}, {"wrench", "TimedFloat6"}};
+  o.out = {{"filtered", "My::TimedPose"}, {"grip", "My::Arm::TimedGrip"}};
+  o.idl = {write_idl(parent_ / "types", "Poses.idl", kPoseIdl)};
+  const auto written = rtm::cli::scaffold_component(o);
+  const fs::path project = parent_ / "tracker";
+  EXPECT_NE(std::find(written.begin(), written.end(), project / "idl/Poses.idl"), written.end());
+  EXPECT_EQ(read_text(project / "idl/Poses.idl"), kPoseIdl);
+  const std::string cmake = read_text(project / "CMakeLists.txt");
+  EXPECT_NE(cmake.find("rtm_add_idl(tracker_types FILES idl/Poses.idl TYPES My::TimedPose My::Arm::TimedGrip)"),
+            std::string::npos)
+      << cmake;
+  EXPECT_NE(cmake.find("target_link_libraries(tracker_logic PUBLIC RTM::core tracker_types)"), std::string::npos)
+      << cmake;
+  const std::string header = read_text(project / "include/tracker/tracker.h");
+  EXPECT_NE(header.find("#include \"tracker_types.h\""), std::string::npos) << header;
+  EXPECT_NE(header.find("rtm::InPort<My::TimedPose>& pose_in_"), std::string::npos) << header;
+  EXPECT_NE(header.find("My::Arm::TimedGrip grip{};"), std::string::npos) << header;
+  const std::string source = read_text(project / "src/tracker.cpp");
+  EXPECT_NE(source.find("out.filtered = in.pose;"), std::string::npos) << "same type: passed on: " << source;
+  EXPECT_NE(source.find("out.grip.tm = now;"), std::string::npos) << source;
+  const std::string test = read_text(project / "test/tracker_test.cpp");
+  EXPECT_NE(test.find("in.pose.tm = stamp(101, 500);"), std::string::npos) << test;
+  EXPECT_NE(test.find("EXPECT_EQ(out.filtered.tm.sec, 101u);"), std::string::npos) << test;
+  EXPECT_NE(test.find("EXPECT_EQ(out.grip.tm.sec, 7u);"), std::string::npos) << test;
+}
+
+TEST_F(RtmScaffold, APortOfAPackagesTypeFindsThePackageAndIncludesItsHeader) {
+  auto o = options("tracker");
+  o.in = {{"pose", "My::TimedPose"}};
+  o.type_packages = {"pose_types", "pose_types"};
+  rtm::cli::scaffold_component(o);
+  const fs::path project = parent_ / "tracker";
+  const std::string cmake = read_text(project / "CMakeLists.txt");
+  EXPECT_NE(cmake.find("find_package(pose_types REQUIRED)"), std::string::npos) << cmake;
+  EXPECT_EQ(cmake.find("rtm_add_idl(tracker"), std::string::npos) << cmake;
+  EXPECT_NE(cmake.find("PUBLIC RTM::core pose_types::pose_types)"), std::string::npos) << "once: " << cmake;
+  EXPECT_NE(read_text(project / "include/tracker/tracker.h").find("#include <pose_types.h>"), std::string::npos);
+  EXPECT_FALSE(fs::exists(project / "idl"));
+}
+
+TEST_F(RtmScaffold, ATypeOfYourOwnThatNoFileDeclaresAsATimedStructIsRefusedAndNothingIsWritten) {
+  const fs::path idl = write_idl(parent_.parent_path() / "types", "Poses.idl", kPoseIdl);
+  auto o = options("tracker");
+  o.in = {{"pose", "My::TimedPose"}};
+  EXPECT_NE(refusal(o).find("My::TimedPose is a type of your own: name the IDL file that declares it (--idl FILE)"),
+            std::string::npos)
+      << refusal(o);
+  o.idl = {idl};
+  o.in = {{"pose", "My::TimedPos"}};
+  EXPECT_NE(refusal(o).find("port 'pose': My::TimedPos: no struct of that name in Poses.idl"), std::string::npos)
+      << refusal(o);
+  o.in = {{"pose", "Position::TimedPose"}};  // a module per '::'
+  EXPECT_NE(refusal(o).find("no struct of that name"), std::string::npos) << refusal(o);
+  o.in = {{"p", "My::Position"}};
+  EXPECT_NE(refusal(o).find("is declared in Poses.idl but is not timed"), std::string::npos) << refusal(o);
+  o.in = {{"pose", "My::TimedPose"}};
+  o.idl = {idl, idl};
+  EXPECT_NE(refusal(o).find("two files are called Poses.idl"), std::string::npos) << refusal(o);
+  o.idl = {parent_.parent_path() / "types" / "missing.idl"};
+  EXPECT_NE(refusal(o).find("missing.idl"), std::string::npos) << refusal(o);
+  o.idl = {write_idl(parent_.parent_path() / "types", "bad-name.idl", kPoseIdl)};
+  EXPECT_NE(refusal(o).find("name an IDL file <name>.idl"), std::string::npos) << refusal(o);
+  o.idl = {};
+  o.type_packages = {"pose-types"};
+  EXPECT_NE(refusal(o).find("--types 'pose-types'"), std::string::npos) << refusal(o);
+  EXPECT_TRUE(parent_is_empty());
 }
 
 TEST_F(RtmScaffold, ABadPeriodIsRefusedNamingIt) {
@@ -326,6 +420,16 @@ TEST(RtmScaffoldPortSpec, TakesTheTypeWithOrWithoutTheRtmModule) {
   const PortSpec full = rtm::cli::parse_port_spec("gains:RTM::TimedDoubleSeq");
   EXPECT_EQ(full.name, "gains");
   EXPECT_EQ(full.type, "RTM::TimedDoubleSeq");
+}
+
+TEST(RtmScaffoldPortSpec, ATypeOfYourOwnIsAModuleAndAName) {
+  EXPECT_EQ(rtm::cli::parse_port_spec("pose:My::TimedPose").type, "My::TimedPose");
+  EXPECT_EQ(rtm::cli::parse_port_spec("grip:Lab::Arm::TimedGrip").type, "Lab::Arm::TimedGrip");
+  const auto message = [](std::string_view text) { return message_of([&] { rtm::cli::parse_port_spec(text); }); };
+  EXPECT_NE(message("pose:RTM::TimedPose").find("'RTM::TimedPose' is not a port type"), std::string::npos)
+      << "RTM's module holds the built-in types only: " << message("pose:RTM::TimedPose");
+  EXPECT_NE(message("pose:My::").find("Module::Type"), std::string::npos) << message("pose:My::");
+  EXPECT_NE(message("pose:My::Timed-Pose").find("Module::Type"), std::string::npos);
 }
 
 TEST(RtmScaffoldPortSpec, BadSpecsAreRefusedNamingTheText) {

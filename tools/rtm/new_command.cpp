@@ -13,7 +13,9 @@ void NewCommand::add_to(CLI::App& app) {
   component->add_option("name", name, "lower-case words joined by '_', e.g. gripper_ctl")->required();
   std::string types;
   for (const auto& t : known_port_types()) types += (types.empty() ? "" : ", ") + t.substr(5);
-  component->add_option("--in", in, "an InPort, name:Type (repeatable); types: " + types);
+  component->add_option("--in", in,
+                         "an InPort, name:Type (repeatable); types: " + types +
+                             ", or Module::Type of your own IDL (with --idl or --types)");
   component->add_option("--out", out, "an OutPort, name:Type (repeatable)");
   component->add_option("--period", period, "the cycle period its system file starts it with")
       ->capture_default_str();
@@ -21,6 +23,11 @@ void NewCommand::add_to(CLI::App& app) {
   component->add_option("--param", params,
                         "a parameter its cycle reads and `rtm set` changes, name:unit:default[:description] "
                         "(repeatable), e.g. cutoff_hz:Hz:10");
+  component->add_option("--idl", idl, "an IDL file declaring port types of your own: copied into the project, "
+                                      "compiled there (repeatable)");
+  component->add_option("--types", type_packages,
+                        "a package of port types installed by rtm_add_idl(<package> ... TYPES ... EXPORT) "
+                        "(repeatable)");
   component->add_option("--dir", parent, "the folder to make the project in")->capture_default_str();
 }
 
@@ -35,6 +42,8 @@ void NewCommand::run(bool json) const {
   options.parent = parent;
   options.description = description;
   for (const auto& spec : params) options.params.push_back(parse_param_spec(spec));
+  options.idl.assign(idl.begin(), idl.end());
+  options.type_packages = type_packages;
   const auto files = scaffold_component(options);
   const std::filesystem::path project = options.parent / options.name;
   if (json) {
@@ -44,7 +53,7 @@ void NewCommand::run(bool json) const {
     return;
   }
   for (const auto& f : files) fmt::print("made {}\n", f.string());
-  fmt::print("next: cd {} && cmake -B build -DCMAKE_PREFIX_PATH=<RTM's prefix> && cmake --build build && "
+  fmt::print("next: cd {} && cmake -B build -DCMAKE_PREFIX_PATH=<RTM's prefix> && cmake --build build -j && "
              "ctest --test-dir build\n",
              project.string());
 }

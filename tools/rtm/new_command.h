@@ -18,6 +18,8 @@ struct NewCommand {
   std::vector<std::string> params;   // "name:unit:default[:description]"
   std::string period = "2ms";
   std::string description;
+  std::vector<std::string> idl;            // IDL files of the ports' own types
+  std::vector<std::string> type_packages;  // packages of such types
   std::string parent = ".";
 
   // Adds `new` and its subcommand `component` to app.

@@ -69,8 +69,104 @@ const TypeInfo& find_type(std::string_view type, std::string_view what) {
   for (const auto& t : kTypes) {
     if (same_ignoring_case(bare, t.name)) hint = fmt::format(" (did you mean {}?)", t.name);
   }
-  throw std::invalid_argument(fmt::format("{}: '{}' is not a port type{}; known types: {}", what, type, hint,
-                                          known_types_text()));
+  throw std::invalid_argument(fmt::format("{}: '{}' is not a port type{}; known types: {}; a type of your own IDL "
+                                          "is written Module::Type (e.g. My::TimedPose), with --idl or --types",
+                                          what, type, hint, known_types_text()));
+}
+
+bool is_idl_identifier(std::string_view s) {
+  if (s.empty() || !((s.front() >= 'a' && s.front() <= 'z') || (s.front() >= 'A' && s.front() <= 'Z'))) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+  });
+}
+
+// "My::TimedPose", "Lab::Arm::TimedGrip": a struct in a module of the project's own IDL (not RTM's).
+bool is_own_type_name(std::string_view type) {
+  std::size_t parts = 0;
+  for (std::size_t at = 0;; ++parts) {
+    const auto sep = type.find("::", at);
+    const auto part = type.substr(at, sep == std::string_view::npos ? std::string_view::npos : sep - at);
+    if (!is_idl_identifier(part) || (parts == 0 && part == "RTM")) return false;
+    if (sep == std::string_view::npos) break;
+    at = sep + 2;
+  }
+  return parts >= 1;
+}
+
+// =============================== own IDL ==============================
+
+// The structs an IDL file declares, by qualified name, split by whether they are timed (their
+// first member `RTM::Time tm`, the stamp the generated code and the tools use).
+struct IdlStructs {
+  std::set<std::string> timed, untimed;
+};
+
+// Identifiers, "::" and single characters; comments, preprocessor lines and literals left out.
+std::vector<std::string_view> idl_tokens(std::string_view text) {
+  std::vector<std::string_view> tokens;
+  const auto ident = [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+  };
+  std::size_t i = 0;
+  const auto skip_to = [&](std::string_view end) {
+    const auto found = text.find(end, i);
+    i = found == std::string_view::npos ? text.size() : found + end.size();
+  };
+  while (i < text.size()) {
+    const char c = text[i];
+    if (c == ' ' || c == '\t' || c == '\n' || c == '\r') {
+      ++i;
+    } else if (text.substr(i, 2) == "//" || c == '#') {
+      skip_to("\n");
+    } else if (text.substr(i, 2) == "/*") {
+      i += 2;
+      skip_to("*/");
+    } else if (c == '"' || c == '\'') {
+      const auto close = text.find(c, i + 1);
+      i = close == std::string_view::npos ? text.size() : close + 1;
+    } else if (text.substr(i, 2) == "::") {
+      tokens.push_back(text.substr(i, 2));
+      i += 2;
+    } else if (ident(c)) {
+      const std::size_t start = i;
+      while (i < text.size() && ident(text[i])) ++i;
+      tokens.push_back(text.substr(start, i - start));
+    } else {
+      tokens.push_back(text.substr(i++, 1));
+    }
+  }
+  return tokens;
+}
+
+IdlStructs scan_idl(std::string_view text) {
+  const auto t = idl_tokens(text);
+  IdlStructs found;
+  std::vector<std::pair<std::string, int>> modules;  // name, the depth of its '{'
+  int depth = 0;
+  const auto at = [&](std::size_t i) { return i < t.size() ? t[i] : std::string_view(); };
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    if ((t[i] == "module" || t[i] == "struct") && is_idl_identifier(at(i + 1)) && at(i + 2) == "{") {
+      std::string scope;
+      for (const auto& m : modules) scope += m.first + "::";
+      if (t[i] == "module") {
+        modules.emplace_back(std::string(t[i + 1]), depth++);
+      } else {
+        const bool in_rtm = scope == "RTM::";
+        const bool timed = (at(i + 3) == "RTM" && at(i + 4) == "::" && at(i + 5) == "Time" && at(i + 6) == "tm") ||
+                           (in_rtm && at(i + 3) == "Time" && at(i + 4) == "tm");
+        (timed ? found.timed : found.untimed).insert(scope + std::string(t[i + 1]));
+        ++depth;
+      }
+      i += 2;
+    } else if (t[i] == "{") {
+      ++depth;
+    } else if (t[i] == "}") {
+      --depth;
+      if (!modules.empty() && modules.back().second == depth) modules.pop_back();
+    }
+  }
+  return found;
 }
 
 // ================================ names ===============================
@@ -168,7 +264,14 @@ void check_index_alias(std::string_view name, bool is_in, std::size_t index) {
 
 struct Port {
   std::string name;
-  const TypeInfo* type;
+  const TypeInfo* type;  // a built-in type; nullptr for one of the project's own IDL
+  std::string own;       // that one's name: "My::TimedPose"
+};
+
+// An IDL file the project gets a copy of.
+struct IdlFile {
+  std::string file_name;  // "TimedPose.idl"
+  std::string text;
 };
 
 // Everything the files are made from, checked.
@@ -179,17 +282,23 @@ struct Plan {
   std::string description;  // one line, printable, without its final '.'
   std::vector<ParamSpec> params;
   std::vector<Port> in, out;
+  std::vector<IdlFile> idl;
+  std::vector<std::string> idl_types;  // the ports' own types the IDL files declare
+  std::vector<std::string> packages;   // of types, found by find_package
   // For each OutPort, the InPort the generated step() passes to it (-1: none): the InPort of
   // the same type and the same rank among the ports of that type.
   std::vector<int> source_of;
 };
+
+std::string type_of(const Port& p) { return p.type ? full_name(*p.type) : p.own; }
 
 std::vector<Port> checked_ports(const std::vector<PortSpec>& specs, bool is_in, std::set<std::string>& seen) {
   std::vector<Port> ports;
   for (std::size_t i = 0; i < specs.size(); ++i) {
     const auto what = fmt::format("{} '{}'", is_in ? "InPort" : "OutPort", specs[i].name);
     check_port_name(specs[i].name, what);
-    const TypeInfo& type = find_type(specs[i].type, what);
+    const bool own = is_own_type_name(specs[i].type);
+    const TypeInfo* type = own ? nullptr : &find_type(specs[i].type, what);
     if (!seen.insert(specs[i].name).second) {
       throw std::invalid_argument(fmt::format(
           "port name '{}' is given twice: each port needs a name of its own, InPorts and OutPorts alike "
@@ -197,19 +306,19 @@ std::vector<Port> checked_ports(const std::vector<PortSpec>& specs, bool is_in, 
           specs[i].name));
     }
     check_index_alias(specs[i].name, is_in, i);
-    ports.push_back({specs[i].name, &type});
+    ports.push_back({specs[i].name, type, own ? specs[i].type : ""});
   }
   return ports;
 }
 
 std::vector<int> pass_through_sources(const std::vector<Port>& in, const std::vector<Port>& out) {
   std::vector<int> sources;
-  std::map<const TypeInfo*, int> taken;  // OutPorts of a type seen so far
+  std::map<std::string, int> taken;  // OutPorts of a type seen so far
   for (const auto& o : out) {
-    int rank = taken[o.type]++;
+    int rank = taken[type_of(o)]++;
     int source = -1;
     for (std::size_t i = 0; i < in.size() && source < 0; ++i) {
-      if (in[i].type == o.type && rank-- == 0) source = static_cast<int>(i);
+      if (type_of(in[i]) == type_of(o) && rank-- == 0) source = static_cast<int>(i);
     }
     sources.push_back(source);
   }
@@ -256,6 +365,77 @@ std::vector<ParamSpec> checked_params(std::vector<ParamSpec> params) {
   return params;
 }
 
+constexpr std::uintmax_t kMaxIdlBytes = 1 << 20;
+
+IdlFile read_idl(const fs::path& path) {
+  const std::string file_name = path.filename().string();
+  const std::string stem = path.stem().string();
+  if (path.extension() != ".idl" || stem.empty() ||
+      !std::all_of(stem.begin(), stem.end(), [](char c) { return letter_or_digit(c) || c == '_'; }))
+    throw std::invalid_argument(fmt::format(
+        "--idl {}: name an IDL file <name>.idl, the name of a-z A-Z 0-9 '_' (its stubs are <name>.hh)", path.string()));
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  if (ec) throw std::invalid_argument(fmt::format("--idl {}: {}", path.string(), ec.message()));
+  if (size > kMaxIdlBytes)
+    throw std::invalid_argument(fmt::format("--idl {}: {} bytes, more than an IDL file of types holds (1 MiB)",
+                                            path.string(), size));
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (!file) throw std::invalid_argument(fmt::format("--idl {}: {}", path.string(), std::system_category().message(errno)));
+  std::string text(size, '\0');
+  const std::size_t got = std::fread(text.data(), 1, text.size(), file);
+  std::fclose(file);
+  text.resize(got);
+  return {file_name, std::move(text)};
+}
+
+// The ports' own types: each declared, as a timed struct, by an --idl file, or left to a package.
+void plan_own_types(const ScaffoldOptions& options, Plan& plan) {
+  std::set<std::string> names;
+  for (const auto& path : options.idl) {
+    plan.idl.push_back(read_idl(path));
+    if (!names.insert(plan.idl.back().file_name).second)
+      throw std::invalid_argument(fmt::format("--idl: two files are called {}", plan.idl.back().file_name));
+  }
+  for (const auto& package : options.type_packages) {
+    if (!is_idl_identifier(package))
+      throw std::invalid_argument(fmt::format(
+          "--types '{}': name a package of types by its CMake name, of a-z A-Z 0-9 '_' (e.g. pose_types)", package));
+    if (std::find(plan.packages.begin(), plan.packages.end(), package) == plan.packages.end())
+      plan.packages.push_back(package);
+  }
+  IdlStructs declared;
+  for (const auto& file : plan.idl) {
+    IdlStructs one = scan_idl(file.text);
+    declared.timed.merge(one.timed);
+    declared.untimed.merge(one.untimed);
+  }
+  std::string files;
+  for (const auto& file : plan.idl) files += (files.empty() ? "" : ", ") + file.file_name;
+  for (const auto* ports : {&plan.in, &plan.out}) {
+    for (const auto& port : *ports) {
+      if (port.type) continue;
+      const std::string what = fmt::format("port '{}': {}", port.name, port.own);
+      if (plan.idl.empty() && plan.packages.empty())
+        throw std::invalid_argument(fmt::format(
+            "{} is a type of your own: name the IDL file that declares it (--idl FILE) or the package of types "
+            "that holds it (--types PACKAGE)",
+            what));
+      if (declared.untimed.count(port.own))
+        throw std::invalid_argument(fmt::format(
+            "{} is declared in {} but is not timed: a port's datum starts with its stamp, `RTM::Time tm;` as its "
+            "first member (#include \"RTM.idl\")",
+            what, files));
+      if (declared.timed.count(port.own)) {
+        if (std::find(plan.idl_types.begin(), plan.idl_types.end(), port.own) == plan.idl_types.end())
+          plan.idl_types.push_back(port.own);
+      } else if (plan.packages.empty()) {
+        throw std::invalid_argument(fmt::format("{}: no struct of that name in {} (a module per '::')", what, files));
+      }
+    }
+  }
+}
+
 Plan make_plan(const ScaffoldOptions& options) {
   Plan plan;
   plan.name = options.name;
@@ -266,12 +446,13 @@ Plan make_plan(const ScaffoldOptions& options) {
   plan.params = checked_params(options.params);
   std::set<std::string> seen;
   if (options.in.empty() && options.out.empty()) {
-    plan.in = {{"in0", &kTypes[0]}};
-    plan.out = {{"out0", &kTypes[0]}};
+    plan.in = {{"in0", &kTypes[0], ""}};
+    plan.out = {{"out0", &kTypes[0], ""}};
   } else {
     plan.in = checked_ports(options.in, true, seen);
     plan.out = checked_ports(options.out, false, seen);
   }
+  plan_own_types(options, plan);
   plan.source_of = pass_through_sources(plan.in, plan.out);
   return plan;
 }
@@ -301,8 +482,6 @@ std::string substitute(std::string_view text, const std::map<std::string, std::s
 }
 
 // ============================== rendering =============================
-
-std::string type_of(const Port& p) { return full_name(*p.type); }
 
 std::size_t name_width(const Plan& p) {
   std::size_t width = 0;
@@ -370,10 +549,43 @@ std::string params_declaration(const Plan& p) {
   return text + "  };\n  static const rtm::ParameterTable<Params>& parameters();\n";
 }
 
+// The headers that make the ports' own types port types (rtm_add_idl ... TYPES writes them).
+std::string type_includes(const Plan& p) {
+  std::string text;
+  if (!p.idl_types.empty()) text += fmt::format("#include \"{}_types.h\"  // the types of idl/*.idl\n", p.name);
+  for (const auto& package : p.packages) text += fmt::format("#include <{0}.h>  // the types of package {0}\n", package);
+  return text;
+}
+
+std::string cmake_types(const Plan& p) {
+  std::string text;
+  if (!p.idl_types.empty()) {
+    std::string files, types;
+    for (const auto& f : p.idl) files += " idl/" + f.file_name;
+    for (const auto& t : p.idl_types) types += " " + t;
+    text += fmt::format("\n# The ports' own data types: stubs of idl/*.idl, and {0}_types.h, which makes them port types.\n"
+                        "rtm_add_idl({0}_types FILES{1} TYPES{2})\n",
+                        p.name, files, types);
+  }
+  if (!p.packages.empty()) {
+    text += "\n# Packages of data types (installed by rtm_add_idl(... TYPES ... EXPORT)): <package>.h makes them port types.\n";
+    for (const auto& package : p.packages) text += fmt::format("find_package({} REQUIRED)\n", package);
+  }
+  return text;
+}
+
+std::string cmake_type_links(const Plan& p) {
+  std::string text;
+  if (!p.idl_types.empty()) text += fmt::format(" {}_types", p.name);
+  for (const auto& package : p.packages) text += fmt::format(" {0}::{0}", package);
+  return text;
+}
+
 std::string render_header(const Plan& p) {
   const bool params = !p.params.empty();
   return substitute(kHeader,
                     {{"NAME", p.name},
+                     {"TYPE_INCLUDES", type_includes(p)},
                      {"CLASS", p.class_name},
                      {"PORT_TABLE", port_table(p)},
                      {"INPUT_FIELDS", fields(p.in, "the component has no InPort")},
@@ -407,10 +619,10 @@ std::string cycle_lines(const Plan& p) {
   }
   if (p.out.empty()) {
     text += "  // No OutPort: act on what step() computes here (a device, a file).\n"
-            "  step(inputs_, " + params + "rtm::now());\n";
+            "  step(inputs_, " + params + "state_, rtm::now());\n";
     return text;
   }
-  text += "  const Outputs out = step(inputs_, " + params + "rtm::now());\n";
+  text += "  const Outputs out = step(inputs_, " + params + "state_, rtm::now());\n";
   for (const auto& port : p.out) text += fmt::format("  {0}_out_.write(out.{0});\n", port.name);
   return text;
 }
@@ -527,9 +739,10 @@ constexpr int kSampleLength = 3;  // values a sequence sample holds
 
 // Fills in.<port> with the k-th sample (stamp included).
 std::string fill_sample(const Port& port, std::size_t k) {
+  std::string text = fmt::format("  in.{}.tm = stamp({}, 500);\n", port.name, 101 + k);
+  if (!port.type) return text;  // a type of the project's own: its stamp
   const TypeInfo& t = *port.type;
   const std::string var = fmt::format("in.{}.{}", port.name, t.field);
-  std::string text = fmt::format("  in.{}.tm = stamp({}, 500);\n", port.name, 101 + k);
   switch (t.shape) {
     case Shape::scalar:
       return text + fmt::format("  {} = {};\n", var, sample_value(t, k, false));
@@ -545,10 +758,11 @@ std::string fill_sample(const Port& port, std::size_t k) {
 
 // Expects out.<port> to hold the k-th sample (stamp included).
 std::string expect_sample(const Port& port, std::size_t k) {
-  const TypeInfo& t = *port.type;
-  const std::string var = fmt::format("out.{}.{}", port.name, t.field);
   std::string text =
       fmt::format("  EXPECT_EQ(out.{0}.tm.sec, {1}u);\n  EXPECT_EQ(out.{0}.tm.nsec, 500u);\n", port.name, 101 + k);
+  if (!port.type) return text;
+  const TypeInfo& t = *port.type;
+  const std::string var = fmt::format("out.{}.{}", port.name, t.field);
   switch (t.shape) {
     case Shape::scalar:
       return text + fmt::format("  {};\n", expect_equal(t, var, sample_value(t, k, false)));
@@ -565,14 +779,15 @@ std::string expect_sample(const Port& port, std::size_t k) {
 
 // Expects out.<port> to hold zeros (an empty sequence) stamped 7 s 250 ns.
 std::string expect_zero(const Port& port) {
+  std::string text =
+      fmt::format("  EXPECT_EQ(out.{0}.tm.sec, 7u);\n  EXPECT_EQ(out.{0}.tm.nsec, 250u);\n", port.name);
+  if (!port.type) return text;
   const TypeInfo& t = *port.type;
   const std::string var = fmt::format("out.{}.{}", port.name, t.field);
   const std::string zero = t.element == "float"         ? "0.0f"
                            : t.element == "double"      ? "0.0"
                            : t.element == "CORBA::Long" ? "0"
                                                         : "false";
-  std::string text =
-      fmt::format("  EXPECT_EQ(out.{0}.tm.sec, 7u);\n  EXPECT_EQ(out.{0}.tm.nsec, 250u);\n", port.name);
   switch (t.shape) {
     case Shape::scalar:
       return text + fmt::format("  {};\n", expect_equal(t, var, zero));
@@ -590,6 +805,9 @@ std::string params_argument(const Plan& p) {
   return p.params.empty() ? "" : fmt::format("{}::Params{{}}, ", p.class_name);
 }
 
+// The State a test hands step(), declared before the call.
+std::string state_declaration(const Plan& p) { return fmt::format("  {}::State state;\n", p.class_name); }
+
 std::string pass_through_test(const Plan& p) {
   std::string fill;
   std::string expect;
@@ -601,9 +819,9 @@ std::string pass_through_test(const Plan& p) {
   }
   if (fill.empty()) return "";
   return fmt::format("\nTEST({0}Step, OutPortsCarryTheInPortOfTheirTypeWithItsStamp) {{\n"
-                     "  {0}::Inputs in;\n{1}"
-                     "  const {0}::Outputs out = {0}::step(in, {3}stamp(7, 250));\n{2}}}\n",
-                     p.class_name, fill, expect, params_argument(p));
+                     "  {0}::Inputs in;\n{1}{4}"
+                     "  const {0}::Outputs out = {0}::step(in, {3}state, stamp(7, 250));\n{2}}}\n",
+                     p.class_name, fill, expect, params_argument(p), state_declaration(p));
 }
 
 std::string zero_test(const Plan& p) {
@@ -612,9 +830,9 @@ std::string zero_test(const Plan& p) {
     if (p.source_of[i] < 0) expect += expect_zero(p.out[i]);
   }
   if (expect.empty()) return "";
-  return fmt::format("\nTEST({0}Step, OutPortsWithoutAnInPortOfTheirTypeCarryZerosStampedNow) {{\n"
-                     "  const {0}::Outputs out = {0}::step({0}::Inputs{{}}, {2}stamp(7, 250));\n{1}}}\n",
-                     p.class_name, expect, params_argument(p));
+  return fmt::format("\nTEST({0}Step, OutPortsWithoutAnInPortOfTheirTypeCarryZerosStampedNow) {{\n{3}"
+                     "  const {0}::Outputs out = {0}::step({0}::Inputs{{}}, {2}state, stamp(7, 250));\n{1}}}\n",
+                     p.class_name, expect, params_argument(p), state_declaration(p));
 }
 
 std::string render_test(const Plan& p) {
@@ -622,9 +840,9 @@ std::string render_test(const Plan& p) {
   if (p.out.empty()) {
     tests = fmt::format("\n// No OutPort: step() returns nothing yet. Test what it computes once it does.\n"
                         "TEST({0}Step, HasNoOutputsToCompute) {{\n"
-                        "  EXPECT_TRUE(std::is_empty_v<{0}::Outputs>);\n"
-                        "  EXPECT_NO_THROW({0}::step({0}::Inputs{{}}, {1}stamp(7, 250)));\n}}\n",
-                        p.class_name, params_argument(p));
+                        "  EXPECT_TRUE(std::is_empty_v<{0}::Outputs>);\n{2}"
+                        "  EXPECT_NO_THROW({0}::step({0}::Inputs{{}}, {1}state, stamp(7, 250)));\n}}\n",
+                        p.class_name, params_argument(p), state_declaration(p));
   }
   return substitute(kTest, {{"NAME", p.name}, {"CLASS", p.class_name}, {"TESTS", tests}});
 }
@@ -658,8 +876,9 @@ struct ProjectFile {
 };
 
 std::vector<ProjectFile> render(const Plan& p) {
-  return {
-      {"CMakeLists.txt", substitute(kCMakeLists, {{"NAME", p.name}})},
+  std::vector<ProjectFile> files = {
+      {"CMakeLists.txt",
+       substitute(kCMakeLists, {{"NAME", p.name}, {"TYPES", cmake_types(p)}, {"TYPES_LINK", cmake_type_links(p)}})},
       {fs::path("include") / p.name / (p.name + ".h"), render_header(p)},
       {fs::path("src") / (p.name + ".cpp"), render_source(p)},
       {fs::path("src") / "main.cpp", render_main(p)},
@@ -668,6 +887,8 @@ std::vector<ProjectFile> render(const Plan& p) {
       {"README.md", render_readme(p)},
       {".gitignore", "build/\n"},
   };
+  for (const auto& idl : p.idl) files.insert(files.end() - 2, {fs::path("idl") / idl.file_name, idl.text});
+  return files;
 }
 
 // ============================== writing ===============================
@@ -762,7 +983,8 @@ PortSpec parse_port_spec(std::string_view text) {
   const auto what = fmt::format("port '{}'", text);
   PortSpec spec{std::string(text.substr(0, colon)), ""};
   check_port_name(spec.name, what);
-  spec.type = full_name(find_type(text.substr(colon + 1), what));
+  const std::string_view type = text.substr(colon + 1);
+  spec.type = is_own_type_name(type) ? std::string(type) : full_name(find_type(type, what));
   return spec;
 }
 

@@ -7,12 +7,14 @@
 // makes ./gripper_ctl/ holding
 //   CMakeLists.txt                    library gripper_ctl_logic, executable rtm-gripper_ctl,
 //                                     test gripper_ctl_test (GoogleTest, add_test)
-//   include/gripper_ctl/gripper_ctl.h class GripperCtl: its ports, and its logic as a pure
-//   src/gripper_ctl.cpp               static function GripperCtl::step(Inputs, now) -> Outputs
+//   include/gripper_ctl/gripper_ctl.h class GripperCtl: its ports, and its logic as a static
+//   src/gripper_ctl.cpp               function GripperCtl::step(Inputs, [Params,] State&, now)
+//                                     -> Outputs, its memory in State (a filter's last output)
 //   src/main.cpp                      rtm::run_component (kind "gripper_ctl")
 //   test/gripper_ctl_test.cpp         tests of step(), no ORB needed
 //   gripper_ctl.yaml                  system file: `rtm up gripper_ctl.yaml` starts gripper_ctl0
 //                                     (build/bin/rtm-gripper_ctl --period 1ms) and turns it on
+//   idl/<file>.idl                    copies of the --idl files, compiled by rtm_add_idl
 //   README.md, .gitignore
 //
 // Names: the component name is lower-case words of a-z 0-9 joined by single '_', 1 to 32
@@ -34,7 +36,9 @@ namespace rtm::cli {
 // One port of the new component.
 struct PortSpec {
   std::string name;  // a C identifier starting with a lower-case letter: "wrench"
-  std::string type;  // an RTM timed type, "RTM::TimedFloat6" (the "RTM::" may be left out)
+  // A built-in timed type, "RTM::TimedFloat6" (the "RTM::" may be left out), or a timed struct
+  // of the project's own IDL, "My::TimedPose" (declared in an --idl file or a --types package).
+  std::string type;
 };
 
 // One parameter of the new component: a number its cycle reads and `rtm set` changes while it
@@ -56,6 +60,11 @@ struct ScaffoldOptions {
   // What it does, in one line, for its --help (before the list of its ports); "" for the list alone.
   std::string description;
   std::vector<ParamSpec> params;  // at most 8, names unique
+  // Where the ports' own types are declared. IDL files are copied into the project's idl/ and
+  // compiled there (rtm_add_idl ... TYPES); a package is one a types project installed with
+  // rtm_add_idl(<package> ... TYPES ... EXPORT), found by find_package(<package>).
+  std::vector<std::filesystem::path> idl;
+  std::vector<std::string> type_packages;
   std::filesystem::path parent = ".";  // the project is written to parent / name
 };
 
@@ -63,9 +72,10 @@ struct ScaffoldOptions {
 // idl/RTMData.idl that rtm/data.h gives DataTraits to.
 const std::vector<std::string>& known_port_types();
 
-// "wrench:TimedFloat6" or "wrench:RTM::TimedFloat6" -> {"wrench", "RTM::TimedFloat6"}. Throws
-// std::invalid_argument naming the text when the name is not a usable port name or the type is
-// not a known port type (then the message lists the known ones).
+// "wrench:TimedFloat6" or "wrench:RTM::TimedFloat6" -> {"wrench", "RTM::TimedFloat6"};
+// "pose:My::TimedPose" -> {"pose", "My::TimedPose"}. Throws std::invalid_argument naming the
+// text when the name is not a usable port name, or the type is no built-in type (then the
+// message lists them) and no Module::Type either.
 PortSpec parse_port_spec(std::string_view text);
 
 // "cutoff_hz:Hz:10" or "cutoff_hz:Hz:10:the filter's cut-off" -> a ParamSpec. Throws
@@ -81,7 +91,9 @@ std::string class_name_of(std::string_view component_name);
 // returns the files written, in that folder, in the order listed above.
 //
 // Everything is checked before anything is written: std::invalid_argument naming the offending
-// input for a bad component name, port name, port type, period, or a port name used twice;
+// input for a bad component name, port name, port type, period, or a port name used twice, a
+// type of the project's own that no --idl file declares as a timed struct (or with neither
+// --idl nor --types given), an IDL file that cannot be read, or a bad package name;
 // std::runtime_error naming the folder when it exists and is not empty (nothing in it is ever
 // overwritten), or when a file cannot be written (what was written by this call is removed
 // again).
