@@ -64,8 +64,10 @@ _rtm() {
     new)
       if [[ $prev == new ]]; then
         COMPREPLY=($(compgen -W "component" -- "$cur"))
+      elif [[ $prev == --idl ]]; then
+        COMPREPLY=($(compgen -f -X '!*.idl' -- "$cur"))
       elif [[ $cur == -* ]]; then
-        COMPREPLY=($(compgen -W "--in --out --param --period --description --dir" -- "$cur"))
+        COMPREPLY=($(compgen -W "--in --out --param --idl --types --period --description --dir" -- "$cur"))
       fi
       ;;
     tls)
