@@ -192,6 +192,8 @@ TEST_F(Installed, ACustomIdlTypeRoundTripsThroughTheInstalledRtmPutGetAndWatch) 
   r = rtm({"watch", "r.out0", "--count", "3", "--csv", csv.string()});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(read_file(csv).find("0.25"), std::string::npos) << read_file(csv);
+  // Undescribed, its columns are labelled as `rtm get` labels the values: by their leaf paths.
+  EXPECT_EQ(read_file(csv).rfind("time_ns,p.x,p.y,p.z,q[0],q[1],q[2],q[3]\n", 0), 0u) << read_file(csv);
   // A word that is not a number, or too few, names the member and changes nothing.
   r = rtm({"put", "r.in0", "0.25", "abc", "2", "1", "0", "0", "0"});
   EXPECT_EQ(r.exit_code, 2);

@@ -185,6 +185,30 @@ TEST_F(RtmValuesOfAnyStruct, UnitsFollowEachNumberInOrder) {
             "q=[1.0000 0.0000 rad 0.0000 0.0000]");
 }
 
+TEST_F(RtmValuesOfAnyStruct, ThePortsElementNamesLabelEveryNumberWhenThereIsOneForEach) {
+  CORBA::Any any;
+  any <<= pose_at_epoch();
+  const std::vector<std::string> names = {"x", "y", "z", "qw", "qx", "qy", "qz"};
+  EXPECT_EQ(rtm::cli::format_text(any, {"m", "m", "m"}, names),
+            "1970-01-01T00:00:00.000000005Z  x=0.0010 m  y=0.5000 m  z=-2.0000 m  qw=1.0000  qx=0.0000  qy=0.0000  "
+            "qz=0.0000");
+  EXPECT_EQ(rtm::cli::value_labels(any, names), names) << "the CSV's columns are the same labels";
+  // Not one name per number: the leaf paths, in the text and in the CSV alike.
+  const std::vector<std::string> short_names = {"x", "y", "z"};
+  EXPECT_EQ(rtm::cli::format_text(any, {}, short_names), rtm::cli::format_text(any));
+  EXPECT_EQ(rtm::cli::value_labels(any, short_names),
+            (std::vector<std::string>{"p.x", "p.y", "p.z", "q[0]", "q[1]", "q[2]", "q[3]"}));
+}
+
+TEST(RtmValueLabels, ABuiltInTypeIsLabelledByItsElementNamesElseByPosition) {
+  CORBA::Any any;
+  RTM::TimedFloat3 d{};
+  any <<= d;
+  EXPECT_EQ(rtm::cli::value_labels(any), (std::vector<std::string>{"v0", "v1", "v2"}));
+  EXPECT_EQ(rtm::cli::value_labels(any, {"vx", "vy", "vz"}), (std::vector<std::string>{"vx", "vy", "vz"}));
+  EXPECT_EQ(rtm::cli::value_labels(any, {"vx"}), (std::vector<std::string>{"v0", "v1", "v2"}));
+}
+
 TEST_F(RtmValuesOfAnyStruct, SampleCarriesStampAndFlattenedNumbers) {
   CORBA::Any any;
   any <<= pose_at_epoch();

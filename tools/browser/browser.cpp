@@ -392,6 +392,12 @@ std::vector<std::string> ResolvedPort::units() const {
   return out;
 }
 
+std::vector<std::string> ResolvedPort::names() const {
+  std::vector<std::string> out;
+  for (const auto& e : elements) out.push_back(e.name);
+  return out;
+}
+
 std::string Browser::set_parameter(std::string_view name, const std::string& parameter,
                                    const std::string& value) const {
   RTM::RtComponent_var comp = component(name);

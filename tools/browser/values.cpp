@@ -217,9 +217,11 @@ Leaf read_leaf(DynamicAny::DynAny_ptr d, CORBA::TypeCode_ptr tc) {
 }
 
 // Walks a datum: text parts ("p.x=0.0010"), numbers in order, and the JSON of each member.
+// With names (one per number), each number is shown as name=value, lists of leaves too.
 class Reader {
  public:
-  explicit Reader(const std::vector<std::string>& units) : units_(units) {}
+  Reader(const std::vector<std::string>& units, const std::vector<std::string>& names)
+      : units_(units), names_(names) {}
 
   nlohmann::json read(DynamicAny::DynAny_ptr d, const std::string& path) {
     CORBA::TypeCode_var type = d->type();
@@ -228,7 +230,8 @@ class Reader {
     if (kind == CORBA::tk_struct) return read_struct(d, tc, path, 0);
     if (kind == CORBA::tk_array || kind == CORBA::tk_sequence) return read_list(d, tc, path);
     const Leaf leaf = read_leaf(d, tc);
-    parts.push_back(fmt::format("{}={}", path, show(leaf)));
+    const std::string label = label_of(leaf, path);
+    parts.push_back(fmt::format("{}={}", label, show(leaf, path)));
     return leaf.json;
   }
 
@@ -245,8 +248,14 @@ class Reader {
 
   std::vector<std::string> parts;
   std::vector<double> numbers;
+  std::vector<std::string> number_paths;  // the leaf path of each number: "p.x", "q[2]"
 
  private:
+  // The next number's name when names are given, else the leaf's path.
+  std::string label_of(const Leaf& leaf, const std::string& path) const {
+    return leaf.number && numbers.size() < names_.size() ? names_[numbers.size()] : path;
+  }
+
   // An array or sequence: of leaves as one part "q=[1.0000 0.0000]", else element by element.
   nlohmann::json read_list(DynamicAny::DynAny_ptr d, CORBA::TypeCode_ptr tc, const std::string& path) {
     nlohmann::json j = nlohmann::json::array();
@@ -257,30 +266,34 @@ class Reader {
     const CORBA::ULong n = d->component_count();
     for (CORBA::ULong i = 0; i < n; ++i) {
       DynamicAny::DynAny_var c = component(d, i);
-      if (of_leaves) {
+      if (of_leaves && !names_.empty()) {
+        j.push_back(read(c, fmt::format("{}[{}]", path, i)));  // each number by its name
+      } else if (of_leaves) {
         const Leaf leaf = read_leaf(c, element);
         if (i != 0) line += ' ';
-        line += show(leaf);
+        line += show(leaf, fmt::format("{}[{}]", path, i));
         j.push_back(leaf.json);
       } else {
         j.push_back(read(c, fmt::format("{}[{}]", path, i)));
       }
     }
-    if (of_leaves) parts.push_back(fmt::format("{}=[{}]", path, line));
+    if (of_leaves && names_.empty()) parts.push_back(fmt::format("{}=[{}]", path, line));
     return j;
   }
 
   // The leaf's text with its unit; a number is counted as the next value.
-  std::string show(const Leaf& leaf) {
+  std::string show(const Leaf& leaf, const std::string& path) {
     if (!leaf.number) return leaf.text;
     std::string s = leaf.text;
     const std::size_t i = numbers.size();
     if (i < units_.size() && !units_[i].empty()) s += " " + units_[i];
     numbers.push_back(*leaf.number);
+    number_paths.push_back(path);
     return s;
   }
 
   const std::vector<std::string>& units_;
+  const std::vector<std::string>& names_;
 };
 
 // A struct datum of any type as read.
@@ -288,11 +301,13 @@ struct Walked {
   std::optional<RTM::Time> time;
   std::vector<std::string> parts;
   std::vector<double> numbers;
+  std::vector<std::string> number_paths;
   nlohmann::json fields;
 };
 
 // Reads any struct; nothing for other types, or when the ORB cannot walk the value.
-std::optional<Walked> walk(const CORBA::Any& value, const std::vector<std::string>& units = {}) {
+std::optional<Walked> walk(const CORBA::Any& value, const std::vector<std::string>& units = {},
+                           const std::vector<std::string>& names = {}) {
   CORBA::TypeCode_var type = value.type();
   CORBA::TypeCode_var tc = unalias(type);
   if (tc->kind() != CORBA::tk_struct) return std::nullopt;
@@ -308,10 +323,11 @@ std::optional<Walked> walk(const CORBA::Any& value, const std::vector<std::strin
       if (stamp.in() >>= t) w.time = *t;
       first = 1;
     }
-    Reader reader(units);
+    Reader reader(units, names);
     w.fields = reader.read_struct(d.get(), tc, "", first);
     w.parts = std::move(reader.parts);
     w.numbers = std::move(reader.numbers);
+    w.number_paths = std::move(reader.number_paths);
     return w;
   } catch (const CORBA::Exception&) {
     return std::nullopt;
@@ -565,7 +581,8 @@ CORBA::Any parse_struct(CORBA::TypeCode_ptr type, CORBA::TypeCode_ptr tc, const 
 
 }  // namespace
 
-std::string format_text(const CORBA::Any& value, const std::vector<std::string>& units) {
+std::string format_text(const CORBA::Any& value, const std::vector<std::string>& units,
+                        const std::vector<std::string>& names) {
   std::string line;
   bool known = visit(value, [&](const RTM::Time& tm, const std::vector<double>& v, const auto&) {
     line = format_time(tm);
@@ -575,7 +592,10 @@ std::string format_text(const CORBA::Any& value, const std::vector<std::string>&
     }
   });
   if (known) return line;
-  if (auto w = walk(value, units)) {
+  auto w = walk(value, units);
+  // Named only when there is a name for every number (the port describes every element).
+  if (w && !names.empty() && names.size() == w->numbers.size()) w = walk(value, units, names);
+  if (w) {
     if (w->time) line = format_time(*w->time);
     for (const auto& part : w->parts) {
       if (!line.empty()) line += "  ";
@@ -606,6 +626,18 @@ nlohmann::json format_json(const CORBA::Any& value) {
     j["fields"] = std::move(w->fields);
   }
   return j;
+}
+
+std::vector<std::string> value_labels(const CORBA::Any& value, const std::vector<std::string>& names) {
+  std::vector<std::string> labels;
+  const bool known = visit(value, [&](const RTM::Time&, const std::vector<double>& v, const auto&) {
+    for (std::size_t i = 0; i < v.size(); ++i) labels.push_back(fmt::format("v{}", i));
+  });
+  if (!known) {
+    if (auto w = walk(value)) labels = std::move(w->number_paths);
+  }
+  if (!names.empty() && names.size() == labels.size()) return names;
+  return labels;
 }
 
 Sample to_sample(const CORBA::Any& value) {

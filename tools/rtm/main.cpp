@@ -286,7 +286,7 @@ int run_get(const Browser& browser, const Cli& c) {
     j["port"] = p.address;
     fmt::print("{}\n", j.dump());
   } else {
-    fmt::print("{}\n", terminal_text(format_text(value.in(), p.units())));
+    fmt::print("{}\n", terminal_text(format_text(value.in(), p.units(), p.names())));
   }
   return kOk;
 }
@@ -350,7 +350,7 @@ int run_put(const Browser& browser, const Cli& c) {
     j["port"] = p.address;
     fmt::print("{}\n", j.dump());
   } else {
-    fmt::print("put {}  {}\n", p.address, terminal_text(format_text(value, p.units())));
+    fmt::print("put {}  {}\n", p.address, terminal_text(format_text(value, p.units(), p.names())));
   }
   return kOk;
 }

@@ -22,11 +22,20 @@ namespace {
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
+// A header field as RFC 4180 has it: quoted, quotes doubled, when it holds a comma, a quote or
+// a line break (an element name is the component's text, not ours).
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
 // Where the data go: CSV, JSON lines, text lines or the refreshing live line.
 class WatchDisplay {
  public:
   WatchDisplay(const ResolvedPort& port, const WatchOptions& options)
-      : port_(port), options_(options), units_(port.units()),
+      : port_(port), options_(options), units_(port.units()), names_(port.names()),
         live_(!options.json && ::isatty(STDOUT_FILENO) && options.count <= 0) {
     if (options.csv_path.empty()) return;
     csv_.open(options.csv_path);
@@ -38,13 +47,13 @@ class WatchDisplay {
   // Shows one datum; returns its own time stamp (ns).
   long long show(const CORBA::Any& any) {
     const Sample sample = to_sample(any);
-    if (csv_.is_open()) write_csv(sample);
+    if (csv_.is_open()) write_csv(any, sample);
     if (options_.json) {
       fmt::print("{}\n", format_json(any).dump());
     } else if (!live_) {
-      fmt::print("{}\n", terminal_text(format_text(any, units_)));
+      fmt::print("{}\n", terminal_text(format_text(any, units_, names_)));
     } else {
-      latest_ = terminal_text(format_text(any, units_));
+      latest_ = terminal_text(format_text(any, units_, names_));
     }
     return sample.time_ns;
   }
@@ -61,12 +70,10 @@ class WatchDisplay {
   }
 
  private:
-  void write_csv(const Sample& s) {
+  void write_csv(const CORBA::Any& any, const Sample& s) {
     if (!csv_header_done_) {
-      // Named after the port's elements when it describes them ("fx", ...), else v0, v1, ...
-      for (std::size_t i = 0; i < s.values.size(); ++i) {
-        csv_ << ',' << (s.values.size() == port_.elements.size() ? port_.elements[i].name : fmt::format("v{}", i));
-      }
+      // Labelled as `rtm get` labels them: the port's element names, else leaf paths ("p.x"), else v0, v1, ...
+      for (const auto& label : value_labels(any, names_)) csv_ << ',' << csv_field(label);
       csv_ << "\n";
       csv_header_done_ = true;
     }
@@ -78,6 +85,7 @@ class WatchDisplay {
   const ResolvedPort& port_;
   const WatchOptions& options_;
   const std::vector<std::string> units_;
+  const std::vector<std::string> names_;
   const bool live_;
   std::ofstream csv_;
   bool csv_header_done_ = false;

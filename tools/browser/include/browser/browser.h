@@ -115,6 +115,7 @@ struct ResolvedPort {
   CORBA::TypeCode_var type;
   std::vector<ElementInfo> elements;  // as the port describes them; empty when it does not
   std::vector<std::string> units() const;  // one per element ("" each when not described)
+  std::vector<std::string> names() const;  // one per element (none when not described)
 };
 
 enum class Switch { on, off, reset };

@@ -46,7 +46,16 @@ class ValueError : public std::runtime_error {
 //     "2026-11-22T14:50:01.123456789Z  p.x=0.0010  p.y=0.5000  p.z=0.0000  q=[1.0000 0.0000 0.0000 0.0000]"
 //     "2026-11-22T14:50:01.123456789Z  n=-7  on=true  mode=RUN  data=[0.5000 1.5000]"
 // - Any other type: "<type name>" with no values.
-std::string format_text(const CORBA::Any& value, const std::vector<std::string>& units = {});
+// A value is labelled by the port's element names when there is one for each of its numbers
+// (names, as the port describes its elements), else by its leaf path: a struct of another type
+// then shows "x=0.0010 m  y=0.5000 m  ...  qw=1.0000" (arrays of leaves number by number).
+// value_labels() gives the same labels to the CSV columns of `rtm watch`.
+std::string format_text(const CORBA::Any& value, const std::vector<std::string>& units = {},
+                        const std::vector<std::string>& names = {});
+
+// The label of each number of a datum, in order: names when there is one per number; else the
+// leaf paths of a struct of another type ("p.x", "q[0]"), "v0", "v1", ... for a built-in one.
+std::vector<std::string> value_labels(const CORBA::Any& value, const std::vector<std::string>& names = {});
 
 // One datum as JSON:
 //   {"type": "RtmTest::TimedPose", "time": {"sec": 1795445401, "nsec": 123456789},
