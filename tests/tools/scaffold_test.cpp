@@ -261,6 +261,11 @@ TEST_F(RtmScaffold, TheDescriptionLeadsTheHelpLineWithItsQuotesEscapedAndNoTodoI
   EXPECT_NE(main_cpp.find(R"("rtm-gripper_ctl: closes the \"gripper\" \\ gently. InPorts: in0)"), std::string::npos)
       << main_cpp;
   EXPECT_EQ(main_cpp.find("TODO"), std::string::npos) << main_cpp;
+  const std::string header = read_text(parent_ / "gripper_ctl" / "include" / "gripper_ctl" / "gripper_ctl.h");
+  EXPECT_EQ(header.find("TODO"), std::string::npos) << header;
+  EXPECT_NE(header.find(R"(add_in_port<RTM::TimedFloat6>("in0", {"the RTM::TimedFloat6 it reads", {}}))"),
+            std::string::npos)
+      << "what rtm cat says of a port until its author says more: " << header;
 
   auto plain = options("plain_ctl");
   rtm::cli::scaffold_component(plain);

@@ -514,15 +514,17 @@ std::string fields(const std::vector<Port>& ports, std::string_view none) {
 }
 
 std::string port_members(const Plan& p) {
-  std::string text;
+  std::string text =
+      "  // What each port carries, as `rtm cat` shows it: say it in your words, and name its values\n"
+      "  // with their units, e.g. {\"the wrist wrench\", rtm::elements(\"fx fy fz tx ty tz\", \"N N N N·m N·m N·m\")}.\n";
   for (const auto& port : p.in) {
     text += fmt::format("  rtm::InPort<{0}>& {1}_in_ =\n"
-                        "      add_in_port<{0}>(\"{1}\", {{\"TODO: what {1} carries\", {{}}}});\n",
+                        "      add_in_port<{0}>(\"{1}\", {{\"the {0} it reads\", {{}}}});\n",
                         type_of(port), port.name);
   }
   for (const auto& port : p.out) {
     text += fmt::format("  rtm::OutPort<{0}>& {1}_out_ =\n"
-                        "      add_out_port<{0}>(\"{1}\", {{\"TODO: what {1} carries\", {{}}}});\n",
+                        "      add_out_port<{0}>(\"{1}\", {{\"the {0} it writes\", {{}}}});\n",
                         type_of(port), port.name);
   }
   return text;
