@@ -89,6 +89,9 @@ RemoteComposite::RemoteComposite(std::string name, std::string kind, Diagram dia
       throw std::invalid_argument(this->name() + ": the reference of " + members[i].name + " is nil");
     members_.push_back(std::move(members[i]));
   }
+  std::vector<std::string> in_order;
+  for (const auto& m : members_) in_order.push_back(m.name);
+  set_member_names(std::move(in_order));
 }
 
 RemoteComposite::~RemoteComposite() = default;

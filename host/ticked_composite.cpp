@@ -42,6 +42,9 @@ TickedComposite::TickedComposite(std::string name, std::string kind, Diagram dia
     view.push_back(ordered.back().get());
   }
   diagram_.check(catalogue_of(view));
+  std::vector<std::string> in_order;
+  for (const auto* c : view) in_order.push_back(c->name());
+  set_member_names(std::move(in_order));
   if (stage_ && phase_.next_reference_deadline_ns)
     throw std::invalid_argument(this->name() + ": a tick that runs its stage cannot also be phased against it");
   phased_first_deadline(0, phase_.lead_ns, tick_.options().period_ns);  // validates the lead

@@ -323,6 +323,14 @@ RTM::TimingStats ComponentServant::timing() {
 
 char* ComponentServant::description() { return CORBA::string_dup(component_->description().c_str()); }
 
+RTM::NameList* ComponentServant::members() {
+  const auto& names = component_->member_names();
+  auto* out = new RTM::NameList;
+  out->length(static_cast<CORBA::ULong>(names.size()));
+  for (CORBA::ULong i = 0; i < out->length(); ++i) (*out)[i] = names[i].c_str();
+  return out;
+}
+
 RTM::StatisticList* ComponentServant::statistics() {
   const auto& stats = component_->statistics();
   auto* out = new RTM::StatisticList;

@@ -166,6 +166,22 @@ TEST(TickedComposite, OffRemovesTheConnectionsAndOnMakesThemAgain) {
   for (auto* member : composite.members()) EXPECT_EQ(member->current_state(), RTM::COMPONENT_OFF);
 }
 
+TEST(TickedComposite, SaysItsMembersInTheDiagramsOrderThroughItsServantAndAPlainComponentNone) {
+  TickLog log;
+  Sink* sink = nullptr;
+  PortableServer::Servant_var<rtm::ComponentServant> servant = new rtm::ComponentServant(
+      std::make_unique<rtm::TickedComposite>("chain2", "chain", chain(), chain_members(log, &sink), fast()),
+      rtm::ExternalTick{});
+  RTM::NameList_var names = servant->members();
+  ASSERT_EQ(names->length(), 5u);
+  const std::vector<std::string> expected{"src", "x2a", "x2b", "x2c", "sink"};  // handed over in another order
+  for (CORBA::ULong i = 0; i < names->length(); ++i) EXPECT_EQ(std::string(names[i].in()), expected[i]);
+  PortableServer::Servant_var<rtm::ComponentServant> plain =
+      new rtm::ComponentServant(std::make_unique<Sink>("alone", log), rtm::ExternalTick{});
+  RTM::NameList_var none = plain->members();
+  EXPECT_EQ(none->length(), 0u);
+}
+
 TEST(TickedComposite, MembersMustBeTheDiagramsAndTheDiagramTicked) {
   TickLog log;
   Sink* sink = nullptr;

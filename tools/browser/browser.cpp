@@ -178,6 +178,12 @@ ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr obje
       CORBA::String_var err = ex->last_error();
       info.last_error = err.in();
       info.timing = ex->timing();
+      try {
+        RTM::NameList_var members = ex->members();
+        for (CORBA::ULong i = 0; i < members->length(); ++i) info.members.emplace_back(members[i].in());
+      } catch (const CORBA::BAD_OPERATION&) {
+        // an RtComponentEx of before members(): no composite that tools can draw
+      }
       if (detail == Detail::full) read_self_description(ex, info);
       comp = RTM::RtComponent::_duplicate(ex);
     } else {

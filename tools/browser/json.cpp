@@ -78,6 +78,7 @@ json component_json(const ComponentInfo& c, bool detailed) {
   if (!c.description.empty()) j["description"] = c.description;
   j["state"] = c.state;
   if (!c.last_error.empty()) j["last_error"] = c.last_error;
+  if (!c.members.empty()) j["members"] = c.members;
   if (c.timing) {
     j["period_ns"] = c.timing->period_ns;
     if (detailed) j["timing"] = timing_json(*c.timing);

@@ -170,6 +170,14 @@ void print_cat(const ComponentInfo& c) {
              c.kind.empty() ? "-" : terminal_text(c.kind), c.state, period_text(c));
   if (!c.description.empty()) fmt::print("  {}\n", terminal_text(c.description));
   if (!c.last_error.empty()) fmt::print("  error: {}\n", terminal_text(c.last_error));
+  if (!c.members.empty()) {
+    std::string names;
+    for (const auto& m : c.members) {
+      if (!names.empty()) names += ' ';
+      names += terminal_text(m);
+    }
+    fmt::print("  members: {}\n", names);
+  }
   if (c.timing) {
     const auto& t = *c.timing;
     fmt::print("  lateness p50 {} us  p99 {} us  max {} us  overruns {} of {} cycles\n", us(t.lateness_p50_ns),

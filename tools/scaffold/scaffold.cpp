@@ -411,7 +411,7 @@ void plan_own_types(const ScaffoldOptions& options, Plan& plan) {
     declared.untimed.merge(one.untimed);
   }
   std::string files;
-  for (const auto& file : plan.idl) files += (files.empty() ? "" : ", ") + file.file_name;
+  for (const auto& file : plan.idl) files += fmt::format("{}{}", files.empty() ? "" : ", ", file.file_name);
   for (const auto* ports : {&plan.in, &plan.out}) {
     for (const auto& port : *ports) {
       if (port.type) continue;

@@ -69,6 +69,8 @@ class Component {
   // bound to the process it started). The runner calls it.
   void add_process_statistic();
   void set_description(std::string text) { description_ = std::move(text); }
+  // A composite's members, by name in its diagram's order; none for other components.
+  const std::vector<std::string>& member_names() const { return member_names_; }
 
   // Called by the activity: on_start() before the first cycle, on_stop() after the last.
   // An exception from any of them puts the component's servant in COMPONENT_ERROR.
@@ -113,6 +115,8 @@ class Component {
     port.set_info(std::move(info));
     return port;
   }
+  // A composite names its members once, when it is made.
+  void set_member_names(std::vector<std::string> names) { member_names_ = std::move(names); }
   // read() is called from ORB threads while the component runs. Throws std::invalid_argument
   // for an empty or repeated name or a missing read().
   void add_statistic(std::string stat_name, std::string unit, std::string text, std::function<double()> read);
@@ -151,6 +155,7 @@ class Component {
   const std::string name_;
   const std::string kind_;
   std::string description_;
+  std::vector<std::string> member_names_;
   std::vector<Statistic> statistics_;
   std::vector<Parameter> parameters_;
   std::vector<PortableServer::Servant_var<InPortBase>> in_ports_;
@@ -242,6 +247,7 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   // does not take, NO_IMPLEMENT when there is none.
   void hold(const char* holder, CORBA::ULong lease_ms) override;
   void release(const char* holder) override;
+  RTM::NameList* members() override;
 
  private:
   bool run_cycle(const CycleContext& ctx);
