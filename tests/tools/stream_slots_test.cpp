@@ -3,6 +3,12 @@
 // new stream replacing its old one, and a slot freed when its stream ends.
 #include "serve/stream_slots.h"
 
+#include "serve/plot_feed.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include <memory>
@@ -76,3 +82,41 @@ TEST(StreamSlots, ASlotOutlivingItsSlotsIsFreedSafely) {
 }
 
 }  // namespace
+
+// What the plots' stream sends of one port (serve/plot_feed.h): every datum, as columns.
+namespace plot_entry {
+
+using rtm::cli::plot_entry;
+using rtm::cli::Sample;
+
+TEST(PlotEntry, EveryDatumIsSentAsAStampAndOneColumnPerValueWithTheCounts) {
+  const std::vector<Sample> samples{{"RTM::TimedFloat3", 1'795'445'401'000'000'000LL, {1.0, 2.0, 3.0}},
+                                    {"RTM::TimedFloat3", 1'795'445'401'002'000'001LL, {-1.5, 0.25, 1e-3}}};
+  const auto j = nlohmann::json::parse(plot_entry("RTM::TimedFloat3", samples, 42, 3, 0));
+  EXPECT_EQ(j["type"], "RTM::TimedFloat3");
+  ASSERT_EQ(j["t"].size(), 2u);
+  EXPECT_DOUBLE_EQ(j["t"][1].get<double>(), 1795445401.002000001);
+  ASSERT_EQ(j["v"].size(), 3u) << "one column per value";
+  EXPECT_EQ(j["v"][0], (nlohmann::json{1.0, -1.5}));
+  EXPECT_EQ(j["v"][2], (nlohmann::json{3.0, 0.001}));
+  EXPECT_EQ(j["sent"], 42);
+  EXPECT_EQ(j["lost"], 3);
+  EXPECT_EQ(j["stamped"], true);
+  EXPECT_EQ(j["time"]["nsec"], 2'000'001) << "the last datum's stamp, as /api/values gives it";
+  EXPECT_EQ(j["values"], (nlohmann::json{-1.5, 0.25, 0.001}));
+}
+
+TEST(PlotEntry, NoDataIsEmptyColumnsAndAnUnstampedDatumTakesWhenTheServerTookItAndNoNumberIsNull) {
+  const auto none = nlohmann::json::parse(plot_entry("RTM::TimedFloat", {}, 7, 0, 5));
+  EXPECT_TRUE(none["t"].empty());
+  EXPECT_TRUE(none["v"].empty());
+  EXPECT_EQ(none["sent"], 7);
+  EXPECT_FALSE(none.contains("time"));
+  const std::vector<Sample> unstamped{{"My::Pose", 0, {std::nan(""), 2.0}}};
+  const auto j = nlohmann::json::parse(plot_entry("My::Pose", unstamped, 1, 0, 3'000'000'123LL));
+  EXPECT_EQ(j["stamped"], false);
+  EXPECT_EQ(j["t"][0].dump(), "3.000000123");
+  EXPECT_TRUE(j["v"][0][0].is_null()) << "NaN is no JSON number";
+}
+
+}  // namespace plot_entry

@@ -3,6 +3,7 @@
 // that comes after an idle spell, and a stop that wakes the pages waiting.
 #include "serve/system_feed.h"
 
+
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -96,3 +97,4 @@ TEST(SystemFeed, StopWakesAWaitingPageWithNothing) {
 }
 
 }  // namespace
+

@@ -2,6 +2,7 @@
 #include "serve/serve.h"
 
 #include "browser/json.h"
+#include "serve/plot_feed.h"
 #include "serve/serve_gate.h"
 #include "serve/stream_slots.h"
 #include "serve/system_feed.h"
@@ -9,6 +10,7 @@
 #include "browser/values.h"
 
 #include "rtm/data.h"
+#include "rtm/orb.h"
 
 #include <fmt/format.h>
 #include <httplib.h>
@@ -60,7 +62,8 @@ constexpr const char* kContentSecurityPolicy =
     "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
     "font-src 'none'; media-src 'none'; object-src 'none'; frame-src 'none'; worker-src 'none'; "
     "manifest-src 'none'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'";
-// A plots' stream sends its ports' latest data this often (25 a second).
+// A plots' stream sends what its ports wrote this often (25 events a second, each with every
+// datum that arrived since the one before).
 constexpr std::chrono::milliseconds kPlotPeriod{40};
 
 // "a.out0,b.out1" -> its addresses, empty ones left out.
@@ -74,14 +77,12 @@ std::vector<std::string> split_ports(const std::string& ports) {
   return out;
 }
 
-// One page's plots: its ports, the data gathered for the next event, and when the next port
-// is due. The ports are asked one at a time, spread over the period: ten calls in a burst
-// made every loop that woke during it wait (measured: the loops' lateness p99 at SCHED_OTHER
-// 250-300 us with the burst at 30 a second, 60-170 us spread; docs/performance.md).
+// One page's plots: a subscription per port (or why there is none), made when the stream
+// starts and undone when it ends, and when the next event is due.
 struct PlotStream {
   std::vector<std::string> ports;
-  std::size_t next_port = 0;
-  nlohmann::json gathered = nlohmann::json::object();
+  std::vector<std::unique_ptr<PlotSubscription>> subscriptions;  // one per port; nullptr: errors[i]
+  std::vector<std::string> errors;
   std::chrono::steady_clock::time_point next = std::chrono::steady_clock::now();
 };
 
@@ -275,7 +276,8 @@ json save_system_file(const Browser& browser, const std::string& name) {
     if (c.state == "on") file.activate.push_back(c.path.name);
     for (const auto& p : c.ports)
       for (const auto& s : p.subscriptions)
-        file.connections.push_back({c.path.name + "." + p.name, s.peer,
+        if (!s.peer.starts_with(kPlotOwnerPrefix))  // a page's plot, not the system's wiring
+          file.connections.push_back({c.path.name + "." + p.name, s.peer,
                                     s.asked ? *s.asked : s.req_type == "once" ? ConnPolicy::one_shot() : ConnPolicy::repeated()});
   }
   return json{{"yaml", file.to_yaml()}, {"left_out", left_out}};
@@ -343,11 +345,10 @@ GatedServer::Limits gate_limits(const ServeOptions& options) {
 }
 
 // One plots' stream: every kPlotPeriod (on a fixed schedule; a tick missed is not made up)
-// the ports' latest data as /api/values gives them (value_of(address)), each port asked at its
-// own share of the period, until ended() (the server stops, or the page replaced the stream).
-// Its writes also notice a closed page within a period.
-bool plot_stream(httplib::DataSink& sink, PlotStream& plot, const std::function<bool()>& ended,
-                 const std::function<json(const std::string&)>& value_of) {
+// every datum each port wrote since the last event (plot_entry's text per port, or
+// {"error": why}), until ended() (the server stops, or the page replaced the stream). Its writes
+// also notice a closed page within a period.
+bool plot_stream(httplib::DataSink& sink, PlotStream& plot, const std::function<bool()>& ended) {
   using clock = std::chrono::steady_clock;
   for (auto now = clock::now(); now < plot.next && !ended(); now = clock::now())
     std::this_thread::sleep_for(std::min<clock::duration>(plot.next - now, std::chrono::milliseconds(100)));
@@ -355,14 +356,18 @@ bool plot_stream(httplib::DataSink& sink, PlotStream& plot, const std::function<
     sink.done();
     return true;
   }
-  const std::string& address = plot.ports[plot.next_port];
-  plot.gathered[address] = value_of(address);
-  const auto share = kPlotPeriod / static_cast<int>(plot.ports.size());
-  plot.next = std::max(plot.next + share, clock::now());
-  if (++plot.next_port < plot.ports.size()) return true;
-  plot.next_port = 0;
-  const std::string event = "event: values\ndata: " + plot.gathered.dump() + "\n\n";
-  plot.gathered = json::object();
+  plot.next = std::max(plot.next + kPlotPeriod, clock::now());
+  std::string event = "event: values\ndata: {";
+  for (std::size_t i = 0; i < plot.ports.size(); ++i) {
+    if (i) event += ',';
+    event += json(plot.ports[i]).dump() + ':';
+    if (plot.subscriptions[i]) {
+      event += plot.subscriptions[i]->take();
+    } else {
+      event += json{{"error", plot.errors[i]}}.dump();
+    }
+  }
+  event += "}\n\n";
   return sink.write(event.data(), event.size());
 }
 
@@ -439,8 +444,16 @@ struct WebServer::Impl {
   // look, twice a second, asks the components in turn (Browser::Asking).
   json system(Browser::Asking asking = Browser::Asking::parallel) const {
     json list = json::array();
-    for (const auto& c : browser.list("", Browser::Detail::wiring, asking)) {
+    const std::vector<ComponentInfo> listed = browser.list("", Browser::Detail::wiring, asking);
+    // The page draws a composite (it says its "members") as a frame around them, one level
+    // deep: a member is the first composite's that names it, and a composite is no member.
+    std::map<std::string, std::string> member_of;
+    for (const auto& c : listed)
+      for (const auto& m : c.members) member_of.emplace(m, c.path.name);
+    for (const auto& c : listed) {
       json j = component_json(c, false);
+      const auto it = member_of.find(c.path.name);
+      if (it != member_of.end() && c.members.empty() && it->second != c.path.name) j["member_of"] = it->second;
       // false: the page shows the name as text with a mark, and offers nothing to do to it.
       j["name_ok"] = follows_rule(c.path.name) && follows_rule(c.path.host);
       if (c.timing) j["timing"] = timing_json(*c.timing);
@@ -484,6 +497,27 @@ struct WebServer::Impl {
     std::lock_guard lock(ports_mu);
     ports[address] = {p.address, out};
     return {p.address, out};
+  }
+
+  // A plotted port's subscription, or why there is none (the other ports still plotted).
+  void subscribe_plot(PlotStream& plot, const std::string& address) const {
+    std::string why;
+    try {
+      rtm::Orb* orb = rtm::Orb::instance();
+      if (orb == nullptr) throw BrowseError("this server has no ORB to take a port's data with");
+      addressed_port(address);
+      plot.subscriptions.push_back(std::make_unique<PlotSubscription>(browser, *orb, address));
+      plot.errors.emplace_back();
+      return;
+    } catch (const BrowseError& e) {
+      why = e.what();
+    } catch (const std::invalid_argument& e) {
+      why = e.what();
+    } catch (const CORBA::Exception& e) {
+      why = address + ": " + failure_text(e);
+    }
+    plot.subscriptions.push_back(nullptr);
+    plot.errors.push_back(why);
   }
 
   json port_value(const std::string& address) const {
@@ -638,11 +672,15 @@ struct WebServer::Impl {
       decide(res, [&] {
         auto slot = streams.open(req.get_param_value("page"), StreamSlots::Kind::values);
         auto plot = std::make_shared<PlotStream>();
-        plot->ports = split_ports(req.get_param_value("ports"));
+        for (const std::string& address : split_ports(req.get_param_value("ports")))
+          if (std::find(plot->ports.begin(), plot->ports.end(), address) == plot->ports.end())
+            plot->ports.push_back(address);
+        if (plot->ports.size() > kPlotPortsMax)
+          throw std::invalid_argument(fmt::format("ports: at most {} in one plots' stream", kPlotPortsMax));
+        for (const std::string& address : plot->ports) subscribe_plot(*plot, address);
         res.set_header("Cache-Control", "no-store");
         res.set_chunked_content_provider("text/event-stream", [this, plot, slot](std::size_t, httplib::DataSink& sink) {
-          return plot_stream(sink, *plot, [&] { return stopping.load() || slot->replaced(); },
-                             [this](const std::string& a) { return value_or_error(a); });
+          return plot_stream(sink, *plot, [&] { return stopping.load() || slot->replaced(); });
         });
       });
     });

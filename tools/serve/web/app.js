@@ -9,11 +9,11 @@
 // A component whose name breaks the naming rule (the server says name_ok: false) is shown
 // with a mark and offers nothing to click.
 "use strict";
-const token = new URLSearchParams(location.hash.slice(1)).get("token") || "";
+const fragment = new URLSearchParams(location.hash.slice(1));
+const token = fragment.get("token") || "";
 // This page among the server's streams: its new stream of a kind replaces its old one.
 const pageId = Array.from(crypto.getRandomValues(new Uint8Array(12)), b => b.toString(16).padStart(2, "0")).join("");
 const NS = "http://www.w3.org/2000/svg";
-const W = 300, ROW = 18, GAP = 70;
 let system = [], portAt = new Map(), drag = null, shape = "", pending = false, proposal = null;
 // Each drawn component's timing and error lines, by host and name: written in place.
 let lines = new Map();
@@ -48,23 +48,22 @@ function node(name, parent, text) {
 }
 function showError(text) { document.getElementById("error").textContent = text || ""; }
 
-function layout() {
-  const perRow = Math.max(1, Math.floor(1350 / (W + GAP)));
-  return system.map((c, i) => ({ c, x: 20 + (i % perRow) * (W + GAP), y: 20 + Math.floor(i / perRow) * 220 }));
-}
-
 function keyOf(c) { return c.host + "/" + c.name; }
 function nameOk(c) { return c.name_ok === true; }
 function errorText(c) { return c.state === "error" && c.last_error ? c.last_error : ""; }
 function timingText(c) {
   const t = c.timing || {};
+  // A composite of the paper's kind runs no loop: its members run on theirs (their lines).
+  if (!(c.period_ns > 0))
+    return `${c.kind || ""} · ${c.state} · ${c.members ? "no loop of its own: its members run on theirs" : "no periodic loop"}`;
+  if (!t.cycles) return `${c.kind || ""} · ${c.state} · ${c.period_ns / 1e6} ms · no cycle run yet`;
   const p99 = t.lateness_p99_ns !== undefined ? (t.lateness_p99_ns / 1000).toFixed(0) + " µs" : "–";
   return `${c.kind || ""} · ${c.state} · ${(c.period_ns / 1e6) || "?"} ms · p99 ${p99} · overruns ${t.overruns ?? "–"}`;
 }
 // What the drawing depends on: not the timing and counters, which change every update and are
 // written into the drawing in place, so that a drag or a click is never cut by a redraw.
 function shapeOf(list) {
-  return JSON.stringify(list.map(c => [c.host, c.name, c.name_ok, c.alive, c.state, c.unreachable,
+  return JSON.stringify(list.map(c => [c.host, c.name, c.name_ok, c.alive, c.state, c.unreachable, c.members, c.member_of,
     (c.ports || []).map(p => [p.name, p.type,
       (p.subscriptions || []).map(s => [s.peer, s.type, s.path || "", s.kind || "", s.policy || "", s.failures > 0,
         s.last_failure || ""])])]));
@@ -73,42 +72,390 @@ function shapeOf(list) {
 // A component whose name breaks the naming rule: its name as text, marked, and nothing to do.
 function drawBadlyNamed(svg, { c, x, y }) {
   const g = el("g", { class: "badname" }, svg);
-  el("rect", { class: "box", x, y, width: W, height: 58, rx: 6 }, g);
+  el("rect", { class: "box", x, y, width: BOX_W, height: 58, rx: 6 }, g);
   el("text", { class: "name", x: x + 8, y: y + 16 }, g, c.name);
   el("text", { class: "mark", x: x + 8, y: y + 36, "font-size": 11 }, g,
      "not a valid name: bound by hand, not an RTM component; nothing here acts on it");
 }
 
-function drawComponent(svg, item) {
-  const { c, x, y } = item;
-  if (!nameOk(c)) { drawBadlyNamed(svg, item); return; }
-  const ins = (c.ports || []).filter(p => p.direction === "in"), outs = (c.ports || []).filter(p => p.direction === "out");
-  const h = 58 + ROW * Math.max(ins.length, outs.length, 1);
-  const g = el("g", { class: c.alive === false ? "dead" : c.state || "" }, svg);
-  el("rect", { class: "box", x, y, width: W, height: h, rx: 6 }, g);
+// ---- Layout: layered, left to right along the data ----------------------------------------
+// Each level (the whole system, and inside each composite's frame) is laid out the same way:
+// ranks by the longest path along the connections (loops broken where a depth-first walk
+// meets its own path), dummies where a connection spans ranks, the order within each rank by
+// the barycentre of the neighbours (a few sweeps each way), columns as wide as their widest box
+// and gaps as wide as the connections running through them need. Each connection is routed
+// orthogonally: horizontal at a port or through the slot of a dummy (kept free of boxes),
+// vertical only in a gap between columns, and one going back (against the ranks) over a lane
+// above every box. So a connection never crosses a box.
+const BOX_W = 270, HEAD = 44, ROW = 18, VGAP = 28, LANE = 12, FRAME_PAD = 16, FRAME_HEAD = 38;
+
+function ins(c) { return (c.ports || []).filter(p => p.direction === "in"); }
+function outs(c) { return (c.ports || []).filter(p => p.direction === "out"); }
+function boxHeight(c) {
+  if (!nameOk(c)) return 58;
+  if (c.alive === false || c.unreachable) return 48;
+  return HEAD + 8 + ROW * Math.max(ins(c).length, outs(c).length, 1) + 18;
+}
+function portY(i) { return HEAD + 8 + i * ROW; }
+function componentOf(address) { return address.slice(0, address.lastIndexOf(".")); }
+
+// nodes: [{id, w, h, ports: {key: {x, y}} (relative), rank?: fixed}], edges: [{id, from: [node,
+// key], to: [node, key]}], hints: [[from, to]] (rank only). Returns {pos, routes, width, height}.
+function layered(nodes, edges, hints, margin) {
+  const byId = new Map(nodes.map(n => [n.id, n]));
+  const out = new Map(nodes.map(n => [n.id, []]));
+  const links = edges.filter(e => byId.has(e.from[0]) && byId.has(e.to[0]));
+  for (const e of links) out.get(e.from[0]).push(e.to[0]);
+  for (const [a, b] of hints) if (byId.has(a) && byId.has(b)) out.get(a).push(b);
+  // Loops: an edge to a node on the walk's own path goes back; ranks ignore it.
+  const state = new Map(), back = new Set();
+  const walk = id => {
+    state.set(id, 1);
+    for (const t of out.get(id)) {
+      if (state.get(t) === 1) back.add(id + "\n" + t); else if (!state.has(t)) walk(t);
+    }
+    state.set(id, 2);
+  };
+  nodes.forEach(n => { if (!state.has(n.id)) walk(n.id); });
+  const rank = new Map(nodes.map(n => [n.id, n.rank === Infinity ? 0 : n.rank ?? 0]));
+  for (let changed = true, guard = 0; changed && guard < nodes.length + 2; guard++) {
+    changed = false;
+    for (const n of nodes) for (const t of out.get(n.id)) {
+      if (back.has(n.id + "\n" + t) || byId.get(t).rank !== undefined) continue;
+      if (rank.get(t) < rank.get(n.id) + 1) { rank.set(t, rank.get(n.id) + 1); changed = true; }
+    }
+  }
+  const last = Math.max(0, ...nodes.filter(n => n.rank !== Infinity).map(n => rank.get(n.id)));
+  for (const n of nodes) if (n.rank === Infinity) rank.set(n.id, last + 1);  // a frame's exits
+  const R = Math.max(0, ...[...rank.values()]) + 1;
+  // Dummies: one per rank a forward edge spans.
+  const layers = Array.from({ length: R }, () => []);
+  const all = new Map();
+  nodes.forEach(n => { all.set(n.id, { ...n, r: rank.get(n.id) }); layers[rank.get(n.id)].push(n.id); });
+  const chains = new Map();  // edge id -> node ids along it (forward edges)
+  for (const e of links) {
+    const a = rank.get(e.from[0]), b = rank.get(e.to[0]);
+    if (b <= a) continue;
+    const chain = [e.from[0]];
+    for (let r = a + 1; r < b; r++) {
+      const id = `dummy\n${e.id}\n${r}`;
+      all.set(id, { id, w: 0, h: 12, dummy: true, r, ports: {} });
+      layers[r].push(id);
+      chain.push(id);
+    }
+    chain.push(e.to[0]);
+    chains.set(e.id, chain);
+  }
+  // Order: barycentre sweeps.
+  const nbr = new Map([...all.keys()].map(id => [id, { up: [], down: [] }]));
+  for (const chain of chains.values())
+    for (let i = 1; i < chain.length; i++) { nbr.get(chain[i]).up.push(chain[i - 1]); nbr.get(chain[i - 1]).down.push(chain[i]); }
+  for (const [a, b] of hints)
+    if (all.has(a) && all.has(b) && all.get(b).r === all.get(a).r + 1) { nbr.get(b).up.push(a); nbr.get(a).down.push(b); }
+  const index = new Map();
+  const reindex = () => layers.forEach(l => l.forEach((id, i) => index.set(id, i)));
+  reindex();
+  for (let sweep = 0; sweep < 8; sweep++) {
+    const down = sweep % 2 === 0;
+    const order = down ? layers.keys() : [...layers.keys()].reverse();
+    for (const r of order) {
+      const bary = id => { const ns = nbr.get(id)[down ? "up" : "down"]; return ns.length ? ns.reduce((s, n) => s + index.get(n), 0) / ns.length : index.get(id); };
+      const keyed = layers[r].map(id => [bary(id), index.get(id), id]);
+      keyed.sort((p, q) => p[0] - q[0] || p[1] - q[1]);
+      layers[r] = keyed.map(k => k[2]);
+      layers[r].forEach((id, i) => index.set(id, i));
+    }
+  }
+  // Gaps: one vertical channel per hop through them (gap g lies right of column g; -1: left margin).
+  const gapUse = new Map(), useGap = g => { gapUse.set(g, (gapUse.get(g) || 0) + 1); };
+  for (const chain of chains.values()) for (let i = 1; i < chain.length; i++) useGap(all.get(chain[i - 1]).r);
+  const backEdges = links.filter(e => rank.get(e.to[0]) <= rank.get(e.from[0]));
+  for (const e of backEdges) { useGap(rank.get(e.from[0])); useGap(rank.get(e.to[0]) - 1); }
+  const gapWidth = g => Math.max(g < 0 || g >= R - 1 ? margin.side : 64, 16 * ((gapUse.get(g) || 0) + 1));
+  const colX = [], colW = [];
+  let x = gapWidth(-1);
+  for (let r = 0; r < R; r++) {
+    colX[r] = x;
+    colW[r] = Math.max(0, ...layers[r].map(id => all.get(id).w));
+    x += colW[r] + gapWidth(r);
+  }
+  const width = x;
+  // Rows: stacked in order, each pulled down towards its upstream neighbours' ports.
+  const top = margin.top + LANE * backEdges.length;
+  const pos = new Map();
+  const anchorY = id => { const n = all.get(id); return n.dummy ? 6 : n.h / 2; };
+  for (let r = 0; r < R; r++) {
+    let y = top;
+    for (const id of layers[r]) {
+      const n = all.get(id), ups = nbr.get(id).up.filter(u => pos.has(u));
+      let want = y;
+      if (ups.length) want = ups.reduce((s, u) => s + pos.get(u).y + anchorY(u), 0) / ups.length - anchorY(id);
+      const at = Math.max(y, want);
+      pos.set(id, { x: colX[r], y: at });
+      y = at + n.h + (n.dummy ? 8 : VGAP);
+    }
+  }
+  const height = Math.max(top, ...[...all.values()].map(n => pos.get(n.id).y + n.h)) + margin.bottom;
+  // Channels: spread over each gap in the order they are asked for.
+  const taken = new Map();
+  const channel = g => {
+    const k = taken.get(g) || 0; taken.set(g, k + 1);
+    const left = g < 0 ? 0 : colX[g] + colW[g], right = g + 1 < R ? colX[g + 1] : width;
+    return Math.round(left + (right - left) * (k + 1) / ((gapUse.get(g) || 0) + 1));
+  };
+  const portPoint = ([id, key], side) => {
+    const n = all.get(id), p = pos.get(id), q = n.ports[key] || { x: side === "out" ? n.w : 0, y: n.h / 2 };
+    return { x: p.x + q.x, y: p.y + q.y };
+  };
+  const routes = new Map();
+  for (const e of links) {
+    const a = portPoint(e.from, "out"), b = portPoint(e.to, "in");
+    const pts = [a];
+    const chain = chains.get(e.id);
+    if (chain) {
+      let cur = a;
+      for (let i = 1; i < chain.length; i++) {
+        const id = chain[i], n = all.get(id), g = all.get(chain[i - 1]).r, cx = channel(g);
+        const enter = n.dummy ? { x: colX[n.r], y: pos.get(id).y + 6 } : b;
+        pts.push({ x: cx, y: cur.y }, { x: cx, y: enter.y }, enter);
+        if (n.dummy) { cur = { x: colX[n.r] + colW[n.r], y: enter.y }; pts.push(cur); }
+      }
+    } else {
+      const lane = top - LANE * (backEdges.indexOf(e) + 1);
+      const c1 = channel(rank.get(e.from[0])), c2 = channel(rank.get(e.to[0]) - 1);
+      pts.push({ x: c1, y: a.y }, { x: c1, y: lane }, { x: c2, y: lane }, { x: c2, y: b.y }, b);
+    }
+    routes.set(e.id, pts);
+  }
+  return { pos, routes, width, height };
+}
+
+// The drawing's parts from the system: boxes, frames (a composite's members inside), and the
+// connections between ports, each with where it starts and ends.
+function plan() {
+  const byName = new Map(system.filter(nameOk).map(c => [c.name, c]));
+  const frameOf = new Map();  // member -> composite
+  const frames = system.filter(c => nameOk(c) && Array.isArray(c.members) && c.alive !== false)
+    .map(c => ({ c, members: c.members.filter(m => byName.has(m) && m !== c.name) }))
+    .filter(f => f.members.length);
+  frames.forEach(f => f.members.forEach(m => frameOf.set(m, f.c.name)));
+  const connections = [];
+  for (const c of system) {
+    if (!nameOk(c)) continue;
+    for (const p of c.ports || []) for (const s of p.subscriptions || []) {
+      const to = componentOf(s.peer);
+      if (byName.has(to)) connections.push({ c, p, s, from: `${c.name}.${p.name}`, to: s.peer, fromC: c.name, toC: to });
+    }
+  }
+  connections.forEach((k, i) => { k.id = "e" + i; });
+  return { byName, frames, frameOf, connections };
+}
+
+function boxNode(c) {
+  const ports = {};
+  ins(c).forEach((p, i) => { ports[p.name + "\nin"] = { x: 0, y: portY(i) }; });
+  outs(c).forEach((p, i) => { ports[p.name + "\nout"] = { x: BOX_W, y: portY(i) }; });
+  return { id: keyOf(c), w: BOX_W, h: boxHeight(c), ports, c };
+}
+
+// A composite's frame: its members laid out inside, its own InPorts on its left side (each
+// wired inside to the member's port it is), the connections that cross it through points on
+// its sides. Returns the top level's node for it and what to draw inside.
+function frameLayout(f, connections, byName) {
+  const inner = f.members.map(m => boxNode(byName.get(m)));
+  const innerEdges = [], hints = [], borders = [];
+  const own = new Map();  // "<member>.<port>" it exposes -> its own port's border id
+  for (const p of ins(f.c)) {
+    const id = `border\nin\n${p.name}`;
+    borders.push({ id, w: 0, h: ROW, rank: 0, ports: {}, port: p, side: "in" });
+    const m = f.members.find(m => ins(byName.get(m)).some(q => q.name === p.name && q.type === p.type));
+    own.set(`${m}.${p.name}`, id);
+    if (m) innerEdges.push({ id: `expose\n${p.name}`, from: [id, ""], to: [keyOf(byName.get(m)), p.name + "\nin"], expose: true });
+  }
+  for (const p of outs(f.c)) borders.push({ id: `border\nout\n${p.name}`, w: 0, h: ROW, rank: Infinity, ports: {}, port: p, side: "out" });
+  const cross = new Map();  // connection id -> {inside edge id, border id, side}
+  for (const k of connections) {
+    const fromIn = f.members.includes(k.fromC), toIn = f.members.includes(k.toC);
+    if (fromIn && toIn) {
+      innerEdges.push({ id: k.id, from: [keyOf(k.c), k.p.name + "\nout"], to: [keyOf(byName.get(k.toC)), k.s.peer.slice(k.toC.length + 1) + "\nin"] });
+    } else if (toIn) {
+      let id = own.get(k.to);
+      if (!id) { id = `border\nin\n${k.id}`; borders.push({ id, w: 0, h: ROW, rank: 0, ports: {}, side: "in" }); }
+      const inside = `${k.id}\ninside`;
+      if (own.get(k.to)) { cross.set(k.id, { border: id, inside: `expose\n${k.to.slice(k.toC.length + 1)}`, side: "in" }); }
+      else { innerEdges.push({ id: inside, from: [id, ""], to: [keyOf(byName.get(k.toC)), k.s.peer.slice(k.toC.length + 1) + "\nin"] }); cross.set(k.id, { border: id, inside, side: "in" }); }
+    } else if (fromIn) {
+      const id = `border\nout\n${k.id}`, inside = `${k.id}\ninside`;
+      borders.push({ id, w: 0, h: ROW, rank: Infinity, ports: {}, side: "out" });
+      innerEdges.push({ id: inside, from: [keyOf(k.c), k.p.name + "\nout"], to: [id, ""] });
+      cross.set(k.id, { border: id, inside, side: "out" });
+    }
+  }
+  // Members not yet wired to each other: in the order the composite names them (its diagram's).
+  if (!innerEdges.some(e => !e.expose && !e.id.includes("\ninside")))
+    for (let i = 1; i < inner.length; i++) hints.push([inner[i - 1].id, inner[i].id]);
+  const members = inner;
+  const nodes = [...borders, ...members];
+  // Members start at rank 1: rank 0 is the frame's left side.
+  for (const n of members) hints.push(...borders.filter(b => b.side === "in").slice(0, 1).map(b => [b.id, n.id]));
+  if (!borders.some(b => b.side === "in")) nodes.push({ id: "border\nleft", w: 0, h: 1, rank: 0, ports: {} }), members.forEach(n => hints.push(["border\nleft", n.id]));
+  // Below the frame's head, a row for its ports' names, above the members.
+  const L = layered(nodes, innerEdges, hints, { side: FRAME_PAD + 14, top: FRAME_HEAD + 24, bottom: FRAME_PAD });
+  // The frame's left side is column 0 (its borders), its right side the last column's.
+  const left = Math.min(...borders.filter(b => b.side === "in").map(b => L.pos.get(b.id).x), ...members.map(n => L.pos.get(n.id).x - FRAME_PAD - 14));
+  const shift = -left;
+  const right = Math.max(...members.map(n => L.pos.get(n.id).x + n.w + FRAME_PAD + 14), ...borders.filter(b => b.side === "out").map(b => L.pos.get(b.id).x));
+  const w = right + shift;
+  for (const b of borders) { const p = L.pos.get(b.id); p.x = b.side === "in" ? -shift : right; }
+  const ports = {};
+  for (const b of borders) ports[b.id] = { x: b.side === "in" ? 0 : w, y: L.pos.get(b.id).y + ROW / 2 };
+  // Inside routes start or end at a border point: move them onto the frame's side.
+  for (const e of innerEdges) {
+    const pts = L.routes.get(e.id);
+    if (!pts) continue;
+    if (e.from[0].startsWith("border")) pts[0] = { x: -shift, y: pts[0].y };
+    if (e.to[0].startsWith("border")) pts[pts.length - 1] = { x: right, y: pts[pts.length - 1].y };
+  }
+  return { node: { id: keyOf(f.c), w, h: L.height, ports, frame: true }, f, L, shift, borders, members, innerEdges, cross };
+}
+
+function layout() {
+  const { byName, frames, frameOf, connections } = plan();
+  const framed = frames.map(f => frameLayout(f, connections, byName));
+  const frameById = new Map(framed.map(F => [F.f.c.name, F]));
+  const top = [];
+  for (const c of system) {
+    if (nameOk(c) && (frameById.has(c.name) || frameOf.has(c.name))) continue;
+    top.push(boxNode(c));
+  }
+  framed.forEach(F => top.push(F.node));
+  // The top level's connections: a member's end is its frame's border point.
+  const edges = [];
+  for (const k of connections) {
+    const fa = frameOf.get(k.fromC), fb = frameOf.get(k.toC);
+    if (fa && fa === fb) continue;
+    const from = fa ? [keyOf(byName.get(fa)), frameById.get(fa).cross.get(k.id).border] : [keyOf(k.c), k.p.name + "\nout"];
+    const to = fb ? [keyOf(byName.get(fb)), frameById.get(fb).cross.get(k.id).border]
+                  : [keyOf(byName.get(k.toC)), k.s.peer.slice(k.toC.length + 1) + "\nin"];
+    edges.push({ id: k.id, from, to });
+  }
+  // The system in its order (by host and name) before the sweeps.
+  const L = layered(top, edges, [], { side: 24, top: 24, bottom: 40 });
+  return { L, top, framed, connections, frameOf, frameById, byName };
+}
+
+function pathOf(points) {
+  const pts = points.filter((p, i) => i === 0 || p.x !== points[i - 1].x || p.y !== points[i - 1].y);
+  return "M" + pts.map(p => `${Math.round(p.x)},${Math.round(p.y)}`).join(" L");
+}
+
+function drawComponent(svg, c, x, y) {
+  if (!nameOk(c)) { drawBadlyNamed(svg, { c, x, y }); return; }
+  const h = boxHeight(c);
+  const g = el("g", { class: c.alive === false ? "dead" : c.state || "", "data-box": c.name }, svg);
+  el("rect", { class: "box", x, y, width: BOX_W, height: h, rx: 6 }, g);
+  drawHead(g, c, x, y, BOX_W);
+  if (c.alive === false || c.unreachable) return;
+  lines.get(keyOf(c)).error = el("text", { x: x + 8, y: y + h - 6, class: "msg", "font-size": 11 }, g, errorText(c));
+  ins(c).forEach((p, i) => drawPort(svg, g, c, p, x, y + portY(i), "in"));
+  outs(c).forEach((p, i) => drawPort(svg, g, c, p, x + BOX_W, y + portY(i), "out"));
+}
+
+// A box's or a frame's first lines: the name (click: details), on/off/reset, timing.
+function drawHead(g, c, x, y, w) {
   const title = el("text", { class: "name", x: x + 8, y: y + 16, "data-component": c.name }, g, c.name);
   title.addEventListener("click", () => showDetails(c.name));
   if (c.alive === false) { el("text", { x: x + 8, y: y + 34 }, g, "dead: " + (c.dead_reason || "")); return; }
   if (c.unreachable) { el("text", { x: x + 8, y: y + 34 }, g, c.unreachable); return; }
-  lines.set(keyOf(c), {
-    timing: el("text", { x: x + 8, y: y + 32, "font-size": 11 }, g, timingText(c)),
-    error: el("text", { x: x + 8, y: y + h + 14, class: "msg", "font-size": 11 }, g, errorText(c)),
-  });
+  lines.set(keyOf(c), { timing: el("text", { x: x + 8, y: y + 32, "font-size": 11, class: "timing" }, g, timingText(c)), error: null });
   ["on", "off", "reset"].forEach((verb, k) => {
-    const b = el("text", { class: "btn", x: x + W - 80 + k * 26, y: y + 16, "font-size": 11 }, g, verb);
+    const b = el("text", { class: "btn", x: x + w - 80 + k * 26, y: y + 16, "font-size": 11 }, g, verb);
     b.addEventListener("click", () => api("POST", apiPath("components", c.name, verb)).then(done).catch(e => showError(e.message)));
   });
-  ins.forEach((p, i) => drawPort(svg, g, c, p, x, y + 50 + i * ROW, "in"));
-  outs.forEach((p, i) => drawPort(svg, g, c, p, x + W, y + 50 + i * ROW, "out"));
+}
+
+// The frame and its lines beneath the edges (which run inside it), its members and ports above.
+function drawFrame(svg, under, F, x, y) {
+  const c = F.f.c;
+  const g = el("g", { class: "composite " + (c.state || ""), "data-frame": c.name, "data-members": F.f.members.join(" ") }, under);
+  el("rect", { class: "frame", x, y, width: F.node.w, height: F.node.h, rx: 10 }, g);
+  drawHead(g, c, x, y + 2, F.node.w);
+  if (lines.has(keyOf(c))) lines.get(keyOf(c)).error = el("text", { x: x + 8, y: y + F.node.h - 4, class: "msg", "font-size": 11 }, g, errorText(c));
+  const ox = x + F.shift, oy = y;
+  for (const n of F.members) { const p = F.L.pos.get(n.id); drawComponent(svg, n.c, ox + p.x, oy + p.y); }
+  // Its own ports on its sides (drag onto them as onto any port).
+  for (const b of F.borders) {
+    if (!b.port) continue;
+    const q = F.node.ports[b.id];
+    drawPort(svg, el("g", { class: "composite-port" }, svg), c, b.port, x + q.x, y + q.y, b.side);
+  }
+  return { ox, oy };
+}
+
+function render() {
+  const svg = document.getElementById("svg");
+  svg.replaceChildren();
+  portAt = new Map();
+  lines = new Map();
+  const frameLayer = el("g", {}, svg);  // frames beneath the edges that run inside them
+  const edgeLayer = el("g", {}, svg);  // beneath the components: an edge never covers a port
+  const { L, top, framed, connections, frameOf, frameById } = layout();
+  svg.setAttribute("width", Math.max(L.width, 400));
+  svg.setAttribute("height", Math.max(L.height, 300));
+  const origin = new Map();
+  for (const n of top) {
+    const p = L.pos.get(n.id);
+    if (n.frame) origin.set(n.id, drawFrame(svg, frameLayer, framed.find(F => F.node === n), p.x, p.y));
+    else drawComponent(svg, n.c, p.x, p.y);
+  }
+  // The wiring inside each frame that is no connection of its own: a composite's port is its member's.
+  for (const F of framed) {
+    const o = origin.get(F.node.id);
+    for (const e of F.innerEdges.filter(e => e.expose)) {
+      const pts = F.L.routes.get(e.id);
+      if (pts) el("path", { class: "expose", d: pathOf(pts.map(p => ({ x: p.x + o.ox, y: p.y + o.oy }))) }, edgeLayer);
+    }
+  }
+  for (const k of connections) {
+    const fa = frameOf.get(k.fromC), fb = frameOf.get(k.toC);
+    const inside = (name, id) => { const F = frameById.get(name), o = origin.get(F.node.id);
+      return (F.L.routes.get(id) || []).map(p => ({ x: p.x + o.ox, y: p.y + o.oy })); };
+    let pts;
+    if (fa && fa === fb) pts = inside(fa, k.id);
+    else {
+      pts = [...(L.routes.get(k.id) || [])];
+      if (fa) pts = [...inside(fa, frameById.get(fa).cross.get(k.id).inside), ...pts];
+      if (fb) pts = [...pts, ...inside(fb, frameById.get(fb).cross.get(k.id).inside)];
+    }
+    if (pts.length >= 2) drawEdge(edgeLayer, k, pts);
+  }
+  drawProposed();
+}
+
+function drawEdge(layer, k, pts) {
+  const { s, from } = k;
+  // A subscription whose deliveries fail (a refusal by access control, a stalled reader)
+  // says so on its edge, with why.
+  const failing = s.failures > 0;
+  const path = el("path", { class: "edge " + (s.type === "once" ? "once" : "repeated") + (failing ? " failing" : ""),
+                            "data-from": from, "data-to": s.peer, d: pathOf(pts) }, layer);
+  const why = failing ? `; failing ×${s.failures}${s.last_failure ? ": " + s.last_failure : ""}` : "";
+  const via = s.kind ? `, ${s.kind}` : s.path ? `, ${s.path}` : "";
+  const policy = s.policy && s.policy !== s.type ? `; policy ${s.policy}` : "";
+  el("title", {}, path, `${from} → ${s.peer} (${s.type}${via})${policy}${why}; click to disconnect`);
+  path.addEventListener("click", () => api("POST", "/api/disconnect", { from, to: s.peer, type: s.type })
+    .then(done).catch(e => showError(e.message)));
 }
 
 function drawPort(svg, g, c, p, px, py, side) {
   const address = `${c.name}.${p.name}`;
-  portAt.set(address, { x: px, y: py });
+  if (!portAt.has(address) || !c.members) portAt.set(address, { x: px, y: py });
   const circle = el("circle", { class: "port", cx: px, cy: py, r: 6, "data-port": address, "data-type": p.type }, g);
-  el("title", {}, circle, `${address} : ${p.type}` + (p.description ? ` (${p.description})` : ""));
-  el("text", { x: side === "in" ? px + 10 : px - 10, y: py + 4, "text-anchor": side === "in" ? "start" : "end",
-               "font-size": 11 }, g, `${p.name} : ${String(p.type).replace("RTM::", "")}`);
+  const units = (p.elements || []).map(e => e.unit ? `${e.name} [${e.unit}]` : e.name).join(", ");
+  el("title", {}, circle, `${address} : ${p.type}` + (p.description ? ` (${p.description})` : "") + (units ? ` — ${units}` : ""));
+  const label = `${p.name} : ${String(p.type).replace("RTM::", "")}`;
+  if (c.members) el("text", { x: side === "in" ? px + 8 : px - 8, y: py - 11, "text-anchor": side === "in" ? "start" : "end", "font-size": 11, class: "frameport" }, g, label);
+  else el("text", { x: side === "in" ? px + 10 : px - 10, y: py + 4, "text-anchor": side === "in" ? "start" : "end", "font-size": 11 }, g, label);
   if (side === "out") {
     circle.addEventListener("mousedown", ev => {
       drag = { from: address, line: el("line", { x1: px, y1: py, x2: px, y2: py, stroke: "#999", "pointer-events": "none" }, svg) };
@@ -121,42 +468,6 @@ function drawPort(svg, g, c, p, px, py, side) {
 }
 
 function curve(a, b) { return `M${a.x},${a.y} C${a.x + 60},${a.y} ${b.x - 60},${b.y} ${b.x},${b.y}`; }
-
-function drawEdges(svg) {
-  for (const c of system) {
-    if (!nameOk(c)) continue;
-    for (const p of c.ports || [])
-      for (const s of p.subscriptions || []) {
-        const from = `${c.name}.${p.name}`, a = portAt.get(from), b = portAt.get(s.peer);
-        if (!a || !b) continue;
-        // A subscription whose deliveries fail (a refusal by access control, a stalled reader)
-        // says so on its edge, with why.
-        const failing = s.failures > 0;
-        const path = el("path", { class: "edge " + (s.type === "once" ? "once" : "repeated") + (failing ? " failing" : ""),
-                                  "data-from": from, "data-to": s.peer, d: curve(a, b) }, svg);
-        const why = failing ? `; failing ×${s.failures}${s.last_failure ? ": " + s.last_failure : ""}` : "";
-        const via = s.kind ? `, ${s.kind}` : s.path ? `, ${s.path}` : "";
-        const policy = s.policy && s.policy !== s.type ? `; policy ${s.policy}` : "";
-        el("title", {}, path, `${from} → ${s.peer} (${s.type}${via})${policy}${why}; click to disconnect`);
-        path.addEventListener("click", () => api("POST", "/api/disconnect", { from, to: s.peer, type: s.type })
-          .then(done).catch(e => showError(e.message)));
-      }
-  }
-}
-
-function render() {
-  const svg = document.getElementById("svg");
-  svg.replaceChildren();
-  portAt = new Map();
-  lines = new Map();
-  const edges = el("g", {}, svg);  // beneath the components: an edge never covers a port
-  const items = layout();
-  // Tall enough for every row (a box is at most 220 px apart from the next row's).
-  svg.setAttribute("height", Math.max(900, ...items.map(i => i.y + 240)));
-  items.forEach(item => drawComponent(svg, item));
-  drawEdges(edges);
-  drawProposed();
-}
 
 function connect(from, to, circle) {
   const line = drag.line; drag = null; line.remove();
@@ -177,21 +488,36 @@ document.addEventListener("mouseup", () => {
   if (pending) { shape = shapeOf(system); pending = false; render(); }
 });
 
-// Plots: each OutPort clicked gets one, the last 200 values of each of its fields as a line on
-// a canvas; a second click removes it. The server sends every plotted port's latest datum 25
-// times a second on one stream (/api/values/stream), opened afresh when the set changes.
+// Plots: each OutPort clicked gets one (a second click removes it; the URL's fragment lists
+// them: #token=…&plot=sensor0.wrench&plot=…, so a page opened from it plots them again). The
+// server subscribes to each plotted port and sends every datum it wrote on one stream
+// (/api/values/stream), 25 events a second, with the count it sent and the count lost on the
+// way. The plot keeps the last WINDOW_S seconds; where a pixel column holds more than one datum
+// it draws their minimum to maximum (an envelope), so that no datum is left out of the drawing.
 const plots = new Map();
+const WINDOW_S = 10, PLOT_W = 360, PLOT_H = 170, AX_L = 52, AX_B = 22, AX_T = 8, AX_R = 8;
+const COLOURS = ["#d22", "#2a2", "#36c", "#c6c", "#c90", "#099"];
 let valuesStream = null, drawQueued = false;
+
+function writeUrl() {
+  const q = new URLSearchParams();
+  q.set("token", token);
+  for (const address of plots.keys()) q.append("plot", address);
+  history.replaceState(null, "", "#" + q.toString());
+}
 function startPlot(address) {
-  if (plots.has(address)) { plots.get(address).div.remove(); plots.delete(address); openValues(); return; }
+  if (plots.has(address)) { plots.get(address).div.remove(); plots.delete(address); writeUrl(); openValues(); return; }
   if (plots.size >= 10) { showError("at most 10 plots: click a plotted port to remove its plot"); return; }
   const div = node("div", document.getElementById("plots"));
   div.className = "plot"; div.dataset.port = address;
   node("b", div, address);
-  node("br", div);
-  const canvas = node("canvas", div); canvas.width = 360; canvas.height = 120;
+  const axis = node("div", div); axis.className = "axis";
+  const canvas = node("canvas", div); canvas.width = PLOT_W; canvas.height = PLOT_H;
+  const legend = node("div", div); legend.className = "legend";
   node("div", div).className = "info";
-  plots.set(address, { address, div, canvas, series: [], received: 0, failed: 0, drops: 0, started: performance.now(), last: null, infoAt: 0 });
+  plots.set(address, { address, div, canvas, axis, legend, t: [], cols: [], start: 0, t0: null, received: 0, sent: 0,
+                       lost: 0, failed: 0, error: "", type: "", stamped: true, shownLegend: "", infoAt: 0 });
+  writeUrl();
   openValues();
 }
 function openValues() {
@@ -203,21 +529,27 @@ function openValues() {
   valuesStream.addEventListener("values", ev => showValues(JSON.parse(ev.data)));
   valuesStream.onerror = () => plots.forEach(p => p.failed++);
 }
+// The port's description: its elements' names and units, from the system.
+function portOf(address) {
+  const c = system.find(x => x.name === componentOf(address));
+  return c && (c.ports || []).find(p => p.name === address.slice(address.lastIndexOf(".") + 1));
+}
 function showValues(all) {
   for (const [address, d] of Object.entries(all)) {
     const plot = plots.get(address);
     if (!plot) continue;
-    if (d.error) { plot.failed++; continue; }
-    const stamp = JSON.stringify(d.time);
-    if (stamp !== plot.last) {
-      plot.last = stamp; plot.received++;
-      // Drops: data the port published between two shown, counted from the stamps and the
-      // writing component's period (none known for a port written on arrival).
-      const t = d.time ? d.time.sec * 1e3 + d.time.nsec / 1e6 : null, period = periodOf(address);
-      if (t !== null && plot.lastMs !== undefined && period > 0) plot.drops += Math.max(0, Math.round((t - plot.lastMs) / period) - 1);
-      plot.lastMs = t ?? undefined;
-    }
-    (d.values || []).forEach((v, i) => { (plot.series[i] = plot.series[i] || []).push(+v); if (plot.series[i].length > 200) plot.series[i].shift(); });
+    if (d.error) { plot.error = d.error; plot.dirty = true; continue; }
+    plot.error = ""; plot.type = d.type || ""; plot.stamped = d.stamped !== false;
+    const t = d.t || [], v = d.v || [];
+    if (t.length && plot.t0 === null) plot.t0 = Math.floor(t[0]);
+    for (let i = 0; i < t.length; i++) plot.t.push(t[i] - plot.t0);  // seconds from t0: a double keeps ns
+    v.forEach((col, k) => { const c = plot.cols[k] || (plot.cols[k] = new Array(plot.t.length - t.length).fill(null)); for (const x of col) c.push(x); });
+    plot.received += t.length;
+    plot.sent = d.sent ?? plot.sent; plot.lost = d.lost ?? plot.lost;
+    // Data older than the window go (in one cut now and then, not one shift per datum).
+    const newest = plot.t[plot.t.length - 1];
+    while (plot.start < plot.t.length && plot.t[plot.start] < newest - WINDOW_S) plot.start++;
+    if (plot.start > 4096) { plot.t = plot.t.slice(plot.start); plot.cols = plot.cols.map(c => c.slice(plot.start)); plot.start = 0; }
     plot.dirty = true;
   }
   if (!drawQueued) {  // drawn once per frame, not per event
@@ -225,33 +557,95 @@ function showValues(all) {
     requestAnimationFrame(() => { drawQueued = false; plots.forEach(p => { if (p.dirty) { p.dirty = false; drawPlot(p); } }); });
   }
 }
-// The period in ms of the component that writes an OutPort ("<component>.<port>"), 0 if none.
-function periodOf(address) {
-  const c = system.find(x => x.name === address.slice(0, address.lastIndexOf(".")));
-  return c && c.period_ns ? c.period_ns / 1e6 : 0;
+// Ticks at 1, 2 or 5 times a power of ten, about n of them over [lo, hi].
+function ticks(lo, hi, n) {
+  const raw = (hi - lo) / n, mag = Math.pow(10, Math.floor(Math.log10(raw)));
+  const step = [1, 2, 5, 10].map(m => m * mag).find(s => s >= raw) || raw;
+  const out = [];
+  for (let x = Math.ceil(lo / step) * step; x <= hi + step * 1e-9; x += step) out.push(Math.abs(x) < step * 1e-9 ? 0 : x);
+  return { out, step };
+}
+function tickText(x, step) { const d = Math.max(0, -Math.floor(Math.log10(step))); return x.toFixed(Math.min(d, 6)); }
+// The legend (HTML, as text): one line per element, its colour, name and unit.
+function drawLegend(plot) {
+  const p = portOf(plot.address), n = plot.cols.length;
+  const elements = p && p.elements && p.elements.length === n ? p.elements : Array.from({ length: n }, (_, i) => ({ name: `value ${i}`, unit: "" }));
+  const key = JSON.stringify(elements);
+  if (key === plot.shownLegend) return;
+  plot.shownLegend = key;
+  plot.legend.replaceChildren();
+  elements.forEach((e, i) => {
+    const item = node("span", plot.legend); item.className = "item";
+    node("span", item, "■").className = "c" + (i % COLOURS.length);
+    node("span", item, e.unit ? `${e.name} [${e.unit}]` : `${e.name}`).dataset.element = e.name;
+  });
+  const units = [...new Set(elements.map(e => e.unit))];
+  plot.axis.textContent = units.length === 1 ? `value [${units[0] || "no unit"}] over time [s]`
+                                             : `value [${units.join(", ")}: see the legend] over time [s]`;
+  plot.canvas.dataset.units = units.join(",");
 }
 // On a canvas: lines on an SVG cost the browser a layout of every point at every frame.
 function drawPlot(plot) {
   const canvas = plot.canvas, g = canvas.getContext("2d");
-  let lo = Infinity, hi = -Infinity;
-  for (const s of plot.series) for (const v of s) { if (v < lo) lo = v; if (v > hi) hi = v; }
-  if (lo === Infinity) return;
-  if (hi === lo) { hi += 1; lo -= 1; }
-  const colours = ["#d22", "#2a2", "#36c", "#c6c", "#c90", "#099"];
   g.clearRect(0, 0, canvas.width, canvas.height);
-  plot.series.forEach((s, i) => {
-    g.beginPath();
-    g.strokeStyle = colours[i % 6];
-    s.forEach((v, k) => { const x = k * 1.8, y = 115 - (v - lo) / (hi - lo) * 110; if (k) g.lineTo(x, y); else g.moveTo(x, y); });
+  drawLegend(plot);
+  const n = plot.t.length - plot.start;
+  const x0 = AX_L, x1 = canvas.width - AX_R, y0 = AX_T, y1 = canvas.height - AX_B, px = x1 - x0;
+  const newest = n ? plot.t[plot.t.length - 1] : 0, from = newest - WINDOW_S;
+  let lo = Infinity, hi = -Infinity;
+  for (const c of plot.cols) for (let i = plot.start; i < c.length; i++) { const v = c[i]; if (v !== null) { if (v < lo) lo = v; if (v > hi) hi = v; } }
+  if (lo === Infinity) { lo = -1; hi = 1; }
+  if (hi === lo) { hi += Math.abs(hi) * 0.1 || 1; lo -= Math.abs(lo) * 0.1 || 1; }
+  const pad = (hi - lo) * 0.05; lo -= pad; hi += pad;
+  const X = t => x0 + (t - from) / WINDOW_S * px, Y = v => y1 - (v - lo) / (hi - lo) * (y1 - y0);
+  // Axes, ticks and their numbers (numbers only: names and units are the legend's, as text).
+  g.strokeStyle = "#999"; g.fillStyle = "#444"; g.font = "10px sans-serif"; g.lineWidth = 1;
+  g.beginPath(); g.moveTo(x0, y0); g.lineTo(x0, y1); g.lineTo(x1, y1); g.stroke();
+  const vt = ticks(lo, hi, 5);
+  g.textAlign = "right"; g.textBaseline = "middle";
+  for (const v of vt.out) { const y = Y(v); g.strokeStyle = "#eee"; g.beginPath(); g.moveTo(x0 + 1, y); g.lineTo(x1, y); g.stroke();
+    g.strokeStyle = "#999"; g.beginPath(); g.moveTo(x0 - 4, y); g.lineTo(x0, y); g.stroke(); g.fillText(tickText(v, vt.step), x0 - 6, y); }
+  g.textAlign = "center"; g.textBaseline = "top";
+  const tt = ticks(-WINDOW_S, 0, 5);
+  for (const s of tt.out) { const x = X(newest + s); g.beginPath(); g.moveTo(x, y1); g.lineTo(x, y1 + 4); g.stroke(); g.fillText(s === 0 ? "0 s" : tickText(s, tt.step), x, y1 + 6); }
+  canvas.dataset.vticks = vt.out.length; canvas.dataset.tticks = tt.out.length;
+  // Every datum in the window: a line through each where they are fewer than the pixels, else
+  // per pixel column the minimum to maximum of the data in it, joined to the next.
+  let envelope = false;
+  g.save(); g.beginPath(); g.rect(x0, y0 - 1, px + 1, y1 - y0 + 2); g.clip();
+  plot.cols.forEach((c, k) => {
+    g.strokeStyle = COLOURS[k % COLOURS.length]; g.beginPath();
+    if (n <= px) {
+      let pen = false;
+      for (let i = plot.start; i < c.length; i++) { if (c[i] === null) { pen = false; continue; } const x = X(plot.t[i]), y = Y(c[i]); if (pen) g.lineTo(x, y); else g.moveTo(x, y); pen = true; }
+    } else {
+      envelope = true;
+      let col = -1, mn = 0, mx = 0, pen = false;
+      const flush = () => { if (col < 0) return; const x = x0 + col + 0.5; if (pen) g.lineTo(x, Y(mn)); else g.moveTo(x, Y(mn)); g.lineTo(x, Y(mx)); pen = true; };
+      for (let i = plot.start; i < c.length; i++) {
+        if (c[i] === null) continue;
+        const here = Math.min(px - 1, Math.max(0, Math.floor((plot.t[i] - from) / WINDOW_S * px)));
+        if (here !== col) { flush(); col = here; mn = mx = c[i]; } else { if (c[i] < mn) mn = c[i]; if (c[i] > mx) mx = c[i]; }
+      }
+      flush();
+    }
     g.stroke();
   });
-  canvas.dataset.series = plot.series.length;
+  g.restore();
+  canvas.dataset.series = plot.cols.length;
+  canvas.dataset.received = plot.received;
+  canvas.dataset.sent = plot.sent;
+  canvas.dataset.lost = plot.lost;
+  canvas.dataset.drawn = n;
+  canvas.dataset.envelope = envelope ? "1" : "0";
   const now = performance.now();
-  if (now - plot.infoAt < 250) return;  // the text four times a second: each change is a layout
+  if (now - plot.infoAt < 250 && !plot.error) return;  // the text four times a second: each change is a layout
   plot.infoAt = now;
-  const seconds = (now - plot.started) / 1000;
-  plot.div.querySelector(".info").textContent =
-    `${(plot.received / seconds).toFixed(1)} new data/s shown · ${periodOf(plot.address) > 0 ? plot.drops + " not shown (published between updates)" : "drops unknown (written on arrival)"} · ${plot.failed} errors · range ${lo.toPrecision(4)} … ${hi.toPrecision(4)}`;
+  const span = n > 1 ? plot.t[plot.t.length - 1] - plot.t[plot.start] : 0;
+  plot.div.querySelector(".info").textContent = plot.error ? "cannot plot: " + plot.error :
+    `${plot.received} data received of ${plot.sent} sent · ${plot.lost} lost before the page` +
+    ` · ${n} in the last ${WINDOW_S} s (${span > 0 ? ((n - 1) / span).toFixed(0) : "–"}/s${plot.stamped ? "" : ", by arrival: the datum has no stamp"})` +
+    `${envelope ? " · min–max per pixel" : ""} · ${plot.failed} stream errors`;
 }
 
 // A component's description, statistics and parameters; a parameter the component lets change
@@ -355,7 +749,7 @@ function showSystem(data) {
   } else {
     for (const c of system) {
       const shown = lines.get(keyOf(c));
-      if (shown) { shown.timing.textContent = timingText(c); shown.error.textContent = errorText(c); }
+      if (shown) { shown.timing.textContent = timingText(c); if (shown.error) shown.error.textContent = errorText(c); }
     }
   }
   document.getElementById("status").textContent = `${system.length} components · updated ${new Date().toLocaleTimeString()}`;
@@ -375,6 +769,22 @@ function openEvents() {
     if (refused) eventsRetry = setTimeout(openEvents, 5000);
   };
 }
+// The first look asked at once (all components in parallel), not left for the stream's first
+// poll: the graph is drawn as soon as it answers.
+function firstLook() {
+  if (!token) { document.getElementById("status").textContent = "no token in the URL: open the URL rtm serve printed"; return; }
+  api("GET", "/api/system").then(data => { if (!system.length) showSystem(data); }).catch(e => showError(e.message));
+}
 window.addEventListener("pagehide", () => { clearTimeout(eventsRetry); events.close(); if (valuesStream) valuesStream.close(); });
 window.addEventListener("pageshow", ev => { if (ev.persisted) { openEvents(); openValues(); } });
+firstLook();
 openEvents();
+// Plots named in the URL's fragment (#token=…&plot=a.out&plot=…), opened as a click opens them;
+// and again when the fragment is edited (the page's own updates replace it without an event).
+function plotsFromUrl() {
+  const wanted = new URLSearchParams(location.hash.slice(1)).getAll("plot").slice(0, 10);
+  for (const address of [...plots.keys()]) if (!wanted.includes(address)) startPlot(address);
+  for (const address of wanted) if (!plots.has(address)) startPlot(address);
+}
+window.addEventListener("hashchange", plotsFromUrl);
+plotsFromUrl();

@@ -11,7 +11,9 @@
 //   GET  /api/system                       every component as `rtm --json ls -l` shows it, with
 //                                          "name_ok": false for a name that breaks the naming
 //                                          rule (rtm::check_name): bound by hand, not an RTM
-//                                          component; the page shows it marked, with no action
+//                                          component; the page shows it marked, with no action;
+//                                          a composite with "members": [...] (RTMExt's
+//                                          members()) and each member with "member_of"
 //   GET  /api/components/<name>            one component as `rtm --json cat` shows it
 //   POST /api/components/<name>/<on|off|reset>
 //   POST /api/components/<name>/parameters/<parameter>   body {"value": "..."}
@@ -26,9 +28,11 @@
 //                                          body, when it changes (looked at twice a second,
 //                                          once for every page together)
 //   GET  /api/values/stream?ports=a.out0,b.out1&page=P
-//                                          server-sent events: "values" with /api/values's
-//                                          body, 25 times a second (the page's plots;
-//                                          its ports asked one at a time over the period)
+//                                          server-sent events: "values", 25 a second, with
+//                                          every datum each port (at most 10) wrote since the
+//                                          last, and the counts sent and lost (the page's
+//                                          plots; serve/plot_feed.h: the server subscribes
+//                                          an InPort of its own to each while it streams)
 // Each name in a path is one encoded part (encodeURIComponent). Every call addressed to a
 // component by name, in a path or a port address, takes only a name that follows the naming
 // rule; any other is refused with 400 and the rule's sentence, and nothing is asked of it.

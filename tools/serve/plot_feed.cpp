@@ -1,0 +1,127 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "serve/plot_feed.h"
+
+#include "browser/watch_port.h"
+#include "rtm/data.h"
+#include "rtm/orb.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <unistd.h>
+
+#include <cmath>
+
+namespace rtm::cli {
+
+namespace {
+
+// How often the publisher is asked what it dropped for a plot (one remote call).
+constexpr std::chrono::seconds kPublisherLook{1};
+
+// A value as JSON: 7 significant digits (the ports' floats hold no more), null when no number.
+void append_number(std::string& out, double v) {
+  if (!std::isfinite(v)) {
+    out += "null";
+    return;
+  }
+  fmt::format_to(std::back_inserter(out), "{:.7g}", v);
+}
+
+}  // namespace
+
+std::string plot_entry(const std::string& type, const std::vector<Sample>& samples, std::uint64_t sent,
+                       std::uint64_t lost, long long received_ns) {
+  std::string out = "{\"type\":" + nlohmann::json(type).dump() + ",\"t\":[";
+  bool stamped = true;
+  std::size_t columns = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const long long ns = samples[i].time_ns != 0 ? samples[i].time_ns : received_ns;
+    stamped = stamped && samples[i].time_ns != 0;
+    columns = std::max(columns, samples[i].values.size());
+    if (i) out += ',';
+    // Seconds with the nanoseconds kept as digits (a double of seconds since 1970 keeps
+    // about 0.2 us): "1795445401.123456789".
+    fmt::format_to(std::back_inserter(out), "{}.{:09}", ns / 1'000'000'000, ns % 1'000'000'000);
+  }
+  out += "],\"v\":[";
+  for (std::size_t c = 0; c < columns; ++c) {
+    if (c) out += ',';
+    out += '[';
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      if (i) out += ',';
+      append_number(out, c < samples[i].values.size() ? samples[i].values[c] : NAN);
+    }
+    out += ']';
+  }
+  fmt::format_to(std::back_inserter(out), "],\"sent\":{},\"lost\":{},\"stamped\":{}", sent, lost, stamped);
+  if (!samples.empty()) {
+    const Sample& last = samples.back();
+    const long long ns = last.time_ns != 0 ? last.time_ns : received_ns;
+    fmt::format_to(std::back_inserter(out), ",\"time\":{{\"sec\":{},\"nsec\":{}}},\"values\":[", ns / 1'000'000'000,
+                   ns % 1'000'000'000);
+    for (std::size_t c = 0; c < last.values.size(); ++c) {
+      if (c) out += ',';
+      append_number(out, last.values[c]);
+    }
+    out += ']';
+  }
+  out += '}';
+  return out;
+}
+
+PlotSubscription::PlotSubscription(const Browser& browser, rtm::Orb& orb, const std::string& address) : orb_(orb) {
+  const ResolvedPort port = browser.port(PortAddress::parse(address));
+  if (port.direction != Direction::out)
+    throw BrowseError(port.address + " is an InPort; only OutPorts have data to plot");
+  type_ = rtm::type_name(port.type);
+  out_ = RTM::OutPort::_narrow(port.object);
+  servant_ = new WatchPort(fmt::format("{}{}", kPlotOwnerPrefix, ::getpid()), port.type, kPlotQueue);
+  keep_ = servant_;
+  CORBA::Object_var ref = orb_.activate(servant_);
+  in_ = RTM::InPort::_narrow(ref);
+  bool subscribed = false;
+  try {
+    subscribed = out_->subscribe(RTM::repeated, in_);
+  } catch (...) {
+    orb_.deactivate(servant_);
+    throw;
+  }
+  if (!subscribed) {
+    orb_.deactivate(servant_);
+    throw BrowseError(port.address + " refused the plot's subscription");
+  }
+  out_ex_ = RTM::OutPortEx::_narrow(out_);
+}
+
+PlotSubscription::~PlotSubscription() {
+  try {
+    out_->unsubscribe(RTM::repeated, in_);
+  } catch (const CORBA::Exception&) {
+    // the publisher is gone, or cannot be reached: its subscription went with it
+  }
+  orb_.deactivate(servant_);
+}
+
+std::string PlotSubscription::take() {
+  arrived_.clear();
+  samples_.clear();
+  servant_->drain(arrived_, std::chrono::milliseconds(0));
+  const long long now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                               std::chrono::system_clock::now().time_since_epoch()).count();
+  for (const CORBA::Any& a : arrived_) samples_.push_back(to_sample(a));
+  sent_ += samples_.size();
+  const auto now = std::chrono::steady_clock::now();
+  if (!CORBA::is_nil(out_ex_) && now - asked_publisher_ >= kPublisherLook) {
+    asked_publisher_ = now;
+    try {
+      RTM::SubscriptionInfoList_var subs = out_ex_->subscriptions();
+      for (CORBA::ULong i = 0; i < subs->length(); ++i)
+        if (subs[i].subscriber->_is_equivalent(in_)) publisher_lost_ = subs[i].dropped;
+    } catch (const CORBA::Exception&) {
+      // asked again a second later
+    }
+  }
+  return plot_entry(type_, samples_, sent_, servant_->overflowed() + servant_->late() + publisher_lost_, now_ns);
+}
+
+}  // namespace rtm::cli
