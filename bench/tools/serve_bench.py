@@ -5,8 +5,9 @@ python3-selenium):
 
   - first paint: from opening the page to every one of N components drawn (rtm-test-talker
     processes, one omniNames), five times;
-  - live plots: 10 OutPorts plotted at once (one server-sent stream for all, 25 events a second),
-    new data per second shown;
+  - live plots: 10 OutPorts plotted at once (one server-sent stream for all, 25 events a second,
+    each with every datum its ports wrote since the last),
+    the data per second each plot received, and received / sent / lost (every datum);
   - what the page costs the 2 ms loops: the talkers' lateness p99 with no page, then with the
     page open and plotting 10 of them, alternating, each phase on freshly started components
     (their statistics cover that phase only).
@@ -81,6 +82,12 @@ try:
           f"max {max(paints):.2f} s over 5 loads (goal <= 1 s)")
     stop(idle)
 
+    def plot_counts():
+        """Per plot: the data the page received, the server sent, and the server counted lost."""
+        return driver.execute_script(
+            "return [...document.querySelectorAll('#plots canvas')].map(c => "
+            "[+(c.dataset.received || 0), +(c.dataset.sent || 0), +(c.dataset.lost || 0)])")
+
     # ---- alternating phases: no page / page with 10 plots, fresh talkers each phase
     rows = []
     for phase in ("no page", "page, 10 plots", "no page", "page, 10 plots"):
@@ -94,14 +101,16 @@ try:
             for i in range(10):
                 driver.execute_script(
                     f"document.querySelector('circle[data-port=\"p{i}.force\"]').dispatchEvent(new MouseEvent('click'))")
+            before, started = plot_counts(), time.monotonic()
         else:
             driver.get("about:blank")
         time.sleep(phase_s)
         if phase.startswith("page"):
-            infos = driver.execute_script(
-                "return [...document.querySelectorAll('#plots .info')].map(d => d.textContent)")
-            rates = [float(t.split(" new data/s")[0]) for t in infos]
-            rate = (len(rates), min(rates), statistics.median(rates))
+            after, elapsed = plot_counts(), time.monotonic() - started
+            rates = [(a[0] - b[0]) / elapsed for a, b in zip(after, before)]
+            # every datum: what the page received of what the server sent, and what was lost on the way
+            received, sent, lost = (sum(a[i] for a in after) for i in range(3))
+            rate = (len(rates), min(rates), statistics.median(rates), received, sent, lost)
         timing = [c["timing"] for c in rtm_json("ls", "-l") if c["name"].startswith("p")]
         p99 = statistics.median(t["lateness_p99_ns"] for t in timing) / 1000
         worst = max(t["lateness_p99_ns"] for t in timing) / 1000
@@ -110,7 +119,8 @@ try:
         rows.append((phase, p99, worst, overruns, cycles, rate))
         line = f"{phase:<16} lateness p99 median {p99:7.1f} us, worst {worst:7.1f} us; overruns {overruns} of {cycles}"
         if rate:
-            line += f"; {rate[0]} plots, new data/s min {rate[1]:.1f} median {rate[2]:.1f} (goal >= 20)"
+            line += (f"; {rate[0]} plots, data/s min {rate[1]:.1f} median {rate[2]:.1f}, "
+                     f"received {rate[3]} of {rate[4]} sent, {rate[5]} lost (goal: every datum)")
         print(line, flush=True)
         driver.get("about:blank")
         stop(ps)

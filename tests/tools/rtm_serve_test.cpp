@@ -20,10 +20,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <cctype>
 #include <memory>
 #include <mutex>
@@ -286,6 +288,57 @@ TEST_F(RtmServe, ThePlotsStreamSendsEveryPortInEachEventAndAPortThatIsNoneWithIt
   }
   EXPECT_EQ(events.back()["src.force"]["type"], "RTM::TimedFloat6") << events.back().dump();
   EXPECT_GE(stamps.size(), 5u) << "the live port's data did not move on between events";
+}
+
+// Reads a plots' stream's events of port until more() says stop or the server ends it.
+void read_plot_events(httplib::Client& c, const std::string& path, const std::string& port,
+                      std::vector<json>& events, std::mutex& mu, const std::function<bool()>& more) {
+  std::string received;
+  c.Get(path.c_str(), [&](const char* data, std::size_t size) {
+    received.append(data, size);
+    for (std::size_t end; (end = received.find("\n\n")) != std::string::npos;) {
+      const std::string event = received.substr(0, end);
+      received.erase(0, end + 2);
+      const auto at = event.find("data: ");
+      if (event.rfind("event: values\n", 0) != 0 || at == std::string::npos) continue;
+      const json j = json::parse(event.substr(at + 6));
+      std::lock_guard lock(mu);
+      if (j.contains(port) && j[port].contains("sent")) events.push_back(j[port]);
+    }
+    return more();
+  });
+}
+
+// A page that adds a plot gets a new stream; the port it plotted already keeps its
+// subscription: over both streams every datum is sent once, none missed between them.
+TEST_F(RtmServe, APagesNextStreamTakesOverItsPlotsSoNoDatumIsMissedOrSentTwice) {
+  const std::string query = "&page=0123456789abcdef01234567&token=" + token_;
+  std::vector<json> events;
+  std::mutex mu;
+  auto count = [&] {
+    std::lock_guard lock(mu);
+    return events.size();
+  };
+  httplib::Client first_client = client();
+  std::thread first([&] {
+    read_plot_events(first_client, "/api/values/stream?ports=src.force" + query, "src.force", events, mu,
+                     [] { return true; });  // until the server ends it: the page's next stream replaces it
+  });
+  ASSERT_TRUE(eventually([&] { return count() >= 5; }));
+  httplib::Client second_client = client();
+  const std::size_t before = count();
+  read_plot_events(second_client, "/api/values/stream?ports=src.force,src.out0" + query, "src.force", events, mu,
+                   [&] { return count() < before + 8; });
+  first.join();  // the first stream ended by itself
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> takes;  // (sent after it, data in it)
+  for (const json& e : events) takes.emplace_back(e["sent"].get<std::uint64_t>(), e["t"].size());
+  std::sort(takes.begin(), takes.end());
+  std::uint64_t sent = 0;
+  for (const auto& [after, data] : takes) {
+    EXPECT_EQ(after - data, sent) << "the data before this event were not all sent once";
+    sent = after;
+  }
+  EXPECT_GT(sent, 20u) << "the talker writes every 2 ms";
 }
 
 TEST_F(RtmServe, ALoadedSystemFileIsShownWithWhatApplyingWouldDoAndChangesNothingUntilApplied) {

@@ -103,6 +103,7 @@ PlotSubscription::~PlotSubscription() {
 }
 
 std::string PlotSubscription::take() {
+  std::lock_guard lock(take_mu_);
   arrived_.clear();
   samples_.clear();
   servant_->drain(arrived_, std::chrono::milliseconds(0));

@@ -81,7 +81,7 @@ std::vector<std::string> split_ports(const std::string& ports) {
 // starts and undone when it ends, and when the next event is due.
 struct PlotStream {
   std::vector<std::string> ports;
-  std::vector<std::unique_ptr<PlotSubscription>> subscriptions;  // one per port; nullptr: errors[i]
+  std::vector<std::shared_ptr<PlotSubscription>> subscriptions;  // one per port; nullptr: errors[i]
   std::vector<std::string> errors;
   std::chrono::steady_clock::time_point next = std::chrono::steady_clock::now();
 };
@@ -401,6 +401,10 @@ struct WebServer::Impl {
   std::atomic<bool> stopping{false};
   SystemFeed feed{[this] { return system_event(); }, kSystemPeriod};
   StreamSlots streams{kStreamsInAll};
+  // Each page's plot subscriptions by port, held by its streams (subscribe_plot); before the
+  // server, so that they outlive its threads.
+  mutable std::mutex page_plots_mu;
+  mutable std::map<std::string, std::map<std::string, std::weak_ptr<PlotSubscription>>> page_plots;
   // After the feed: gone (with the streams' subscriptions) before it. The screen is the one
   // below, asked where a request has arrived and again where httplib routes it.
   GatedServer server{[this](const httplib::Request& req, httplib::Response& res) { return screen(req, res); },
@@ -500,13 +504,38 @@ struct WebServer::Impl {
   }
 
   // A plotted port's subscription, or why there is none (the other ports still plotted).
-  void subscribe_plot(PlotStream& plot, const std::string& address) const {
+  // The entries of subscriptions no stream holds any more: the map stays as large as the
+  // plots shown now, whatever page ids clients make up.
+  void forget_ended_plots() const {
+    std::lock_guard lock(page_plots_mu);
+    for (auto page = page_plots.begin(); page != page_plots.end();) {
+      std::erase_if(page->second, [](const auto& entry) { return entry.second.expired(); });
+      page = page->second.empty() ? page_plots.erase(page) : std::next(page);
+    }
+  }
+
+  // A page's stream replaced by its next (a plot added or removed) hands the subscriptions of
+  // the ports both plot over: their data keep coming, counted once, none missed in between.
+  void subscribe_plot(PlotStream& plot, const std::string& page, const std::string& address) const {
     std::string why;
     try {
+      if (!page.empty()) {  // without a page id, no stream shares its subscriptions
+        std::lock_guard lock(page_plots_mu);
+        if (auto kept = page_plots[page][address].lock()) {
+          plot.subscriptions.push_back(std::move(kept));
+          plot.errors.emplace_back();
+          return;
+        }
+      }
       rtm::Orb* orb = rtm::Orb::instance();
       if (orb == nullptr) throw BrowseError("this server has no ORB to take a port's data with");
       addressed_port(address);
-      plot.subscriptions.push_back(std::make_unique<PlotSubscription>(browser, *orb, address));
+      auto made = std::make_shared<PlotSubscription>(browser, *orb, address);
+      if (!page.empty()) {
+        std::lock_guard lock(page_plots_mu);
+        page_plots[page][address] = made;
+      }
+      plot.subscriptions.push_back(std::move(made));
       plot.errors.emplace_back();
       return;
     } catch (const BrowseError& e) {
@@ -677,7 +706,9 @@ struct WebServer::Impl {
             plot->ports.push_back(address);
         if (plot->ports.size() > kPlotPortsMax)
           throw std::invalid_argument(fmt::format("ports: at most {} in one plots' stream", kPlotPortsMax));
-        for (const std::string& address : plot->ports) subscribe_plot(*plot, address);
+        const std::string page = req.get_param_value("page");
+        forget_ended_plots();
+        for (const std::string& address : plot->ports) subscribe_plot(*plot, page, address);
         res.set_header("Cache-Control", "no-store");
         res.set_chunked_content_provider("text/event-stream", [this, plot, slot](std::size_t, httplib::DataSink& sink) {
           return plot_stream(sink, *plot, [&] { return stopping.load() || slot->replaced(); });

@@ -498,6 +498,7 @@ const plots = new Map();
 const WINDOW_S = 10, PLOT_W = 360, PLOT_H = 170, AX_L = 52, AX_B = 22, AX_T = 8, AX_R = 8;
 const COLOURS = ["#d22", "#2a2", "#36c", "#c6c", "#c90", "#099"];
 let valuesStream = null, drawQueued = false;
+const replacedStreams = new Set();  // old plots' streams the server has yet to end
 
 function writeUrl() {
   const q = new URLSearchParams();
@@ -520,14 +521,22 @@ function startPlot(address) {
   writeUrl();
   openValues();
 }
+// A new stream replaces the page's old one on the server, which hands it the subscriptions
+// of the ports both plot; the old one is left open until the server ends it, so that what it
+// sent last still arrives (closed here first, those data would be sent and never received).
 function openValues() {
-  if (valuesStream) valuesStream.close();
+  const old = valuesStream;
   valuesStream = null;
-  if (!plots.size) return;
+  if (old) replacedStreams.add(old);
+  if (!plots.size) { closeReplacedStreams(); return; }
   const ports = [...plots.keys()].map(encodeURIComponent).join(",");
-  valuesStream = new EventSource(`/api/values/stream?ports=${ports}&page=${pageId}&token=${encodeURIComponent(token)}`);
-  valuesStream.addEventListener("values", ev => showValues(JSON.parse(ev.data)));
-  valuesStream.onerror = () => plots.forEach(p => p.failed++);
+  const stream = new EventSource(`/api/values/stream?ports=${ports}&page=${pageId}&token=${encodeURIComponent(token)}`);
+  valuesStream = stream;
+  stream.addEventListener("values", ev => showValues(JSON.parse(ev.data)));
+  stream.onerror = () => {
+    if (stream !== valuesStream) { stream.close(); replacedStreams.delete(stream); return; }  // ended: no reconnect
+    plots.forEach(p => p.failed++);
+  };
 }
 // The port's description: its elements' names and units, from the system.
 function portOf(address) {
@@ -775,7 +784,11 @@ function firstLook() {
   if (!token) { document.getElementById("status").textContent = "no token in the URL: open the URL rtm serve printed"; return; }
   api("GET", "/api/system").then(data => { if (!system.length) showSystem(data); }).catch(e => showError(e.message));
 }
-window.addEventListener("pagehide", () => { clearTimeout(eventsRetry); events.close(); if (valuesStream) valuesStream.close(); });
+function closeReplacedStreams() { replacedStreams.forEach(s => s.close()); replacedStreams.clear(); }
+window.addEventListener("pagehide", () => {
+  clearTimeout(eventsRetry); events.close(); closeReplacedStreams();
+  if (valuesStream) valuesStream.close();
+});
 window.addEventListener("pageshow", ev => { if (ev.persisted) { openEvents(); openValues(); } });
 firstLook();
 openEvents();

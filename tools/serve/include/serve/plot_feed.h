@@ -10,6 +10,8 @@
 // page can say both, and a test can compare them with what it drew.
 #pragma once
 
+#include <mutex>
+
 #include "browser/browser.h"
 #include "browser/values.h"
 
@@ -55,10 +57,13 @@ class PlotSubscription {
   PlotSubscription(const PlotSubscription&) = delete;
   PlotSubscription& operator=(const PlotSubscription&) = delete;
 
-  // What arrived since the last call, as plot_entry's text.
+  // What arrived since the last call, as plot_entry's text. A page's new stream takes over its
+  // old stream's subscriptions (nothing written in between is missed), and the old one may
+  // still be taking while it ends: calls are serialised.
   std::string take();
 
  private:
+  std::mutex take_mu_;
   rtm::Orb& orb_;
   std::string type_;
   RTM::OutPort_var out_;
