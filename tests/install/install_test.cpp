@@ -112,7 +112,11 @@ TEST_F(Installed, TheGnuLayoutHoldsProgramsLibrariesHeadersIdlModelsTemplatesAnd
                            "include/rtm/rtm/component.h", "include/rtm/rt/activity.h", "include/rtm/arm/can/bus.h",
                            "include/rtm/idl/RTM.hh", "include/rtm/idl/RTMExt.hh", "share/rtm/idl/RTM.idl",
                            "share/rtm/models/pa10_scene.xml", "share/rtm/models/pa10.urdf", "share/rtm/scaffold/component.h.in",
-                           "share/bash-completion/completions/rtm", "share/doc/rtm/README.md"})
+                           "share/bash-completion/completions/rtm", "share/doc/rtm/README.md",
+                           "share/doc/rtm/system-files.md", "bin/rtm-example-source", "bin/rtm-example-sink",
+                           "share/rtm/examples/source_sink/system.yaml", "share/rtm/examples/source_sink/source.cpp",
+                           "share/rtm/examples/force-servo/demo", "share/rtm/examples/force-servo/system.yaml",
+                           "share/rtm/examples/force-servo/operator_profile.yaml", "share/rtm/tools/wakeup_witness.py"})
     EXPECT_TRUE(fs::exists(prefix() / file)) << file;
 }
 
@@ -288,6 +292,39 @@ TEST_F(Installed, ATypesPackageInstallsItselfAndAComponentOfItsTypeFindsItBuilds
     return got["fields"]["id"] == 7;
   });
   EXPECT_EQ(got["values"], json::parse("[0.5, -1.0, 2.0, 7]")) << "the scaffold passes its input on: " << got.dump();
+}
+
+// What a newcomer wires to first: the installed example system, by its installed path, with
+// the installed programs on the PATH.
+TEST_F(Installed, TheInstalledSourceSinkSystemComesUpWiredAndGoesDown) {
+  const fs::path runtime = root_ / "run-examples";
+  fs::create_directories(runtime);
+  const std::vector<std::string> env{"XDG_RUNTIME_DIR=" + runtime.string(), "RTM_TLS=", "RTM_BIN_PATH=",
+                                     "PATH=" + bin("").string() + ":/usr/bin:/bin"};
+  const fs::path system = prefix() / "share/rtm/examples/source_sink/system.yaml";
+  CommandResult r = rtm_test::run_command({bin("rtm").string(), "--naming", names_.address(), "up", system.string()},
+                                          env, 60s);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_GT(wait_for_data("sink0", "in0"), 0u) << last_cat_;
+  r = rtm_test::run_command({bin("rtm").string(), "--naming", names_.address(), "down", "source-sink"}, env, 60s);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+}
+
+// rtm demo runs the demo installed beside it, on the programs beside it.
+TEST_F(Installed, RtmDemoRunsTheInstalledDemoWithTheInstalledPrograms) {
+  CommandResult r = rtm_test::run_command({bin("rtm").string(), "demo", "--help"}, {}, 30s);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("Usage: rtm demo [options]"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(prefix().string() + "/bin)"), std::string::npos) << "its programs: " << r.out;
+  EXPECT_NE(r.out.find(prefix().string() + "/share/rtm/examples/force-servo/system.yaml"), std::string::npos) << r.out;
+  const fs::path out = root_ / "demo-run";
+  r = rtm_test::run_command({bin("rtm").string(), "demo", "--duration", "4", "--no-realtime", "--out", out.string()},
+                            {"RTM_BIN_DIR=", "RTM_NAMING="}, 180s);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(read_file(out / "summary.txt").find("Force servo:"), std::string::npos) << r.out << r.err;
+  r = rtm_test::run_command({bin("rtm").string(), "demo", "--no-such-option"}, {}, 30s);
+  EXPECT_EQ(r.exit_code, 2) << "the demo's own refusal: " << r.err;
+  EXPECT_NE(r.err.find("unknown option '--no-such-option'"), std::string::npos) << r.err;
 }
 
 TEST_F(Installed, AProjectBuildsAgainstTheBuildTreeToo) {

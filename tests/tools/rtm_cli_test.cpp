@@ -523,6 +523,26 @@ TEST_F(RtmCli, RunAsTheUserNobodyRtmCanReadButNotChangeComponentsAnotherUserStar
   EXPECT_EQ(find(rtm_json({"ls"}), "alpha")["state"], "on") << "nobody's off changed it";
 }
 
+// ------------------------------------------------------------------ demo
+
+// rtm demo runs the demo installed (or, in a build folder, copied) beside it, and says so when
+// there is none.
+TEST(RtmDemo, RunsTheDemoBesideItAndNamesTheFileWhenThereIsNone) {
+  const auto help = rtm_test::run_command({RTM_CLI_PATH, "demo", "--help"});
+  EXPECT_EQ(help.exit_code, 0) << help.err;
+  EXPECT_NE(help.out.find("Usage: rtm demo [options]"), std::string::npos) << help.out;
+  const std::filesystem::path alone =
+      std::filesystem::temp_directory_path() / ("rtm-demo-test-" + std::to_string(::getpid())) / "bin";
+  std::filesystem::create_directories(alone);
+  std::filesystem::copy_file(RTM_CLI_PATH, alone / "rtm");
+  const auto missing = rtm_test::run_command({(alone / "rtm").string(), "demo"});
+  std::filesystem::remove_all(alone.parent_path());
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find(alone.parent_path().string() + "/share/rtm/examples/force-servo/demo is missing"),
+            std::string::npos)
+      << missing.err;
+}
+
 // ------------------------------------------------------------------ up / down
 
 class RtmUpDown : public RtmCli {

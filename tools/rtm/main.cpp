@@ -17,6 +17,7 @@
 //   rtm tls init <folder> / rtm tls issue <authority> <folder>   certificates across hosts
 //   rtm new component <name> [--in n:Type]... [--out n:Type]...  a project of your own
 //   rtm serve [--listen 127.0.0.1:PORT]   the component editor in a browser (serve.h)
+//   rtm demo [demo options]               the force-servo demo on the simulator (installed examples)
 //
 // Every command takes --naming host:port (or $RTM_NAMING), --tls folder (or $RTM_TLS) and
 // --json; exit code 0 ok, 1 failed, 2 usage.
@@ -50,10 +51,15 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <cerrno>
+#include <cstring>
 #include <optional>
+
+#include <unistd.h>
 
 namespace {
 
+namespace fs = std::filesystem;
 using namespace rtm::cli;
 using nlohmann::json;
 
@@ -79,7 +85,7 @@ struct Cli {
   int timeout_ms = 5000;  // on() of a composite makes several remote calls of its own
   CLI::App *ls = nullptr, *cat = nullptr, *set = nullptr, *connect = nullptr, *disconnect = nullptr, *on = nullptr,
            *off = nullptr, *reset = nullptr, *get = nullptr, *put = nullptr, *watch = nullptr, *up = nullptr,
-           *down = nullptr, *serve = nullptr, *names = nullptr;
+           *down = nullptr, *serve = nullptr, *names = nullptr, *demo = nullptr;
   bool names_stop = false;
   std::string ls_path;
   bool ls_long = false, ls_clean = false, ls_names = false;
@@ -168,6 +174,10 @@ void add_system_commands(CLI::App& app, Cli& c) {
   c.names = app.add_subcommand("names", "start (or find running) a naming service of your own on loopback; prints "
                                         "`export RTM_NAMING=...` for eval \"$(rtm names)\"");
   c.names->add_flag("--stop", c.names_stop, "stop it and remove its data");
+  c.demo = app.add_subcommand("demo", "the force-servo demo on the simulated PA10, from the installed examples "
+                                      "(`rtm demo --help` lists its options)");
+  c.demo->prefix_command();  // every word after it, --help too, is the demo's
+  c.demo->set_help_flag();
 }
 
 // ------------------------------------------------------------------ commands
@@ -458,7 +468,30 @@ std::vector<std::string> orb_arguments(const Cli& c, const rtm::NamingAddress& n
   return args;
 }
 
+// Runs the force-servo demo installed beside this rtm (<prefix>/share/rtm/examples/force-servo/demo,
+// copied there in a build tree too) with this rtm's folder as the programs' one. Returns only
+// when it cannot be run.
+int run_demo(const Cli& c) {
+  std::error_code ec;
+  const fs::path bin = fs::read_symlink("/proc/self/exe", ec).parent_path();
+  if (ec) throw Failure("rtm demo: cannot tell where rtm is installed: " + ec.message(), kFailed);
+  const fs::path script = bin.parent_path() / "share/rtm/examples/force-servo/demo";
+  if (::access(script.c_str(), X_OK) != 0)
+    throw Failure(fmt::format("rtm demo: {} is missing or not executable (it is installed with rtm)", script.string()),
+                  kFailed);
+  std::vector<std::string> args{script.string(), "--bin", bin.string()};
+  for (const auto& word : c.demo->remaining()) args.push_back(word);
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::fflush(stdout);
+  ::setenv("RTM_DEMO_COMMAND", "rtm demo", 1);  // what its --help calls it
+  ::execv(script.c_str(), argv.data());
+  throw Failure(fmt::format("rtm demo: cannot run {}: {}", script.string(), std::strerror(errno)), kFailed);
+}
+
 int run(const Cli& c) {
+  if (c.demo->parsed()) return run_demo(c);
   if (c.tls_command.parsed()) {
     c.tls_command.run(c.json);
     return kOk;

@@ -14,7 +14,7 @@ _rtm_ports() {
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat set connect disconnect on off reset get put watch up down names serve tls new"
+  local commands="ls cat set connect disconnect on off reset get put watch up down names serve tls new demo"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
@@ -61,6 +61,7 @@ _rtm() {
       fi
       ;;
     names) COMPREPLY=($(compgen -W "--stop" -- "$cur")) ;;
+    demo) COMPREPLY=($(compgen -W "--bus --out --profile --system --duration --bin --check --realtime --no-realtime --help" -- "$cur")) ;;
     new)
       if [[ $prev == new ]]; then
         COMPREPLY=($(compgen -W "component" -- "$cur"))
