@@ -125,4 +125,21 @@ std::string PlotSubscription::take() {
   return plot_entry(type_, samples_, sent_, servant_->overflowed() + servant_->late() + publisher_lost_, now_ns);
 }
 
+std::shared_ptr<PlotSubscription> PagePlots::take(const std::string& page, const std::string& address,
+                                                  const std::function<std::shared_ptr<PlotSubscription>()>& make) {
+  if (page.empty()) return make();
+  {
+    std::lock_guard lock(mu_);
+    for (auto p = pages_.begin(); p != pages_.end();) {
+      std::erase_if(p->second, [](const auto& entry) { return entry.second.expired(); });
+      p = p->second.empty() ? pages_.erase(p) : std::next(p);
+    }
+    if (auto kept = pages_[page][address].lock()) return kept;
+  }
+  auto made = make();  // remote calls: not under the lock
+  std::lock_guard lock(mu_);
+  pages_[page][address] = made;
+  return made;
+}
+
 }  // namespace rtm::cli

@@ -401,10 +401,9 @@ struct WebServer::Impl {
   std::atomic<bool> stopping{false};
   SystemFeed feed{[this] { return system_event(); }, kSystemPeriod};
   StreamSlots streams{kStreamsInAll};
-  // Each page's plot subscriptions by port, held by its streams (subscribe_plot); before the
-  // server, so that they outlive its threads.
-  mutable std::mutex page_plots_mu;
-  mutable std::map<std::string, std::map<std::string, std::weak_ptr<PlotSubscription>>> page_plots;
+  // Each page's plot subscriptions, held by its streams; before the server, so that they
+  // outlive its threads.
+  mutable PagePlots page_plots;
   // After the feed: gone (with the streams' subscriptions) before it. The screen is the one
   // below, asked where a request has arrived and again where httplib routes it.
   GatedServer server{[this](const httplib::Request& req, httplib::Response& res) { return screen(req, res); },
@@ -503,39 +502,16 @@ struct WebServer::Impl {
     return {p.address, out};
   }
 
-  // A plotted port's subscription, or why there is none (the other ports still plotted).
-  // The entries of subscriptions no stream holds any more: the map stays as large as the
-  // plots shown now, whatever page ids clients make up.
-  void forget_ended_plots() const {
-    std::lock_guard lock(page_plots_mu);
-    for (auto page = page_plots.begin(); page != page_plots.end();) {
-      std::erase_if(page->second, [](const auto& entry) { return entry.second.expired(); });
-      page = page->second.empty() ? page_plots.erase(page) : std::next(page);
-    }
-  }
-
-  // A page's stream replaced by its next (a plot added or removed) hands the subscriptions of
-  // the ports both plot over: their data keep coming, counted once, none missed in between.
+  // A plotted port's subscription (the page's earlier stream's, PagePlots), or why there is none.
   void subscribe_plot(PlotStream& plot, const std::string& page, const std::string& address) const {
     std::string why;
     try {
-      if (!page.empty()) {  // without a page id, no stream shares its subscriptions
-        std::lock_guard lock(page_plots_mu);
-        if (auto kept = page_plots[page][address].lock()) {
-          plot.subscriptions.push_back(std::move(kept));
-          plot.errors.emplace_back();
-          return;
-        }
-      }
-      rtm::Orb* orb = rtm::Orb::instance();
-      if (orb == nullptr) throw BrowseError("this server has no ORB to take a port's data with");
-      addressed_port(address);
-      auto made = std::make_shared<PlotSubscription>(browser, *orb, address);
-      if (!page.empty()) {
-        std::lock_guard lock(page_plots_mu);
-        page_plots[page][address] = made;
-      }
-      plot.subscriptions.push_back(std::move(made));
+      plot.subscriptions.push_back(page_plots.take(page, address, [&] {
+        rtm::Orb* orb = rtm::Orb::instance();
+        if (orb == nullptr) throw BrowseError("this server has no ORB to take a port's data with");
+        addressed_port(address);
+        return std::make_shared<PlotSubscription>(browser, *orb, address);
+      }));
       plot.errors.emplace_back();
       return;
     } catch (const BrowseError& e) {
@@ -707,7 +683,6 @@ struct WebServer::Impl {
         if (plot->ports.size() > kPlotPortsMax)
           throw std::invalid_argument(fmt::format("ports: at most {} in one plots' stream", kPlotPortsMax));
         const std::string page = req.get_param_value("page");
-        forget_ended_plots();
         for (const std::string& address : plot->ports) subscribe_plot(*plot, page, address);
         res.set_header("Cache-Control", "no-store");
         res.set_chunked_content_provider("text/event-stream", [this, plot, slot](std::size_t, httplib::DataSink& sink) {

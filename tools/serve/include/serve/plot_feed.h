@@ -10,14 +10,15 @@
 // page can say both, and a test can compare them with what it drew.
 #pragma once
 
-#include <mutex>
-
 #include "browser/browser.h"
 #include "browser/values.h"
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,22 @@ class PlotSubscription {
   std::chrono::steady_clock::time_point asked_publisher_{};
   std::vector<CORBA::Any> arrived_;
   std::vector<Sample> samples_;
+};
+
+// Each page's plot subscriptions by port. A page's stream replaced by its next (a plot added or
+// removed) hands over the subscriptions of the ports both plot: their data keep coming, counted
+// once, none missed in between. Held by the streams (weak here): one no stream holds is gone,
+// and its entry with it, whatever page ids clients make up.
+class PagePlots {
+ public:
+  // page's subscription of address: the one a stream of the page holds, else make()'s (which
+  // may throw). Without a page id no stream shares one.
+  std::shared_ptr<PlotSubscription> take(const std::string& page, const std::string& address,
+                                         const std::function<std::shared_ptr<PlotSubscription>()>& make);
+
+ private:
+  std::mutex mu_;
+  std::map<std::string, std::map<std::string, std::weak_ptr<PlotSubscription>>> pages_;
 };
 
 // The prefix of the owner name of this server's plot InPorts: their subscriptions are the
