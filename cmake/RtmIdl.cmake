@@ -128,7 +128,7 @@ function(_rtm_export_idl target files headers)
        "# Before find_dependency: other packages' configs set PACKAGE_PREFIX_DIR again.\n"
        "set_and_check(${target}_IDL_DIR \"@PACKAGE_${target}_IDL_INSTALL_DIR@\")\n"
        "include(CMakeFindDependencyMacro)\n"
-       "find_dependency(RTM)\n"
+       "find_dependency(RTM COMPONENTS core idl omniorb)\n"
        "include(\${CMAKE_CURRENT_LIST_DIR}/${target}Targets.cmake)\n")
   set(${target}_IDL_INSTALL_DIR ${CMAKE_INSTALL_DATADIR}/${target}/idl)
   configure_package_config_file(${config_in} ${CMAKE_CURRENT_BINARY_DIR}/${target}Config.cmake

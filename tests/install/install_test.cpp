@@ -294,6 +294,37 @@ TEST_F(Installed, ATypesPackageInstallsItselfAndAComponentOfItsTypeFindsItBuilds
   EXPECT_EQ(got["values"], json::parse("[0.5, -1.0, 2.0, 7]")) << "the scaffold passes its input on: " << got.dump();
 }
 
+// find_package(RTM COMPONENTS core host) looks for what the core needs and not for the arm's
+// libraries; a part that does not exist is not found, and the package then neither.
+TEST_F(Installed, ThePackagesPartsBringOnlyTheirOwnDependencies) {
+  const fs::path source = root_ / "parts";
+  fs::create_directories(source);
+  std::ofstream(source / "CMakeLists.txt") << R"(cmake_minimum_required(VERSION 3.25)
+project(parts LANGUAGES CXX)
+find_package(RTM 0.1 REQUIRED COMPONENTS core host)
+if(NOT TARGET RTM::core OR NOT TARGET RTM::host)
+  message(FATAL_ERROR "no RTM::core or RTM::host")
+endif()
+if(TARGET Eigen3::Eigen OR TARGET PkgConfig::OROCOS_KDL OR TARGET PkgConfig::URDFDOM)
+  message(FATAL_ERROR "the arm's dependencies were looked for")
+endif()
+find_package(RTM 0.1 QUIET COMPONENTS core nonesuch)
+if(RTM_FOUND)
+  message(FATAL_ERROR "a part that does not exist was found")
+endif()
+message(STATUS "a part that does not exist: not found")
+find_package(RTM 0.1 REQUIRED COMPONENTS pa10)
+if(NOT TARGET PkgConfig::OROCOS_KDL)
+  message(FATAL_ERROR "pa10 did not bring KDL")
+endif()
+)";
+  const CommandResult r = rtm_test::run_command({CMAKE_COMMAND, "-S", source.string(), "-B", (root_ / "parts-build").string(),
+                                                 "-DCMAKE_PREFIX_PATH=" + prefix().string()},
+                                                {"CMAKE_PREFIX_PATH=", "RTM_DIR="}, 300s);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("a part that does not exist: not found"), std::string::npos) << r.out;
+}
+
 // What a newcomer wires to first: the installed example system, by its installed path, with
 // the installed programs on the PATH.
 TEST_F(Installed, TheInstalledSourceSinkSystemComesUpWiredAndGoesDown) {

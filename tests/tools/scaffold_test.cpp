@@ -126,7 +126,7 @@ TEST_F(RtmScaffold, CMakeListsBuildsLogicLibraryExecutableAndTestOnRtmCore) {
   const auto cmake = read_text(parent_ / "gripper_ctl/CMakeLists.txt");
   for (const char* expected :
        {"cmake_minimum_required(VERSION 3.25)", "project(gripper_ctl LANGUAGES CXX)", "set(CMAKE_CXX_STANDARD 20)",
-        "find_package(RTM 0.1 REQUIRED)", "add_library(gripper_ctl_logic STATIC src/gripper_ctl.cpp)",
+        "find_package(RTM 0.1 REQUIRED COMPONENTS core host)", "add_library(gripper_ctl_logic STATIC src/gripper_ctl.cpp)",
         "target_link_libraries(gripper_ctl_logic PUBLIC RTM::core)", "add_executable(rtm-gripper_ctl src/main.cpp)",
         "enable_testing()", "find_package(GTest REQUIRED)",
         "target_link_libraries(gripper_ctl_test PRIVATE gripper_ctl_logic GTest::gtest_main)",
