@@ -73,45 +73,67 @@ function(rtm_install_package)
   # is Debian's /usr/share/common-licenses/Apache-2.0, which copyright points to.
   install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/NOTICE ${PROJECT_SOURCE_DIR}/cmake/debian/copyright
           DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm COMPONENT runtime)
+  # Each Debian package has its own copyright and changelog (the -dev one too).
+  install(FILES ${PROJECT_SOURCE_DIR}/NOTICE ${PROJECT_SOURCE_DIR}/cmake/debian/copyright
+          DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm-dev COMPONENT dev)
   # Debian's changelog.gz, made reproducibly (no name or time in the gzip header).
   configure_file(${PROJECT_SOURCE_DIR}/cmake/debian/changelog.in ${PROJECT_BINARY_DIR}/debian/changelog @ONLY)
   execute_process(COMMAND gzip -9nc ${PROJECT_BINARY_DIR}/debian/changelog
                   OUTPUT_FILE ${PROJECT_BINARY_DIR}/debian/changelog.gz COMMAND_ERROR_IS_FATAL ANY)
   install(FILES ${PROJECT_BINARY_DIR}/debian/changelog.gz DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm
           COMPONENT runtime)
+  install(FILES ${PROJECT_BINARY_DIR}/debian/changelog.gz DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm-dev
+          COMPONENT dev)
   install(FILES ${PROJECT_SOURCE_DIR}/cmake/debian/lintian-overrides DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/lintian/overrides
           RENAME rtm COMPONENT runtime)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/rtm COMPONENT runtime
           FILES_MATCHING PATTERN "*.md")
 endfunction()
 
-# rtm_debian_package(): `cpack -G DEB` in the build folder makes rtm_<version>_amd64.deb: the
-# whole installed tree in one package (programs, libraries, headers, the CMake package), so
-# that `apt install ./rtm_*.deb` gives both the running system and a base to build on.
-# Depends: the shared libraries the programs link (dpkg-shlibdeps finds them; omniORB's are
-# libomniorb4-2 and libomnithread4 unless RTM_STATIC_OMNIORB is ON), the naming service, and
-# what find_package(RTM) needs to build a project. copyright (DEP-5) names the licence of every
-# work whose code is compiled into the package's files.
+# rtm_debian_package(): `cpack -G DEB` in the build folder makes two packages, as Debian splits
+# a library: rtm_<version>_amd64.deb, the running system (the programs, the examples and the
+# demo, the models, the docs), and rtm-dev_<version>_amd64.deb, the base to build on (the
+# static libraries, headers, IDL, the CMake package and the scaffold's templates), which
+# depends on rtm of the same version.
+# rtm Depends: the shared libraries the programs link (dpkg-shlibdeps finds them; omniORB's are
+# libomniorb4-2 and libomnithread4 unless RTM_STATIC_OMNIORB is ON) and the naming service.
+# rtm-dev Depends: what find_package(RTM COMPONENTS core host) needs to build a project, and
+# Recommends what the PA10's part (pa10) needs besides. copyright (DEP-5) names the licence of
+# every work whose code is compiled into the packages' files.
 function(rtm_debian_package)
   set(CPACK_GENERATOR DEB)
   set(CPACK_PACKAGE_NAME rtm)
   set(CPACK_PACKAGE_VENDOR "RTM developers")
   set(CPACK_PACKAGE_CONTACT "RTM developers <rtm-dev@lists.example.org>")
-  set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "RT-Middleware component framework for robot control")
-  # One string: separate arguments would make a list, its ';' written into the control file.
-  string(CONCAT CPACK_PACKAGE_DESCRIPTION
-         "Components with ports (omniORB), the rtm browser and launcher,\n"
-         "a PA10 force servo on SocketCAN or on a MuJoCo stand-in, and the CMake package\n"
-         "for components of one's own (find_package(RTM), rtm new component).")
+  # Each package's synopsis is the first line of its description (below), not a summary of all.
+  set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "")
+  set(CPACK_DEB_COMPONENT_INSTALL ON)
+  set(CPACK_COMPONENTS_ALL runtime dev)
+  set(CPACK_DEBIAN_RUNTIME_PACKAGE_NAME rtm)
+  set(CPACK_DEBIAN_DEV_PACKAGE_NAME rtm-dev)
+  # One string each: separate arguments would make a list, its ';' written into the control file.
+  string(CONCAT CPACK_DEBIAN_RUNTIME_DESCRIPTION
+         "RT-Middleware component framework for robot control\n"
+         "Components with ports (omniORB), the rtm browser and launcher, and\n"
+         "a PA10 force servo on SocketCAN or on a MuJoCo stand-in (rtm demo).")
+  string(CONCAT CPACK_DEBIAN_DEV_DESCRIPTION
+         "RT-Middleware component framework for robot control - development files\n"
+         "The static libraries, headers, IDL and CMake package to build components\n"
+         "of one's own (find_package(RTM), rtm new component).")
   set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
   set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
-  set(CPACK_DEBIAN_PACKAGE_SECTION devel)
+  set(CPACK_DEBIAN_RUNTIME_PACKAGE_SECTION misc)
+  set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
   set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
   set(CPACK_DEBIAN_PACKAGE_HOMEPAGE "https://example.org/rtm")
-  set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
-  set(CPACK_DEBIAN_PACKAGE_DEPENDS
-      "omniorb-nameserver, omniidl, libomniorb4-dev, libssl-dev, libcli11-dev, libspdlog-dev, libfmt-dev, libeigen3-dev, liborocos-kdl-dev, liburdfdom-dev, cmake (>= 3.25), g++, pkg-config")
-  set(CPACK_DEBIAN_PACKAGE_SUGGESTS "libgtest-dev, can-utils")
+  set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
+  # python3: the demo's stall witness (share/rtm/tools/wakeup_witness.py).
+  set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "omniorb-nameserver, python3")
+  set(CPACK_DEBIAN_RUNTIME_PACKAGE_SUGGESTS "can-utils, gnuplot")
+  set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS
+      "rtm (= ${PROJECT_VERSION}), omniidl, libomniorb4-dev, libssl-dev, libcli11-dev, libspdlog-dev, libfmt-dev, cmake (>= 3.25), g++, pkg-config")
+  set(CPACK_DEBIAN_DEV_PACKAGE_RECOMMENDS "libeigen3-dev, liborocos-kdl-dev, liburdfdom-dev")
+  set(CPACK_DEBIAN_DEV_PACKAGE_SUGGESTS "libgtest-dev")
   set(CPACK_STRIP_FILES ON)
   # cpack packs what was built (tests run it after the build); it never starts a build itself.
   set(CMAKE_SKIP_INSTALL_ALL_DEPENDENCY ON PARENT_SCOPE)

@@ -21,8 +21,11 @@ ms() { date +%s%3N; }
 
 cmake --install "$build" --prefix "$work/usr" >/dev/null
 echo "installed tree: $(du -sk "$work/usr" | cut -f1) kB ($(du -sk "$work/usr/bin" | cut -f1) kB programs)"
-(cd "$build" && cpack -G DEB -B "$work/deb" >/dev/null 2>&1) &&
-  echo "package: $(du -k "$work"/deb/rtm_*.deb | cut -f1) kB, installed size $(dpkg-deb -f "$work"/deb/rtm_*.deb Installed-Size) kB"
+if (cd "$build" && cpack -G DEB -B "$work/deb" >/dev/null 2>&1); then
+  for deb in "$work"/deb/rtm_*.deb "$work"/deb/rtm-dev_*.deb; do
+    echo "package $(basename "$deb"): $(du -k "$deb" | cut -f1) kB, installed size $(dpkg-deb -f "$deb" Installed-Size) kB"
+  done
+fi
 
 port=$(( (RANDOM % 20000) + 30000 ))
 mkdir -p "$work/names"

@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# The Debian package: `cpack -G DEB` in the build folder makes rtm_<version>_amd64.deb that
-# holds the programs, libraries, headers, IDL, models and the CMake package, depends on what
-# they need by Debian package name (omniORB's shared libraries unless the build has
-# RTM_STATIC_OMNIORB=ON), states its licences in a machine-readable copyright file, runs from
-# where it is unpacked, and passes lintian (when installed) with no tag but those its
-# overrides state a reason for.
+# The Debian packages: `cpack -G DEB` in the build folder makes rtm_<version>_amd64.deb (the
+# programs, examples, demo, models, docs) and rtm-dev_<version>_amd64.deb (libraries, headers,
+# IDL, the CMake package), with no file in both; each depends on what it needs by Debian package
+# name (rtm on omniORB's shared libraries unless the build has RTM_STATIC_OMNIORB=ON, rtm-dev on
+# what building needs, the arm's libraries only recommended), states its licences in a
+# machine-readable copyright file, runs from where it is unpacked, and passes lintian (when
+# installed) with no tag but those its overrides state a reason for.
 # usage: deb_test.sh <build folder>
 set -uo pipefail
 build=${1:?usage: deb_test.sh <build folder>}
@@ -15,26 +16,50 @@ fails=0
 fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
 
 (cd "$build" && cpack -G DEB -B "$work" >"$work/cpack.log" 2>&1) || { cat "$work/cpack.log"; echo "FAIL: cpack"; exit 1; }
-debs=("$work"/rtm_*_amd64.deb)
-[[ -f ${debs[0]} ]] || { echo "FAIL: no rtm_*_amd64.deb in $work"; ls "$work"; exit 1; }
-deb=${debs[0]}
-echo "package: $(basename "$deb"), $(du -k "$deb" | cut -f1) kB, installed $(dpkg-deb -f "$deb" Installed-Size) kB"
+# Two packages, as Debian splits a library: the running system, and what building on it needs.
+one() { local found=("$work"/"$1"_*_amd64.deb); [[ -f ${found[0]} ]] && echo "${found[0]}"; }
+deb=$(one rtm) || { echo "FAIL: no rtm_*_amd64.deb in $work"; ls "$work"; exit 1; }
+dev=$(one rtm-dev) || { echo "FAIL: no rtm-dev_*_amd64.deb in $work"; ls "$work"; exit 1; }
+for d in "$deb" "$dev"; do
+  echo "package: $(basename "$d"), $(du -k "$d" | cut -f1) kB, installed $(dpkg-deb -f "$d" Installed-Size) kB"
+done
 
 listing=$(dpkg-deb -c "$deb" | awk '{print $6}')
-for f in ./usr/bin/rtm ./usr/bin/rtm-servo ./usr/bin/rtm-controller ./usr/bin/pa10-sim ./usr/lib/librtm_core.a \
-         ./usr/lib/cmake/RTM/RTMConfig.cmake ./usr/lib/cmake/RTM/RtmIdl.cmake ./usr/include/rtm/host/runner.h \
-         ./usr/include/rtm/idl/RTM.hh ./usr/share/rtm/idl/RTM.idl ./usr/share/rtm/models/pa10_scene.xml \
+dev_listing=$(dpkg-deb -c "$dev" | awk '{print $6}')
+for f in ./usr/bin/rtm ./usr/bin/rtm-servo ./usr/bin/rtm-controller ./usr/bin/pa10-sim ./usr/bin/rtm-example-source \
+         ./usr/share/rtm/models/pa10_scene.xml ./usr/share/rtm/examples/force-servo/demo \
+         ./usr/share/rtm/examples/source_sink/system.yaml ./usr/share/doc/rtm/system-files.md \
          ./usr/share/doc/rtm/copyright ./usr/share/doc/rtm/NOTICE ./usr/share/doc/rtm/changelog.gz \
          ./usr/share/bash-completion/completions/rtm; do
-  grep -qxF "$f" <<<"$listing" || fail "the package lacks $f"
+  grep -qxF "$f" <<<"$listing" || fail "rtm lacks $f"
 done
-description=$(dpkg-deb -f "$deb" Description)
-[[ $description == *"a PA10 force servo"* ]] || fail "Description lacks its text: $description"
-! grep -q ';' <<<"$description" || fail "Description holds a CMake list separator: $description"
+for f in ./usr/lib/librtm_core.a ./usr/lib/cmake/RTM/RTMConfig.cmake ./usr/lib/cmake/RTM/RtmIdl.cmake \
+         ./usr/include/rtm/host/runner.h ./usr/include/rtm/idl/RTM.hh ./usr/share/rtm/idl/RTM.idl \
+         ./usr/share/rtm/scaffold/component.h.in ./usr/share/doc/rtm-dev/copyright ./usr/share/doc/rtm-dev/changelog.gz; do
+  grep -qxF "$f" <<<"$dev_listing" || fail "rtm-dev lacks $f"
+done
+# dpkg installs both only when no file is in both.
+both=$(comm -12 <(grep -v '/$' <<<"$listing" | sort) <(grep -v '/$' <<<"$dev_listing" | sort))
+[[ -z $both ]] || fail "files in both packages: $(tr '\n' ' ' <<<"$both")"
+for d in "$deb" "$dev"; do
+  description=$(dpkg-deb -f "$d" Description)
+  [[ $description == *"RT-Middleware component framework"* ]] || fail "$(basename "$d"): Description: $description"
+  ! grep -q ';' <<<"$description" || fail "Description holds a CMake list separator: $description"
+done
 depends=$(dpkg-deb -f "$deb" Depends)
-for p in omniorb-nameserver omniidl libomniorb4-dev libmujoco libssl3 liburdfdom cmake; do
-  [[ $depends == *"$p"* ]] || fail "Depends lacks $p: $depends"
+for p in omniorb-nameserver libmujoco libssl3; do
+  [[ $depends == *"$p"* ]] || fail "rtm's Depends lacks $p: $depends"
 done
+for p in libomniorb4-dev liborocos-kdl-dev cmake; do
+  [[ $depends != *"$p"* ]] || fail "rtm depends on $p, which only building needs: $depends"
+done
+dev_depends=$(dpkg-deb -f "$dev" Depends)
+version=$(dpkg-deb -f "$deb" Version)
+for p in "rtm (= $version)" omniidl libomniorb4-dev libspdlog-dev cmake; do
+  [[ $dev_depends == *"$p"* ]] || fail "rtm-dev's Depends lacks $p: $dev_depends"
+done
+[[ $dev_depends != *liborocos-kdl-dev* ]] || fail "rtm-dev depends on KDL, which only the PA10's part needs: $dev_depends"
+[[ $(dpkg-deb -f "$dev" Recommends) == *liborocos-kdl-dev* ]] || fail "rtm-dev does not recommend KDL for the PA10's part"
 # omniORB: Debian's shared libraries, or (RTM_STATIC_OMNIORB=ON) its archives linked in.
 static_omniorb=$(sed -n 's/^RTM_STATIC_OMNIORB:BOOL=//p' "$build/CMakeCache.txt")
 if [[ $static_omniorb =~ ^(ON|TRUE|YES|Y|1)$ ]]; then
@@ -47,7 +72,8 @@ else
 fi
 
 # Unpacked anywhere, the programs run and pa10-sim finds its scene beside itself.
-dpkg-deb -x "$deb" "$work/root" || fail "dpkg-deb -x"
+dpkg-deb -x "$deb" "$work/root" || fail "dpkg-deb -x rtm"
+dpkg-deb -x "$dev" "$work/root" || fail "dpkg-deb -x rtm-dev"
 "$work/root/usr/bin/rtm" --help >"$work/help" 2>&1 || fail "rtm --help: $(cat "$work/help")"
 "$work/root/usr/bin/pa10-sim" --help >"$work/help" 2>&1 || fail "pa10-sim --help"
 grep -qF "$work/root/usr/share/rtm/models/pa10_scene.xml" "$work/help" || fail "pa10-sim does not look beside itself"
@@ -61,13 +87,14 @@ for so in libomniORB4.so.2 libomniDynamic4.so.2 libomnisslTP4.so.2 libomnithread
 done
 
 # The copyright file is machine-readable (DEP-5) and states RTM's licence.
-copyright=$work/root/usr/share/doc/rtm/copyright
-head -1 "$copyright" | grep -qxF 'Format: https://www.debian.org/doc/packaging-manuals/copyright-format/1.0/' ||
-  fail "copyright is not in Debian's machine-readable format"
-grep -qxF 'License: Apache-2.0' "$copyright" || fail "copyright does not state Apache-2.0"
+for copyright in "$work"/root/usr/share/doc/rtm/copyright "$work"/root/usr/share/doc/rtm-dev/copyright; do
+  head -1 "$copyright" | grep -qxF 'Format: https://www.debian.org/doc/packaging-manuals/copyright-format/1.0/' ||
+    fail "$copyright is not in Debian's machine-readable format"
+  grep -qxF 'License: Apache-2.0' "$copyright" || fail "$copyright does not state Apache-2.0"
+done
 
 if command -v lintian >/dev/null; then
-  lintian --tag-display-limit 0 "$deb" 2>&1 | grep -E '^[EWI]:' >"$work/lintian"
+  lintian --tag-display-limit 0 "$deb" "$dev" 2>&1 | grep -E '^[EWI]:' >"$work/lintian"
   if [[ -s $work/lintian ]]; then fail "lintian: $(cat "$work/lintian")"; else echo "lintian: clean"; fi
 else
   echo "lintian: not installed, not run"
