@@ -342,3 +342,11 @@ class InPort final : public InPortBase {
 }  // namespace rtm
 
 #include "rtm/inport_impl.h"
+
+namespace rtm {
+// The built-in types' InPorts are instantiated once, in the library (port_types.cpp): a
+// component's own files only use them, which keeps the build of a component short.
+#define RTM_EXTERN_IN_PORT(Type, Shape, Member, Elements, ElementType) extern template class InPort<RTM::Type>;
+RTM_BUILTIN_DATA_TYPES(RTM_EXTERN_IN_PORT)
+#undef RTM_EXTERN_IN_PORT
+}  // namespace rtm

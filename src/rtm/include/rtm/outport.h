@@ -279,3 +279,11 @@ class OutPort final : public OutPortBase {
 }  // namespace rtm
 
 #include "rtm/outport_impl.h"
+
+namespace rtm {
+// The built-in types' OutPorts are instantiated once, in the library (port_types.cpp), as
+// their InPorts are (inport.h).
+#define RTM_EXTERN_OUT_PORT(Type, Shape, Member, Elements, ElementType) extern template class OutPort<RTM::Type>;
+RTM_BUILTIN_DATA_TYPES(RTM_EXTERN_OUT_PORT)
+#undef RTM_EXTERN_OUT_PORT
+}  // namespace rtm
