@@ -9,10 +9,12 @@
 #include "rtm_test/omni_names.h"
 
 #include <gtest/gtest.h>
+#include <httplib.h>
 #include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -95,6 +97,25 @@ class Installed : public ::testing::Test {
     std::uint64_t n = 0;
     eventually([&] { return (n = accepted(component, port)) != 0; });
     return n;
+  }
+
+  // What the installed rtm serve's page saves as a system file of this name (its YAML).
+  std::string save_from_the_page(const std::string& name) {
+    ChildProcess::Options options;
+    options.echo_output = false;
+    options.extra_env = {"RTM_TLS="};
+    ChildProcess serve({bin("rtm").string(), "--naming", names_.address(), "serve"}, options);
+    const std::string line = serve.wait_for_line("http://");  // http://127.0.0.1:<port>/#token=<hex>
+    const auto slash = line.find("/#token=");
+    const auto colon = line.rfind(':', slash);
+    if (slash == std::string::npos || colon == std::string::npos) return "no URL in: " + line;
+    std::string token = line.substr(slash + 8);
+    while (!token.empty() && std::isspace(static_cast<unsigned char>(token.back()))) token.pop_back();
+    httplib::Client client("127.0.0.1", std::stoi(line.substr(colon + 1, slash - colon - 1)));
+    client.set_read_timeout(10, 0);
+    const auto r = client.Get(("/api/system-file?name=" + name).c_str(), {{"X-RTM-Token", token}});
+    if (!r || r->status != 200) return "the save failed: " + (r ? r->body : httplib::to_string(r.error()));
+    return json::parse(r->body)["yaml"].get<std::string>();
   }
 
   static inline fs::path root_;
@@ -208,7 +229,7 @@ TEST_F(Installed, ACustomIdlTypeRoundTripsThroughTheInstalledRtmPutGetAndWatch) 
   EXPECT_EQ(accepted("r", "in0"), 1u);
 }
 
-TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
+TEST_F(Installed, AScaffoldedComponentBuildsPassesItsTestRunsUnderRtmUpAndComesBackFromThePagesSaveWithItsParameter) {
   // A description with a quote and a backslash: the generated literal must still compile.
   const std::string description = R"(closes the "gripper" as the wrist is pushed \ along z)";
   // With an OutPort of a type of its own IDL, which the project gets a copy of.
@@ -258,7 +279,18 @@ TEST_F(Installed, AScaffoldedComponentBuildsPassesItsOwnTestAndRunsUnderRtmUp) {
   r = rtm({"set", "gripper_ctl0", "gain", "0.02"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("gripper_ctl0.gain = 0.02"), std::string::npos) << "a live parameter of the scaffold: " << r.out;
+  // The page's save keeps the value set: the saved file, brought up again, sets it.
+  const std::string saved = save_from_the_page("gripper_saved");
+  EXPECT_NE(saved.find("gain"), std::string::npos) << saved;
+  std::ofstream(project / "saved.yaml") << saved;
   r = rtm_here({"down", "gripper_ctl"});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  r = rtm_here({"up", "saved.yaml"});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err << saved;
+  r = rtm({"--json", "cat", "gripper_ctl0"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(json::parse(r.out)["parameters"]["gain"]["value"], "0.02") << "the saved value, not the default: " << r.out;
+  r = rtm_here({"down", "gripper_saved"});
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
 }
 
