@@ -592,10 +592,11 @@ std::string format_text(const CORBA::Any& value, const std::vector<std::string>&
     }
   });
   if (known) return line;
-  auto w = walk(value, units);
   // Named only when there is a name for every number (the port describes every element).
-  if (w && !names.empty() && names.size() == w->numbers.size()) w = walk(value, units, names);
-  if (w) {
+  static const std::vector<std::string> kUnnamed;
+  CORBA::TypeCode_var type = value.type();
+  const bool named = !names.empty() && names.size() == rtm::count_values(type);
+  if (auto w = walk(value, units, named ? names : kUnnamed)) {
     if (w->time) line = format_time(*w->time);
     for (const auto& part : w->parts) {
       if (!line.empty()) line += "  ";
@@ -603,8 +604,7 @@ std::string format_text(const CORBA::Any& value, const std::vector<std::string>&
     }
     return line;
   }
-  CORBA::TypeCode_var tc = value.type();
-  return fmt::format("<{}>", rtm::type_name(tc));
+  return fmt::format("<{}>", rtm::type_name(type));
 }
 
 nlohmann::json format_json(const CORBA::Any& value) {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "browser/watch_port.h"
 
+#include "browser/browser.h"
 #include "rtm/data.h"
 
 #include <fmt/format.h>
@@ -189,6 +190,55 @@ bool WatchPort::reads_ring() const {
 std::uint64_t WatchPort::rejected() const {
   std::lock_guard lock(mutex_);
   return rejected_;
+}
+
+// ============================ WatchSubscription =======================
+
+WatchSubscription::WatchSubscription(rtm::Orb& orb, CORBA::Object_ptr out, CORBA::TypeCode_ptr type,
+                                     const std::string& address, std::string owner, std::size_t capacity,
+                                     const std::string& what)
+    : orb_(orb), out_(RTM::OutPort::_narrow(out)), servant_(new WatchPort(std::move(owner), type, capacity)),
+      keep_(servant_) {
+  CORBA::Object_var ref = orb_.activate(servant_);
+  in_ = RTM::InPort::_narrow(ref);
+  bool subscribed = false;
+  try {
+    subscribed = out_->subscribe(RTM::repeated, in_);
+  } catch (...) {
+    orb_.deactivate(servant_);
+    throw;
+  }
+  if (!subscribed) {
+    orb_.deactivate(servant_);
+    throw BrowseError(fmt::format("{} refused {}", address, what));
+  }
+  out_ex_ = RTM::OutPortEx::_narrow(out_);
+}
+
+WatchSubscription::~WatchSubscription() { finish(); }
+
+std::optional<unsigned long long> WatchSubscription::publisher_dropped() const {
+  if (CORBA::is_nil(out_ex_)) return std::nullopt;
+  try {
+    RTM::SubscriptionInfoList_var subs = out_ex_->subscriptions();
+    for (CORBA::ULong i = 0; i < subs->length(); ++i)
+      if (subs[i].subscriber->_is_equivalent(in_)) return subs[i].dropped;
+  } catch (const CORBA::Exception&) {
+  }
+  return std::nullopt;
+}
+
+std::string WatchSubscription::finish() {
+  if (finished_) return "";
+  finished_ = true;
+  std::string failed;
+  try {
+    out_->unsubscribe(RTM::repeated, in_);
+  } catch (const CORBA::Exception& e) {
+    failed = e._name();
+  }
+  orb_.deactivate(servant_);
+  return failed;
 }
 
 }  // namespace rtm::cli

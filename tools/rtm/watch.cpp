@@ -92,53 +92,6 @@ class WatchDisplay {
   std::string latest_;
 };
 
-// The subscription of a WatchPort to the watched OutPort, undone by finish().
-struct WatchSubscription {
-  RTM::OutPort_var out;
-  RTM::OutPortEx_var out_ex;
-  WatchPort* servant = nullptr;
-  PortableServer::ServantBase_var keep;
-  RTM::InPort_var in;
-
-  WatchSubscription(const ResolvedPort& port, rtm::Orb& orb) : out(RTM::OutPort::_narrow(port.object)) {
-    servant = new WatchPort(fmt::format("rtm-watch-{}", ::getpid()), port.type, 4096);
-    keep = servant;
-    CORBA::Object_var ref = orb.activate(servant);
-    in = RTM::InPort::_narrow(ref);
-    if (!out->subscribe(RTM::repeated, in)) {
-      orb.deactivate(servant);
-      throw BrowseError(fmt::format("{} refused the watch subscription", port.address));
-    }
-    out_ex = RTM::OutPortEx::_narrow(out);
-  }
-
-  // What the publisher dropped for this subscriber (0 when it does not tell).
-  unsigned long long publisher_dropped() const {
-    if (CORBA::is_nil(out_ex)) return 0;
-    try {
-      RTM::SubscriptionInfoList_var subs = out_ex->subscriptions();
-      for (CORBA::ULong i = 0; i < subs->length(); ++i) {
-        if (subs[i].subscriber->_is_equivalent(in)) return subs[i].dropped;
-      }
-    } catch (const CORBA::Exception&) {
-    }
-    return 0;
-  }
-
-  // Unsubscribes and deactivates; false (with a message) when the unsubscribe failed.
-  bool finish(rtm::Orb& orb, const std::string& address) {
-    bool ok = true;
-    try {
-      out->unsubscribe(RTM::repeated, in);
-    } catch (const CORBA::Exception& e) {
-      fmt::print(stderr, "rtm watch: unsubscribe from {} failed: {}\n", address, e._name());
-      ok = false;
-    }
-    orb.deactivate(servant);
-    return ok;
-  }
-};
-
 // The rate of the data shown, by their own stamps: intervals over the time they span (0 when
 // fewer than two, or stamps that do not advance). Not the watch's own wall time, which holds
 // the wait for the first datum.
@@ -166,10 +119,10 @@ void print_summary(const ResolvedPort& port, const WatchSubscription& sub, std::
                               {"seconds", elapsed},
                               {"rate_hz", rate_hz},
                               {"dropped_publisher", dropped_publisher},
-                              {"dropped_display", sub.servant->overflowed()},
-                              {"shared_memory", sub.servant->shared_memory()},
-                              {"dropped_late", sub.servant->late()},
-                              {"rejected", sub.servant->rejected()}}}}
+                              {"dropped_display", sub.port().overflowed()},
+                              {"shared_memory", sub.port().shared_memory()},
+                              {"dropped_late", sub.port().late()},
+                              {"rejected", sub.port().rejected()}}}}
                            .dump());
     return;
   }
@@ -177,7 +130,7 @@ void print_summary(const ResolvedPort& port, const WatchSubscription& sub, std::
              "{}: received {} in {:.2f} s ({:.1f} Hz by their stamps, through {}), dropped {} by the publisher, {} by "
              "the display, {} late (after a later one), {} of a wrong type\n",
              port.address, shown, elapsed, rate_hz, path, dropped_publisher,
-             sub.servant->overflowed(), sub.servant->late(), sub.servant->rejected());
+             sub.port().overflowed(), sub.port().late(), sub.port().rejected());
 }
 
 }  // namespace
@@ -187,7 +140,8 @@ int watch(const Browser& browser, rtm::Orb& orb, const std::string& address, con
   const ResolvedPort port = browser.port(PortAddress::parse(address));
   if (port.direction != Direction::out) throw BrowseError(fmt::format("{} is an InPort; watch an OutPort", port.address));
   WatchDisplay display(port, options);
-  WatchSubscription sub(port, orb);
+  WatchSubscription sub(orb, port.object, port.type, port.address, fmt::format("rtm-watch-{}", ::getpid()), 4096,
+                        "the watch subscription");
   const auto start = Clock::now();
   const auto refresh = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(1.0 / std::max(options.rate_hz, 0.1)));
@@ -199,7 +153,7 @@ int watch(const Browser& browser, rtm::Orb& orb, const std::string& address, con
   const auto done = [&] { return options.count > 0 && static_cast<long>(shown) >= options.count; };
   while (!interrupted.load() && !done()) {
     batch.clear();
-    sub.servant->drain(batch, std::chrono::milliseconds(50));
+    sub.port().drain(batch, std::chrono::milliseconds(50));
     for (std::size_t i = 0; i < batch.size() && !done(); ++i, ++shown, ++window_count) stamps.add(display.show(batch[i]));
     if (!batch.empty()) display.flush();
     const auto now = Clock::now();
@@ -210,17 +164,19 @@ int watch(const Browser& browser, rtm::Orb& orb, const std::string& address, con
     }
     if (display.live() && now >= next_refresh) {
       next_refresh = now + refresh;
-      display.refresh(shown, rate, sub.publisher_dropped(), sub.servant->overflowed());
+      display.refresh(shown, rate, sub.publisher_dropped().value_or(0), sub.port().overflowed());
     }
     if (options.duration_s > 0 && now - start >= std::chrono::duration<double>(options.duration_s)) break;
   }
   const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-  const unsigned long long dropped_publisher = sub.publisher_dropped();
-  const char* path = sub.servant->reads_ring() ? "shared memory" : "CORBA";
-  const bool unsubscribed = sub.finish(orb, port.address);
+  const unsigned long long dropped_publisher = sub.publisher_dropped().value_or(0);
+  const char* path = sub.port().reads_ring() ? "shared memory" : "CORBA";
+  const std::string unsubscribe_failed = sub.finish();
+  if (!unsubscribe_failed.empty())
+    fmt::print(stderr, "rtm watch: unsubscribe from {} failed: {}\n", port.address, unsubscribe_failed);
   if (display.live()) fmt::print("\n\n");
   print_summary(port, sub, shown, elapsed, stamps.rate_hz(), dropped_publisher, path, options.json);
-  return unsubscribed ? 0 : 1;
+  return unsubscribe_failed.empty() ? 0 : 1;
 }
 
 }  // namespace rtm::cli

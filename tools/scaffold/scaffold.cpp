@@ -23,6 +23,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+bool lower_or_digit(char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9'); }
+bool letter_or_digit(char c) { return lower_or_digit(c) || (c >= 'A' && c <= 'Z'); }
+bool identifier_char(char c) { return letter_or_digit(c) || c == '_'; }
+
 // ============================ port types ==============================
 
 // How a timed type holds its values, which is all the generated step() and test need to know.
@@ -75,10 +79,8 @@ const TypeInfo& find_type(std::string_view type, std::string_view what) {
 }
 
 bool is_idl_identifier(std::string_view s) {
-  if (s.empty() || !((s.front() >= 'a' && s.front() <= 'z') || (s.front() >= 'A' && s.front() <= 'Z'))) return false;
-  return std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
-  });
+  return !s.empty() && letter_or_digit(s.front()) && !(s.front() >= '0' && s.front() <= '9') &&
+         std::all_of(s.begin(), s.end(), identifier_char);
 }
 
 // "My::TimedPose", "Lab::Arm::TimedGrip": a struct in a module of the project's own IDL (not RTM's).
@@ -105,9 +107,6 @@ struct IdlStructs {
 // Identifiers, "::" and single characters; comments, preprocessor lines and literals left out.
 std::vector<std::string_view> idl_tokens(std::string_view text) {
   std::vector<std::string_view> tokens;
-  const auto ident = [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
-  };
   std::size_t i = 0;
   const auto skip_to = [&](std::string_view end) {
     const auto found = text.find(end, i);
@@ -128,9 +127,9 @@ std::vector<std::string_view> idl_tokens(std::string_view text) {
     } else if (text.substr(i, 2) == "::") {
       tokens.push_back(text.substr(i, 2));
       i += 2;
-    } else if (ident(c)) {
+    } else if (identifier_char(c)) {
       const std::size_t start = i;
-      while (i < text.size() && ident(text[i])) ++i;
+      while (i < text.size() && identifier_char(text[i])) ++i;
       tokens.push_back(text.substr(start, i - start));
     } else {
       tokens.push_back(text.substr(i++, 1));
@@ -171,8 +170,6 @@ IdlStructs scan_idl(std::string_view text) {
 
 // ================================ names ===============================
 
-bool lower_or_digit(char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9'); }
-bool letter_or_digit(char c) { return lower_or_digit(c) || (c >= 'A' && c <= 'Z'); }
 
 // Words a port name cannot be: it becomes a struct member in the generated C++.
 const std::set<std::string_view>& reserved_port_names() {
@@ -371,7 +368,7 @@ IdlFile read_idl(const fs::path& path) {
   const std::string file_name = path.filename().string();
   const std::string stem = path.stem().string();
   if (path.extension() != ".idl" || stem.empty() ||
-      !std::all_of(stem.begin(), stem.end(), [](char c) { return letter_or_digit(c) || c == '_'; }))
+      !std::all_of(stem.begin(), stem.end(), identifier_char))
     throw std::invalid_argument(fmt::format(
         "--idl {}: name an IDL file <name>.idl, the name of a-z A-Z 0-9 '_' (its stubs are <name>.hh)", path.string()));
   std::error_code ec;

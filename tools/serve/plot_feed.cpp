@@ -69,60 +69,34 @@ std::string plot_entry(const std::string& type, const std::vector<Sample>& sampl
   return out;
 }
 
-PlotSubscription::PlotSubscription(const Browser& browser, rtm::Orb& orb, const std::string& address) : orb_(orb) {
+PlotSubscription::PlotSubscription(const Browser& browser, rtm::Orb& orb, const std::string& address) {
   const ResolvedPort port = browser.port(PortAddress::parse(address));
   if (port.direction != Direction::out)
     throw BrowseError(port.address + " is an InPort; only OutPorts have data to plot");
   type_ = rtm::type_name(port.type);
-  out_ = RTM::OutPort::_narrow(port.object);
-  servant_ = new WatchPort(fmt::format("{}{}", kPlotOwnerPrefix, ::getpid()), port.type, kPlotQueue);
-  keep_ = servant_;
-  CORBA::Object_var ref = orb_.activate(servant_);
-  in_ = RTM::InPort::_narrow(ref);
-  bool subscribed = false;
-  try {
-    subscribed = out_->subscribe(RTM::repeated, in_);
-  } catch (...) {
-    orb_.deactivate(servant_);
-    throw;
-  }
-  if (!subscribed) {
-    orb_.deactivate(servant_);
-    throw BrowseError(port.address + " refused the plot's subscription");
-  }
-  out_ex_ = RTM::OutPortEx::_narrow(out_);
+  subscription_ = std::make_unique<WatchSubscription>(orb, port.object, port.type, port.address,
+                                                      fmt::format("{}{}", kPlotOwnerPrefix, ::getpid()), kPlotQueue,
+                                                      "the plot's subscription");
 }
 
-PlotSubscription::~PlotSubscription() {
-  try {
-    out_->unsubscribe(RTM::repeated, in_);
-  } catch (const CORBA::Exception&) {
-    // the publisher is gone, or cannot be reached: its subscription went with it
-  }
-  orb_.deactivate(servant_);
-}
+PlotSubscription::~PlotSubscription() = default;
 
 std::string PlotSubscription::take() {
   std::lock_guard lock(take_mu_);
   arrived_.clear();
   samples_.clear();
-  servant_->drain(arrived_, std::chrono::milliseconds(0));
+  WatchPort& port = subscription_->port();
+  port.drain(arrived_, std::chrono::milliseconds(0));
   const long long now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
                                std::chrono::system_clock::now().time_since_epoch()).count();
   for (const CORBA::Any& a : arrived_) samples_.push_back(to_sample(a));
   sent_ += samples_.size();
   const auto now = std::chrono::steady_clock::now();
-  if (!CORBA::is_nil(out_ex_) && now - asked_publisher_ >= kPublisherLook) {
+  if (now - asked_publisher_ >= kPublisherLook) {
     asked_publisher_ = now;
-    try {
-      RTM::SubscriptionInfoList_var subs = out_ex_->subscriptions();
-      for (CORBA::ULong i = 0; i < subs->length(); ++i)
-        if (subs[i].subscriber->_is_equivalent(in_)) publisher_lost_ = subs[i].dropped;
-    } catch (const CORBA::Exception&) {
-      // asked again a second later
-    }
+    publisher_lost_ = subscription_->publisher_dropped().value_or(publisher_lost_);  // else asked again a second later
   }
-  return plot_entry(type_, samples_, sent_, servant_->overflowed() + servant_->late() + publisher_lost_, now_ns);
+  return plot_entry(type_, samples_, sent_, port.overflowed() + port.late() + publisher_lost_, now_ns);
 }
 
 std::shared_ptr<PlotSubscription> PagePlots::take(const std::string& page, const std::string& address,

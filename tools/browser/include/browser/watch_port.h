@@ -13,6 +13,7 @@
 
 #include "rt/shm_ring.h"
 #include "rt/shm_segment.h"
+#include "rtm/orb.h"
 #include "rtm/ring_types.h"
 #include "rtm/sender_order.h"
 
@@ -21,6 +22,7 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -88,6 +90,36 @@ class WatchPort final : public virtual POA_RTM::InPortShm {
   std::vector<std::byte> datum_;  // one datum taken from a ring
   rtm::SenderOrder order_;
   std::string last_error_;
+};
+
+// A WatchPort subscribed (repeated) to an OutPort while this lives: what `rtm watch` and
+// rtm serve's plots take a port's data with.
+class WatchSubscription {
+ public:
+  // Makes a WatchPort of owner taking capacity data, activates it in orb and subscribes it to
+  // out (the OutPort at address, carrying type). Throws BrowseError "<address> refused <what>"
+  // when the publisher refuses, or the CORBA exception of the call (the port deactivated then).
+  WatchSubscription(rtm::Orb& orb, CORBA::Object_ptr out, CORBA::TypeCode_ptr type, const std::string& address,
+                    std::string owner, std::size_t capacity, const std::string& what);
+  ~WatchSubscription();  // finish(), its failure ignored (the publisher may be gone)
+  WatchSubscription(const WatchSubscription&) = delete;
+  WatchSubscription& operator=(const WatchSubscription&) = delete;
+
+  WatchPort& port() const { return *servant_; }
+  // What the publisher dropped for this subscriber; nothing when it does not tell or cannot be asked.
+  std::optional<unsigned long long> publisher_dropped() const;
+  // Unsubscribes and deactivates, once: the CORBA exception's name when the unsubscribe failed,
+  // else "".
+  std::string finish();
+
+ private:
+  rtm::Orb& orb_;
+  RTM::OutPort_var out_;
+  RTM::OutPortEx_var out_ex_;
+  WatchPort* servant_;
+  PortableServer::ServantBase_var keep_;
+  RTM::InPort_var in_;
+  bool finished_ = false;
 };
 
 }  // namespace rtm::cli

@@ -28,7 +28,7 @@ class Orb;
 
 namespace rtm::cli {
 
-class WatchPort;
+class WatchSubscription;
 
 // At most this many ports in one plots' stream (the page offers ten).
 inline constexpr std::size_t kPlotPortsMax = 10;
@@ -54,9 +54,7 @@ class PlotSubscription {
   // Resolves address, makes and subscribes the InPort (owner "rtm-serve-<pid>"). Throws
   // BrowseError (an InPort, refused, no ORB to serve it) or what Browser::port throws.
   PlotSubscription(const Browser& browser, rtm::Orb& orb, const std::string& address);
-  ~PlotSubscription();  // unsubscribes (errors ignored: the publisher may be gone) and deactivates
-  PlotSubscription(const PlotSubscription&) = delete;
-  PlotSubscription& operator=(const PlotSubscription&) = delete;
+  ~PlotSubscription();  // unsubscribes (a failure ignored: the publisher may be gone) and deactivates
 
   // What arrived since the last call, as plot_entry's text. A page's new stream takes over its
   // old stream's subscriptions (nothing written in between is missed), and the old one may
@@ -65,13 +63,8 @@ class PlotSubscription {
 
  private:
   std::mutex take_mu_;
-  rtm::Orb& orb_;
   std::string type_;
-  RTM::OutPort_var out_;
-  RTM::OutPortEx_var out_ex_;
-  WatchPort* servant_ = nullptr;
-  PortableServer::ServantBase_var keep_;
-  RTM::InPort_var in_;
+  std::unique_ptr<WatchSubscription> subscription_;  // unsubscribed when the plot goes
   std::uint64_t sent_ = 0;
   std::uint64_t publisher_lost_ = 0;
   std::chrono::steady_clock::time_point asked_publisher_{};
