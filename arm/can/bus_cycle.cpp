@@ -81,7 +81,7 @@ void BusCycle::handle(const can_frame& frame, std::int64_t now_ns) {
       if (!fb) { ++counters_.malformed_frames; return; }
       if (!solicited(drive_ledgers_[static_cast<std::size_t>(joint_index_of(fb->drive))], fb->drive, "TPDO1")) return;
       if (!window_open_) { ++counters_.late_frames; return; }
-      if (joints_.add(*fb)) ++counters_.late_frames;  // the newer is kept
+      if (joints_.add(*fb)) ++counters_.late_frames;  // withheld: which is genuine is unknown
       return;
     }
     case FrameType::sensor_force:
@@ -194,7 +194,7 @@ bool BusCycle::wait_readable(std::int64_t deadline_ns) {
 bool BusCycle::window_complete() const {
   if (!joints_.complete()) return false;
   for (std::size_t s = 0; s < kSensorCount; ++s)
-    if (sensor_enabled(s) && !wrenches_[s].complete()) return false;
+    if (sensor_enabled(s) && !wrenches_[s].answered()) return false;
   return true;
 }
 
@@ -278,7 +278,7 @@ void BusCycle::send_cycle(std::int64_t now_ns) {
 void BusCycle::close_window(std::int64_t now_ns, bool count_silence) {
   window_open_ = false;
   for (std::size_t i = 0; i < kDriveCount; ++i)
-    if (joints_.answered(i)) last_statusword_[i] = joints_.feedback(i).statusword;
+    if (joints_.trusted(i)) last_statusword_[i] = joints_.feedback(i).statusword;
   if (!count_silence) ++counters_.stalled_windows;
   const DriveSummary drives = supervisor_.check_drives(joints_.answers(), last_statusword_, now_ns, count_silence);
   check_following();
@@ -294,7 +294,7 @@ void BusCycle::check_following() {
       following_.rearm(i);
       continue;
     }
-    if (!joints_.answered(i)) continue;
+    if (!joints_.trusted(i)) continue;
     const DriveFeedback& fb = joints_.feedback(i);
     FollowingViolation v;
     if (!following_.check(i, acting_rad_s_[i], fb.position_rad, fb.velocity_rad_s, v)) continue;

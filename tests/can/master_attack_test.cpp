@@ -242,6 +242,46 @@ TEST(Pa10MasterAttack, ASpoofedWristForceTpdoAfterEachSyncIsASpoofedFrameFaultTh
   expect_every_drive_stopped_and_still(rig, 200ms);
 }
 
+// A sensor that missed SYNCs (here cut off the bus for a while; a simulated node on a loaded host
+// also answers two SYNCs with one TPDO) leaves answers owed for answer_expiry_periods SYNCs.
+// Until they run out, a spoofed force TPDO is not yet one too many: it arrives beside the genuine
+// one in a window, and which of the two is genuine is unknown, so that window's wrench is withheld.
+TEST(Pa10MasterAttack, ASpoofedForceTpdoBesideTheGenuineOneWhileAnswersAreOwedIsNeverPublished) {
+  MasterConfig config = test_config();
+  config.answer_expiry_periods = AnswerLedger::kMaxExpiry;  // the owed answers outlast a slow host
+  Rig rig({}, config);
+  rig.nodes->set_wrench(ForceSensor::wrist, {0, 0, 5, 0, 0, 0});
+  start_periodic_at_rest(rig);
+  rig.nodes->set_connected(kWristSensorNode, false);
+  const std::uint64_t cycles_before = rig.master->counters().cycles;
+  ASSERT_TRUE(rtm_test::eventually([&] { return rig.master->counters().cycles >= cycles_before + 10; }));
+  rig.nodes->set_connected(kWristSensorNode, true);
+  const std::uint64_t sequence_before = rig.master->wrench(ForceSensor::wrist).sequence;
+  ASSERT_TRUE(rtm_test::eventually([&] { return rig.master->wrench(ForceSensor::wrist).sequence > sequence_before; }))
+      << "the wrist sensor never answered again";
+  std::atomic<bool> watching{true};
+  double lowest_fz = 1e9;
+  std::thread watcher([&] {
+    while (watching) {
+      const Wrench w = rig.master->wrench(ForceSensor::wrist);
+      if (w.valid) lowest_fz = std::min(lowest_fz, w.values[2]);
+      std::this_thread::sleep_for(200us);
+    }
+  });
+  // Well after the genuine answer (the emulated sensor answers within tens of microseconds).
+  Attacker spoofer(
+      rig.spec, [](std::uint8_t) { return std::vector<can_frame>{*encode_sensor_force({kWristSensorNode, {0, 0, -50}})}; },
+      std::chrono::microseconds(600));
+  const bool stopped = spoofer.wait_for_stop();
+  watching = false;
+  watcher.join();
+  ASSERT_TRUE(stopped) << "attacks sent: " << spoofer.attacks();
+  EXPECT_EQ(rig.master->fault().kind, FaultKind::spoofed_frame) << rig.master->fault().reason;
+  // The case this test is for: the owed answers took spoofed frames before one was too many.
+  EXPECT_GT(spoofer.syncs_until_quick_stop(), 2) << "no answers were owed when the attack began";
+  EXPECT_GT(lowest_fz, 0.0) << "the spoofed -50 N reached the master's report";
+}
+
 TEST(Pa10MasterAttack, TwoTpdosOfOneDriveInOneSyncWindowAreASpoofedFrameFault) {
   Rig rig;
   start_periodic_at_rest(rig);
