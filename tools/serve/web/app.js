@@ -779,10 +779,22 @@ function openEvents() {
   };
 }
 // The first look asked at once (all components in parallel), not left for the stream's first
-// poll: the graph is drawn as soon as it answers.
+// poll. It is the one synchronous call of the page, on purpose: the page's load event waits for
+// it, so whatever waits for the load (a one-shot headless screenshot, a test driver) sees the
+// graph, not the placeholder. The server bounds each component's calls, so it cannot hang.
 function firstLook() {
   if (!token) { document.getElementById("status").textContent = "no token in the URL: open the URL rtm serve printed"; return; }
-  api("GET", "/api/system").then(data => { if (!system.length) showSystem(data); }).catch(e => showError(e.message));
+  const request = new XMLHttpRequest();
+  try {
+    request.open("GET", "/api/system", false);
+    request.setRequestHeader("X-RTM-Token", token);
+    request.send();
+    const data = JSON.parse(request.responseText);
+    if (request.status !== 200) throw new Error(data.error || request.statusText);
+    showSystem(data);
+  } catch (e) {
+    showError(e.message);
+  }
 }
 function closeReplacedStreams() { replacedStreams.forEach(s => s.close()); replacedStreams.clear(); }
 window.addEventListener("pagehide", () => {
