@@ -11,7 +11,8 @@
 #               components)
 #   rtm_add_idl(<target> FILES <idl...>)  stubs of a project's own data types
 #
-# Layout (GNU): bin/ (rtm, the components, pa10-sim), lib/ (static libraries),
+# Layout (GNU): bin/ (rtm, the components, pa10-sim), lib/ (the shared rt, idl, core and host
+# libraries, the static ones of the arm),
 # include/rtm/ (the headers as #include "rtm/...", "rt/...", "arm/can/..."; the IDL stubs in
 # include/rtm/idl), share/rtm/idl (the IDL files), share/rtm/models, lib/cmake/RTM,
 # share/doc/rtm, share/bash-completion. Nothing in an installed file names the source or
@@ -32,11 +33,24 @@ function(rtm_public_headers target folder)
   install(DIRECTORY ${folder}/ DESTINATION ${RTM_INSTALL_INCLUDEDIR} COMPONENT dev)
 endfunction()
 
-# rtm_export_library(<target> <name>): installs the library as RTM::<name>.
+# Installed programs and libraries find RTM's shared libraries relative to themselves, so the
+# tree stays relocatable (the install test moves it).
+set(CMAKE_INSTALL_RPATH "$ORIGIN/../${CMAKE_INSTALL_LIBDIR}")
+
+# rtm_export_library(<target> <name>): installs the library as RTM::<name>. A shared one goes
+# to the running system (runtime), its link name and a static one to the development files.
 function(rtm_export_library target name)
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})
   add_library(RTM::${name} ALIAS ${target})
-  install(TARGETS ${target} EXPORT RTMTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev)
+  get_target_property(type ${target} TYPE)
+  if(type STREQUAL "SHARED_LIBRARY")
+    # 0.x: every minor version may change the ABI.
+    set_target_properties(${target} PROPERTIES VERSION ${PROJECT_VERSION}
+                                               SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
+  endif()
+  install(TARGETS ${target} EXPORT RTMTargets
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
+          LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT runtime NAMELINK_COMPONENT dev)
 endfunction()
 
 # rtm_install_programs(<targets...>): executables users run.
@@ -92,9 +106,10 @@ endfunction()
 
 # rtm_debian_package(): `cpack -G DEB` in the build folder makes two packages, as Debian splits
 # a library: rtm_<version>_amd64.deb, the running system (the programs, the examples and the
-# demo, the models, the docs), and rtm-dev_<version>_amd64.deb, the base to build on (the
-# static libraries, headers, IDL, the CMake package and the scaffold's templates), which
-# depends on rtm of the same version.
+# demo, the models, the docs, the shared libraries the programs share), and
+# rtm-dev_<version>_amd64.deb, the base to build on (the libraries' link names, the static
+# libraries, headers, IDL, the CMake package and the scaffold's templates), which depends on
+# rtm of the same version.
 # rtm Depends: the shared libraries the programs link (dpkg-shlibdeps finds them; omniORB's are
 # libomniorb4-2 and libomnithread4 unless RTM_STATIC_OMNIORB is ON) and the naming service.
 # rtm-dev Depends: what find_package(RTM COMPONENTS core host) needs to build a project, and
@@ -118,7 +133,7 @@ function(rtm_debian_package)
          "a PA10 force servo on SocketCAN or on a MuJoCo stand-in (rtm demo).")
   string(CONCAT CPACK_DEBIAN_DEV_DESCRIPTION
          "RT-Middleware component framework for robot control - development files\n"
-         "The static libraries, headers, IDL and CMake package to build components\n"
+         "The libraries, headers, IDL and CMake package to build components\n"
          "of one's own (find_package(RTM), rtm new component).")
   set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
   set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
@@ -127,6 +142,11 @@ function(rtm_debian_package)
   set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
   set(CPACK_DEBIAN_PACKAGE_HOMEPAGE "https://example.org/rtm")
   set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
+  # rtm's own shared libraries: a shlibs file (a package built on them depends on this very
+  # version: 0.x changes the ABI with each release) and the ldconfig trigger.
+  set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS ON)
+  set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS_POLICY "=")
+  set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA ${PROJECT_SOURCE_DIR}/cmake/debian/triggers)
   # python3: the demo's stall witness (share/rtm/tools/wakeup_witness.py).
   set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "omniorb-nameserver, python3")
   set(CPACK_DEBIAN_RUNTIME_PACKAGE_SUGGESTS "can-utils, gnuplot")

@@ -33,7 +33,21 @@ for f in ./usr/bin/rtm ./usr/bin/rtm-servo ./usr/bin/rtm-controller ./usr/bin/pa
          ./usr/share/bash-completion/completions/rtm; do
   grep -qxF "$f" <<<"$listing" || fail "rtm lacks $f"
 done
-for f in ./usr/lib/librtm_core.a ./usr/lib/cmake/RTM/RTMConfig.cmake ./usr/lib/cmake/RTM/RtmIdl.cmake \
+# The core's libraries: shared (RTM_SHARED_LIBS, the default) in rtm with their link names in
+# rtm-dev, or static archives in rtm-dev.
+shared_libs=$(sed -n 's/^RTM_SHARED_LIBS:BOOL=//p' "$build/CMakeCache.txt")
+if [[ $shared_libs =~ ^(ON|TRUE|YES|Y|1)$ ]]; then
+  core_dev=./usr/lib/librtm_core.so
+  for lib in rt idl core host; do
+    grep -qE "^\./usr/lib/librtm_$lib\.so\.[0-9]+\.[0-9]+\.[0-9]+$" <<<"$listing" || fail "rtm lacks librtm_$lib.so.*"
+  done
+  ! grep -qxF ./usr/lib/librtm_core.a <<<"$dev_listing" || fail "rtm-dev holds librtm_core.a beside the shared library"
+  dpkg-deb --ctrl-tarfile "$deb" | tar -xO ./triggers 2>/dev/null | grep -qxF 'activate-noawait ldconfig' ||
+    fail "rtm has no ldconfig trigger"
+else
+  core_dev=./usr/lib/librtm_core.a
+fi
+for f in $core_dev ./usr/lib/cmake/RTM/RTMConfig.cmake ./usr/lib/cmake/RTM/RtmIdl.cmake \
          ./usr/include/rtm/host/runner.h ./usr/include/rtm/idl/RTM.hh ./usr/share/rtm/idl/RTM.idl \
          ./usr/share/rtm/scaffold/component.h.in ./usr/share/doc/rtm-dev/copyright ./usr/share/doc/rtm-dev/changelog.gz; do
   grep -qxF "$f" <<<"$dev_listing" || fail "rtm-dev lacks $f"
@@ -77,12 +91,15 @@ dpkg-deb -x "$dev" "$work/root" || fail "dpkg-deb -x rtm-dev"
 "$work/root/usr/bin/rtm" --help >"$work/help" 2>&1 || fail "rtm --help: $(cat "$work/help")"
 "$work/root/usr/bin/pa10-sim" --help >"$work/help" 2>&1 || fail "pa10-sim --help"
 grep -qF "$work/root/usr/share/rtm/models/pa10_scene.xml" "$work/help" || fail "pa10-sim does not look beside itself"
-needed=$(objdump -p "$work/root/usr/bin/rtm" | awk '$1 == "NEEDED" {print $2}')
+# What rtm needs, itself or through RTM's shared libraries.
+needed=$(for f in "$work/root/usr/bin/rtm" "$work"/root/usr/lib/librtm_*.so.*.*.*; do
+  [[ -f $f ]] && objdump -p "$f" | awk '$1 == "NEEDED" {print $2}'
+done | sort -u)
 for so in libomniORB4.so.2 libomniDynamic4.so.2 libomnisslTP4.so.2 libomnithread.so.4; do
   if [[ $static_omniorb =~ ^(ON|TRUE|YES|Y|1)$ ]]; then
-    ! grep -qxF "$so" <<<"$needed" || fail "usr/bin/rtm links $so, though omniORB is linked statically"
+    ! grep -qxF "$so" <<<"$needed" || fail "rtm links $so, though omniORB is linked statically"
   else
-    grep -qxF "$so" <<<"$needed" || fail "usr/bin/rtm does not link $so: $(tr '\n' ' ' <<<"$needed")"
+    grep -qxF "$so" <<<"$needed" || fail "rtm does not link $so: $(tr '\n' ' ' <<<"$needed")"
   fi
 done
 

@@ -127,7 +127,7 @@ class Installed : public ::testing::Test {
 };
 
 TEST_F(Installed, TheGnuLayoutHoldsProgramsLibrariesHeadersIdlModelsTemplatesAndThePackage) {
-  for (const char* file : {"bin/rtm", "bin/rtm-controller", "bin/rtm-servo", "bin/pa10-sim", "lib/librtm_core.a",
+  for (const char* file : {"bin/rtm", "bin/rtm-controller", "bin/rtm-servo", "bin/pa10-sim",
                            "lib/cmake/RTM/RTMConfig.cmake", "lib/cmake/RTM/RTMConfigVersion.cmake",
                            "lib/cmake/RTM/RTMTargets.cmake", "lib/cmake/RTM/RtmIdl.cmake",
                            "include/rtm/rtm/component.h", "include/rtm/rt/activity.h", "include/rtm/arm/can/bus.h",
@@ -139,6 +139,14 @@ TEST_F(Installed, TheGnuLayoutHoldsProgramsLibrariesHeadersIdlModelsTemplatesAnd
                            "share/rtm/examples/force-servo/demo", "share/rtm/examples/force-servo/system.yaml",
                            "share/rtm/examples/force-servo/operator_profile.yaml", "share/rtm/tools/wakeup_witness.py"})
     EXPECT_TRUE(fs::exists(prefix() / file)) << file;
+  // The core's libraries: shared by default (RTM_SHARED_LIBS), static archives otherwise.
+  const bool shared = fs::exists(prefix() / "lib/librtm_core.so");
+  EXPECT_TRUE(shared || fs::exists(prefix() / "lib/librtm_core.a")) << "no librtm_core";
+  if (shared) {
+    for (const char* lib : {"rt", "idl", "core", "host"}) {
+      EXPECT_TRUE(fs::exists(prefix() / "lib" / std::string("librtm_").append(lib).append(".so"))) << lib;
+    }
+  }
 }
 
 TEST_F(Installed, NoInstalledFileNamesTheSourceOrBuildTree) {
