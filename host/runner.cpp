@@ -2,6 +2,7 @@
 #include "host/runner.h"
 
 #include "host/lease.h"
+#include "runner_parts.h"
 #include "host/name_binding.h"
 #include "host/tls.h"
 #include "rtm/log.h"
@@ -25,40 +26,30 @@
 
 namespace rtm {
 
-namespace {
+namespace detail {
 
 const char* program_name(const char* argv0) {
   const char* slash = std::strrchr(argv0, '/');
   return slash != nullptr ? slash + 1 : argv0;
 }
 
-// Waits for SIGINT/SIGTERM synchronously. The signals are blocked before any thread starts
-// (every thread inherits the mask), so none is ever delivered to a handler.
-class TerminationSignals {
- public:
-  TerminationSignals() {
-    sigemptyset(&set_);
-    sigaddset(&set_, SIGINT);
-    sigaddset(&set_, SIGTERM);
-    pthread_sigmask(SIG_BLOCK, &set_, &previous_);
-    // A peer that vanishes mid-write must not kill us.
-    ::signal(SIGPIPE, SIG_IGN);
-  }
-  ~TerminationSignals() { pthread_sigmask(SIG_SETMASK, &previous_, nullptr); }
-  TerminationSignals(const TerminationSignals&) = delete;
-  TerminationSignals& operator=(const TerminationSignals&) = delete;
+TerminationSignals::TerminationSignals() {
+  sigemptyset(&set_);
+  sigaddset(&set_, SIGINT);
+  sigaddset(&set_, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &set_, &previous_);
+  // A peer that vanishes mid-write must not kill us.
+  ::signal(SIGPIPE, SIG_IGN);
+}
 
-  int wait() const {
-    int received = 0;
-    while (sigwait(&set_, &received) != 0) {
-    }
-    return received;
-  }
+TerminationSignals::~TerminationSignals() { pthread_sigmask(SIG_SETMASK, &previous_, nullptr); }
 
- private:
-  sigset_t set_{};
-  sigset_t previous_{};
-};
+int TerminationSignals::wait() const {
+  int received = 0;
+  while (sigwait(&set_, &received) != 0) {
+  }
+  return received;
+}
 
 void pin_process_to_cpu(int cpu) {
   cpu_set_t set;
@@ -70,7 +61,7 @@ void pin_process_to_cpu(int cpu) {
   }
 }
 
-}  // namespace
+}  // namespace detail
 
 PeriodicOptions RunSettings::periodic_options() const {
   PeriodicOptions options;
@@ -160,7 +151,7 @@ SplitArguments split_orb_arguments(int argc, const char* const* argv) {
   return split;
 }
 
-namespace {
+namespace detail {
 
 // Started under chrt (SCHED_FIFO or SCHED_RR inherited): the activity keeps that priority
 // (unless --rt-priority says otherwise), and so does every thread a datum passes on its way
@@ -169,17 +160,17 @@ namespace {
 // (host/access.cpp). Every other request is served at SCHED_OTHER, so that one that costs much
 // CPU cannot starve the loops or the machine. The main thread is switched back before any
 // other thread exists.
-void keep_real_time_for_the_activity(RunSettings& settings) {
+int keep_real_time_for_the_activity(const std::string& name) {
   int policy = SCHED_OTHER;
   sched_param param{};
-  if (pthread_getschedparam(pthread_self(), &policy, &param) != 0) return;
-  if (policy != SCHED_FIFO && policy != SCHED_RR) return;
-  if (settings.rt_priority == 0) settings.rt_priority = param.sched_priority;
+  if (pthread_getschedparam(pthread_self(), &policy, &param) != 0) return 0;
+  if (policy != SCHED_FIFO && policy != SCHED_RR) return 0;
   const sched_param other{};
-  if (pthread_setschedparam(pthread_self(), SCHED_OTHER, &other) != 0) return;
-  log().info("{}: started with real-time priority {}: kept for its activity, its CAN receive and delivery threads "
-             "and the ORB's while they serve a put of this user's (SCHED_FIFO {}); other requests at SCHED_OTHER",
-             settings.name, param.sched_priority, settings.rt_priority);
+  if (pthread_setschedparam(pthread_self(), SCHED_OTHER, &other) != 0) return 0;
+  log().info("{}: started with real-time priority {}: kept for its activities, its CAN receive and delivery threads "
+             "and the ORB's while they serve a put of this user's; other requests at SCHED_OTHER",
+             name, param.sched_priority);
+  return param.sched_priority;
 }
 
 // The options every OutPort of the component takes from the command line, as given.
@@ -239,44 +230,36 @@ void apply_port_options(const PortTexts& texts, RunSettings& settings) {
 // Parses the command line into settings; returns an exit status when the process should stop
 // here (--help, or a bad command line: 2).
 std::optional<int> parse_command_line(int argc, char** argv, const char* program, const ComponentMain& main,
-                                      RunSettings& settings) {
+                                      RunSettings& settings, ParseMode mode) {
+  const bool alone = mode == ParseMode::process;
   auto split = split_orb_arguments(argc, argv);
-  settings.name = (main.kind.empty() ? std::string("component") : main.kind) + "0";
+  if (!alone && !split.orb.empty()) {
+    std::fprintf(stderr, "%s: %s: -ORB options go to rtm-container, before the first --\n", program, split.orb[0].c_str());
+    return 2;
+  }
+  if (settings.name.empty()) settings.name = (main.kind.empty() ? std::string("component") : main.kind) + "0";
   settings.orb_args = std::move(split.orb);
   std::string naming_text;
   CLI::App app(main.description.empty() ? "RTM component" : main.description, program);
-  app.add_option("--name", settings.name, "component name, bound as <host>.host_cxt/<name>.rtc")
-      ->capture_default_str();
-  app.add_option("--naming", naming_text, "naming service host:port")
-      ->default_str(NamingAddress::from_environment().to_string())
-      ->envname("RTM_NAMING");
+  if (alone) {
+    app.add_option("--name", settings.name, "component name, bound as <host>.host_cxt/<name>.rtc")
+        ->capture_default_str();
+    app.add_option("--naming", naming_text, "naming service host:port")
+        ->default_str(NamingAddress::from_environment().to_string())
+        ->envname("RTM_NAMING");
+  }
   ScheduleTexts schedule_texts;
   add_schedule_options(app, schedule_texts);
   app.add_option("--rt-priority", settings.rt_priority, "SCHED_FIFO priority of the activity (1..99)")
       ->check(CLI::Range(0, 99));
   app.add_option("--cpu", settings.cpu,
-                 main.pin_process_to_cpu ? "pin the process to this CPU" : "pin the component's threads to this CPU")
+                 main.pin_process_to_cpu && alone ? "pin the process to this CPU" : "pin the component's threads to this CPU")
       ->check(CLI::NonNegativeNumber);
-  app.add_flag("--mlock", settings.lock_memory, "lock the process's memory (mlockall)");
-  app.add_option("--endpoint", settings.endpoints,
-                 "omniORB endpoint, repeatable (default: giop:tcp:127.0.0.1: and giop:unix:; with --tls: "
-                 "giop:ssl:: on every interface and giop:unix:)");
-  app.add_option("--tls", settings.tls_folder,
-                 "TLS folder (`rtm tls init`): serve and call giop:ssl: endpoints with its certificates; a peer "
-                 "whose certificate the folder's authority issued may change the component")
-      ->envname(kTlsFolderVariable);
   app.add_flag("--on", settings.turn_on, "turn the component on once it is up");
-  std::string access_text = "owner";
-  app.add_option("--access", access_text,
-                 "who may change it (on/off/reset, parameters, connections, puts): owner (this user's "
-                 "processes on this host, over giop:unix:, and peers with a certificate of its --tls "
-                 "authority) or open (anyone who reaches its endpoints, e.g. a client of the 2004 IDL "
-                 "over TCP)")
-      ->check(CLI::IsMember({"owner", "open"}))
-      ->capture_default_str();
   PortTexts port_texts;
   add_port_options(app, port_texts);
-  app.footer("Options -ORB<name> <value> go to omniORB unchanged.");
+  std::string access_text = "owner";
+  if (alone) add_process_options(app, settings, access_text);
   if (main.add_options) main.add_options(app);
   // A wrapper script may add its own default before the user's: the last one given wins.
   for (auto* option : app.get_options()) {
@@ -291,7 +274,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
     settings.access = *parse_access_policy(access_text);
     check_name(settings.name);
     apply_port_options(port_texts, settings);
-    settings.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
+    if (alone) settings.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
     if (main.validate) main.validate(settings);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help: 0; CLI11's own codes (105, 114, ...) are all "bad command line"
@@ -299,6 +282,32 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
     std::fprintf(stderr, "%s: %s\n", program, e.what());
     return 2;
   }
+  return alone ? check_endpoints(program, settings) : std::nullopt;
+}
+
+// The options of the process as a whole: its memory, its endpoints, certificates and access
+// screen (rtm-container takes these for all its members).
+void add_process_options(CLI::App& app, RunSettings& settings, std::string& access_text) {
+  app.add_flag("--mlock", settings.lock_memory, "lock the process's memory (mlockall)");
+  app.add_option("--endpoint", settings.endpoints,
+                 "omniORB endpoint, repeatable (default: giop:tcp:127.0.0.1: and giop:unix:; with --tls: "
+                 "giop:ssl:: on every interface and giop:unix:)");
+  app.add_option("--tls", settings.tls_folder,
+                 "TLS folder (`rtm tls init`): serve and call giop:ssl: endpoints with its certificates; a peer "
+                 "whose certificate the folder's authority issued may change the component")
+      ->envname(kTlsFolderVariable);
+  app.add_option("--access", access_text,
+                 "who may change it (on/off/reset, parameters, connections, puts): owner (this user's "
+                 "processes on this host, over giop:unix:, and peers with a certificate of its --tls "
+                 "authority) or open (anyone who reaches its endpoints, e.g. a client of the 2004 IDL "
+                 "over TCP)")
+      ->check(CLI::IsMember({"owner", "open"}))
+      ->capture_default_str();
+  app.footer("Options -ORB<name> <value> go to omniORB unchanged.");
+}
+
+// The default endpoints; an ssl endpoint needs certificates. An exit status when refused.
+std::optional<int> check_endpoints(const char* program, RunSettings& settings) {
   if (settings.endpoints.empty()) {
     settings.endpoints = settings.tls_folder.empty() ? std::vector<std::string>{"giop:tcp:127.0.0.1:", "giop:unix:"}
                                                      : std::vector<std::string>{"giop:ssl::", "giop:unix:"};
@@ -367,9 +376,49 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   if (settings.turn_on) servant->on();
 }
 
-}  // namespace
+// Turns the component off, unbinds its names and deactivates its servant: the ordered
+// shutdown, whatever bring_up() made.
+void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vector<std::unique_ptr<NameBinding>>& bindings,
+               const std::string& name) {
+  try {
+    if (servant) servant->off();
+  } catch (const CORBA::Exception& e) {
+    log().warn("{}: off() raised {}", name, e._name());
+  } catch (const std::exception& e) {
+    log().warn("{}: off() failed: {}", name, e.what());
+  }
+  bindings.clear();
+  if (servant) servant->deactivate();
+}
+
+// The access screen, the certificates and the ORB of the process; nullopt (and one error line)
+// when one of them cannot be had.
+bool start_orb(const char* program, const RunSettings& settings, std::optional<Orb>& orb) {
+  configure_access(settings.access);
+  if (!settings.tls_folder.empty()) {
+    try {
+      configure_tls(check_tls_folder(settings.tls_folder));
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s: --tls: %s\n", program, e.what());
+      return false;
+    }
+  }
+  std::vector<std::string> orb_args;
+  for (const auto& endpoint : settings.endpoints) orb_args.insert(orb_args.end(), {"-ORBendPoint", endpoint});
+  orb_args.insert(orb_args.end(), settings.orb_args.begin(), settings.orb_args.end());
+  try {
+    orb.emplace(orb_args);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", program, e.what());
+    return false;
+  }
+  return true;
+}
+
+}  // namespace detail
 
 int run_component(int argc, char** argv, const ComponentMain& main) {
+  using namespace detail;
   const char* program = program_name(argc > 0 ? argv[0] : "rtm-component");
   if (!main.create && !main.create_with_orb) {
     std::fprintf(stderr, "%s: no component factory given\n", program);
@@ -378,34 +427,17 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   TerminationSignals signals;
 
   RunSettings settings;
-  if (auto exit_status = parse_command_line(argc, argv, program, main, settings)) return *exit_status;
+  if (auto exit_status = parse_command_line(argc, argv, program, main, settings, ParseMode::process)) return *exit_status;
   if (settings.cpu >= 0 && main.pin_process_to_cpu) pin_process_to_cpu(settings.cpu);
-  keep_real_time_for_the_activity(settings);
+  const int inherited = keep_real_time_for_the_activity(settings.name);
+  if (settings.rt_priority == 0) settings.rt_priority = inherited;
   // Threads on the real-time path that are not the activity (a CAN listener's receive thread,
   // a delivery thread, an ORB thread serving an admitted put) take its priority.
   set_path_thread_priority(settings.rt_priority);
 
   // ---- bring up: access policy, certificates, ORB, component, servant, names ----
-  configure_access(settings.access);
-  if (!settings.tls_folder.empty()) {
-    try {
-      configure_tls(check_tls_folder(settings.tls_folder));
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "%s: --tls: %s\n", program, e.what());
-      return 1;
-    }
-  }
-  std::vector<std::string> orb_args;
-  for (const auto& endpoint : settings.endpoints) orb_args.insert(orb_args.end(), {"-ORBendPoint", endpoint});
-  orb_args.insert(orb_args.end(), settings.orb_args.begin(), settings.orb_args.end());
-
   std::optional<Orb> orb;
-  try {
-    orb.emplace(orb_args);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s: %s\n", program, e.what());
-    return 1;
-  }
+  if (!start_orb(program, settings, orb)) return 1;
 
   int status = 0;
   {
@@ -427,15 +459,7 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
     }
 
     // ---- shut down in order: no more cycles, no more names, no more servants ----
-    try {
-      if (servant) servant->off();
-    } catch (const CORBA::Exception& e) {
-      log().warn("{}: off() raised {}", settings.name, e._name());
-    } catch (const std::exception& e) {
-      log().warn("{}: off() failed: {}", settings.name, e.what());
-    }
-    bindings.clear();
-    if (servant) servant->deactivate();
+    shut_down(servant, bindings, settings.name);
   }
   orb.reset();
   return status;

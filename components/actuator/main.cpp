@@ -4,31 +4,37 @@
 // the watchdog and NaN/inf give a CiA 402 quick stop (the drives brake).
 #include "components/actuator/actuator.h"
 
-#include "host/runner.h"
+#include "host/module.h"
+
+#include <memory>
 
 namespace {
 // With --phase: the bus cycle runs this long after the actuator's cycle (its wake-up lateness
 // and the velocity IK fit well inside on these machines: p99 ~100 us).
 constexpr std::int64_t kMasterLeadNs = 150'000;
-}  // namespace
 
-int main(int argc, char** argv) {
-  rtm::pa10::ArmHardware::Options hardware;
-  rtm::comp::ActuatorParams params;
-  return rtm::run_component(argc, argv, {
+rtm::ComponentMain actuator() {
+  struct Options {
+    rtm::pa10::ArmHardware::Options hardware;
+    rtm::comp::ActuatorParams params;
+  };
+  auto options = std::make_shared<Options>();
+  return {
       .kind = "actuator",
       .description =
           "rtm-actuator: PA10 velocity actuator (Fig. 7); in0 = TimedFloat6 twist, base frame "
           "(vx vy vz m/s, wx wy wz rad/s), clamped to ±limit; the CAN master runs (zero velocity) "
           "while the component is off",
       .add_options =
-          [&](CLI::App& app) {
+          [options](CLI::App& app) {
+            auto& [hardware, params] = *options;
             hardware.add_options(app);
             rtm::add_parameter_options(app, rtm::comp::actuator_parameters(), params);
           },
-      .validate = [&](const rtm::RunSettings&) { params.validate(); },
+      .validate = [options](const rtm::RunSettings&) { options->params.validate(); },
       .create =
-          [&](const rtm::RunSettings& settings) {
+          [options](const rtm::RunSettings& settings) {
+            auto& [hardware, params] = *options;
             hardware.period_ns = settings.period_ns;
             hardware.rt_priority = settings.rt_priority;
             hardware.cpu = settings.cpu;
@@ -40,5 +46,9 @@ int main(int argc, char** argv) {
             return std::make_unique<rtm::comp::Actuator>(
                 settings.name, std::make_unique<rtm::pa10::ArmHardware>(hardware), params);
           },
-  });
+  };
 }
+
+}  // namespace
+
+RTM_COMPONENT(actuator)

@@ -4,19 +4,27 @@
 // finite (the actuator's watchdog then brakes).
 #include "components/controller/controller.h"
 
-#include "host/runner.h"
+#include "host/module.h"
 
-int main(int argc, char** argv) {
-  rtm::comp::ControllerParams params;
-  return rtm::run_component(argc, argv, {
+#include <memory>
+
+namespace {
+
+rtm::ComponentMain controller() {
+  auto params = std::make_shared<rtm::comp::ControllerParams>();
+  return {
       .kind = "controller",
       .description =
           "rtm-controller: P force controller, out0 = gain*(in1 + in0) (Fig. 6); in0 sensor wrench, "
           "in1 reference wrench, out0 velocity twist (base frame, m/s, rad/s)",
-      .add_options = [&](CLI::App& app) { rtm::add_parameter_options(app, rtm::comp::controller_parameters(), params); },
-      .validate = [&](const rtm::RunSettings&) { params.validate(); },
-      .create = [&](const rtm::RunSettings& settings) {
-        return std::make_unique<rtm::comp::Controller>(settings.name, params);
+      .add_options = [params](CLI::App& app) { rtm::add_parameter_options(app, rtm::comp::controller_parameters(), *params); },
+      .validate = [params](const rtm::RunSettings&) { params->validate(); },
+      .create = [params](const rtm::RunSettings& settings) {
+        return std::make_unique<rtm::comp::Controller>(settings.name, *params);
       },
-  });
+  };
 }
+
+}  // namespace
+
+RTM_COMPONENT(controller)

@@ -9,8 +9,9 @@
 #include "components/sensor/sensor.h"
 
 #include "arm/can/bus_options.h"
-#include "host/runner.h"
+#include "host/module.h"
 
+#include <memory>
 #include <string>
 
 namespace {
@@ -23,14 +24,15 @@ constexpr bool kJoystickOnly = true;
 constexpr bool kJoystickOnly = false;
 #endif
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  pc::BusOptions buses;
-  std::string node_name = kJoystickOnly ? "joystick" : "wrist";
-  std::string urdf;  // "" = the arm library's built-in PA10 model
-  rtm::comp::SensorParams params;
-  return rtm::run_component(argc, argv, {
+rtm::ComponentMain sensor() {
+  struct Options {
+    pc::BusOptions buses;
+    std::string node_name = kJoystickOnly ? "joystick" : "wrist";
+    std::string urdf;  // "" = the arm library's built-in PA10 model
+    rtm::comp::SensorParams params;
+  };
+  auto options = std::make_shared<Options>();
+  return {
       .kind = kJoystickOnly ? "joystick" : "sensor",
       .description =
           kJoystickOnly
@@ -40,7 +42,8 @@ int main(int argc, char** argv) {
                 "(Fx Fy Fz N, Tx Ty Tz N·m): --node wrist (0x10, the default), the wrench on the tool (pressing on "
                 "the table reads +Fz), or --node joystick (0x11), the operator's force (as rtm-joystick)",
       .add_options =
-          [&](CLI::App& app) {
+          [options](CLI::App& app) {
+            auto& [buses, node_name, urdf, params] = *options;
             buses.add_options(app);
             if (!kJoystickOnly) {
               app.add_option("--node", node_name, "which force sensor: wrist (0x10) or joystick (0x11)")
@@ -52,9 +55,10 @@ int main(int argc, char** argv) {
             }
             rtm::add_parameter_options(app, rtm::comp::sensor_parameters(), params);
           },
-      .validate = [&](const rtm::RunSettings&) { params.validate(); },
+      .validate = [options](const rtm::RunSettings&) { options->params.validate(); },
       .create =
-          [&](const rtm::RunSettings& settings) -> std::unique_ptr<rtm::Component> {
+          [options](const rtm::RunSettings& settings) -> std::unique_ptr<rtm::Component> {
+            auto& [buses, node_name, urdf, params] = *options;
             if (node_name == "joystick")
               return rtm::comp::Sensor::joystick(
                   settings.name, std::make_unique<rtm::comp::BusForceSource>(buses.sensors(), pc::ForceSensor::joystick),
@@ -64,5 +68,9 @@ int main(int argc, char** argv) {
                 std::make_unique<rtm::comp::BusForceSource>(buses.sensors(), pc::ForceSensor::wrist, buses.bus),
                 rtm::pa10::Kinematics::pa10(urdf), params);
           },
-  });
+  };
 }
+
+}  // namespace
+
+RTM_COMPONENT(sensor)

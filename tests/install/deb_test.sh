@@ -30,7 +30,7 @@ for f in ./usr/bin/rtm ./usr/bin/rtm-servo ./usr/bin/rtm-controller ./usr/bin/pa
          ./usr/share/rtm/models/pa10_scene.xml ./usr/share/rtm/examples/force-servo/demo \
          ./usr/share/rtm/examples/source_sink/system.yaml ./usr/share/doc/rtm/system-files.md \
          ./usr/share/doc/rtm/copyright ./usr/share/doc/rtm/NOTICE ./usr/share/doc/rtm/changelog.gz \
-         ./usr/share/bash-completion/completions/rtm; do
+         ./usr/share/bash-completion/completions/rtm ./usr/bin/rtm-container ./usr/lib/rtm/modules/rtm-controller.so; do
   grep -qxF "$f" <<<"$listing" || fail "rtm lacks $f"
 done
 # The core's libraries: shared (RTM_SHARED_LIBS, the default) in rtm with their link names in

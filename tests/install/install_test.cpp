@@ -12,6 +12,7 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <cctype>
@@ -137,7 +138,9 @@ TEST_F(Installed, TheGnuLayoutHoldsProgramsLibrariesHeadersIdlModelsTemplatesAnd
                            "share/doc/rtm/system-files.md", "bin/rtm-example-source", "bin/rtm-example-sink",
                            "share/rtm/examples/source_sink/system.yaml", "share/rtm/examples/source_sink/source.cpp",
                            "share/rtm/examples/force-servo/demo", "share/rtm/examples/force-servo/system.yaml",
-                           "share/rtm/examples/force-servo/operator_profile.yaml", "share/rtm/tools/wakeup_witness.py"})
+                           "share/rtm/examples/force-servo/operator_profile.yaml", "share/rtm/tools/wakeup_witness.py",
+                           "bin/rtm-container", "lib/rtm/modules/rtm-controller.so", "lib/rtm/modules/rtm-actuator.so",
+                           "lib/rtm/modules/rtm-sensor.so", "lib/rtm/modules/rtm-joystick.so"})
     EXPECT_TRUE(fs::exists(prefix() / file)) << file;
   // The core's libraries: shared by default (RTM_SHARED_LIBS), static archives otherwise.
   const bool shared = fs::exists(prefix() / "lib/librtm_core.so");
@@ -169,6 +172,36 @@ TEST_F(Installed, TheTreeMovesPa10SimFindsItsSceneBesideItselfWherever) {
   const CommandResult help = rtm_test::run_command({(moved / "usr/bin/pa10-sim").string(), "--help"});
   EXPECT_EQ(help.exit_code, 0) << help.err;
   EXPECT_NE(help.out.find((moved / "usr/share/rtm/models/pa10_scene.xml").string()), std::string::npos) << help.out;
+  fs::remove_all(moved);
+}
+
+// The installed rtm-container, moved elsewhere, loads the installed modules beside it (and they
+// the shared libraries): two controllers in one process, wired in-process.
+TEST_F(Installed, TheInstalledContainerMovedElsewhereRunsTheInstalledModulesWiredInProcess) {
+  const fs::path moved = root_ / "moved-container";
+  fs::create_directories(moved);
+  const CommandResult copy = rtm_test::run_command({"/bin/cp", "-a", prefix().string(), moved.string()});
+  ASSERT_EQ(copy.exit_code, 0) << copy.err;
+  ChildProcess::Options options;
+  options.echo_output = false;
+  options.extra_env = {"RTM_TLS=", "RTM_MODULE_PATH="};
+  ChildProcess container({(moved / "usr/bin/rtm-container").string(), "--name", "cell0", "--naming", names_.address(),
+                          "--", "c1", "rtm-controller", "--", "c2", "rtm-controller", "--period", "5ms"},
+                         options);
+  container.wait_for_line("2 members up");
+  const CommandResult connected = rtm({"connect", "c1.twist", "c2.wrench"});
+  ASSERT_EQ(connected.exit_code, 0) << connected.err;
+  const CommandResult described = rtm({"--json", "cat", "c1"});
+  ASSERT_EQ(described.exit_code, 0) << described.err;
+  const json c1 = json::parse(described.out);
+  bool in_process = false;
+  for (const auto& p : c1["ports"])
+    if (p["name"] == "twist") in_process = p["subscriptions"].at(0)["in_process"].get<bool>();
+  EXPECT_TRUE(in_process) << described.out;
+  container.send_signal(SIGTERM);
+  const auto status = container.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_EQ(status->code, 0) << container.output();
   fs::remove_all(moved);
 }
 

@@ -9,7 +9,7 @@
 // calls time out, while the component answers everything else).
 #include "rt/live_value.h"
 #include "rtm/data.h"
-#include "host/runner.h"
+#include "host/module.h"
 
 #include <atomic>
 #include <memory>
@@ -82,21 +82,27 @@ class Talker final : public rtm::Component {
   rtm::LiveValue<float> offset_live_{0.0f};
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  long fail_after = 0;
-  int in0_delay_ms = 0;
-  return rtm::run_component(argc, argv, {
+// A program (rtm-test-talker) and a module for rtm-container (rtm-test-talker.so).
+rtm::ComponentMain talker() {
+  struct Options {
+    long fail_after = 0;
+    int in0_delay_ms = 0;
+  };
+  auto options = std::make_shared<Options>();
+  return {
       .kind = "talker",
       .description = "test component with TimedFloat6 and TimedFloat3 ports",
-      .add_options = [&](CLI::App& app) {
-        app.add_option("--fail-after", fail_after, "throw in every N-th cycle (0: never)");
-        app.add_option("--in0-delay-ms", in0_delay_ms, "each put into in0 waits this long (a slow reader)");
+      .add_options = [options](CLI::App& app) {
+        app.add_option("--fail-after", options->fail_after, "throw in every N-th cycle (0: never)");
+        app.add_option("--in0-delay-ms", options->in0_delay_ms, "each put into in0 waits this long (a slow reader)");
       },
-      .create = [&](const rtm::RunSettings& s) {
-        return std::make_unique<Talker>(s.name, fail_after, in0_delay_ms);
+      .create = [options](const rtm::RunSettings& s) {
+        return std::make_unique<Talker>(s.name, options->fail_after, options->in0_delay_ms);
       },
       .activity = {},
-  });
+  };
 }
+
+}  // namespace
+
+RTM_COMPONENT(talker)

@@ -1,0 +1,65 @@
+// SPDX-License-Identifier: Apache-2.0
+// The runner's steps, shared by run_component (one component, host/runner.h) and
+// run_container (several in one process, host/module.h). Not installed.
+#pragma once
+
+#include "host/name_binding.h"
+#include "host/runner.h"
+#include "rtm/orb.h"
+
+#include <signal.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace rtm::detail {
+
+const char* program_name(const char* argv0);
+
+// Waits for SIGINT/SIGTERM synchronously. The signals are blocked before any thread starts
+// (every thread inherits the mask), so none is ever delivered to a handler.
+class TerminationSignals {
+ public:
+  TerminationSignals();
+  ~TerminationSignals();
+  TerminationSignals(const TerminationSignals&) = delete;
+  TerminationSignals& operator=(const TerminationSignals&) = delete;
+  int wait() const;
+
+ private:
+  sigset_t set_{};
+  sigset_t previous_{};
+};
+
+// Before any thread exists: the ORB's threads and the activities inherit it.
+void pin_process_to_cpu(int cpu);
+
+// Started under chrt: the main thread goes back to SCHED_OTHER, and the priority it had is
+// returned for the activities (0 when it had none).
+int keep_real_time_for_the_activity(const std::string& name);
+
+// process: a component's own command line (its name, the naming service, the process's
+// options). member: one member of rtm-container, whose process options are the container's.
+enum class ParseMode { process, member };
+// Parses the command line into settings (settings.name, when set, is the default name);
+// returns an exit status when the process should stop here (--help: 0, a bad command line: 2).
+std::optional<int> parse_command_line(int argc, char** argv, const char* program, const ComponentMain& main,
+                                      RunSettings& settings, ParseMode mode);
+void add_process_options(CLI::App& app, RunSettings& settings, std::string& access_text);
+std::optional<int> check_endpoints(const char* program, RunSettings& settings);
+
+// Builds the component and its servant, activates it and binds its names; turns it on when
+// asked. Throws what the component's factory or the ORB throws; what was made by then is in
+// servant and bindings, for shut_down().
+void bring_up(const ComponentMain& main, const RunContext& context, PortableServer::Servant_var<ComponentServant>& servant,
+              std::vector<std::unique_ptr<NameBinding>>& bindings);
+void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vector<std::unique_ptr<NameBinding>>& bindings,
+               const std::string& name);
+
+// The access screen, the certificates and the ORB of the process (into orb); false, after
+// one error line, when one of them cannot be had.
+bool start_orb(const char* program, const RunSettings& settings, std::optional<Orb>& orb);
+
+}  // namespace rtm::detail
