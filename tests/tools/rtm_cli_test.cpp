@@ -556,7 +556,7 @@ class RtmUpDown : public RtmCli {
   }
   CommandResult rtm_env(std::vector<std::string> args) {
     args.insert(args.begin(), {RTM_CLI_PATH, "--naming", names_.address()});
-    return rtm_test::run_command(args, {"RTM_BIN_PATH=" + std::string(RTM_TEST_BIN_DIR),
+    return rtm_test::run_command(args, {"RTM_BIN_PATH=" + std::string(RTM_TEST_BIN_DIR) + ":" + RTM_BIN_DIR,
                                         "XDG_RUNTIME_DIR=" + dir_.string()},
                                  std::chrono::seconds(30));
   }
@@ -616,6 +616,48 @@ activate: [a, b]
   auto twice = rtm_env({"down", "trio"});
   EXPECT_EQ(twice.exit_code, 1);
   EXPECT_NE(twice.err.find("is it up?"), std::string::npos) << twice.err;
+}
+
+// host: a and b in one rtm-container, c alone; the wiring between a and b in-process, each
+// member switched on its own, the page's save writes the host back, and down stops the
+// container once.
+TEST_F(RtmUpDown, UpRunsAHostsMembersInOneContainerWiredInProcessAndDownStopsIt) {
+  auto file = write_system(R"(
+name: trio
+components:
+  - {name: a, command: [rtm-test-talker, --period, 2ms], host: cell0}
+  - {name: c, command: rtm-test-talker}
+  - {name: b, command: rtm-test-talker, host: cell0, parameters: {offset: 2}}
+connections:
+  - {from: a.force, to: b.in0}
+  - {from: b.force, to: c.in0}
+activate: [a]
+)");
+  auto up = rtm_env({"--json", "up", file.string()});
+  ASSERT_EQ(up.exit_code, 0) << up.err << up.out;
+  const json started = json::parse(up.out);
+  ASSERT_EQ(started["processes"].size(), 2u) << started.dump();
+  EXPECT_EQ(started["processes"][0]["name"], "cell0");
+  EXPECT_EQ(started["processes"][0]["members"], (json{"a", "b"}));
+  const auto pid_of = [&](const std::string& name) {
+    return rtm_json({"cat", name})["statistics"]["pid"]["value"].get<double>();
+  };
+  const double container = started["processes"][0]["pid"].get<double>();
+  EXPECT_EQ(pid_of("a"), container);
+  EXPECT_EQ(pid_of("b"), container);
+  EXPECT_NE(pid_of("c"), container);
+  const json a = rtm_json({"cat", "a"}), b = rtm_json({"cat", "b"});
+  EXPECT_TRUE((*port(a, "force"))["subscriptions"][0]["in_process"].get<bool>()) << a.dump();
+  EXPECT_FALSE((*port(b, "force"))["subscriptions"][0]["in_process"].get<bool>()) << "c is another process";
+  EXPECT_EQ(a["state"], "on");
+  EXPECT_EQ(b["state"], "off");
+  EXPECT_EQ(b["parameters"]["offset"]["value"], "2");
+
+  auto down = rtm_env({"down", "trio"});
+  ASSERT_EQ(down.exit_code, 0) << down.err;
+  EXPECT_TRUE(rtm_json({"ls"}).empty()) << "every name unbound";
+  EXPECT_FALSE(std::filesystem::exists("/proc/" + std::to_string(static_cast<long>(container)) + "/exe"))
+      << "the container still runs";
 }
 
 TEST_F(RtmUpDown, UpNamesTheComponentThatDidNotComeUpAndLeavesNothingRunning) {

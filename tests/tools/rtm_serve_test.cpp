@@ -6,6 +6,7 @@
 #include "rtm_test/child_process.h"
 #include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
+#include "launcher/system_file.h"
 
 #include <gtest/gtest.h>
 #include <httplib.h>
@@ -25,6 +26,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <functional>
 #include <cctype>
 #include <memory>
@@ -33,6 +35,8 @@
 #include <thread>
 
 namespace {
+
+using rtm::cli::SystemFile;
 
 using nlohmann::json;
 using rtm_test::ChildProcess;
@@ -375,6 +379,30 @@ activate: [dst]
   const auto bad = client().Post("/api/system-file/preview", with_token(), "components: 5", "text/yaml");
   EXPECT_EQ(bad->status, 400);
   EXPECT_NE(bad->body.find("'components' must be a non-empty list"), std::string::npos) << bad->body;
+}
+
+// Members of rtm-container are saved with their own command and the container's name as host,
+// so that rtm up starts them in one process again.
+TEST_F(RtmServe, SaveWritesAContainersMembersWithTheirHost) {
+  ChildProcess::Options quiet;
+  quiet.echo_output = false;
+  ChildProcess container({RTM_CONTAINER_PATH, "--name", "cell0", "--naming", names_.address(), "--", "m1", TALKER_PATH,
+                          "--on", "--", "m2", TALKER_PATH, "--period", "5ms"},
+                         quiet);
+  container.wait_for_line("2 members up");
+  const json saved = get_json("/api/system-file?name=cell");
+  const std::string yaml = saved["yaml"];
+  const SystemFile file = SystemFile::parse(yaml, "saved.yaml");
+  std::map<std::string, SystemFile::Component> by_name;
+  for (const auto& c : file.components) by_name[c.name] = c;
+  ASSERT_EQ(by_name.count("m1"), 1u) << yaml;
+  ASSERT_EQ(by_name.count("m2"), 1u) << yaml;
+  EXPECT_EQ(by_name["m1"].host, "cell0");
+  EXPECT_EQ(by_name["m2"].host, "cell0");
+  EXPECT_EQ(by_name["m1"].command, (std::vector<std::string>{TALKER_PATH})) << "--on is the activate list's";
+  EXPECT_EQ(by_name["m2"].command, (std::vector<std::string>{TALKER_PATH, "--period", "5ms"}));
+  EXPECT_EQ(by_name["src"].host, "") << "a process of its own";
+  EXPECT_NE(std::find(file.activate.begin(), file.activate.end(), "m1"), file.activate.end()) << yaml;
 }
 
 TEST_F(RtmServe, SaveWritesASystemFileRtmUpAcceptsAndApplyingItRestoresTheWiring) {

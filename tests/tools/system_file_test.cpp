@@ -1,12 +1,16 @@
 // SPDX-License-Identifier: Apache-2.0
 // System files as `rtm up` reads them, and port addresses as every command parses them.
 #include "browser/browser.h"
+#include "launcher/launcher.h"
 #include "launcher/system_file.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <unistd.h>
 
 using rtm::ConnPolicy;
@@ -142,7 +146,8 @@ TEST(RtmSystemFile, MalformedParametersAndUnknownComponentKeysAreRefusedWithTheL
             std::string::npos)
       << "or YAML's own refusal of a repeated key";
   const std::string unknown = refusal("components:\n  - name: c\n    command: x\n    paramters: {gain: 1}\n");
-  EXPECT_NE(unknown.find(":4: unknown key 'paramters' in a component (known: name, command, parameters, parameter_sets)"),
+  EXPECT_NE(unknown.find(
+                ":4: unknown key 'paramters' in a component (known: name, command, host, parameters, parameter_sets)"),
             std::string::npos)
       << unknown;
 }
@@ -274,6 +279,192 @@ TEST(RtmSystemFile, ProgramsAreFoundOnRtmBinPathThenPath) {
   EXPECT_EQ(rtm::cli::find_program("./rtm-fake-component", dir), dir / "./rtm-fake-component");
   ::unsetenv("RTM_BIN_PATH");
   std::filesystem::remove_all(dir);
+}
+
+TEST(RtmSystemFile, AHostGroupsComponentsAndIsWrittenBack) {
+  const auto f = SystemFile::parse("components:\n"
+                                   "  - {name: a, command: x, host: arm}\n"
+                                   "  - {name: b, command: [y, --, z]}\n"
+                                   "  - name: c\n"
+                                   "    command: [./bin/w, -v]\n"
+                                   "    host: arm\n",
+                                   kFile);
+  ASSERT_EQ(f.components.size(), 3u);
+  EXPECT_EQ(f.components[0].host, "arm");
+  EXPECT_EQ(f.components[1].host, "") << "no host: a process of its own, whose command may hold '--'";
+  EXPECT_EQ(f.components[2].host, "arm");
+  const SystemFile back = SystemFile::parse(f.to_yaml(), kFile);
+  ASSERT_EQ(back.components.size(), 3u);
+  EXPECT_EQ(back.components[0].host, "arm");
+  EXPECT_EQ(back.components[1].host, "");
+  EXPECT_EQ(back.components[2].host, "arm");
+}
+
+TEST(RtmSystemFile, AHostNamedLikeAComponentOrADoubleDashInAMembersCommandIsRefusedWithTheLine) {
+  EXPECT_EQ(error_of("components:\n"
+                     "  - {name: a, command: x}\n"
+                     "  - name: b\n"
+                     "    command: y\n"
+                     "    host: a\n"),
+            "/srv/systems/servo.yaml:5: component 'b': host 'a' is also a component's name (a host needs a name "
+            "of its own)");
+  EXPECT_EQ(error_of("components:\n"
+                     "  - name: b\n"
+                     "    host: h\n"
+                     "    command: y\n"
+                     "  - {name: a, command: x, host: b}\n"),
+            "/srv/systems/servo.yaml:5: component 'a': host 'b' is also a component's name (a host needs a name "
+            "of its own)")
+      << "a component listed after the host's name is found too";
+  EXPECT_EQ(error_of("components:\n"
+                     "  - name: a\n"
+                     "    host: h\n"
+                     "    command:\n"
+                     "      - x\n"
+                     "      - --gain\n"
+                     "      - \"--\"\n"
+                     "      - y\n"),
+            "/srv/systems/servo.yaml:7: component 'a' runs in host 'h': its command may not hold '--' "
+            "(rtm-container separates its members with it)");
+  EXPECT_EQ(error_of("components:\n  - {name: a, host: h, command: \"--\"}\n"),
+            "/srv/systems/servo.yaml:2: component 'a' runs in host 'h': its command may not hold '--' "
+            "(rtm-container separates its members with it)");
+  const std::string bad =
+      error_of("components:\n  - {name: a, command: x}\n  - {name: b, command: y, host: \"a/b\"}\n");
+  EXPECT_EQ(bad.rfind("/srv/systems/servo.yaml:3: host name 'a/b': holds '/'", 0), 0u) << bad;
+  const std::string empty = error_of("components:\n  - {name: b, command: y, host: \"\"}\n");
+  EXPECT_EQ(empty.rfind("/srv/systems/servo.yaml:2: component 'b': 'host' must be a non-empty string", 0), 0u)
+      << empty;
+}
+
+// A finder that answers without a filesystem, and keeps what it was asked.
+struct FakeFinder {
+  std::vector<std::string> asked;
+  std::filesystem::path operator()(const std::string& program, const std::filesystem::path& base) {
+    asked.push_back(program);
+    if (program.find('/') != std::string::npos) return base / program;
+    return std::filesystem::path("/opt/rtm/bin") / program;
+  }
+};
+
+TEST(RtmLauncher, AHostIsOneContainerWithItsMembersInTheFilesOrderBesideALoneComponent) {
+  const auto f =
+      SystemFile::parse("components:\n"
+                        "  - {name: sensor0, command: [rtm-sensor, --bus, \"local:/tmp/pa10.bus\"], host: arm}\n"
+                        "  - {name: logger0, command: [./bin/rtm-logger, --dir, /tmp/arm]}\n"
+                        "  - {name: controller0, command: [./bin/ctl, --gain, \"2\"], host: arm}\n",
+                        kFile);
+  FakeFinder finder;
+  const auto starts = rtm::cli::processes_to_start(f, "127.0.0.1:2809", std::ref(finder));
+  ASSERT_EQ(starts.size(), 2u);
+  EXPECT_EQ(starts[0].name, "arm");
+  EXPECT_EQ(starts[0].command,
+            (std::vector<std::string>{"/opt/rtm/bin/rtm-container", "--name", "arm", "--naming", "127.0.0.1:2809",
+                                      "--", "sensor0", "/opt/rtm/bin/rtm-sensor", "--bus", "local:/tmp/pa10.bus",
+                                      "--", "controller0", "/srv/systems/./bin/ctl", "--gain", "2"}));
+  EXPECT_EQ(starts[0].members, (std::vector<std::string>{"sensor0", "controller0"}));
+  EXPECT_EQ(starts[1].name, "logger0");
+  EXPECT_EQ(starts[1].command,
+            (std::vector<std::string>{"/srv/systems/./bin/rtm-logger", "--dir", "/tmp/arm", "--name", "logger0",
+                                      "--naming", "127.0.0.1:2809"}));
+  EXPECT_EQ(starts[1].members, (std::vector<std::string>{"logger0"}));
+  EXPECT_EQ(finder.asked, (std::vector<std::string>{"rtm-container", "rtm-sensor", "./bin/rtm-logger", "./bin/ctl"}))
+      << "every program looked for once, the container once";
+}
+
+TEST(RtmLauncher, WithoutHostsEachComponentIsAProcessOfItsOwnAsBefore) {
+  const auto f = SystemFile::parse("components: [{name: a, command: [x, --, y]}, {name: b, command: z}]", kFile);
+  FakeFinder finder;
+  const auto starts = rtm::cli::processes_to_start(f, "127.0.0.1:2999", std::ref(finder));
+  ASSERT_EQ(starts.size(), 2u);
+  EXPECT_EQ(starts[0].command,
+            (std::vector<std::string>{"/opt/rtm/bin/x", "--", "y", "--name", "a", "--naming", "127.0.0.1:2999"}));
+  EXPECT_EQ(starts[1].command,
+            (std::vector<std::string>{"/opt/rtm/bin/z", "--name", "b", "--naming", "127.0.0.1:2999"}));
+  EXPECT_EQ(starts[1].members, (std::vector<std::string>{"b"}));
+}
+
+TEST(RtmLauncher, TheContainerIsFoundOnRtmBinPathAndItsAbsenceStartsNothing) {
+  const auto dir = std::filesystem::temp_directory_path() / ("rtm-container-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto f = SystemFile::parse("components: [{name: a, command: rtm-sensor, host: h}]", kFile);
+  const char* old_path = std::getenv("PATH");
+  const std::string saved_path = old_path ? old_path : "";
+  ::setenv("RTM_BIN_PATH", dir.c_str(), 1);
+  ::setenv("PATH", dir.c_str(), 1);
+  EXPECT_THROW(rtm::cli::processes_to_start(f, "127.0.0.1:2809"), SystemFileError);
+  const auto container = dir / "rtm-container";
+  std::ofstream(container) << "#!/bin/sh\n";
+  std::filesystem::permissions(container, std::filesystem::perms::owner_all);
+  const auto starts = rtm::cli::processes_to_start(f, "127.0.0.1:2809");
+  ::setenv("PATH", saved_path.c_str(), 1);
+  ::unsetenv("RTM_BIN_PATH");
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(starts.size(), 1u);
+  EXPECT_EQ(starts[0].command,
+            (std::vector<std::string>{container.string(), "--name", "h", "--naming", "127.0.0.1:2809", "--", "a",
+                                      "rtm-sensor"}));
+}
+
+TEST(RtmLauncher, TheStateKeepsOnePidPerProcessAndTheMembersOfEach) {
+  const auto dir = std::filesystem::temp_directory_path() / ("rtm-state-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const char* old_runtime = std::getenv("XDG_RUNTIME_DIR");
+  const std::string saved_runtime = old_runtime ? old_runtime : "";
+  ::setenv("XDG_RUNTIME_DIR", dir.c_str(), 1);
+  rtm::cli::SystemState state;
+  state.system = "arm";
+  state.naming = "127.0.0.1:2809";
+  state.file = kFile;
+  state.processes = {{"servo", 101, 7, dir / "servo.log", {"sensor0", "controller0"}},
+                     {"logger0", 102, 8, dir / "logger0.log", {"logger0"}}};
+  state.save();
+  const auto back = rtm::cli::SystemState::load("arm");
+  // A state file of an older build: no members, a process was one component.
+  std::ofstream(rtm::cli::SystemState::path_for("old"))
+      << "system: old\nnaming: 127.0.0.1:2809\nfile: /srv/systems/old.yaml\n"
+         "processes:\n  - {name: a, pid: 5, start: 9, log: /tmp/a.log}\nconnections: []\nactivated: []\n";
+  const auto old = rtm::cli::SystemState::load("old");
+  if (old_runtime)
+    ::setenv("XDG_RUNTIME_DIR", saved_runtime.c_str(), 1);
+  else
+    ::unsetenv("XDG_RUNTIME_DIR");
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(back.processes.size(), 2u);
+  EXPECT_EQ(back.processes[0].name, "servo");
+  EXPECT_EQ(back.processes[0].pid, 101);
+  EXPECT_EQ(back.processes[0].members, (std::vector<std::string>{"sensor0", "controller0"}));
+  EXPECT_EQ(back.processes[1].members, (std::vector<std::string>{"logger0"}));
+  ASSERT_EQ(old.processes.size(), 1u);
+  EXPECT_EQ(old.processes[0].members, (std::vector<std::string>{"a"}));
+}
+
+TEST(RtmSystemFile, TheHostExampleOfTheDocsIsAFileRtmUpTakes) {
+  std::ifstream in(std::string(RTM_SOURCE_DIR) + "/docs/system-files.md");
+  ASSERT_TRUE(in) << "docs/system-files.md";
+  std::vector<std::string> blocks;
+  std::string line;
+  bool inside = false;
+  while (std::getline(in, line)) {
+    if (!inside && line == "```yaml") {
+      inside = true;
+      blocks.emplace_back();
+    } else if (inside && line == "```") {
+      inside = false;
+    } else if (inside) {
+      blocks.back() += line + "\n";
+    }
+  }
+  const auto example =
+      std::find_if(blocks.begin(), blocks.end(), [](const std::string& b) { return b.find("host: ") != b.npos; });
+  ASSERT_NE(example, blocks.end()) << "an example with 'host:'";
+  const SystemFile f = SystemFile::parse(*example, kFile);
+  FakeFinder finder;
+  const auto starts = rtm::cli::processes_to_start(f, "127.0.0.1:2809", std::ref(finder));
+  ASSERT_EQ(starts.size(), 2u);
+  EXPECT_EQ(starts[0].name, "servo");
+  EXPECT_EQ(starts[0].members, (std::vector<std::string>{"sensor0", "controller0"}));
+  EXPECT_EQ(starts[1].members, (std::vector<std::string>{"logger0"}));
 }
 
 TEST(RtmPortAddress, SplitsAtTheLastDot) {

@@ -21,6 +21,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <thread>
 
@@ -58,7 +59,8 @@ void SystemState::save() const {
   for (const auto& p : processes) {
     out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name
         << YAML::Key << "pid" << YAML::Value << p.pid << YAML::Key << "start" << YAML::Value
-        << p.start_time << YAML::Key << "log" << YAML::Value << p.log.string() << YAML::EndMap;
+        << p.start_time << YAML::Key << "log" << YAML::Value << p.log.string() << YAML::Key << "members"
+        << YAML::Value << YAML::Flow << p.members << YAML::EndMap;
   }
   out << YAML::EndSeq << YAML::Key << "connections" << YAML::Value << YAML::BeginSeq;
   for (const auto& c : connections) {
@@ -109,8 +111,11 @@ SystemState SystemState::load(const std::string& system) {
     s.naming = root["naming"].as<std::string>();
     s.file = root["file"].as<std::string>();
     for (const auto& n : root["processes"]) {
-      s.processes.push_back({n["name"].as<std::string>(), n["pid"].as<pid_t>(),
-                             n["start"].as<unsigned long long>(), n["log"].as<std::string>()});
+      LaunchedProcess p{n["name"].as<std::string>(), n["pid"].as<pid_t>(), n["start"].as<unsigned long long>(),
+                        n["log"].as<std::string>()};
+      // No members in the state files of older builds: a process was one component.
+      p.members = n["members"] ? n["members"].as<std::vector<std::string>>() : std::vector<std::string>{p.name};
+      s.processes.push_back(std::move(p));
     }
     for (const auto& n : root["connections"]) {
       // "type" in the state files of older builds; a whole policy since.
@@ -128,41 +133,48 @@ SystemState SystemState::load(const std::string& system) {
   return s;
 }
 
+// How messages name component `member` of p: "a" alone, "a (host h)" in a host's process.
+std::string who(const LaunchedProcess& p, const std::string& member) {
+  return member == p.name ? member : fmt::format("{} (host {})", member, p.name);
+}
+
 // The name must be bound to the process we started, not to another system's component of the
 // same name nor to an object someone else bound there. Which process serves it is what the
 // kernel says of its giop:unix: socket (SO_PEERCRED, host/access.h), never what the object
 // says of itself.
-void check_bound_to(const Browser& browser, const std::string& host, const LaunchedProcess& p) {
-  RTM::RtComponent_var component = browser.component(host + "/" + p.name);
+void check_bound_to(const Browser& browser, const std::string& host, const LaunchedProcess& p,
+                    const std::string& member) {
+  RTM::RtComponent_var component = browser.component(host + "/" + member);
   const std::optional<rtm::Peer> peer = rtm::peer_of(component.in());
   if (peer && peer->pid && *peer->pid == p.pid) return;  // over giop:unix:
   if (peer && peer->socket_inode && rtm::process_holds_socket(p.pid, *peer->socket_inode)) return;  // TCP
   if (peer && peer->pid)
     throw BrowseError(fmt::format("{} is bound to another process (pid {}), not to the one rtm up started (pid {}): "
                                   "another system uses that name",
-                                  p.name, *peer->pid, p.pid));
+                                  who(p, member), *peer->pid, p.pid));
   throw BrowseError(fmt::format("{} is bound to another process, not to the one rtm up started (pid {}): the "
                                 "kernel shows that process no socket of the connection to it ({}); another system "
                                 "uses that name",
-                                p.name, p.pid, peer ? peer->address : std::string("an object in rtm itself")));
+                                who(p, member), p.pid, peer ? peer->address : std::string("an object in rtm itself")));
 }
 
-// Until `p`'s name is bound to `p` itself (check_bound_to); throws when p exits first, when
+// Until `member`'s name is bound to `p` itself (check_bound_to); throws when p exits first, when
 // bind_timeout passes, or (check_interrupt) on Ctrl-C.
 void wait_until_bound(const Browser& browser, const std::string& host, const LaunchedProcess& p,
-                      std::chrono::milliseconds bind_timeout, const std::function<void()>& check_interrupt) {
+                      const std::string& member, std::chrono::milliseconds bind_timeout,
+                      const std::function<void()>& check_interrupt) {
   const auto deadline = std::chrono::steady_clock::now() + bind_timeout;
-  while (!browser.naming().is_bound(ComponentPath{host, p.name})) {
+  while (!browser.naming().is_bound(ComponentPath{host, member})) {
     check_interrupt();
     if (!process_alive(p))
-      throw BrowseError(fmt::format("{} exited before it was bound; its log:{}", p.name, log_tail(p.log, 10)));
+      throw BrowseError(fmt::format("{} exited before it was bound; its log:{}", who(p, member), log_tail(p.log, 10)));
     if (std::chrono::steady_clock::now() > deadline) {
-      throw BrowseError(fmt::format("{} was not bound in the naming service within {} ms; its log:{}", p.name,
+      throw BrowseError(fmt::format("{} was not bound in the naming service within {} ms; its log:{}", who(p, member),
                                     bind_timeout.count(), log_tail(p.log, 10)));
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  check_bound_to(browser, host, p);
+  check_bound_to(browser, host, p, member);
 }
 
 // A system whose recorded processes still run is up: it must go down first.
@@ -213,6 +225,43 @@ void check_wiring(const SystemFile& file, const Browser& browser) {
 
 }  // namespace
 
+std::vector<ProcessToStart> processes_to_start(const SystemFile& file, const std::string& naming,
+                                               const ProgramFinder& find) {
+  const fs::path base = file.path.parent_path();
+  std::vector<ProcessToStart> out;
+  std::map<std::string, std::size_t> hosts;  // a host's process in out
+  for (const auto& c : file.components) {
+    if (c.host.empty()) {
+      ProcessToStart p{c.name, c.command, {c.name}};
+      p.command[0] = find(p.command[0], base).string();
+      p.command.insert(p.command.end(), {"--name", c.name, "--naming", naming});
+      out.push_back(std::move(p));
+      continue;
+    }
+    auto [at, first] = hosts.try_emplace(c.host, out.size());
+    if (first)
+      out.push_back({c.host, {find("rtm-container", base).string(), "--name", c.host, "--naming", naming}, {}});
+    ProcessToStart& p = out[at->second];
+    // The program's path, so that rtm-container finds the module beside it
+    // (<folder>/../lib/rtm/modules). A bare name no program answers to stays a name: the
+    // container may still know its module ($RTM_MODULE_PATH, its own folder).
+    const std::string& program = c.command[0];
+    std::string resolved = program;
+    if (program.find('/') != std::string::npos) {
+      resolved = fs::absolute(find(program, base)).string();
+    } else {
+      try {
+        resolved = fs::absolute(find(program, base)).string();
+      } catch (const SystemFileError&) {
+      }
+    }
+    p.command.insert(p.command.end(), {"--", c.name, resolved});
+    p.command.insert(p.command.end(), std::next(c.command.begin()), c.command.end());
+    p.members.push_back(c.name);
+  }
+  return out;
+}
+
 SystemState system_up(const SystemFile& file, const Browser& browser, const NamingAddress& naming,
                       const LaunchOptions& options) {
   auto say = [&](const std::string& line) {
@@ -242,27 +291,27 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
     // The naming service first, then every program, before starting any: a service that is
     // down or a typo starts nothing (is_bound throws only when the service cannot be reached).
     if (!file.components.empty()) browser.naming().is_bound({local_host_name(), file.components.front().name});
-    std::vector<std::vector<std::string>> argvs;
-    for (const auto& c : file.components) {
-      std::vector<std::string> argv = c.command;
-      argv[0] = find_program(argv[0], file.path.parent_path()).string();
-      argv.insert(argv.end(), {"--name", c.name, "--naming", naming.to_string()});
-      argvs.push_back(std::move(argv));
-    }
-    for (std::size_t i = 0; i < file.components.size(); ++i) {
+    const std::vector<ProcessToStart> starts = processes_to_start(file, naming.to_string());
+    for (const auto& s : starts) {
       check_interrupt();
-      const auto& c = file.components[i];
-      LaunchedProcess p{c.name, 0, 0, logs / (c.name + ".log")};
-      p.pid = spawn_detached(argvs[i], p.log);
+      LaunchedProcess p{s.name, 0, 0, logs / (s.name + ".log"), s.members};
+      p.pid = spawn_detached(s.command, p.log);
       p.start_time = proc_stat(p.pid).second;
       state.processes.push_back(p);
       state.save();
-      say(fmt::format("started {} (pid {}, log {})", c.name, p.pid, p.log.string()));
+      std::string what = p.name;
+      if (p.members != std::vector<std::string>{p.name}) {
+        what = fmt::format("host {} with", p.name);
+        for (std::size_t i = 0; i < p.members.size(); ++i) what.append(i ? ", " : " ").append(p.members[i]);
+      }
+      say(fmt::format("started {} (pid {}, log {})", what, p.pid, p.log.string()));
     }
     const std::string host = local_host_name();
     for (const auto& p : state.processes) {
-      wait_until_bound(browser, host, p, options.bind_timeout, check_interrupt);
-      say(fmt::format("bound {}", p.name));
+      for (const auto& member : p.members) {
+        wait_until_bound(browser, host, p, member, options.bind_timeout, check_interrupt);
+        say(fmt::format("bound {}", member));
+      }
     }
     check_wiring(file, browser);
     for (const auto& c : file.components) {
@@ -326,11 +375,15 @@ std::vector<std::string> system_down(const SystemState& state, const Browser* br
   // a live component of that name is not ours.
   if (browser && !killed.empty()) {
     const std::string host = local_host_name();
-    for (const auto& name : killed) {
-      try {
-        for (const auto& path : browser->clean(host + "/" + name)) say(fmt::format("unbound {}/{}", path.host, path.name));
-      } catch (const std::exception&) {
-      } catch (const CORBA::Exception&) {
+    for (const auto& p : state.processes) {
+      if (std::find(killed.begin(), killed.end(), p.name) == killed.end()) continue;
+      for (const auto& name : p.members) {
+        try {
+          for (const auto& path : browser->clean(host + "/" + name))
+            say(fmt::format("unbound {}/{}", path.host, path.name));
+        } catch (const std::exception&) {
+        } catch (const CORBA::Exception&) {
+        }
       }
     }
   }

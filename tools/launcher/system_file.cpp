@@ -71,9 +71,10 @@ SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) 
   SystemFile::Component comp;
   for (const auto& kv : c) {
     const auto key = kv.first.as<std::string>();
-    if (key != "name" && key != "command" && key != "parameters" && key != "parameter_sets")
+    if (key != "name" && key != "command" && key != "host" && key != "parameters" && key != "parameter_sets")
       fail(f, kv.first,
-           fmt::format("unknown key '{}' in a component (known: name, command, parameters, parameter_sets)", key));
+           fmt::format("unknown key '{}' in a component (known: name, command, host, parameters, parameter_sets)",
+                       key));
   }
   comp.name = scalar_field(f, c, "name", "a component's 'name'");
   try {
@@ -91,6 +92,22 @@ SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) 
          fmt::format("component '{}' needs a 'command' (program, or list of program and arguments)", comp.name));
   }
   const std::string owner = fmt::format("component '{}'", comp.name);
+  if (const YAML::Node host = c["host"]) {
+    comp.host = scalar(f, host, fmt::format("{}: 'host'", owner));
+    try {
+      rtm::check_name(comp.host, "host name");  // it names the process's log file
+    } catch (const std::invalid_argument& e) {
+      fail(f, host, e.what());
+    }
+    // rtm-container takes its members' commands apart at each '--'.
+    for (std::size_t i = 0; i < comp.command.size(); ++i) {
+      if (comp.command[i] == "--")
+        fail(f, cmd.IsSequence() ? cmd[i] : cmd,
+             fmt::format("{} runs in host '{}': its command may not hold '--' (rtm-container separates its members "
+                         "with it)",
+                         owner, comp.host));
+    }
+  }
   if (const YAML::Node params = c["parameters"]) comp.parameters = parse_parameters(f, params, owner);
   if (const YAML::Node sets = c["parameter_sets"]) {
     if (!sets.IsMap())
@@ -190,6 +207,14 @@ SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem
     if (!names.insert(comp.name).second) fail(f, c, fmt::format("component '{}' listed twice", comp.name));
     f.components.push_back(std::move(comp));
   }
+  // A host's name is its process's: it must not be taken for a component's.
+  for (std::size_t i = 0; i < f.components.size(); ++i) {
+    const auto& c = f.components[i];
+    if (!c.host.empty() && names.count(c.host))
+      fail(f, comps[i]["host"],
+           fmt::format("component '{}': host '{}' is also a component's name (a host needs a name of its own)", c.name,
+                       c.host));
+  }
 
   if (const YAML::Node conns = root["connections"]) {
     if (!conns.IsSequence()) fail(f, conns, "'connections' must be a list");
@@ -279,6 +304,7 @@ std::string SystemFile::to_yaml() const {
   for (const auto& c : components) {
     out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << c.name << YAML::Key << "command" << YAML::Value
         << YAML::Flow << c.command;
+    if (!c.host.empty()) out << YAML::Key << "host" << YAML::Value << c.host;
     const auto write = [&](const Component::Parameters& parameters) {
       out << YAML::BeginMap;
       for (const auto& [name, value] : parameters) out << YAML::Key << name << YAML::Value << value;

@@ -370,10 +370,15 @@ int run_up(const Browser& browser, const Cli& c, const SystemFile& system, const
   const SystemState state = system_up(system, browser, naming, launch);
   if (c.json) {
     json procs = json::array();
-    for (const auto& p : state.processes) procs.push_back({{"name", p.name}, {"pid", p.pid}, {"log", p.log.string()}});
+    for (const auto& p : state.processes)
+      procs.push_back({{"name", p.name}, {"pid", p.pid}, {"log", p.log.string()}, {"members", p.members}});
     fmt::print("{}\n", json{{"system", state.system}, {"processes", procs}}.dump());
   } else {
-    fmt::print("system {} is up ({} components); `rtm down {}` stops it\n", state.system, state.processes.size(),
+    std::size_t components = 0;
+    for (const auto& p : state.processes) components += p.members.size();
+    const std::string processes =
+        components == state.processes.size() ? "" : fmt::format(" in {} processes", state.processes.size());
+    fmt::print("system {} is up ({} components{}); `rtm down {}` stops it\n", state.system, components, processes,
                state.system);
   }
   return kOk;

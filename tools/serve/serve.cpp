@@ -86,11 +86,40 @@ struct PlotStream {
   std::chrono::steady_clock::time_point next = std::chrono::steady_clock::now();
 };
 
-// The command that started process pid, as a system file's command: the program by its
+// How a component was started, as a system file says it: its command and, for a member of
+// rtm-container, its host.
+struct StartedAs {
+  std::vector<std::string> command;
+  std::string host;
+};
+
+// A member of rtm-container: the container's --name is the host; the member's group (after
+// a --: its name, its program, its options) is its command.
+StartedAs member_of_container(const std::vector<std::string>& args, const std::string& member) {
+  StartedAs started;
+  std::size_t i = 1;
+  for (; i < args.size() && args[i] != "--"; ++i)
+    if (args[i] == "--name" && i + 1 < args.size()) started.host = args[++i];
+  while (i < args.size()) {
+    const std::size_t begin = i + 1;
+    std::size_t end = begin;
+    while (end < args.size() && args[end] != "--") ++end;
+    if (end - begin >= 2 && args[begin] == member) {
+      for (std::size_t k = begin + 1; k < end; ++k)
+        if (args[k] != "--on") started.command.push_back(args[k]);
+      return started;
+    }
+    i = end;
+  }
+  return {};
+}
+
+// How process pid started component `name`, as a system file's command: the program by its
 // absolute path (/proc/<pid>/exe), then its arguments without those `rtm up` adds itself
-// (--name, --naming) and without --on (the file's activate list says that). Empty when the
-// process is not readable from here.
-std::vector<std::string> command_of(long pid) {
+// (--name, --naming) and without --on (the file's activate list says that); a member of
+// rtm-container by its own group and the container's name as its host. Empty when the process
+// is not readable from here.
+StartedAs command_of(long pid, const std::string& name) {
   std::error_code error;
   const auto exe = std::filesystem::read_symlink(fmt::format("/proc/{}/exe", pid), error);
   if (error) return {};
@@ -98,6 +127,7 @@ std::vector<std::string> command_of(long pid) {
   std::vector<std::string> args;
   for (std::string arg; std::getline(in, arg, '\0');) args.push_back(arg);
   if (args.empty()) return {};
+  if (exe.filename() == "rtm-container") return member_of_container(args, name);
   std::vector<std::string> command{exe.string()};
   for (std::size_t i = 1; i < args.size(); ++i) {
     const std::string& a = args[i];
@@ -108,7 +138,7 @@ std::vector<std::string> command_of(long pid) {
     if (a == "--on" || a.rfind("--name=", 0) == 0 || a.rfind("--naming=", 0) == 0) continue;
     command.push_back(a);
   }
-  return command;
+  return {command, {}};
 }
 
 std::optional<long> pid_of(const ComponentInfo& c) {
@@ -264,12 +294,13 @@ json save_system_file(const Browser& browser, const std::string& name) {
       continue;
     }
     const auto pid = pid_of(c);
-    std::vector<std::string> command = (pid && c.path.host == here) ? command_of(*pid) : std::vector<std::string>{};
-    if (command.empty()) {
+    StartedAs started = (pid && c.path.host == here) ? command_of(*pid, c.path.name) : StartedAs{};
+    if (started.command.empty()) {
       left_out.push_back({{"name", c.path.name}, {"why", "its command cannot be read from this host"}});
       continue;
     }
-    SystemFile::Component saved{c.path.name, std::move(command), {}, {}};
+    SystemFile::Component saved{c.path.name, std::move(started.command), {}, {}};
+    saved.host = std::move(started.host);
     for (const auto& p : c.parameters)
       if (p.access != "fixed") saved.parameters.emplace_back(p.name, p.value);
     file.components.push_back(std::move(saved));

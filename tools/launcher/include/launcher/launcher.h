@@ -1,13 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 // `rtm up` / `rtm down`: launching the processes of a system file and tearing them down.
 //
-// `up` starts each component detached (own session, output to a log file), records it in a
-// state file at once, waits until it is bound in the naming service, then makes the
-// connections and turns on what the file lists. When anything fails, it stops what it started
-// and says which component did not come up and why. `down` reads the state file: turns off,
-// disconnects, sends SIGTERM (SIGKILL after a grace period) and waits until every process is
-// gone. The state file lives in $XDG_RUNTIME_DIR/rtm (or /tmp/rtm-<uid>), named after the
-// system; each process is recorded with its start time so that a recycled pid is never killed.
+// `up` starts each component detached (own session, output to a log file), or one rtm-container
+// for the components of a host, records it in a state file at once, waits until each component
+// is bound in the naming service, then makes the connections and turns on what the file lists.
+// When anything fails, it stops what it started and says which component did not come up and
+// why. `down` reads the state file: turns off, disconnects, sends SIGTERM (SIGKILL after a grace
+// period) to each process once and waits until every process is gone. The state file lives in
+// $XDG_RUNTIME_DIR/rtm (or /tmp/rtm-<uid>), named after the system; each process is recorded
+// with its start time (so that a recycled pid is never killed) and the components it binds.
 #pragma once
 
 #include "browser/browser.h"
@@ -29,6 +30,8 @@ struct LaunchedProcess {
   pid_t pid = 0;
   unsigned long long start_time = 0;  // /proc/<pid>/stat field 22, guards against pid reuse
   std::filesystem::path log;
+  // The components it binds: itself alone, or the members of a host (name is the host's).
+  std::vector<std::string> members{};
 };
 
 struct SystemState {
@@ -57,6 +60,27 @@ struct LaunchOptions {
   // started and throws LaunchInterrupted.
   std::function<bool()> interrupted;
 };
+
+// One process `rtm up` starts: a component alone, or the rtm-container of a host.
+struct ProcessToStart {
+  std::string name;                  // the component's, or the host's
+  std::vector<std::string> command;  // argv; argv[0] a path
+  std::vector<std::string> members;  // the components it binds, in the file's order
+};
+
+// Where a program of the file is (find_program; tests give their own).
+using ProgramFinder =
+    std::function<std::filesystem::path(const std::string& program, const std::filesystem::path& base)>;
+
+// The processes of a system, in the file's order of their first components, each host once:
+//   a component alone:  PROGRAM ARGS... --name NAME --naming ADDR
+//   a host:             rtm-container --name HOST --naming ADDR -- M1 PROGRAM1 ARGS1... -- M2 ...
+// Programs are found with `find`; a member's program is passed as an absolute path (the
+// container finds the module beside it), or as written when it is a bare name no program
+// answers to (the container may still know its module). Throws what `find` throws
+// (SystemFileError: a program not found) for a program that starts a process or has a '/'.
+std::vector<ProcessToStart> processes_to_start(const SystemFile& file, const std::string& naming,
+                                               const ProgramFinder& find = find_program);
 
 // system_up was interrupted; everything it had started is stopped again.
 class LaunchInterrupted : public std::runtime_error {

@@ -9,6 +9,7 @@
 //       command: [rtm-sensor, --bus, "local:/tmp/pa10.bus"]   # program + arguments
 //     - name: controller0
 //       command: rtm-controller
+//       host: servo_host             # optional: components of one host run in one process
 //       parameters:                  # optional: set (`rtm set`) once it is bound, before any
 //         gain: [0.0004, 0.0004, 0.0004, 0, 0, 0]  # connection and before it is turned on;
 //         stale_periods: 3           # a number, a list of numbers, or their text
@@ -22,6 +23,9 @@
 //
 // A program without a '/' is searched in $RTM_BIN_PATH (':'-separated), then $PATH; one with
 // a '/' is taken relative to the file's folder. `rtm up` adds `--name <name> --naming <addr>`.
+// Components with the same 'host' (a name of its own, no component's) run in one process:
+//   rtm-container --name <host> --naming <addr> -- <member> <program> [args...] -- <member> ...
+// so no word of their commands may be '--'.
 // docs/system-files.md describes the format and what `rtm up` does with it, step by step.
 #pragma once
 
@@ -53,6 +57,9 @@ struct SystemFile {
     // Named sets (OpenRTM's configuration sets), in the file's order: a set's values replace
     // or join `parameters` when `rtm up --set NAME` chooses it.
     std::vector<std::pair<std::string, Parameters>> parameter_sets;
+    // The process it runs in with the other components of that host (rtm-container); "" for a
+    // process of its own.
+    std::string host{};
 
     // parameters, with the set's values over them ("" or a set it lacks: parameters alone).
     Parameters parameters_with(const std::string& set) const;
@@ -70,8 +77,9 @@ struct SystemFile {
   std::vector<std::string> activate;
 
   // Throws SystemFileError for an unreadable file, bad YAML, a missing or mistyped key, a
-  // duplicate component, a connection/activation naming a component the file does not list, or
-// wiring that does not hold (diagram()).
+  // duplicate component, a host named like a component, a '--' in a hosted component's command,
+  // a connection/activation naming a component the file does not list, or wiring that does not
+  // hold (diagram()).
   static SystemFile load(const std::filesystem::path& file);
   static SystemFile parse(const std::string& yaml_text, const std::filesystem::path& path);
 
