@@ -10,6 +10,8 @@
 #   RTM::can    CAN transports and the CANopen master, RTM::pa10 the PA10 arm (for hardware
 #               components)
 #   rtm_add_idl(<target> FILES <idl...>)  stubs of a project's own data types
+#   rtm_add_component(<program> SOURCES ... LIBS ...)  a component's program and its module
+#               for rtm-container, from one compile (cmake/RtmComponent.cmake)
 #
 # Layout (GNU): bin/ (rtm, the components, pa10-sim), lib/ (the shared rt, idl, core and host
 # libraries, the static ones of the arm),
@@ -77,8 +79,9 @@ function(rtm_install_package)
                                 INSTALL_DESTINATION ${PROJECT_BINARY_DIR}
                                 PATH_VARS RTM_CONFIG_IDL_DIR)
   configure_file(${PROJECT_SOURCE_DIR}/cmake/RtmIdl.cmake ${PROJECT_BINARY_DIR}/RtmIdl.cmake COPYONLY)
+  configure_file(${PROJECT_SOURCE_DIR}/cmake/RtmComponent.cmake ${PROJECT_BINARY_DIR}/RtmComponent.cmake COPYONLY)
   install(FILES ${PROJECT_BINARY_DIR}/install/RTMConfig.cmake ${PROJECT_BINARY_DIR}/RTMConfigVersion.cmake
-                ${PROJECT_SOURCE_DIR}/cmake/RtmIdl.cmake
+                ${PROJECT_SOURCE_DIR}/cmake/RtmIdl.cmake ${PROJECT_SOURCE_DIR}/cmake/RtmComponent.cmake
           DESTINATION ${RTM_INSTALL_CMAKEDIR} COMPONENT dev)
   install(FILES ${PROJECT_SOURCE_DIR}/idl/RTM.idl ${PROJECT_SOURCE_DIR}/idl/RTMData.idl
                 ${PROJECT_SOURCE_DIR}/idl/RTMExt.idl

@@ -116,7 +116,7 @@ TEST_F(RtmScaffold, DeclaresEveryPortInTheClassWithItsTypeAndMovesItThroughStep)
   EXPECT_NE(test.find("GripperCtl::State state;"), std::string::npos) << test;
 
   const auto main = read_text(folder / "src/main.cpp");
-  EXPECT_NE(main.find("rtm::run_component(argc, argv"), std::string::npos);
+  EXPECT_NE(main.find("RTM_COMPONENT(make_component)"), std::string::npos) << main;
   EXPECT_NE(main.find(".kind = \"gripper_ctl\""), std::string::npos);
   EXPECT_NE(main.find("std::make_unique<GripperCtl>(settings.name)"), std::string::npos);
 }
@@ -127,7 +127,8 @@ TEST_F(RtmScaffold, CMakeListsBuildsLogicLibraryExecutableAndTestOnRtmCore) {
   for (const char* expected :
        {"cmake_minimum_required(VERSION 3.25)", "project(gripper_ctl LANGUAGES CXX)", "set(CMAKE_CXX_STANDARD 20)",
         "find_package(RTM 0.1 REQUIRED COMPONENTS core host)", "add_library(gripper_ctl_logic STATIC src/gripper_ctl.cpp)",
-        "target_link_libraries(gripper_ctl_logic PUBLIC RTM::core)", "add_executable(rtm-gripper_ctl src/main.cpp)",
+        "target_link_libraries(gripper_ctl_logic PUBLIC RTM::core)",
+        "rtm_add_component(rtm-gripper_ctl SOURCES src/main.cpp LIBS gripper_ctl_logic RTM::host)",
         "enable_testing()", "find_package(GTest REQUIRED)",
         "target_link_libraries(gripper_ctl_test PRIVATE gripper_ctl_logic GTest::gtest_main)",
         "add_test(NAME gripper_ctl_test COMMAND gripper_ctl_test)"}) {
@@ -305,7 +306,7 @@ TEST_F(RtmScaffold, AParameterIsOneParamLineThatStepTheRunnerAndTheTestAllUse) {
   EXPECT_NE(source.find("add_parameters(parameters(), params_live_);"), std::string::npos) << source;
   EXPECT_NE(source.find("step(inputs_, params_, state_, rtm::now())"), std::string::npos) << source;
   const std::string main_cpp = read_text(project / "src" / "main.cpp");
-  EXPECT_NE(main_cpp.find("rtm::add_parameter_options(app, Lowpass::parameters(), params)"), std::string::npos)
+  EXPECT_NE(main_cpp.find("rtm::add_parameter_options(app, Lowpass::parameters(), *params)"), std::string::npos)
       << main_cpp;
   EXPECT_NE(read_text(project / "test" / "lowpass_test.cpp").find("Lowpass::step(in, Lowpass::Params{}, state, stamp(7, 250))"),
             std::string::npos);

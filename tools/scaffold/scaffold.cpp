@@ -703,15 +703,19 @@ std::string render_main(const Plan& p) {
       kMain, {{"NAME", p.name},
               {"CLASS", p.class_name},
               {"DESCRIPTION", description(p)},
-              {"MAIN_PARAMS", params ? fmt::format("  {}::Params params;  // the defaults, then the options\n", p.class_name) : ""},
-              {"MAIN_PARAMS_OPTIONS",
-               params ? fmt::format("      .add_options = [&](CLI::App& app) {{ rtm::add_parameter_options(app, {0}::parameters(), "
-                                    "params); }},\n"
-                                    "      .validate = [&](const rtm::RunSettings&) {{ {0}::parameters().validate(params); }},\n",
+              {"MAIN_PARAMS",
+               params ? fmt::format("  // One per component made (a module's members each have theirs): the defaults, then the options.\n"
+                                    "  auto params = std::make_shared<{}::Params>();\n",
                                     p.class_name)
                       : ""},
-              {"CREATE_CAPTURE", params ? "&" : ""},
-              {"CREATE_PARAMS", params ? ", params" : ""}});
+              {"MAIN_PARAMS_OPTIONS",
+               params ? fmt::format("      .add_options = [params](CLI::App& app) {{ rtm::add_parameter_options(app, {0}::parameters(), "
+                                    "*params); }},\n"
+                                    "      .validate = [params](const rtm::RunSettings&) {{ {0}::parameters().validate(*params); }},\n",
+                                    p.class_name)
+                      : ""},
+              {"CREATE_CAPTURE", params ? "params" : ""},
+              {"CREATE_PARAMS", params ? ", *params" : ""}});
 }
 
 // ---- the generated test: sample data per type ----

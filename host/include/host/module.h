@@ -11,11 +11,11 @@
 //   }  // namespace
 //   RTM_COMPONENT(controller)
 //
-// Built as a program (rtm_add_component in CMake), RTM_COMPONENT is its main(): run_component
-// with a ComponentMain of its own. Built as a module (the same source, RTM_BUILD_MODULE
-// defined), it is the entry rtm-container looks up: each member the container loads from it
-// gets a ComponentMain of its own, so the make function keeps per-instance state in what its
-// lambdas hold by value (a shared_ptr), never in a static.
+// RTM_COMPONENT defines both the program's main() (run_component with a ComponentMain of its
+// own) and the module's entry rtm-container looks up; CMake's rtm_add_component
+// (cmake/RtmComponent.cmake) compiles the source once and links it as both. Each member the
+// container loads from a module gets a ComponentMain of its own, so the make function keeps
+// per-instance state in what its lambdas hold by value (a shared_ptr), never in a static.
 //
 // Modules are found by the program's name: rtm-controller is rtm-controller.so in
 // $RTM_MODULE_PATH (folders separated by ':'), beside a program given with a path
@@ -51,14 +51,10 @@ int run_container(int argc, char** argv);
 
 #define RTM_COMPONENT_MODULE_SYMBOL "rtm_component_module"
 
-#ifdef RTM_BUILD_MODULE
 #define RTM_COMPONENT(make_main)                                                               \
   extern "C" __attribute__((visibility("default"))) const ::rtm::ComponentModule*              \
   rtm_component_module() {                                                                     \
     static const ::rtm::ComponentModule module{::rtm::kComponentModuleAbi, &make_main};        \
     return &module;                                                                            \
-  }
-#else
-#define RTM_COMPONENT(make_main) \
+  }                                                                                            \
   int main(int argc, char** argv) { return ::rtm::run_component(argc, argv, make_main()); }
-#endif
