@@ -17,7 +17,7 @@
 #include "components/servo/servo.h"
 
 #include "host/remote_composite.h"
-#include "host/runner.h"
+#include "host/module.h"
 #include "host/ticked_composite.h"
 #include "rtm/naming.h"
 #include "rtm/orb.h"
@@ -25,6 +25,7 @@
 #include <CLI/CLI.hpp>
 
 #include <chrono>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -137,20 +138,23 @@ std::unique_ptr<rtm::TickedComposite> make_shared_tick_servo(ServoOptions& o, co
   return servo;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  ServoOptions options;
-  rtm::TickedComposite* shared = nullptr;  // owned by the servant, in shared-tick mode
-  RTM::InPort_var reference;                     // the controller's InPort "reference"
-  return rtm::run_component(argc, argv, {
+// The program, and the module rtm-container loads: each servo made has its own options.
+rtm::ComponentMain servo() {
+  struct State {
+    ServoOptions options;
+    rtm::TickedComposite* shared = nullptr;  // owned by the servant, in shared-tick mode
+    RTM::InPort_var reference;               // the controller's InPort "reference"
+  };
+  auto state = std::make_shared<State>();
+  return {
       .kind = "servo",
       .description = "rtm-servo: force-servo composite (Figs. 4, 8): sensor -> controller -> actuator; in0 = the "
                      "controller's reference InPort (TimedFloat6 wrench, base frame)",
-      .add_options = [&](CLI::App& app) { options.add_options(app); },
-      .validate = [&](const rtm::RunSettings&) { options.validate(); },
+      .add_options = [state](CLI::App& app) { state->options.add_options(app); },
+      .validate = [state](const rtm::RunSettings&) { state->options.validate(); },
       .create_with_orb =
-          [&](const rtm::RunContext& context) -> std::unique_ptr<rtm::Component> {
+          [state](const rtm::RunContext& context) -> std::unique_ptr<rtm::Component> {
+            auto& [options, shared, reference] = *state;
             const rtm::PortRef reference_port{options.controller, rtm::comp::kServoReferencePort};
             if (!options.shared_tick) {
               auto servo = make_remote_servo(options, context);
@@ -164,7 +168,8 @@ int main(int argc, char** argv) {
           },
       .activity = [](const rtm::RunSettings&, rtm::Component&) { return rtm::ActivitySpec{rtm::ExternalTick{}}; },
       .on_activated =
-          [&](rtm::ComponentServant& servant, const rtm::RunContext&) {
+          [state](rtm::ComponentServant& servant, const rtm::RunContext&) {
+            auto& [options, shared, reference] = *state;
             servant.expose_in_port(0, reference);  // the servant keeps its own duplicate
             reference = RTM::InPort::_nil();          // none outlives the ORB
             std::vector<rtm::ExtraName> members;
@@ -175,5 +180,9 @@ int main(int argc, char** argv) {
             return members;
           },
       .pin_process_to_cpu = false,
-  });
+  };
 }
+
+}  // namespace
+
+RTM_COMPONENT(servo)

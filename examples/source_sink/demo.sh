@@ -17,7 +17,8 @@ scripts/deps.sh
 build_dir=${RTM_DEMO_BUILD_DIR:-build/default}
 [[ -n "${RTM_DEMO_BUILD_DIR:-}" ]] || cmake --preset default >/dev/null
 cmake --build "$build_dir" -j"$(nproc)" --target rtm-example-source rtm-example-sink rtm-example-wire
-bin=$build_dir/examples/source_sink
+bin=$build_dir/bin  # the components (programs and modules: rtm_add_component)
+wire=$build_dir/examples/source_sink/rtm-example-wire
 
 workdir=$(mktemp -d -t rtm-demo-XXXXXX)
 pids=()
@@ -76,7 +77,7 @@ pids+=($!)
 wait_bound "$workdir/source.log" source0
 wait_bound "$workdir/sink.log" sink0
 
-"$bin/rtm-example-wire" source0.out0 sink0.in0
+"$wire" source0.out0 sink0.in0
 echo "demo: live values for $seconds s (sink0 prints twice a second)"
 tail -n +1 -f "$workdir/sink.log" &
 tail_pid=$!

@@ -5,7 +5,10 @@
 // I/O: at most one line per --print-every, with how many data arrived since the last line
 // and how old the newest one was.
 #include "rtm/data.h"
-#include "host/runner.h"
+#include "host/module.h"
+
+#include <memory>
+#include <string>
 
 #include <cstdio>
 
@@ -41,18 +44,21 @@ class PrintingSink final : public rtm::Component {
   rtm::InPort<RTM::TimedFloat6>& in_ = add_in_port<RTM::TimedFloat6>("in0");
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  std::string print_every = "500ms";
-  return rtm::run_component(argc, argv, {
+// The program, and the module rtm-container loads: each component made has its own interval.
+rtm::ComponentMain sink() {
+  auto print_every = std::make_shared<std::string>("500ms");
+  return {
       .kind = "sink",
       .description = "rtm-example-sink: prints the TimedFloat6 data reaching in0",
-      .add_options = [&](CLI::App& app) {
-        app.add_option("--print-every", print_every, "at most one line per this interval")->capture_default_str();
+      .add_options = [print_every](CLI::App& app) {
+        app.add_option("--print-every", *print_every, "at most one line per this interval")->capture_default_str();
       },
-      .create = [&](const rtm::RunSettings& settings) {
-        return std::make_unique<PrintingSink>(settings.name, rtm::parse_period_ns(print_every));
+      .create = [print_every](const rtm::RunSettings& settings) {
+        return std::make_unique<PrintingSink>(settings.name, rtm::parse_period_ns(*print_every));
       },
-  });
+  };
 }
+
+}  // namespace
+
+RTM_COMPONENT(sink)

@@ -2,7 +2,10 @@
 // rtm-example-source: writes a TimedFloat6 ramp on OutPort "out0" every period while on.
 // val[i] = (cycle + i) * step, so each datum can be told from the one before.
 #include "rtm/data.h"
-#include "host/runner.h"
+#include "host/module.h"
+
+#include <memory>
+#include <string>
 
 namespace {
 
@@ -25,14 +28,17 @@ class RampSource final : public rtm::Component {
   rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("out0");
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  float step = 0.001f;
-  return rtm::run_component(argc, argv, {
+// The program, and the module rtm-container loads: each component made has its own step.
+rtm::ComponentMain source() {
+  auto step = std::make_shared<float>(0.001f);
+  return {
       .kind = "source",
       .description = "rtm-example-source: writes a TimedFloat6 ramp on out0 every period",
-      .add_options = [&](CLI::App& app) { app.add_option("--step", step, "ramp increment per cycle")->capture_default_str(); },
-      .create = [&](const rtm::RunSettings& settings) { return std::make_unique<RampSource>(settings.name, step); },
-  });
+      .add_options = [step](CLI::App& app) { app.add_option("--step", *step, "ramp increment per cycle")->capture_default_str(); },
+      .create = [step](const rtm::RunSettings& settings) { return std::make_unique<RampSource>(settings.name, *step); },
+  };
 }
+
+}  // namespace
+
+RTM_COMPONENT(source)

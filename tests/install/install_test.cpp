@@ -211,8 +211,8 @@ TEST_F(Installed, TheSourceSinkExampleBuildsAgainstThePrefixAloneAndRunsWiredByT
   ASSERT_FALSE(commands.empty());
   EXPECT_EQ(commands.find(kBuild.string()), std::string::npos) << "an include path into the build tree";
   EXPECT_EQ(commands.find((kSource / "src").string()), std::string::npos) << "an include path into the source tree";
-  start(build / "rtm-example-source", "source0");
-  start(build / "rtm-example-sink", "sink0");
+  start(build / "bin/rtm-example-source", "source0");
+  start(build / "bin/rtm-example-sink", "sink0");
   CommandResult r = rtm({"connect", "source0.out0", "sink0.in0"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   r = rtm({"on", "source0", "sink0"});
@@ -410,6 +410,36 @@ TEST_F(Installed, TheInstalledSourceSinkSystemComesUpWiredAndGoesDown) {
                                           env, 60s);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_GT(wait_for_data("sink0", "in0"), 0u) << last_cat_;
+  r = rtm_test::run_command({bin("rtm").string(), "--naming", names_.address(), "down", "source-sink"}, env, 60s);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+}
+
+// The same system with both in one host: the installed rtm-container loads the installed
+// examples' modules, and the data crosses in-process.
+TEST_F(Installed, TheInstalledSourceSinkSystemInOneContainerComesUpWiredInProcess) {
+  const fs::path runtime = root_ / "run-examples-host";
+  fs::create_directories(runtime);
+  const std::vector<std::string> env{"XDG_RUNTIME_DIR=" + runtime.string(), "RTM_TLS=", "RTM_BIN_PATH=",
+                                     "RTM_MODULE_PATH=", "PATH=" + bin("").string() + ":/usr/bin:/bin"};
+  std::string yaml = read_file(prefix() / "share/rtm/examples/source_sink/system.yaml");
+  for (const char* program : {"[rtm-example-source, --period, 2ms]", "[rtm-example-sink, --period, 2ms]"}) {
+    const auto at = yaml.find(program);
+    ASSERT_NE(at, std::string::npos) << yaml;
+    yaml.insert(at + std::string(program).size(), "\n    host: example");
+  }
+  const fs::path system = runtime / "system.yaml";
+  std::ofstream(system) << yaml;
+  CommandResult r = rtm_test::run_command({bin("rtm").string(), "--naming", names_.address(), "up", system.string()},
+                                          env, 60s);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("(2 components in one process)"), std::string::npos) << r.out;
+  EXPECT_GT(wait_for_data("sink0", "in0"), 0u) << last_cat_;
+  const json source = json::parse(rtm({"--json", "cat", "source0"}).out);
+  for (const auto& p : source["ports"]) {
+    if (p["name"] == "out0") {
+      EXPECT_TRUE(p["subscriptions"].at(0)["in_process"].get<bool>()) << p.dump();
+    }
+  }
   r = rtm_test::run_command({bin("rtm").string(), "--naming", names_.address(), "down", "source-sink"}, env, 60s);
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
 }

@@ -376,8 +376,9 @@ int run_up(const Browser& browser, const Cli& c, const SystemFile& system, const
   } else {
     std::size_t components = 0;
     for (const auto& p : state.processes) components += p.members.size();
-    const std::string processes =
-        components == state.processes.size() ? "" : fmt::format(" in {} processes", state.processes.size());
+    const std::string processes = components == state.processes.size() ? ""
+                                  : state.processes.size() == 1  ? std::string(" in one process")
+                                                                 : fmt::format(" in {} processes", state.processes.size());
     fmt::print("system {} is up ({} components{}); `rtm down {}` stops it\n", state.system, components, processes,
                state.system);
   }
