@@ -213,25 +213,41 @@ TEST(Pa10MasterAttack, ASecondMastersSyncAndRpdoAfterEachOfOursIsAForeignMasterF
       << moved << " rad over " << second_master.all_syncs_until_pre_operational() << " SYNCs";
 }
 
+// The lowest Fz the master reports for the wrist, read every 200 us (ten times a period) until
+// stop(): a spoofed -50 N that was published shows there.
+class LowestWristFz {
+ public:
+  explicit LowestWristFz(Pa10Master& master)
+      : thread_([this, &master] {
+          while (watching_) {
+            const Wrench w = master.wrench(ForceSensor::wrist);
+            if (w.valid) lowest_ = std::min(lowest_, w.values[2]);
+            std::this_thread::sleep_for(200us);
+          }
+        }) {}
+  ~LowestWristFz() { stop(); }
+  double stop() {
+    watching_ = false;
+    if (thread_.joinable()) thread_.join();
+    return lowest_;
+  }
+
+ private:
+  std::atomic<bool> watching_{true};
+  double lowest_ = 1e9;
+  std::thread thread_;
+};
+
 TEST(Pa10MasterAttack, ASpoofedWristForceTpdoAfterEachSyncIsASpoofedFrameFaultTheArmStopsAndItIsNeverPublished) {
   Rig rig;
   rig.nodes->set_wrench(ForceSensor::wrist, {0, 0, 5, 0, 0, 0});
   start_periodic_at_rest(rig);
-  std::atomic<bool> watching{true};
-  double lowest_fz = 1e9;
-  std::thread watcher([&] {
-    while (watching) {
-      const Wrench w = rig.master->wrench(ForceSensor::wrist);
-      if (w.valid) lowest_fz = std::min(lowest_fz, w.values[2]);
-      std::this_thread::sleep_for(200us);
-    }
-  });
+  LowestWristFz watcher(*rig.master);
   Attacker spoofer(rig.spec, [](std::uint8_t) {
     return std::vector<can_frame>{*encode_sensor_force({kWristSensorNode, {0, 0, -50}})};
   });
   const bool stopped = spoofer.wait_for_stop();
-  watching = false;
-  watcher.join();
+  const double lowest_fz = watcher.stop();
   ASSERT_TRUE(stopped) << "attacks sent: " << spoofer.attacks();
   ::testing::Test::RecordProperty("syncs_until_quick_stop", spoofer.syncs_until_quick_stop());
   const MasterFault fault = rig.master->fault();
@@ -259,22 +275,13 @@ TEST(Pa10MasterAttack, ASpoofedForceTpdoBesideTheGenuineOneWhileAnswersAreOwedIs
   const std::uint64_t sequence_before = rig.master->wrench(ForceSensor::wrist).sequence;
   ASSERT_TRUE(rtm_test::eventually([&] { return rig.master->wrench(ForceSensor::wrist).sequence > sequence_before; }))
       << "the wrist sensor never answered again";
-  std::atomic<bool> watching{true};
-  double lowest_fz = 1e9;
-  std::thread watcher([&] {
-    while (watching) {
-      const Wrench w = rig.master->wrench(ForceSensor::wrist);
-      if (w.valid) lowest_fz = std::min(lowest_fz, w.values[2]);
-      std::this_thread::sleep_for(200us);
-    }
-  });
+  LowestWristFz watcher(*rig.master);
   // Well after the genuine answer (the emulated sensor answers within tens of microseconds).
   Attacker spoofer(
       rig.spec, [](std::uint8_t) { return std::vector<can_frame>{*encode_sensor_force({kWristSensorNode, {0, 0, -50}})}; },
       std::chrono::microseconds(600));
   const bool stopped = spoofer.wait_for_stop();
-  watching = false;
-  watcher.join();
+  const double lowest_fz = watcher.stop();
   ASSERT_TRUE(stopped) << "attacks sent: " << spoofer.attacks();
   EXPECT_EQ(rig.master->fault().kind, FaultKind::spoofed_frame) << rig.master->fault().reason;
   // The case this test is for: the owed answers took spoofed frames before one was too many.
