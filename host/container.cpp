@@ -114,64 +114,67 @@ constexpr const char* kUsage =
     "that program's options without --name and --naming:\n"
     "  rtm-container --name cell0 -- controller0 rtm-controller --gain 1 1 1 0 0 0 -- actuator0 rtm-actuator";
 
-}  // namespace
-
-int run_container(int argc, char** argv) {
-  using namespace detail;
-  const char* program = program_name(argc > 0 ? argv[0] : "rtm-container");
-  TerminationSignals signals;
-
-  // ---- the command line: the container's options, then one group per member ----
-  std::vector<std::string> own{argc > 0 ? argv[0] : "rtm-container"};
+// The container's own command line, before the first --, and one group of words per member.
+struct ContainerLine {
+  std::string name;
+  RunSettings process;
   std::vector<std::vector<std::string>> groups;
+};
+
+// An exit status when the process should stop here (--help: 0, a bad command line: 2).
+std::optional<int> parse_container_line(int argc, char** argv, const char* program, ContainerLine& line) {
+  using namespace detail;
+  std::vector<std::string> own{argc > 0 ? argv[0] : "rtm-container"};
   for (int i = 1; i < argc; ++i) {
-    if (std::string_view(argv[i]) == "--") groups.emplace_back();
-    else if (groups.empty()) own.emplace_back(argv[i]);
-    else groups.back().emplace_back(argv[i]);
+    if (std::string_view(argv[i]) == "--") line.groups.emplace_back();
+    else if (line.groups.empty()) own.emplace_back(argv[i]);
+    else line.groups.back().emplace_back(argv[i]);
   }
   std::vector<const char*> own_argv;
   for (const auto& arg : own) own_argv.push_back(arg.c_str());
   const SplitArguments split = split_orb_arguments(static_cast<int>(own_argv.size()), own_argv.data());
-  RunSettings process;
-  process.orb_args = split.orb;
-  std::string name;
+  line.process.orb_args = split.orb;
   std::string naming_text;
   std::string access_text = "owner";
   CLI::App app("rtm-container: several components in one process, each loaded from its module and bound "
                "under its own name; connections between them take the in-process path",
                program);
-  app.add_option("--name", name, "this process's name (a system file's host)")->required();
+  app.add_option("--name", line.name, "this process's name (a system file's host)")->required();
   app.add_option("--naming", naming_text, "naming service host:port")
       ->default_str(NamingAddress::from_environment().to_string())
       ->envname("RTM_NAMING");
-  app.add_option("--cpu", process.cpu, "pin the process to this CPU")->check(CLI::NonNegativeNumber);
-  add_process_options(app, process, access_text);
+  app.add_option("--cpu", line.process.cpu, "pin the process to this CPU")->check(CLI::NonNegativeNumber);
+  add_process_options(app, line.process, access_text);
   app.footer(std::string(kUsage) + "\nOptions -ORB<name> <value> (before the first --) go to omniORB unchanged.");
   std::vector<const char*> split_argv;
   for (const auto& arg : split.own) split_argv.push_back(arg.c_str());
   try {
     app.parse(static_cast<int>(split_argv.size()), split_argv.data());
-    check_name(name, "container name");
-    process.access = *parse_access_policy(access_text);
-    process.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
+    check_name(line.name, "container name");
+    line.process.access = *parse_access_policy(access_text);
+    line.process.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "%s: %s\n", program, e.what());
     return 2;
   }
-  if (auto status = check_endpoints(program, process)) return *status;
-  if (groups.empty()) {
+  if (auto status = check_endpoints(program, line.process)) return status;
+  if (line.groups.empty()) {
     std::fprintf(stderr, "%s: no members. %s\n", program, kUsage);
     return 2;
   }
+  return std::nullopt;
+}
 
-  // ---- each member: its module, its own command line ----
-  std::vector<Member> members(groups.size());
+// Each member's module and its own command line, into members (one per group); the process's
+// settings are theirs. An exit status when the process should stop here (a bad member: 2, no
+// module: 1).
+std::optional<int> prepare_members(const char* program, const ContainerLine& line, std::vector<Member>& members) {
+  using namespace detail;
   std::set<std::string> names;
-  int highest_priority = 0;
-  for (std::size_t i = 0; i < groups.size(); ++i) {
-    const auto& group = groups[i];
+  for (std::size_t i = 0; i < line.groups.size(); ++i) {
+    const auto& group = line.groups[i];
     Member& m = members[i];
     if (group.size() < 2) {
       std::fprintf(stderr, "%s: member %zu: want NAME PROGRAM [OPTIONS...] after --\n", program, i + 1);
@@ -195,35 +198,50 @@ int run_container(int argc, char** argv) {
       std::fprintf(stderr, "%s: %s: %s makes no component factory\n", program, group[0].c_str(), m.program.c_str());
       return 1;
     }
+    std::vector<std::string> words(group.begin() + 1, group.end());
     std::vector<char*> member_argv;
-    std::vector<std::string> texts(group.begin() + 1, group.end());
-    for (auto& text : texts) member_argv.push_back(text.data());
+    for (auto& word : words) member_argv.push_back(word.data());
     m.settings.name = group[0];
     const std::string shown = fmt::format("{} ({})", group[0], program_name(m.program.c_str()));
     if (auto status = parse_command_line(static_cast<int>(member_argv.size()), member_argv.data(), shown.c_str(), m.main,
                                          m.settings, ParseMode::member))
-      return *status;
-    m.settings.naming = process.naming;
-    m.settings.access = process.access;
-    m.settings.endpoints = process.endpoints;
-    m.settings.tls_folder = process.tls_folder;
-    m.settings.lock_memory = process.lock_memory;
-    highest_priority = std::max(highest_priority, m.settings.rt_priority);
+      return status;
+    m.settings.naming = line.process.naming;
+    m.settings.access = line.process.access;
+    m.settings.endpoints = line.process.endpoints;
+    m.settings.tls_folder = line.process.tls_folder;
+    m.settings.lock_memory = line.process.lock_memory;
   }
+  return std::nullopt;
+}
 
-  if (process.cpu >= 0) pin_process_to_cpu(process.cpu);
-  // Started under chrt: every member without --rt-priority of its own takes that priority.
-  const int inherited = keep_real_time_for_the_activity(name);
+// Started under chrt, every member without --rt-priority of its own takes that priority. One
+// process, one priority for the threads on a datum's path that are no activity (a CAN receive
+// thread, a delivery thread, an ORB thread serving an admitted put): the highest member's.
+void set_priorities(const std::string& name, std::vector<Member>& members) {
+  const int inherited = detail::keep_real_time_for_the_activity(name);
+  int highest = 0;
   for (Member& m : members) {
     if (m.settings.rt_priority == 0) m.settings.rt_priority = inherited;
-    highest_priority = std::max(highest_priority, m.settings.rt_priority);
+    highest = std::max(highest, m.settings.rt_priority);
   }
-  // One process, one priority for the threads on a datum's path that are no activity (a CAN
-  // receive thread, a delivery thread, an ORB thread serving an admitted put): the highest.
-  set_path_thread_priority(highest_priority);
+  set_path_thread_priority(highest);
+}
 
+}  // namespace
+
+int run_container(int argc, char** argv) {
+  using namespace detail;
+  const char* program = program_name(argc > 0 ? argv[0] : "rtm-container");
+  TerminationSignals signals;
+  ContainerLine line;
+  if (auto status = parse_container_line(argc, argv, program, line)) return *status;
+  std::vector<Member> members(line.groups.size());  // made in place: a Member does not move
+  if (auto status = prepare_members(program, line, members)) return *status;
+  if (line.process.cpu >= 0) pin_process_to_cpu(line.process.cpu);
+  set_priorities(line.name, members);
   std::optional<Orb> orb;
-  if (!start_orb(program, process, orb)) return 1;
+  if (!start_orb(program, line.process, orb)) return 1;
 
   int status = 0;
   for (Member& m : members) {
@@ -231,9 +249,9 @@ int run_container(int argc, char** argv) {
       bring_up(m.main, RunContext{m.settings, *orb}, m.servant, m.bindings);
       continue;
     } catch (const CORBA::Exception& e) {
-      log().error("{}: {} could not start: CORBA {}", name, m.settings.name, e._name());
+      log().error("{}: {} could not start: CORBA {}", line.name, m.settings.name, e._name());
     } catch (const std::exception& e) {
-      log().error("{}: {} could not start: {}", name, m.settings.name, e.what());
+      log().error("{}: {} could not start: {}", line.name, m.settings.name, e.what());
     }
     status = 1;
     break;
@@ -241,9 +259,9 @@ int run_container(int argc, char** argv) {
   if (status == 0) {
     std::string listed;
     for (const Member& m : members) listed.append(listed.empty() ? "" : ", ").append(m.settings.name);
-    log().info("{}: {} members up: {}", name, members.size(), listed);
+    log().info("{}: {} members up: {}", line.name, members.size(), listed);
     const int received = signals.wait();
-    log().info("stopping {} ({})", name, received == SIGINT ? "SIGINT" : "SIGTERM");
+    log().info("stopping {} ({})", line.name, received == SIGINT ? "SIGINT" : "SIGTERM");
   }
   // ---- shut down in order, the last member first ----
   for (auto it = members.rbegin(); it != members.rend(); ++it) shut_down(it->servant, it->bindings, it->settings.name);
