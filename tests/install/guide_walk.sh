@@ -4,7 +4,8 @@
 # code blocks are taken from the guide itself (so the guide and this walk cannot drift apart)
 # and run in order: make the project (step 1), build and test it (2), put the guide's law and
 # test in and build again (3), run and wire it with the guide's own commands in a naming
-# service of its own, to the installed example (4), run it phased and awaiting (4), and make
+# service of its own, to the installed example (4), run it in one process with the installed
+# example (4), run it phased and awaiting (4), and make
 # and build a component of a type of its own IDL (5). Each block is checked to be the one the
 # walk expects before it runs, so a guide rewritten makes this fail, not pass by running less.
 #
@@ -102,6 +103,16 @@ steps=$work/step4.sh
 out=$(cd gripper_ctl && bash "$steps" 2>&1) || fail "step 4: $out"
 # The watch saw the ramp pushed through the law: three data of the component's grip.
 [[ $(grep -c "Z  " <<<"$out") -ge 4 ]] || fail "step 4: the get and three watched data were not all shown: $out"
+
+# ---- 4. in one process with the installed source: the guide's system file with a host
+one=$(block yaml 1)
+expect_block "$one" 1 yaml "host: cell0"
+printf 'name: one-host\n%s\n' "$one" >gripper_ctl/one-host.yaml
+out=$(cd gripper_ctl && eval "$(rtm names)" && export PATH="$prefix/bin:$PATH" RTM_BIN_PATH= RTM_MODULE_PATH= &&
+      rtm up one-host.yaml 2>&1 && rtm --json cat source0 2>&1; status=$?; rtm down one-host >/dev/null 2>&1; exit $status) ||
+  fail "step 4: the one-host system: $out"
+[[ $out == *"(2 components in one process)"* ]] || fail "step 4: the one-host system is not one process: $out"
+[[ $out == *'"in_process": true'* ]] || fail "step 4: source0 -> gripper_ctl0 is not in-process: $out"
 
 # ---- 4. phased and awaiting, as the guide starts it (its options parse; it runs until stopped)
 phased=$(block sh 7)
