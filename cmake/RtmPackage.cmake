@@ -49,6 +49,9 @@ function(rtm_export_library target name)
     # 0.x: every minor version may change the ABI.
     set_target_properties(${target} PROPERTIES VERSION ${PROJECT_VERSION}
                                                SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
+    # Calls inside the library go straight to its own functions (no PLT), which may then be
+    # inlined: nobody replaces one of them by preloading another library.
+    target_compile_options(${target} PRIVATE -fno-semantic-interposition)
   endif()
   install(TARGETS ${target} EXPORT RTMTargets
           ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
