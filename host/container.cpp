@@ -140,9 +140,7 @@ std::optional<int> parse_container_line(int argc, char** argv, const char* progr
                "under its own name; connections between them take the in-process path",
                program);
   app.add_option("--name", line.name, "this process's name (a system file's host)")->required();
-  app.add_option("--naming", naming_text, "naming service host:port")
-      ->default_str(NamingAddress::from_environment().to_string())
-      ->envname("RTM_NAMING");
+  add_naming_option(app, naming_text);
   app.add_option("--cpu", line.process.cpu, "pin the process to this CPU")->check(CLI::NonNegativeNumber);
   add_process_options(app, line.process, access_text);
   app.footer(std::string(kUsage) + "\nOptions -ORB<name> <value> (before the first --) go to omniORB unchanged.");
@@ -152,7 +150,7 @@ std::optional<int> parse_container_line(int argc, char** argv, const char* progr
     app.parse(static_cast<int>(split_argv.size()), split_argv.data());
     check_name(line.name, "container name");
     line.process.access = *parse_access_policy(access_text);
-    line.process.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
+    line.process.naming = naming_from(naming_text);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   } catch (const std::invalid_argument& e) {

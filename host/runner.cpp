@@ -244,9 +244,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   if (alone) {
     app.add_option("--name", settings.name, "component name, bound as <host>.host_cxt/<name>.rtc")
         ->capture_default_str();
-    app.add_option("--naming", naming_text, "naming service host:port")
-        ->default_str(NamingAddress::from_environment().to_string())
-        ->envname("RTM_NAMING");
+    add_naming_option(app, naming_text);
   }
   ScheduleTexts schedule_texts;
   add_schedule_options(app, schedule_texts);
@@ -274,7 +272,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
     settings.access = *parse_access_policy(access_text);
     check_name(settings.name);
     apply_port_options(port_texts, settings);
-    if (alone) settings.naming = naming_text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(naming_text);
+    if (alone) settings.naming = naming_from(naming_text);
     if (main.validate) main.validate(settings);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help: 0; CLI11's own codes (105, 114, ...) are all "bad command line"
@@ -283,6 +281,16 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
     return 2;
   }
   return alone ? check_endpoints(program, settings) : std::nullopt;
+}
+
+void add_naming_option(CLI::App& app, std::string& text) {
+  app.add_option("--naming", text, "naming service host:port")
+      ->default_str(NamingAddress::from_environment().to_string())
+      ->envname("RTM_NAMING");
+}
+
+NamingAddress naming_from(const std::string& text) {
+  return text.empty() ? NamingAddress::from_environment() : NamingAddress::parse(text);
 }
 
 // The options of the process as a whole: its memory, its endpoints, certificates and access

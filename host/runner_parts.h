@@ -48,6 +48,9 @@ enum class ParseMode { process, member };
 std::optional<int> parse_command_line(int argc, char** argv, const char* program, const ComponentMain& main,
                                       RunSettings& settings, ParseMode mode);
 void add_process_options(CLI::App& app, RunSettings& settings, std::string& access_text);
+// --naming (default $RTM_NAMING, else 127.0.0.1:2809), and the address its text names.
+void add_naming_option(CLI::App& app, std::string& text);
+NamingAddress naming_from(const std::string& text);
 std::optional<int> check_endpoints(const char* program, RunSettings& settings);
 
 // Builds the component and its servant, activates it and binds its names; turns it on when

@@ -121,12 +121,12 @@ void BusCycle::handle_sensor(const can_frame& frame, const Classified& c) {
   if (c.type == FrameType::sensor_force) {
     const auto f = decode_sensor_force(frame);
     if (!f) { ++counters_.malformed_frames; return; }
-    if (!solicited(force_ledgers_[slot], c.node, "force TPDO1")) { wrench_spoofed_[slot] = true; return; }
+    if (!solicited(force_ledgers_[slot], c.node, "force TPDO1")) { wrench.withhold(); return; }
     if (!window_open_ || wrench.add_force(f->force_N)) ++counters_.late_frames;
   } else {
     const auto t = decode_sensor_torque(frame);
     if (!t) { ++counters_.malformed_frames; return; }
-    if (!solicited(torque_ledgers_[slot], c.node, "torque TPDO2")) { wrench_spoofed_[slot] = true; return; }
+    if (!solicited(torque_ledgers_[slot], c.node, "torque TPDO2")) { wrench.withhold(); return; }
     if (!window_open_ || wrench.add_torque(t->torque_Nm)) ++counters_.late_frames;
   }
 }
@@ -257,7 +257,6 @@ void BusCycle::send_cycle(std::int64_t now_ns) {
     force_ledgers_[k].on_sync();
     torque_ledgers_[k].on_sync();
   }
-  wrench_spoofed_.fill(false);
   // The seven RPDOs and SYNC leave in one write: a node woken by the first frame cannot hold
   // the rest back, and on a real bus they go out back to back.
   sync_time_ns_ = monotonic_ns();
@@ -317,7 +316,7 @@ void BusCycle::publish(const DriveSummary& drives) {
   s.sync_time_ns = sync_time_ns_;
   s.cycle = cycle_;
   for (std::size_t k = 0; k < kSensorCount; ++k) {
-    if (!(sensor_enabled(k) && wrenches_[k].complete()) || wrench_spoofed_[k]) continue;
+    if (!(sensor_enabled(k) && wrenches_[k].complete())) continue;
     Wrench& w = report.wrench[k];
     w.values = wrenches_[k].values();
     w.sync_counter = sync_counter_;

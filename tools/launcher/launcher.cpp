@@ -247,13 +247,10 @@ std::vector<ProcessToStart> processes_to_start(const SystemFile& file, const std
     // container may still know its module ($RTM_MODULE_PATH, its own folder).
     const std::string& program = c.command[0];
     std::string resolved = program;
-    if (program.find('/') != std::string::npos) {
+    try {
       resolved = fs::absolute(find(program, base)).string();
-    } else {
-      try {
-        resolved = fs::absolute(find(program, base)).string();
-      } catch (const SystemFileError&) {
-      }
+    } catch (const SystemFileError&) {
+      if (program.find('/') != std::string::npos) throw;
     }
     p.command.insert(p.command.end(), {"--", c.name, resolved});
     p.command.insert(p.command.end(), std::next(c.command.begin()), c.command.end());

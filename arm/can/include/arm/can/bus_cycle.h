@@ -179,7 +179,6 @@ class BusCycle {
   std::array<AnswerLedger, kDriveCount> drive_ledgers_;
   std::array<AnswerLedger, kSensorCount> force_ledgers_;
   std::array<AnswerLedger, kSensorCount> torque_ledgers_;
-  std::array<bool, kSensorCount> wrench_spoofed_{};  // in this window: not published
   FollowingErrorCheck following_;
   // A cycle's frames, one send_batch(): 7 RPDOs, SYNC, and while a fault takes the drives
   // down, 7 NMT pre-operational after the SYNC.

@@ -15,7 +15,7 @@ class WrenchAssembly {
   // partner never came: a late or lost frame).
   bool restart() {
     const bool half = has_force_ != has_torque_;
-    has_force_ = has_torque_ = twice_ = false;
+    has_force_ = has_torque_ = withheld_ = false;
     return half;
   }
   // A half arrived. True when that half had arrived already for this SYNC: a late answer to an
@@ -24,7 +24,10 @@ class WrenchAssembly {
   bool add_force(const std::array<double, 3>& force_N) { return add(force_N, 0, has_force_); }
   bool add_torque(const std::array<double, 3>& torque_Nm) { return add(torque_Nm, 3, has_torque_); }
 
-  bool complete() const { return has_force_ && has_torque_ && !twice_; }
+  // Another sender used the sensor's id in this SYNC's window: its wrench is withheld too.
+  void withhold() { withheld_ = true; }
+
+  bool complete() const { return has_force_ && has_torque_ && !withheld_; }
   // Both halves came (complete, or withheld because one came twice): nothing more to wait for.
   bool answered() const { return has_force_ && has_torque_; }
   // Fx Fy Fz [N], Tx Ty Tz [N·m]; the wrench once complete().
@@ -33,7 +36,7 @@ class WrenchAssembly {
  private:
   bool add(const std::array<double, 3>& half, std::size_t offset, bool& has) {
     const bool again = has;
-    if (again) twice_ = true;
+    if (again) withheld_ = true;
     else
       for (std::size_t i = 0; i < 3; ++i) values_[offset + i] = half[i];
     has = true;
@@ -43,7 +46,7 @@ class WrenchAssembly {
   std::array<double, 6> values_{};
   bool has_force_ = false;
   bool has_torque_ = false;
-  bool twice_ = false;
+  bool withheld_ = false;
 };
 
 }  // namespace rtm::can
