@@ -15,11 +15,16 @@ packages=(
   libmujoco-dev libqhull-dev
   libcli11-dev libyaml-cpp-dev libfmt-dev libspdlog-dev nlohmann-json3-dev libcpp-httplib-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  liblz4-dev libzstd-dev zlib1g-dev
   gnuplot-nox procps iproute2 ccache
 )
 case "${1:-}" in
   "") ;;
-  test) packages+=(qemu-system-x86 busybox-static kmod xz-utils util-linux can-utils dpkg-dev lintian chromium chromium-driver python3-selenium) ;;
+  test)
+    packages+=(qemu-system-x86 busybox-static kmod xz-utils util-linux can-utils dpkg-dev lintian chromium chromium-driver python3-selenium nodejs)
+    # npm for the MCAP reference readers (tests/mcap/reference); a Node.js from elsewhere
+    # that brings its own npm is kept.
+    command -v npm >/dev/null || packages+=(npm) ;;
   *) echo "usage: $0 [test]" >&2; exit 2 ;;
 esac
 

@@ -6,6 +6,7 @@
 #   host/        the runner, composites, access screen, TLS and leases: no robot code, no
 #                tools/
 #   src/rt/      the real-time base under everything: no CORBA (nor the core), no robot code
+#   src/mcap/    the MCAP file format: no CORBA (nor the core), no real-time base, no robot code
 #   arm/         the arm and CAN library: no CORBA (omniORB, the IDL stubs, the core rtm/),
 #                no simulator, no component
 #   sim/         the simulator: no CORBA, no component
@@ -45,6 +46,7 @@ forbid src "$robot|tools/" "the core knows nothing of robots or tools"
 forbid src "host/" "the core knows nothing of the host library (runner, access, TLS, leases)"
 forbid host "$robot|tools/" "the host library knows nothing of robots or tools"
 forbid src/rt "$corba" "the real-time base knows nothing of CORBA or the core"
+forbid src/mcap "$corba|rt/" "the MCAP format library knows nothing of CORBA, the core or the real-time base"
 forbid arm "$corba" "the arm/CAN library knows nothing of CORBA"
 forbid arm "sim/|components/" "the arm/CAN library includes no simulator or component"
 forbid sim "$corba" "the simulator knows nothing of CORBA"
