@@ -2,6 +2,7 @@
 // System files as `rtm up` reads them, and port addresses as every command parses them.
 #include "browser/browser.h"
 #include "launcher/launcher.h"
+#include "launcher/running_system.h"
 #include "launcher/system_file.h"
 
 #include <gtest/gtest.h>
@@ -465,6 +466,16 @@ TEST(RtmSystemFile, TheHostExampleOfTheDocsIsAFileRtmUpTakes) {
   EXPECT_EQ(starts[0].name, "servo");
   EXPECT_EQ(starts[0].members, (std::vector<std::string>{"sensor0", "controller0"}));
   EXPECT_EQ(starts[1].members, (std::vector<std::string>{"logger0"}));
+}
+
+TEST(RtmRunningSystem, AToolsInPortIsKnownByItsOwnersPrefixWithItsDash) {
+  EXPECT_TRUE(rtm::cli::is_tool_subscriber("rtm-record-123.in"));
+  EXPECT_TRUE(rtm::cli::is_tool_subscriber("rtm-serve-ab.plot0"));
+  EXPECT_TRUE(rtm::cli::is_tool_subscriber("rtm-watch-7.in"));
+  EXPECT_TRUE(rtm::cli::is_tool_subscriber("rtm-play-7.in"));
+  EXPECT_FALSE(rtm::cli::is_tool_subscriber("controller0.in0"));
+  EXPECT_FALSE(rtm::cli::is_tool_subscriber("rtm-recorder0.in"));
+  EXPECT_FALSE(rtm::cli::is_tool_subscriber(""));
 }
 
 TEST(RtmPortAddress, SplitsAtTheLastDot) {

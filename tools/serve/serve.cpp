@@ -6,6 +6,7 @@
 #include "serve/serve_gate.h"
 #include "serve/stream_slots.h"
 #include "serve/system_feed.h"
+#include "launcher/running_system.h"
 #include "launcher/system_file.h"
 #include "browser/values.h"
 
@@ -20,8 +21,6 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <filesystem>
-#include <fstream>
 #include <functional>
 #include <map>
 #include <mutex>
@@ -86,67 +85,6 @@ struct PlotStream {
   std::chrono::steady_clock::time_point next = std::chrono::steady_clock::now();
 };
 
-// How a component was started, as a system file says it: its command and, for a member of
-// rtm-container, its host.
-struct StartedAs {
-  std::vector<std::string> command;
-  std::string host;
-};
-
-// A member of rtm-container: the container's --name is the host; the member's group (after
-// a --: its name, its program, its options) is its command.
-StartedAs member_of_container(const std::vector<std::string>& args, const std::string& member) {
-  StartedAs started;
-  std::size_t i = 1;
-  for (; i < args.size() && args[i] != "--"; ++i)
-    if (args[i] == "--name" && i + 1 < args.size()) started.host = args[++i];
-  while (i < args.size()) {
-    const std::size_t begin = i + 1;
-    std::size_t end = begin;
-    while (end < args.size() && args[end] != "--") ++end;
-    if (end - begin >= 2 && args[begin] == member) {
-      for (std::size_t k = begin + 1; k < end; ++k)
-        if (args[k] != "--on") started.command.push_back(args[k]);
-      return started;
-    }
-    i = end;
-  }
-  return {};
-}
-
-// How process pid started component `name`, as a system file's command: the program by its
-// absolute path (/proc/<pid>/exe), then its arguments without those `rtm up` adds itself
-// (--name, --naming) and without --on (the file's activate list says that); a member of
-// rtm-container by its own group and the container's name as its host. Empty when the process
-// is not readable from here.
-StartedAs command_of(long pid, const std::string& name) {
-  std::error_code error;
-  const auto exe = std::filesystem::read_symlink(fmt::format("/proc/{}/exe", pid), error);
-  if (error) return {};
-  std::ifstream in(fmt::format("/proc/{}/cmdline", pid), std::ios::binary);
-  std::vector<std::string> args;
-  for (std::string arg; std::getline(in, arg, '\0');) args.push_back(arg);
-  if (args.empty()) return {};
-  if (exe.filename() == "rtm-container") return member_of_container(args, name);
-  std::vector<std::string> command{exe.string()};
-  for (std::size_t i = 1; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if ((a == "--name" || a == "--naming") && i + 1 < args.size()) {
-      ++i;
-      continue;
-    }
-    if (a == "--on" || a.rfind("--name=", 0) == 0 || a.rfind("--naming=", 0) == 0) continue;
-    command.push_back(a);
-  }
-  return {command, {}};
-}
-
-std::optional<long> pid_of(const ComponentInfo& c) {
-  for (const auto& s : c.statistics)
-    if (s.name == "pid" && s.value > 0) return static_cast<long>(s.value);
-  return std::nullopt;
-}
-
 std::string random_token() {
   unsigned char bytes[24];
   std::size_t got = 0;
@@ -205,14 +143,6 @@ void answer(httplib::Response& res, const std::function<json()>& action) {
   decide(res, [&] { reply(res, 200, action()); });
 }
 
-bool follows_rule(const std::string& name) {
-  try {
-    check_name(name);
-    return true;
-  } catch (const std::invalid_argument&) {
-    return false;
-  }
-}
 
 // A component the API is asked about or to act on, by name: refused (std::invalid_argument,
 // answered 400 with the naming rule's sentence) when the name breaks the rule. Such an entry
@@ -277,41 +207,14 @@ json preview_system_file(const Browser& browser, const std::string& yaml) {
               {"not_running", not_running}};
 }
 
-// The running system as a system file `rtm up` accepts: this host's components with the
-// commands that started them and the values of their parameters that may change while they
-// run (a fixed one is in the command), every subscription, and those on. A component whose command
-// cannot be read from here (another host, another user's process) is left out, with why.
+// The running system as a system file `rtm up` accepts (launcher/running_system.h), as the
+// page gets it: {"yaml": the file, "left_out": [{"name": .., "why": ..}, ...]}.
 json save_system_file(const Browser& browser, const std::string& name) {
-  SystemFile file;
-  file.name = name.empty() ? "saved" : name;
-  check_name(file.name);
-  json left_out = json::array();
-  const std::string here = ComponentPath::on_this_host("x").host;
-  for (const auto& c : browser.list("", true)) {
-    if (c.liveness != Liveness::alive) continue;
-    if (!follows_rule(c.path.name)) {
-      left_out.push_back({{"name", c.path.name}, {"why", "not a valid name: bound by hand, not an RTM component"}});
-      continue;
-    }
-    const auto pid = pid_of(c);
-    StartedAs started = (pid && c.path.host == here) ? command_of(*pid, c.path.name) : StartedAs{};
-    if (started.command.empty()) {
-      left_out.push_back({{"name", c.path.name}, {"why", "its command cannot be read from this host"}});
-      continue;
-    }
-    SystemFile::Component saved{c.path.name, std::move(started.command), {}, {}};
-    saved.host = std::move(started.host);
-    for (const auto& p : c.parameters)
-      if (p.access != "fixed") saved.parameters.emplace_back(p.name, p.value);
-    file.components.push_back(std::move(saved));
-    if (c.state == "on") file.activate.push_back(c.path.name);
-    for (const auto& p : c.ports)
-      for (const auto& s : p.subscriptions)
-        if (!s.peer.starts_with(kPlotOwnerPrefix))  // a page's plot, not the system's wiring
-          file.connections.push_back({c.path.name + "." + p.name, s.peer,
-                                    s.asked ? *s.asked : s.req_type == "once" ? ConnPolicy::one_shot() : ConnPolicy::repeated()});
-  }
-  return json{{"yaml", file.to_yaml()}, {"left_out", left_out}};
+  std::vector<LeftOut> left_out;
+  const SystemFile file = running_system(browser, name, left_out);
+  json left = json::array();
+  for (const auto& l : left_out) left.push_back({{"name", l.name}, {"why", l.why}});
+  return json{{"yaml", file.to_yaml()}, {"left_out", left}};
 }
 
 // A system file's connections and activations applied to the components running now.
@@ -489,7 +392,7 @@ struct WebServer::Impl {
       const auto it = member_of.find(c.path.name);
       if (it != member_of.end() && c.members.empty() && it->second != c.path.name) j["member_of"] = it->second;
       // false: the page shows the name as text with a mark, and offers nothing to do to it.
-      j["name_ok"] = follows_rule(c.path.name) && follows_rule(c.path.host);
+      j["name_ok"] = follows_naming_rule(c.path.name) && follows_naming_rule(c.path.host);
       if (c.timing) j["timing"] = timing_json(*c.timing);
       list.push_back(std::move(j));
     }

@@ -12,6 +12,7 @@
 
 #include "browser/browser.h"
 #include "browser/values.h"
+#include "launcher/running_system.h"
 
 #include <chrono>
 #include <cstdint>
@@ -20,6 +21,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace rtm {
@@ -91,5 +93,7 @@ class PagePlots {
 // The prefix of the owner name of this server's plot InPorts: their subscriptions are the
 // page's, not the system's (a saved system file leaves them out).
 inline constexpr const char* kPlotOwnerPrefix = "rtm-serve-";
+static_assert(std::string_view(kPlotOwnerPrefix) == kToolSubscriberPrefixes[0],
+              "a saved system file leaves out the plots' subscriptions by this prefix");
 
 }  // namespace rtm::cli
