@@ -14,6 +14,7 @@
 #                browser/ (find, describe, connect, values): no launcher, server or scaffold,
 #                  no HTTP, and it prints nothing (its results are values and JSON)
 #                launcher/ (system files, rtm up/down): the browser only
+#                recorder/ (rtm record): the browser and the launcher, not the server or scaffold
 #                serve/ (rtm serve): the browser and the launcher, not the scaffold
 #                scaffold/ (rtm new): writes files, asks nothing of a running system
 #                rtm/ (the command line) is on no other room's include path
@@ -70,7 +71,8 @@ forbid_call() { # folder, extended regex, what the rule says
 }
 forbid tools/browser "launcher/|serve/|scaffold/|httplib" "the browser knows nothing of the launcher, the web server or the scaffold"
 forbid_call tools/browser 'std::(cout|cerr|clog)|fmt::print|(^|[^a-z_])(printf|fprintf|puts)[[:space:]]*\(' "the browser prints nothing"
-forbid tools/launcher "serve/|scaffold/" "the launcher calls the browser only"
+forbid tools/launcher "serve/|scaffold/|recorder/" "the launcher calls the browser only"
+forbid tools/recorder "serve/|scaffold/" "the recorder calls the browser and the launcher only"
 forbid tools/serve "scaffold/" "the web server calls the browser and the launcher only"
 forbid tools/scaffold "browser/|launcher/|serve/" "the scaffold writes files and asks nothing of a running system"
 

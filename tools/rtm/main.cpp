@@ -11,6 +11,8 @@
 //   rtm get <comp>.<out>                  pull one datum
 //   rtm put <comp>.<in> <values>...       inject one datum (--rate HZ [--for S]: again and again)
 //   rtm watch <comp>.<out>                stream a port live (--rate, --csv, --count, --duration)
+//   rtm record <comp>.<out>... -o F.mcap  record ports into MCAP (--all, --duration, --count;
+//                                         --recover DAMAGED: a recording that was not closed)
 //   rtm up <system.yaml> [--set NAME] / rtm down <system.yaml|name>
 //   rtm names [--stop]                    a naming service of one's own on loopback: prints
 //                                         `export RTM_NAMING=…` (eval "$(rtm names)")
@@ -27,6 +29,7 @@
 #include "report.h"
 #include "launcher/system_file.h"
 #include "new_command.h"
+#include "record_command.h"
 #include "serve/serve.h"
 #include "tls_command.h"
 #include "browser/values.h"
@@ -104,6 +107,7 @@ struct Cli {
   int up_timeout_ms = 10000;
   TlsCommand tls_command;
   NewCommand new_command;
+  RecordCommand record_command;
   std::string listen = "127.0.0.1:0";
 };
 
@@ -507,6 +511,7 @@ int run(const Cli& c) {
     return kOk;
   }
   if (c.names->parsed()) return run_names(c);
+  if (c.record_command.recovers()) return c.record_command.run_recover(c.json);
   if (!c.tls.empty()) {
     try {
       rtm::configure_tls(rtm::check_tls_folder(c.tls));
@@ -542,6 +547,7 @@ int run(const Cli& c) {
   if (c.get->parsed()) return run_get(browser, c);
   if (c.put->parsed()) return run_put(browser, c);
   if (c.watch->parsed()) return watch(browser, orb, c.port, c.watch_options, g_interrupted);
+  if (c.record_command.parsed()) return c.record_command.record(browser, orb, c.json, g_interrupted);
   if (c.up->parsed()) return run_up(browser, c, *system, naming, launch);
   if (c.down->parsed()) return run_down(browser, c, launch);
   if (c.serve->parsed()) return run_serve(browser, c);
@@ -565,6 +571,7 @@ int main(int argc, char** argv) {
   add_system_commands(app, c);
   c.tls_command.add_to(app);
   c.new_command.add_to(app);
+  c.record_command.add_to(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,244 @@
+// SPDX-License-Identifier: Apache-2.0
+// `rtm record` against real processes: omniNames, the test talker at 2 ms, the rtm tool. The
+// recording is read back with the MCAP reader and each datum decoded with the port's type.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <signal.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+
+#include "RTMData.hh"
+#include "mcap/reader.h"
+#include "rtm/cdr.h"
+#include "rtm/orb.h"
+#include "rtm_test/child_process.h"
+#include "rtm_test/eventually.h"
+#include "rtm_test/omni_names.h"
+#include "rtm_test/run_command.h"
+
+namespace {
+
+using nlohmann::json;
+using rtm_test::ChildProcess;
+using rtm_test::CommandResult;
+using rtm_test::eventually;
+using rtm_test::OmniNames;
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+namespace mcap = rtm::mcap;
+
+// Decoding CDR with strings needs the ORB's code sets: one ORB for the test program.
+class OrbEnvironment : public ::testing::Environment {
+ public:
+  void SetUp() override { orb_ = std::make_unique<rtm::Orb>(); }
+  void TearDown() override { orb_.reset(); }
+
+ private:
+  std::unique_ptr<rtm::Orb> orb_;
+};
+const auto* const kOrb = ::testing::AddGlobalTestEnvironment(new OrbEnvironment);
+
+class RtmRecord : public ::testing::Test {
+ protected:
+  RtmRecord() {
+    std::string pattern = (fs::temp_directory_path() / "rtm-record-test-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+    dir_ = pattern;
+  }
+  ~RtmRecord() override {
+    std::error_code ignored;
+    fs::remove_all(dir_, ignored);
+  }
+
+  std::vector<std::string> command(std::vector<std::string> args) const {
+    args.insert(args.begin(), {RTM_CLI_PATH, "--naming", names_.address()});
+    return args;
+  }
+  CommandResult rtm(std::vector<std::string> args) { return rtm_test::run_command(command(std::move(args))); }
+  void talker(const std::string& name, std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv{TALKER_PATH, "--name", name, "--naming", names_.address()};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    rtm_test::start_bound(talkers_, argv);
+  }
+  std::string file(const std::string& name) const { return (dir_ / name).string(); }
+
+  // The force port's data, decoded, in log-time order.
+  static std::vector<RTM::TimedFloat6> forces(const mcap::Reader& r) {
+    const auto* channel = r.channel("t.force");
+    EXPECT_NE(channel, nullptr);
+    std::vector<RTM::TimedFloat6> out;
+    if (channel == nullptr) return out;
+    for (const auto& m : r.messages()) {
+      if (m.channel_id != channel->id) continue;
+      const CORBA::Any any = rtm::from_cdr(RTM::_tc_TimedFloat6, m.data);
+      const RTM::TimedFloat6* v = nullptr;
+      EXPECT_TRUE(any >>= v);
+      out.push_back(*v);
+      EXPECT_EQ(m.log_time, std::uint64_t{v->tm.sec} * 1'000'000'000ULL + v->tm.nsec) << "its own stamp as log time";
+      EXPECT_GE(m.publish_time, m.log_time) << "received after it was stamped";
+    }
+    return out;
+  }
+
+  static void expect_every_datum_in_order(const std::vector<RTM::TimedFloat6>& data) {
+    for (std::size_t i = 1; i < data.size(); ++i) {
+      ASSERT_EQ(data[i].val[0], data[i - 1].val[0] + 1) << "datum " << i << ": the talker's ramp, none missing";
+    }
+  }
+
+  OmniNames names_;
+  std::vector<std::unique_ptr<ChildProcess>> talkers_;
+  fs::path dir_;
+};
+
+TEST_F(RtmRecord, RecordsEveryDatumOfEachPortWithItsTypeUnitsAndTheSystem) {
+  talker("t", {"--on", "--period", "2ms"});
+  const auto out = file("run.mcap");
+  const auto r = rtm({"--json", "record", "t.force", "t.out3", "-o", out, "--count", "300"});
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const json result = json::parse(r.out);
+  ASSERT_EQ(result["ports"].size(), 2u);
+  std::uint64_t recorded = 0;
+  for (const auto& p : result["ports"]) {
+    recorded += p["recorded"].get<std::uint64_t>();
+    EXPECT_EQ(p["dropped_by_publisher"], 0) << p;
+    EXPECT_EQ(p["dropped_by_recorder"], 0) << p;
+    EXPECT_EQ(p["path"], "shared memory") << "on this host the recorder reads the publisher's ring";
+  }
+  EXPECT_EQ(recorded, 300u);
+
+  const mcap::Reader reader(out);
+  EXPECT_EQ(reader.statistics().message_count, 300u);
+  const auto* force = reader.channel("t.force");
+  ASSERT_NE(force, nullptr);
+  EXPECT_EQ(force->message_encoding, "cdr");
+  EXPECT_EQ(force->metadata.at("type"), "RTM::TimedFloat6");
+  EXPECT_EQ(force->metadata.at("elements"), "fx,fy,fz,tx,ty,tz");
+  EXPECT_EQ(force->metadata.at("units"), "N,N,N,N·m,N·m,N·m");
+  const auto* schema = reader.schema(force->schema_id);
+  ASSERT_NE(schema, nullptr);
+  EXPECT_EQ(schema->encoding, "omgidl");
+  EXPECT_EQ(schema->data, rtm::idl_text(RTM::_tc_TimedFloat6));
+  const auto* out3 = reader.channel("t.out3");
+  ASSERT_NE(out3, nullptr);
+  EXPECT_EQ(reader.schema(out3->schema_id)->name, "RTM::TimedFloat3");
+
+  const auto data = forces(reader);
+  EXPECT_GT(data.size(), 100u);
+  expect_every_datum_in_order(data);
+
+  std::map<std::string, mcap::KeyValues> metadata;
+  for (auto& m : reader.metadata()) metadata[m.name] = m.values;
+  ASSERT_TRUE(metadata.contains("rtm.system"));
+  const auto& yaml = metadata["rtm.system"].at("yaml");
+  EXPECT_NE(yaml.find("name: t"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("rtm-test-talker"), std::string::npos) << "the command that started it\n" << yaml;
+  ASSERT_TRUE(metadata.contains("rtm.drops"));
+  EXPECT_EQ(metadata["rtm.drops"].at("t.force.recorded"), std::to_string(data.size()));
+  EXPECT_EQ(metadata["rtm.drops"].at("t.force.dropped_by_publisher"), "0");
+}
+
+TEST_F(RtmRecord, CtrlCEndsWithAWholeFileAndNoSubscriptionLeft) {
+  talker("t", {"--on", "--period", "2ms"});
+  const auto out = file("run.mcap");
+  ChildProcess::Options opts;
+  opts.echo_output = false;
+  ChildProcess recorder(command({"record", "t.force", "-o", out}), opts);
+  recorder.wait_for_line("recording t.force", 10s);
+  // Data flow into the file: its first chunk goes out within a second.
+  eventually([&] { return fs::exists(out) && fs::file_size(out) > 2000; }, 10s);
+  recorder.send_signal(SIGINT);
+  const auto status = recorder.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(status->clean()) << status->to_string() << "\n" << recorder.output();
+
+  const mcap::Reader reader(out);  // a summary: the file was closed
+  const auto data = forces(reader);
+  EXPECT_GT(data.size(), 10u);
+  expect_every_datum_in_order(data);
+  const auto cat = rtm({"--json", "cat", "t"});
+  ASSERT_EQ(cat.exit_code, 0) << cat.err;
+  for (const auto& p : json::parse(cat.out)["ports"]) {
+    if (p["name"] == "force") {
+      EXPECT_TRUE(p["subscriptions"].empty()) << p;
+    }
+  }
+}
+
+TEST_F(RtmRecord, AKilledRecordersFileIsRecoveredUpToItsLastWholeChunk) {
+  talker("t", {"--on", "--period", "2ms"});
+  const auto out = file("killed.mcap");
+  ChildProcess::Options opts;
+  opts.echo_output = false;
+  ChildProcess recorder(command({"record", "t.force", "-o", out}), opts);
+  recorder.wait_for_line("recording t.force", 10s);
+  // Two chunks flushed (one a second): then killed, with no chance to write its summary.
+  eventually([&] {
+    std::uint64_t n = 0;
+    const auto found = mcap::recover(out, [&](const mcap::Message&) { ++n; });
+    return found.chunk_count >= 2;
+  }, 15s);
+  recorder.send_signal(SIGKILL);
+  ASSERT_TRUE(recorder.wait_for_exit(10s).has_value());
+
+  try {
+    mcap::Reader unreadable(out);
+    FAIL() << "a killed recorder's file read as whole";
+  } catch (const mcap::FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("--recover"), std::string::npos) << e.what();
+  }
+  const auto fixed = file("fixed.mcap");
+  const auto r = rtm({"record", "--recover", out, "-o", fixed});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("messages in"), std::string::npos) << r.out;
+  const mcap::Reader reader(fixed);
+  const auto data = forces(reader);
+  EXPECT_GT(data.size(), 100u) << "two chunks of a 2 ms port: a second or more";
+  expect_every_datum_in_order(data);
+}
+
+TEST_F(RtmRecord, APortWhoseWriterDiesLeavesWhatCameBeforeInAWholeFile) {
+  talker("t", {"--on", "--period", "2ms"});
+  const auto out = file("run.mcap");
+  ChildProcess::Options opts;
+  opts.echo_output = false;
+  ChildProcess recorder(command({"record", "t.force", "-o", out}), opts);
+  recorder.wait_for_line("recording t.force", 10s);
+  eventually([&] { return fs::exists(out) && fs::file_size(out) > 2000; }, 10s);
+  talkers_.front()->send_signal(SIGKILL);
+  ASSERT_TRUE(talkers_.front()->wait_for_exit(10s).has_value());
+  EXPECT_TRUE(recorder.running()) << "the recorder outlives the port it records";
+  recorder.send_signal(SIGTERM);
+  ASSERT_TRUE(recorder.wait_for_exit(15s).has_value());
+  const mcap::Reader reader(out);
+  const auto data = forces(reader);
+  EXPECT_GT(data.size(), 10u);
+  expect_every_datum_in_order(data);
+}
+
+TEST_F(RtmRecord, AnInPortAMissingPortAndAnExistingFileAreRefusedBeforeAnythingIsWritten) {
+  talker("t");
+  const auto out = file("run.mcap");
+  auto r = rtm({"record", "t.in0", "-o", out});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("t.in0 is an InPort"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  r = rtm({"record", "t.nothing", "-o", out});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("nothing"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  { std::ofstream(out) << "keep me"; }
+  r = rtm({"record", "t.force", "-o", out, "--count", "1"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("exists"), std::string::npos) << r.err;
+  std::ifstream in(out);
+  std::string kept;
+  std::getline(in, kept);
+  EXPECT_EQ(kept, "keep me");
+}
+
+}  // namespace
