@@ -220,6 +220,63 @@ TEST_F(RtmRecord, APortWhoseWriterDiesLeavesWhatCameBeforeInAWholeFile) {
   expect_every_datum_in_order(data);
 }
 
+// The InPort counter of component `name`'s port `port`.
+std::uint64_t accepted(const json& cat, const std::string& port) {
+  for (const auto& p : cat["ports"])
+    if (p["name"] == port) return p["counters"]["accepted"].get<std::uint64_t>();
+  return 0;
+}
+
+TEST_F(RtmRecord, PlayPutsARecordingIntoTheInPortItsPortFedNoFasterThanRecorded) {
+  talker("t", {"--on", "--period", "2ms"});
+  talker("u");
+  ASSERT_EQ(rtm({"connect", "t.force", "u.in0"}).exit_code, 0);
+  const auto out = file("run.mcap");
+  auto r = rtm({"record", "t.force", "-o", out, "--count", "200"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // From now on only the player feeds u.in0.
+  ASSERT_EQ(rtm({"disconnect", "t.force", "u.in0"}).exit_code, 0);
+  ASSERT_EQ(rtm({"off", "t"}).exit_code, 0);
+  const auto before = rtm({"--json", "cat", "u"});
+  ASSERT_EQ(before.exit_code, 0) << before.err;
+
+  r = rtm({"--json", "play", out});
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const json played = json::parse(r.out);
+  ASSERT_EQ(played["routes"].size(), 1u) << played;
+  EXPECT_EQ(played["routes"][0]["topic"], "t.force");
+  EXPECT_EQ(played["routes"][0]["port"], "u.in0") << "where t.force went when it was recorded";
+  EXPECT_EQ(played["routes"][0]["put"], 200);
+  EXPECT_EQ(played["routes"][0]["failed"], 0);
+  const mcap::Reader reader(out);
+  const double span_s = static_cast<double>(reader.statistics().message_end_time - reader.statistics().message_start_time) / 1e9;
+  EXPECT_GE(played["seconds"].get<double>(), span_s) << "each datum at its recorded offset, none early";
+  const auto after = rtm({"--json", "cat", "u"});
+  EXPECT_EQ(accepted(json::parse(after.out), "in0") - accepted(json::parse(before.out), "in0"), 200u);
+
+  // Four times as fast, from a chosen second onwards, to a port named by --map.
+  r = rtm({"--json", "play", out, "--rate", "4", "--map", "t.force=u.in0", "--from", "0.2"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json faster = json::parse(r.out);
+  EXPECT_LT(faster["routes"][0]["put"].get<int>(), 200);
+  EXPECT_GT(faster["routes"][0]["put"].get<int>(), 50);
+  EXPECT_GE(faster["seconds"].get<double>(), (span_s - 0.2) / 4);
+}
+
+TEST_F(RtmRecord, PlayingIntoAPortOfAnotherTypeIsRefusedBeforeAnythingIsPut) {
+  talker("t", {"--on", "--period", "2ms"});
+  const auto out = file("run.mcap");
+  ASSERT_EQ(rtm({"record", "t.force", "-o", out, "--count", "20"}).exit_code, 0);
+  const auto r = rtm({"play", out, "--map", "t.force=t.pos3"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("t.force (RTM::TimedFloat6, cdr) -> t.pos3 (RTM::TimedFloat3): types differ"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(accepted(json::parse(rtm({"--json", "cat", "t"}).out), "pos3"), 0u);
+  const auto none = rtm({"play", out});
+  EXPECT_NE(none.exit_code, 0);
+  EXPECT_NE(none.err.find("--map"), std::string::npos) << "nothing was wired to t.force: say how to send it\n" << none.err;
+}
+
 TEST_F(RtmRecord, AnInPortAMissingPortAndAnExistingFileAreRefusedBeforeAnythingIsWritten) {
   talker("t");
   const auto out = file("run.mcap");

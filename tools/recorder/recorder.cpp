@@ -5,7 +5,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstring>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -15,6 +14,7 @@
 #include "mcap/writer.h"
 #include "rtm/cdr.h"
 #include "rtm/data.h"
+#include "stamp.h"
 
 namespace rtm::cli {
 
@@ -30,24 +30,6 @@ std::uint64_t wall_ns() {
   timespec ts{};
   ::clock_gettime(CLOCK_REALTIME, &ts);
   return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
-}
-
-// True when a datum of this type starts with its stamp (`RTM::Time tm`), whose CDR is then the
-// 8 bytes after the header.
-bool starts_with_stamp(CORBA::TypeCode_ptr tc) {
-  CORBA::TypeCode_var t = CORBA::TypeCode::_duplicate(tc);
-  while (t->kind() == CORBA::tk_alias) t = t->content_type();
-  if (t->kind() != CORBA::tk_struct || t->member_count() == 0) return false;
-  CORBA::TypeCode_var first = t->member_type(0);
-  return std::strcmp(t->member_name(0), "tm") == 0 && first->equivalent(RTM::_tc_Time);
-}
-
-std::uint64_t stamp_of(const std::vector<std::uint8_t>& cdr) {
-  std::uint32_t sec = 0;
-  std::uint32_t nsec = 0;
-  std::memcpy(&sec, cdr.data() + 4, sizeof sec);
-  std::memcpy(&nsec, cdr.data() + 8, sizeof nsec);
-  return std::uint64_t{sec} * 1'000'000'000ULL + nsec;
 }
 
 std::string joined(const std::vector<std::string>& words) {

@@ -13,6 +13,8 @@
 //   rtm watch <comp>.<out>                stream a port live (--rate, --csv, --count, --duration)
 //   rtm record <comp>.<out>... -o F.mcap  record ports into MCAP (--all, --duration, --count;
 //                                         --recover DAMAGED: a recording that was not closed)
+//   rtm play F.mcap                       put a recording into InPorts at its pace (--map, --rate,
+//                                         --loop, --from/--to)
 //   rtm up <system.yaml> [--set NAME] / rtm down <system.yaml|name>
 //   rtm names [--stop]                    a naming service of one's own on loopback: prints
 //                                         `export RTM_NAMING=…` (eval "$(rtm names)")
@@ -29,6 +31,7 @@
 #include "report.h"
 #include "launcher/system_file.h"
 #include "new_command.h"
+#include "play_command.h"
 #include "record_command.h"
 #include "serve/serve.h"
 #include "tls_command.h"
@@ -108,6 +111,7 @@ struct Cli {
   TlsCommand tls_command;
   NewCommand new_command;
   RecordCommand record_command;
+  PlayCommand play_command;
   std::string listen = "127.0.0.1:0";
 };
 
@@ -548,6 +552,7 @@ int run(const Cli& c) {
   if (c.put->parsed()) return run_put(browser, c);
   if (c.watch->parsed()) return watch(browser, orb, c.port, c.watch_options, g_interrupted);
   if (c.record_command.parsed()) return c.record_command.record(browser, orb, c.json, g_interrupted);
+  if (c.play_command.parsed()) return c.play_command.run(browser, c.json, g_interrupted);
   if (c.up->parsed()) return run_up(browser, c, *system, naming, launch);
   if (c.down->parsed()) return run_down(browser, c, launch);
   if (c.serve->parsed()) return run_serve(browser, c);
@@ -572,6 +577,7 @@ int main(int argc, char** argv) {
   c.tls_command.add_to(app);
   c.new_command.add_to(app);
   c.record_command.add_to(app);
+  c.play_command.add_to(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -14,7 +14,7 @@ _rtm_ports() {
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat set connect disconnect on off reset get put watch up down names serve tls new demo"
+  local commands="ls cat set connect disconnect on off reset get put watch record play up down names serve tls new demo"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
@@ -52,6 +52,25 @@ _rtm() {
       [[ $cmd == watch && $cur == -* ]] && COMPREPLY=($(compgen -W "--rate --csv --count --duration" -- "$cur"))
       [[ $cmd == connect && $cur == -* ]] && COMPREPLY=($(compgen -W "--once --policy" -- "$cur"))
       [[ $cmd == put && $cur == -* ]] && COMPREPLY=($(compgen -W "--rate --for" -- "$cur"))
+      ;;
+    record)
+      if [[ $cur == -* ]]; then
+        COMPREPLY=($(compgen -W "-o --output --all --force --compression --duration --count --recover" -- "$cur"))
+      elif [[ $prev == -o || $prev == --output || $prev == --recover ]]; then
+        COMPREPLY=($(compgen -f -X '!*.mcap' -- "$cur"))
+      elif [[ $cur == *.* ]]; then
+        COMPREPLY=($(compgen -W "$(_rtm_ports "$cur")" -- "$cur"))
+      else
+        compopt -o nospace 2>/dev/null
+        COMPREPLY=($(compgen -S . -W "$(_rtm_components)" -- "$cur"))
+      fi
+      ;;
+    play)
+      if [[ $cur == -* ]]; then
+        COMPREPLY=($(compgen -W "--map --rate --loop --from --to --keep-stamps --spin-us" -- "$cur"))
+      else
+        COMPREPLY=($(compgen -f -X '!*.mcap' -- "$cur"))
+      fi
       ;;
     up|down)
       if [[ $cmd == up && $cur == -* ]]; then
