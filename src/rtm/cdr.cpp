@@ -5,6 +5,8 @@
 #include <omniORB4/cdrStream.h>
 
 #include <algorithm>
+#include <bit>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <string_view>
@@ -202,7 +204,7 @@ void need_code_sets(const cdrMemoryStream& stream) {
 }  // namespace
 
 void to_cdr(const CORBA::Any& value, std::vector<std::uint8_t>& out) {
-  cdrMemoryStream stream;
+  cdrMemoryStream stream(0, true);  // padding zeroed: the same value gives the same bytes, and no stale memory leaves
   need_code_sets(stream);
   value.NP_marshalDataOnly(stream);
   const auto n = stream.bufSize();
@@ -239,6 +241,40 @@ CORBA::Any from_cdr(CORBA::TypeCode_ptr tc, std::span<const std::uint8_t> bytes)
     throw std::invalid_argument(fmt::format("{} bytes of CDR hold a {} and bytes after it", body.size(), type_name(tc)));
   }
   return value;
+}
+
+std::string type_code_text(CORBA::TypeCode_ptr tc) {
+  cdrMemoryStream stream(0, true);  // padding zeroed: the same value gives the same bytes, and no stale memory leaves
+  need_code_sets(stream);
+  CORBA::TypeCode::marshalTypeCode(tc, stream);
+  const auto* p = static_cast<const std::uint8_t*>(stream.bufPtr());
+  std::string hex;
+  hex.reserve(2 * stream.bufSize());
+  for (CORBA::ULong i = 0; i < stream.bufSize(); ++i) hex += fmt::format("{:02x}", p[i]);
+  return hex;
+}
+
+CORBA::TypeCode_ptr type_code_from_text(const std::string& text) {
+  // Far more than any data type's TypeCode: text beyond it is not one.
+  constexpr std::size_t kMaxBytes = 64 * 1024;
+  if (text.size() % 2 != 0 || text.size() / 2 > kMaxBytes) {
+    throw std::invalid_argument("not a type code: its text is not an even number of hex digits up to 128 Ki");
+  }
+  std::vector<std::uint64_t> aligned((text.size() / 2 + 7) / 8);
+  auto* bytes = reinterpret_cast<std::uint8_t*>(aligned.data());
+  for (std::size_t i = 0; i < text.size() / 2; ++i) {
+    unsigned value = 0;
+    if (std::sscanf(text.c_str() + 2 * i, "%2x", &value) != 1) throw std::invalid_argument("not a type code: not hex");
+    bytes[i] = static_cast<std::uint8_t>(value);
+  }
+  cdrMemoryStream stream(aligned.data(), text.size() / 2);
+  need_code_sets(stream);
+  stream.setByteSwapFlag(std::endian::native == std::endian::little);
+  try {
+    return CORBA::TypeCode::unmarshalTypeCode(stream);
+  } catch (const CORBA::SystemException& e) {
+    throw std::invalid_argument(fmt::format("not a type code ({})", e._name()));
+  }
 }
 
 }  // namespace rtm

@@ -103,6 +103,7 @@ TEST(Cdr, TheHeaderSaysLittleEndianCdrAndEachFieldIsWhereTheRulesPutIt) {
   const auto s = rtm::to_cdr(seq);
   ASSERT_EQ(s.size(), 4u + 8u + 4u + 4u + 16u);  // header, tm, length, padding, doubles
   EXPECT_EQ(read_at<std::uint32_t>(s, 12), 2u);
+  EXPECT_EQ(read_at<std::uint32_t>(s, 16), 0u) << "padding is zero: no stale memory in a recording";
   EXPECT_EQ(read_at<double>(s, 20), 0.25);
   EXPECT_EQ(read_at<double>(s, 28), -3.0);
 }
@@ -178,6 +179,38 @@ TEST(Cdr, EveryBasicKindAndAStringComeBack) {
   EXPECT_EQ(got->ull, s.ull);
   EXPECT_EQ(got->c, 'A');
   EXPECT_STREQ(got->label, "pressing");
+}
+
+}  // namespace
+
+namespace {
+
+TEST(TypeCodeText, AUserTypeComesBackEquivalentAndDecodesItsData) {
+  const auto text = rtm::type_code_text(RtmTest::_tc_TimedPath);
+  CORBA::TypeCode_var back = rtm::type_code_from_text(text);
+  EXPECT_TRUE(back->equivalent(RtmTest::_tc_TimedPath));
+  EXPECT_EQ(rtm::type_name(back), "RtmTest::TimedPath");
+
+  RtmTest::TimedPath path;
+  path.tm.sec = 9;
+  path.tm.nsec = 0;
+  path.points.length(2);
+  path.points[0] = {1.0, 2.0, 3.0};
+  path.points[1] = {0.0, 0.0, -0.5};
+  CORBA::Any any;
+  any <<= path;
+  const CORBA::Any decoded = rtm::from_cdr(back, rtm::to_cdr(any));
+  CORBA::TypeCode_var decoded_type = decoded.type();
+  EXPECT_TRUE(decoded_type->equivalent(RtmTest::_tc_TimedPath));
+  EXPECT_EQ(rtm::to_cdr(decoded), rtm::to_cdr(any)) << "the same bytes again";
+}
+
+TEST(TypeCodeText, TextThatIsNotATypeCodeIsRefused) {
+  EXPECT_THROW(rtm::type_code_from_text("abc"), std::invalid_argument);
+  EXPECT_THROW(rtm::type_code_from_text("zz"), std::invalid_argument);
+  EXPECT_THROW(rtm::type_code_from_text("ffffffff00000010"), std::invalid_argument);
+  auto text = rtm::type_code_text(RTM::_tc_TimedFloat6);
+  EXPECT_THROW(rtm::type_code_from_text(text.substr(0, text.size() / 2)), std::invalid_argument);
 }
 
 }  // namespace

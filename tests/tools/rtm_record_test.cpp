@@ -119,6 +119,8 @@ TEST_F(RtmRecord, RecordsEveryDatumOfEachPortWithItsTypeUnitsAndTheSystem) {
   EXPECT_EQ(force->metadata.at("type"), "RTM::TimedFloat6");
   EXPECT_EQ(force->metadata.at("elements"), "fx,fy,fz,tx,ty,tz");
   EXPECT_EQ(force->metadata.at("units"), "N,N,N,N·m,N·m,N·m");
+  CORBA::TypeCode_var recorded_type = rtm::type_code_from_text(force->metadata.at("typecode"));
+  EXPECT_TRUE(recorded_type->equivalent(RTM::_tc_TimedFloat6)) << "the type itself, for tools with no .idl file";
   const auto* schema = reader.schema(force->schema_id);
   ASSERT_NE(schema, nullptr);
   EXPECT_EQ(schema->encoding, "omgidl");

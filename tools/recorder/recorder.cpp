@@ -121,7 +121,8 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
                                {"port", c.port.name},
                                {"elements", joined(c.port.names())},
                                {"units", joined(c.port.units())},
-                               {"log_time", c.stamped ? "the datum's stamp (tm)" : "its arrival at the recorder"}});
+                               {"log_time", c.stamped ? "the datum's stamp (tm)" : "its arrival at the recorder"},
+                               {"typecode", rtm::type_code_text(c.port.type)}});
   }
   const auto owner = fmt::format("rtm-record-{}", ::getpid());
   for (std::size_t i = 0; i < channels.size(); ++i) {

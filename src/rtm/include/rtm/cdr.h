@@ -34,4 +34,10 @@ void to_cdr(const CORBA::Any& value, std::vector<std::uint8_t>& out);
 // too). Throws std::invalid_argument if the bytes are not a whole value of that type.
 CORBA::Any from_cdr(CORBA::TypeCode_ptr tc, std::span<const std::uint8_t> bytes);
 
+// A TypeCode as text (hex of its CDR marshalling, as GIOP carries it), and back: a recording
+// keeps it beside the IDL, so that any RTM tool decodes its data with no .idl file and no live
+// port of that type. type_code_from_text() throws std::invalid_argument for text that is not one.
+std::string type_code_text(CORBA::TypeCode_ptr tc);
+CORBA::TypeCode_ptr type_code_from_text(const std::string& text);
+
 }  // namespace rtm
