@@ -7,7 +7,7 @@ at the port; on, and the layout reads along the data (the joystick left of the s
 frame around sensor, controller and actuator in that order, no edge across a box, each edge
 ending at the port it names); the live plot moves and its URL names it; a plot opened from the
 URL gets every datum of the 500 Hz sensor (counted against the port's own count), with axes,
-ticks and a legend with units; save, `rtm down`, `rtm up` of the saved file brings
+ticks and a legend with units; a recording (rtm record) opened and plotted whole; save, `rtm down`, `rtm up` of the saved file brings
 the same wiring back; a click on the edge disconnects. Each step keeps a screenshot in
 <artifacts>.
 
@@ -316,6 +316,36 @@ try:
     wait_for(lambda: driver.find_elements(By.CSS_SELECTOR, JOYSTICK_EDGE), 10, "the applied edge is drawn")
     check(not driver.find_elements(By.CSS_SELECTOR, "path.proposed"), "the dashed proposal is gone after apply")
     shot(driver, "8-file-applied")
+
+    # A recording of the sensor (rtm record), opened on the page: its channel plotted whole, on a
+    # plot drawn as a live one is, with the recorded elements' names and units.
+    recording = os.path.join(work, "run.mcap")
+    recorded = rtm("record", "sensor0.wrench", "-o", recording, "--count", "500", timeout=60)
+    check(recorded.returncode == 0, "rtm record of sensor0.wrench: " + recorded.stdout + recorded.stderr)
+    field = driver.find_element(By.ID, "recording")
+    field.clear()
+    field.send_keys(recording)
+    driver.find_element(By.ID, "open-recording").click()
+    CHANNEL = 'button.channel[data-topic="sensor0.wrench"]'
+    wait_for(lambda: driver.find_elements(By.CSS_SELECTOR, CHANNEL), 10,
+             "the recording's channels are listed: " + driver.find_element(By.ID, "recording-channels").text)
+    driver.find_element(By.CSS_SELECTOR, CHANNEL).click()
+    RECORDED = '#plots .plot.recorded'
+    def recorded_facts():
+        return driver.execute_script(
+            "const d = document.querySelector(arguments[0]); if (!d) return null; const c = d.querySelector('canvas');"
+            "return {...c.dataset, legend: [...d.querySelectorAll('.legend [data-element]')].map(e => e.textContent),"
+            "info: d.querySelector('.info').textContent}", RECORDED)
+    wait_for(lambda: (recorded_facts() or {}).get("drawn") == "500", 10,
+             "the recorded channel is drawn whole: " + repr(recorded_facts()))
+    facts = recorded_facts() or {}
+    check(facts.get("series") == "6", "six lines, one per element: " + repr(facts.get("series")))
+    check("fx [N]" in facts.get("legend", []) and "tz [N·m]" in facts.get("legend", []),
+          "the legend names the recorded elements with their units: " + repr(facts.get("legend")))
+    check("recorded: 500 of 500" in facts.get("info", ""), "the plot says what it shows: " + repr(facts.get("info")))
+    shot(driver, "8a-recording")
+    driver.find_element(By.CSS_SELECTOR, CHANNEL).click()
+    wait_for(lambda: not driver.find_elements(By.CSS_SELECTOR, RECORDED), 5, "a second click removes the recorded plot")
 
     # Without the token the API refuses (what a page from elsewhere would meet).
     api = url.split("/#")[0] + "/api/system"

@@ -15,7 +15,7 @@
 #                  no HTTP, and it prints nothing (its results are values and JSON)
 #                launcher/ (system files, rtm up/down): the browser only
 #                recorder/ (rtm record): the browser and the launcher, not the server or scaffold
-#                serve/ (rtm serve): the browser and the launcher, not the scaffold
+#                serve/ (rtm serve): the browser, the launcher and the recorder, not the scaffold
 #                scaffold/ (rtm new): writes files, asks nothing of a running system
 #                rtm/ (the command line) is on no other room's include path
 #   components/  included only by components (a composite's executable makes its members)

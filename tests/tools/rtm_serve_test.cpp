@@ -726,3 +726,53 @@ TEST_F(RtmServe, AConnectionFromAnotherLocalUserIsRefusedEvenWithTheToken) {
 }
 
 }  // namespace
+
+// A recording rtm record made of src.force, opened and plotted whole through the API; a file
+// that is not a whole recording is refused with the reader's sentence.
+TEST_F(RtmServe, ARecordingIsListedAndAChannelComesWholeAsAPlotsDataDo) {
+  const auto file = std::filesystem::temp_directory_path() / ("rtm-serve-rec-" + std::to_string(::getpid()) + ".mcap");
+  std::filesystem::remove(file);
+  const auto recorded = rtm_test::run_command(
+      {RTM_CLI_PATH, "--naming", names_.address(), "record", "src.force", "-o", file.string(), "--count", "400"});
+  ASSERT_EQ(recorded.exit_code, 0) << recorded.err;
+  const std::string query = "file=" + httplib::detail::encode_query_param(file.string());
+
+  const json info = get_json("/api/recording?" + query);
+  ASSERT_EQ(info["channels"].size(), 1u) << info;
+  const json& channel = info["channels"][0];
+  EXPECT_EQ(channel["topic"], "src.force");
+  EXPECT_EQ(channel["type"], "RTM::TimedFloat6");
+  EXPECT_EQ(channel["count"], 400);
+  EXPECT_EQ(channel["elements"][3]["name"], "tx");
+  EXPECT_EQ(channel["elements"][3]["unit"], "N·m");
+  EXPECT_NE(info["system"].get<std::string>().find("name: src"), std::string::npos) << info["system"];
+
+  const json values = get_json("/api/recording/values?" + query + "&topic=src.force");
+  EXPECT_EQ(values["total"], 400);
+  EXPECT_EQ(values["shown"], 400);
+  ASSERT_EQ(values["t"].size(), 400u);
+  ASSERT_EQ(values["v"].size(), 6u);
+  for (std::size_t i = 1; i < 400; ++i) {
+    ASSERT_EQ(values["v"][0][i].get<double>(), values["v"][0][i - 1].get<double>() + 1) << "the talker's ramp, datum " << i;
+    ASSERT_GT(values["t"][i].get<double>(), values["t"][i - 1].get<double>());
+  }
+
+  auto r = client().Get(("/api/recording/values?" + query + "&topic=src.nothing").c_str(), with_token());
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_NE(r->body.find("has no channel src.nothing"), std::string::npos) << r->body;
+  // Cut short: not a whole recording.
+  std::filesystem::resize_file(file, std::filesystem::file_size(file) / 2);
+  r = client().Get(("/api/recording?" + query).c_str(), with_token());
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_NE(r->body.find("--recover"), std::string::npos) << r->body;
+  r = client().Get("/api/recording?file=%2Fnonexistent%2Frun.mcap", with_token());
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_NE(r->body.find("is not a file"), std::string::npos) << r->body;
+  r = client().Get(("/api/recording?" + query).c_str());
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 401) << "the token, as for every API call";
+  std::filesystem::remove(file);
+}

@@ -8,6 +8,7 @@
 #include "serve/system_feed.h"
 #include "launcher/running_system.h"
 #include "launcher/system_file.h"
+#include "recorder/recording.h"
 #include "browser/values.h"
 
 #include "rtm/data.h"
@@ -21,12 +22,14 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string_view>
+#include <system_error>
 #include <thread>
 
 namespace rtm::cli {
@@ -459,6 +462,49 @@ struct WebServer::Impl {
     plot.errors.push_back(why);
   }
 
+  // A recording on this machine (rtm record's file): refused with 400 and the reader's
+  // sentence when it is not a whole one; its data read only when a channel is plotted.
+  static std::string recording_file(const std::string& file) {
+    if (file.empty()) throw std::invalid_argument("file: which recording (a path on the server's machine)");
+    std::error_code error;
+    if (!std::filesystem::is_regular_file(file, error)) throw std::invalid_argument(file + " is not a file");
+    return file;
+  }
+  static json recording(const std::string& file) {
+    try {
+      const auto info = describe_recording(recording_file(file));
+      json channels = json::array();
+      for (const auto& c : info.channels) {
+        json elements = json::array();
+        for (const auto& e : c.elements) elements.push_back({{"name", e.name}, {"unit", e.unit}});
+        channels.push_back({{"topic", c.topic}, {"type", c.type}, {"count", c.count}, {"elements", elements}});
+      }
+      return {{"file", info.file}, {"start_ns", info.start_ns}, {"end_ns", info.end_ns}, {"channels", channels},
+              {"system", info.system_yaml}};
+    } catch (const std::system_error& e) {
+      throw std::invalid_argument(e.what());
+    } catch (const std::runtime_error& e) {  // mcap::FormatError
+      throw std::invalid_argument(e.what());
+    }
+  }
+  // One channel whole, as a plot's stream sends a port's data, at most kRecordedPoints data.
+  static json recording_values(const std::string& file, const std::string& topic) {
+    constexpr std::size_t kRecordedPoints = 5000;
+    try {
+      const auto series = recorded_series(recording_file(file), topic, kRecordedPoints);
+      json j = json::parse(plot_entry(series.type, series.samples, series.total, 0, 0));
+      j["total"] = series.total;
+      j["shown"] = series.samples.size();
+      return j;
+    } catch (const std::system_error& e) {
+      throw std::invalid_argument(e.what());
+    } catch (const std::invalid_argument&) {
+      throw;
+    } catch (const std::runtime_error& e) {  // mcap::FormatError
+      throw std::invalid_argument(e.what());
+    }
+  }
+
   json port_value(const std::string& address) const {
     auto [name, out] = out_port(address);
     CORBA::Any_var value;
@@ -606,6 +652,12 @@ struct WebServer::Impl {
     });
     server.Get(R"(/api/ports/(.+))", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return port_value(req.matches[1].str()); });
+    });
+    server.Get("/api/recording", [](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return recording(req.get_param_value("file")); });
+    });
+    server.Get("/api/recording/values", [](const httplib::Request& req, httplib::Response& res) {
+      answer(res, [&] { return recording_values(req.get_param_value("file"), req.get_param_value("topic")); });
     });
     server.Get("/api/values/stream", [this](const httplib::Request& req, httplib::Response& res) {
       decide(res, [&] {

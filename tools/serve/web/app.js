@@ -577,7 +577,7 @@ function ticks(lo, hi, n) {
 function tickText(x, step) { const d = Math.max(0, -Math.floor(Math.log10(step))); return x.toFixed(Math.min(d, 6)); }
 // The legend (HTML, as text): one line per element, its colour, name and unit.
 function drawLegend(plot) {
-  const p = portOf(plot.address), n = plot.cols.length;
+  const p = plot.elements ? { elements: plot.elements } : portOf(plot.address), n = plot.cols.length;
   const elements = p && p.elements && p.elements.length === n ? p.elements : Array.from({ length: n }, (_, i) => ({ name: `value ${i}`, unit: "" }));
   const key = JSON.stringify(elements);
   if (key === plot.shownLegend) return;
@@ -600,13 +600,14 @@ function drawPlot(plot) {
   drawLegend(plot);
   const n = plot.t.length - plot.start;
   const x0 = AX_L, x1 = canvas.width - AX_R, y0 = AX_T, y1 = canvas.height - AX_B, px = x1 - x0;
-  const newest = n ? plot.t[plot.t.length - 1] : 0, from = newest - WINDOW_S;
+  const W = plot.window || WINDOW_S;  // a recording's plot spans the whole recording
+  const newest = n ? plot.t[plot.t.length - 1] : 0, from = newest - W;
   let lo = Infinity, hi = -Infinity;
   for (const c of plot.cols) for (let i = plot.start; i < c.length; i++) { const v = c[i]; if (v !== null) { if (v < lo) lo = v; if (v > hi) hi = v; } }
   if (lo === Infinity) { lo = -1; hi = 1; }
   if (hi === lo) { hi += Math.abs(hi) * 0.1 || 1; lo -= Math.abs(lo) * 0.1 || 1; }
   const pad = (hi - lo) * 0.05; lo -= pad; hi += pad;
-  const X = t => x0 + (t - from) / WINDOW_S * px, Y = v => y1 - (v - lo) / (hi - lo) * (y1 - y0);
+  const X = t => x0 + (t - from) / W * px, Y = v => y1 - (v - lo) / (hi - lo) * (y1 - y0);
   // Axes, ticks and their numbers (numbers only: names and units are the legend's, as text).
   g.strokeStyle = "#999"; g.fillStyle = "#444"; g.font = "10px sans-serif"; g.lineWidth = 1;
   g.beginPath(); g.moveTo(x0, y0); g.lineTo(x0, y1); g.lineTo(x1, y1); g.stroke();
@@ -615,7 +616,7 @@ function drawPlot(plot) {
   for (const v of vt.out) { const y = Y(v); g.strokeStyle = "#eee"; g.beginPath(); g.moveTo(x0 + 1, y); g.lineTo(x1, y); g.stroke();
     g.strokeStyle = "#999"; g.beginPath(); g.moveTo(x0 - 4, y); g.lineTo(x0, y); g.stroke(); g.fillText(tickText(v, vt.step), x0 - 6, y); }
   g.textAlign = "center"; g.textBaseline = "top";
-  const tt = ticks(-WINDOW_S, 0, 5);
+  const tt = ticks(-W, 0, 5);
   for (const s of tt.out) { const x = X(newest + s); g.beginPath(); g.moveTo(x, y1); g.lineTo(x, y1 + 4); g.stroke(); g.fillText(s === 0 ? "0 s" : tickText(s, tt.step), x, y1 + 6); }
   canvas.dataset.vticks = vt.out.length; canvas.dataset.tticks = tt.out.length;
   // Every datum in the window: a line through each where they are fewer than the pixels, else
@@ -633,7 +634,7 @@ function drawPlot(plot) {
       const flush = () => { if (col < 0) return; const x = x0 + col + 0.5; if (pen) g.lineTo(x, Y(mn)); else g.moveTo(x, Y(mn)); g.lineTo(x, Y(mx)); pen = true; };
       for (let i = plot.start; i < c.length; i++) {
         if (c[i] === null) continue;
-        const here = Math.min(px - 1, Math.max(0, Math.floor((plot.t[i] - from) / WINDOW_S * px)));
+        const here = Math.min(px - 1, Math.max(0, Math.floor((plot.t[i] - from) / W * px)));
         if (here !== col) { flush(); col = here; mn = mx = c[i]; } else { if (c[i] < mn) mn = c[i]; if (c[i] > mx) mx = c[i]; }
       }
       flush();
@@ -651,11 +652,64 @@ function drawPlot(plot) {
   if (now - plot.infoAt < 250 && !plot.error) return;  // the text four times a second: each change is a layout
   plot.infoAt = now;
   const span = n > 1 ? plot.t[plot.t.length - 1] - plot.t[plot.start] : 0;
+  if (plot.recorded) {
+    plot.div.querySelector(".info").textContent = plot.error ? "cannot plot: " + plot.error :
+      `recorded: ${n} of ${plot.total} data shown${n < plot.total ? " (evenly taken)" : ""} over ${span.toFixed(3)} s` +
+      `${envelope ? " · min–max per pixel" : ""}`;
+    return;
+  }
   plot.div.querySelector(".info").textContent = plot.error ? "cannot plot: " + plot.error :
     `${plot.received} data received of ${plot.sent} sent · ${plot.lost} lost before the page` +
     ` · ${n} in the last ${WINDOW_S} s (${span > 0 ? ((n - 1) / span).toFixed(0) : "–"}/s${plot.stamped ? "" : ", by arrival: the datum has no stamp"})` +
     `${envelope ? " · min–max per pixel" : ""} · ${plot.failed} stream errors`;
 }
+
+// A recording (rtm record's MCAP file, on the server's machine): its channels, each plotted
+// whole on a plot like a port's, drawn the same way (the time axis is the recording's span).
+// Click a channel again to remove its plot.
+const recordedPlots = new Map();
+function openRecording() {
+  const file = document.getElementById("recording").value.trim();
+  const list = document.getElementById("recording-channels");
+  list.replaceChildren();
+  if (!file) return;
+  api("GET", "/api/recording?file=" + encodeURIComponent(file)).then(r => {
+    node("div", list, `${r.channels.length} channels over ${((r.end_ns - r.start_ns) / 1e9).toFixed(1)} s`);
+    for (const c of r.channels) {
+      const b = node("button", list, `${c.topic} (${c.type}, ${c.count})`);
+      b.className = "channel"; b.dataset.topic = c.topic;
+      b.addEventListener("click", () => plotRecorded(file, c));
+    }
+  }).catch(e => { node("div", list, "cannot open: " + e.message).className = "err"; });
+}
+function plotRecorded(file, channel) {
+  const key = file + "\n" + channel.topic;
+  if (recordedPlots.has(key)) { recordedPlots.get(key).div.remove(); recordedPlots.delete(key); return; }
+  const div = node("div", document.getElementById("plots"));
+  div.className = "plot recorded"; div.dataset.recording = file; div.dataset.topic = channel.topic;
+  node("b", div, `${channel.topic} (recorded)`);
+  const axis = node("div", div); axis.className = "axis";
+  const canvas = node("canvas", div); canvas.width = PLOT_W; canvas.height = PLOT_H;
+  const legend = node("div", div); legend.className = "legend";
+  node("div", div).className = "info";
+  const plot = { address: channel.topic, div, canvas, axis, legend, t: [], cols: [], start: 0, received: 0, sent: 0,
+                 lost: 0, failed: 0, error: "", type: channel.type, stamped: true, shownLegend: "", infoAt: 0,
+                 recorded: true, total: channel.count, elements: channel.elements.length ? channel.elements : null };
+  recordedPlots.set(key, plot);
+  const q = `file=${encodeURIComponent(file)}&topic=${encodeURIComponent(channel.topic)}`;
+  api("GET", "/api/recording/values?" + q).then(d => {
+    const t = d.t || [];
+    const t0 = t.length ? Math.floor(t[0]) : 0;
+    plot.t = t.map(x => x - t0);
+    plot.cols = (d.v || []).map(col => col.slice());
+    plot.total = d.total;
+    plot.received = plot.t.length;
+    plot.window = plot.t.length > 1 ? Math.max(plot.t[plot.t.length - 1] - plot.t[0], 1e-3) : 1;
+    drawPlot(plot);
+  }).catch(e => { plot.error = e.message; drawPlot(plot); });
+}
+document.getElementById("open-recording").addEventListener("click", openRecording);
+document.getElementById("recording").addEventListener("keydown", ev => { if (ev.key === "Enter") openRecording(); });
 
 // A component's description, statistics and parameters; a parameter the component lets change
 // is an input.

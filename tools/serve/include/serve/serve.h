@@ -27,6 +27,13 @@
 //   GET  /api/events?page=P                server-sent events: "system" with /api/system's
 //                                          body, when it changes (looked at twice a second,
 //                                          once for every page together)
+//   GET  /api/recording?file=F              a recording on this machine (rtm record's MCAP):
+//                                          {"channels": [{"topic", "type", "count", "elements"}],
+//                                          "start_ns", "end_ns", "system": its system file}
+//   GET  /api/recording/values?file=F&topic=T
+//                                          one channel whole, shaped as a plot's stream sends a
+//                                          port's data, at most 5000 data (every k-th), with
+//                                          "total" and "shown" (a plot of the recording)
 //   GET  /api/values/stream?ports=a.out0,b.out1&page=P
 //                                          server-sent events: "values", 25 a second, with
 //                                          every datum each port (at most 10) wrote since the
