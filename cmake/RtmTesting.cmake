@@ -1,17 +1,18 @@
 # SPDX-License-Identifier: Apache-2.0
 # rtm_add_gtest(<name> SOURCES <files...> LIBS <libs...> LABELS <labels...> [TIMEOUT s]
-#               [RESOURCE_LOCK lock])
+#               [RESOURCE_LOCK lock] [FIXTURES fixture])
 #
 # One GoogleTest executable; each TEST becomes its own CTest test carrying LABELS
 # (unit, integration, slow, socketcan; 'threading' marks the tests the TSan preset runs).
 # RESOURCE_LOCK: no two tests holding the same lock run at once (a real-time loop of several
-# processes, which two at a time on 2 CPUs would starve).
+# processes, which two at a time on 2 CPUs would starve). FIXTURES: a CTest fixture each test
+# requires (its setup test runs first, e.g. the MCAP reference readers' install).
 #
 # The properties are set by a script CTest includes after the tests are discovered, not through
 # gtest_discover_tests(PROPERTIES): CMake 3.25 splits list values there, which would drop every
 # label but the first and garble TIMEOUT and ENVIRONMENT.
 function(rtm_add_gtest name)
-  cmake_parse_arguments(ARG "" "TIMEOUT;RESOURCE_LOCK" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "TIMEOUT;RESOURCE_LOCK;FIXTURES" "SOURCES;LIBS;LABELS" ${ARGN})
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 120)
   endif()
@@ -23,6 +24,9 @@ function(rtm_add_gtest name)
   set(lock "")
   if(ARG_RESOURCE_LOCK)
     set(lock "    RESOURCE_LOCK \"${ARG_RESOURCE_LOCK}\"\n")
+  endif()
+  if(ARG_FIXTURES)
+    string(APPEND lock "    FIXTURES_REQUIRED \"${ARG_FIXTURES}\"\n")
   endif()
   file(WRITE ${props}
     "foreach(t IN LISTS ${name}_TESTS)\n"

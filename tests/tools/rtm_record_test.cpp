@@ -142,6 +142,18 @@ TEST_F(RtmRecord, RecordsEveryDatumOfEachPortWithItsTypeUnitsAndTheSystem) {
   ASSERT_TRUE(metadata.contains("rtm.drops"));
   EXPECT_EQ(metadata["rtm.drops"].at("t.force.recorded"), std::to_string(data.size()));
   EXPECT_EQ(metadata["rtm.drops"].at("t.force.dropped_by_publisher"), "0");
+
+  // The format's reference reader decodes every datum with the schema the recorder wrote.
+  const auto reference = rtm_test::run_command({"node", MCAP_READER, out});
+  ASSERT_EQ(reference.exit_code, 0) << reference.err;
+  const json decoded = json::parse(reference.out);
+  EXPECT_EQ(decoded["statistics"]["messageCount"], "300");
+  std::vector<double> ramp;
+  for (const auto& m : decoded["messages"]) {
+    if (m["topic"] == "t.force") ramp.push_back(m["data"]["val"][0].get<double>());
+  }
+  ASSERT_EQ(ramp.size(), data.size());
+  for (std::size_t i = 0; i < ramp.size(); ++i) EXPECT_EQ(ramp[i], data[i].val[0]) << "datum " << i;
 }
 
 TEST_F(RtmRecord, CtrlCEndsWithAWholeFileAndNoSubscriptionLeft) {
