@@ -10,21 +10,12 @@
 
 #include "RTMData.hh"
 #include "rtm/data.h"
-#include "rtm/orb.h"
+#include "rtm_test/orb_environment.h"
 #include "test_types.hh"
 
 namespace {
 
-// One ORB for the whole test program: encoding strings needs its code sets.
-class OrbEnvironment : public ::testing::Environment {
- public:
-  void SetUp() override { orb_ = std::make_unique<rtm::Orb>(); }
-  void TearDown() override { orb_.reset(); }
-
- private:
-  std::unique_ptr<rtm::Orb> orb_;
-};
-const auto* const kOrb = ::testing::AddGlobalTestEnvironment(new OrbEnvironment);
+const auto* const kOrb = ::testing::AddGlobalTestEnvironment(new rtm_test::OrbEnvironment);
 
 template <typename T>
 T read_at(const std::vector<std::uint8_t>& bytes, std::size_t at) {

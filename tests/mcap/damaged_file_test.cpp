@@ -5,19 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <random>
 
 #include "mcap_test_support.h"
 
 namespace rtm::mcap::test {
 namespace {
-
-std::vector<std::uint8_t> file_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 void write_bytes(const std::string& path, const std::vector<std::uint8_t>& bytes, std::size_t n) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);

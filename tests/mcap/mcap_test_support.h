@@ -2,36 +2,24 @@
 // What the MCAP tests share: a folder that removes itself, and a recording of known messages.
 #pragma once
 
-#include <stdlib.h>
-
 #include <cstdint>
-#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
 #include "mcap/reader.h"
 #include "mcap/writer.h"
+#include "rtm_test/temp_dir.h"
 
 namespace rtm::mcap::test {
 
-class TempDir {
- public:
-  TempDir() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "rtm-mcap-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
+using TempDir = rtm_test::TempDir;
 
- private:
-  std::filesystem::path path_;
-};
+inline std::vector<std::uint8_t> file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
 
 // A message as the tests write it: the data says which message it is.
 inline Message sample_message(std::uint16_t channel, std::uint32_t n, std::uint64_t log_time) {

@@ -4,18 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
-#include <fstream>
-#include <iterator>
 
 #include "mcap_test_support.h"
 
 namespace rtm::mcap::test {
 namespace {
-
-std::vector<std::uint8_t> file_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 void expect_same(const std::vector<Message>& got, const std::vector<Message>& want) {
   ASSERT_EQ(got.size(), want.size());

@@ -14,11 +14,12 @@
 #include "RTMData.hh"
 #include "mcap/reader.h"
 #include "rtm/cdr.h"
-#include "rtm/orb.h"
+#include "rtm_test/orb_environment.h"
 #include "rtm_test/child_process.h"
 #include "rtm_test/eventually.h"
 #include "rtm_test/omni_names.h"
 #include "rtm_test/run_command.h"
+#include "rtm_test/temp_dir.h"
 
 namespace {
 
@@ -31,29 +32,10 @@ using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 namespace mcap = rtm::mcap;
 
-// Decoding CDR with strings needs the ORB's code sets: one ORB for the test program.
-class OrbEnvironment : public ::testing::Environment {
- public:
-  void SetUp() override { orb_ = std::make_unique<rtm::Orb>(); }
-  void TearDown() override { orb_.reset(); }
-
- private:
-  std::unique_ptr<rtm::Orb> orb_;
-};
-const auto* const kOrb = ::testing::AddGlobalTestEnvironment(new OrbEnvironment);
+const auto* const kOrb = ::testing::AddGlobalTestEnvironment(new rtm_test::OrbEnvironment);
 
 class RtmRecord : public ::testing::Test {
  protected:
-  RtmRecord() {
-    std::string pattern = (fs::temp_directory_path() / "rtm-record-test-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    dir_ = pattern;
-  }
-  ~RtmRecord() override {
-    std::error_code ignored;
-    fs::remove_all(dir_, ignored);
-  }
-
   std::vector<std::string> command(std::vector<std::string> args) const {
     args.insert(args.begin(), {RTM_CLI_PATH, "--naming", names_.address()});
     return args;
@@ -64,7 +46,15 @@ class RtmRecord : public ::testing::Test {
     argv.insert(argv.end(), extra.begin(), extra.end());
     rtm_test::start_bound(talkers_, argv);
   }
-  std::string file(const std::string& name) const { return (dir_ / name).string(); }
+  std::string file(const std::string& name) const { return dir_.file(name); }
+  // rtm record of t.force into `out`, running: it has subscribed.
+  std::unique_ptr<ChildProcess> start_recorder(const std::string& out) const {
+    ChildProcess::Options opts;
+    opts.echo_output = false;
+    auto recorder = std::make_unique<ChildProcess>(command({"record", "t.force", "-o", out}), opts);
+    recorder->wait_for_line("recording t.force", 10s);
+    return recorder;
+  }
 
   // The force port's data, decoded, in log-time order.
   static std::vector<RTM::TimedFloat6> forces(const mcap::Reader& r) {
@@ -92,7 +82,7 @@ class RtmRecord : public ::testing::Test {
 
   OmniNames names_;
   std::vector<std::unique_ptr<ChildProcess>> talkers_;
-  fs::path dir_;
+  rtm_test::TempDir dir_{"rtm-record-test"};
 };
 
 TEST_F(RtmRecord, RecordsEveryDatumOfEachPortWithItsTypeUnitsAndTheSystem) {
@@ -159,10 +149,8 @@ TEST_F(RtmRecord, RecordsEveryDatumOfEachPortWithItsTypeUnitsAndTheSystem) {
 TEST_F(RtmRecord, CtrlCEndsWithAWholeFileAndNoSubscriptionLeft) {
   talker("t", {"--on", "--period", "2ms"});
   const auto out = file("run.mcap");
-  ChildProcess::Options opts;
-  opts.echo_output = false;
-  ChildProcess recorder(command({"record", "t.force", "-o", out}), opts);
-  recorder.wait_for_line("recording t.force", 10s);
+  auto recorder_process = start_recorder(out);
+  auto& recorder = *recorder_process;
   // Data flow into the file: its first chunk goes out within a second.
   eventually([&] { return fs::exists(out) && fs::file_size(out) > 2000; }, 10s);
   recorder.send_signal(SIGINT);
@@ -186,10 +174,8 @@ TEST_F(RtmRecord, CtrlCEndsWithAWholeFileAndNoSubscriptionLeft) {
 TEST_F(RtmRecord, AKilledRecordersFileIsRecoveredUpToItsLastWholeChunk) {
   talker("t", {"--on", "--period", "2ms"});
   const auto out = file("killed.mcap");
-  ChildProcess::Options opts;
-  opts.echo_output = false;
-  ChildProcess recorder(command({"record", "t.force", "-o", out}), opts);
-  recorder.wait_for_line("recording t.force", 10s);
+  auto recorder_process = start_recorder(out);
+  auto& recorder = *recorder_process;
   // Two chunks flushed (one a second): then killed, with no chance to write its summary.
   eventually([&] {
     std::uint64_t n = 0;
@@ -218,10 +204,8 @@ TEST_F(RtmRecord, AKilledRecordersFileIsRecoveredUpToItsLastWholeChunk) {
 TEST_F(RtmRecord, APortWhoseWriterDiesLeavesWhatCameBeforeInAWholeFile) {
   talker("t", {"--on", "--period", "2ms"});
   const auto out = file("run.mcap");
-  ChildProcess::Options opts;
-  opts.echo_output = false;
-  ChildProcess recorder(command({"record", "t.force", "-o", out}), opts);
-  recorder.wait_for_line("recording t.force", 10s);
+  auto recorder_process = start_recorder(out);
+  auto& recorder = *recorder_process;
   eventually([&] { return fs::exists(out) && fs::file_size(out) > 2000; }, 10s);
   talkers_.front()->send_signal(SIGKILL);
   ASSERT_TRUE(talkers_.front()->wait_for_exit(10s).has_value());

@@ -72,29 +72,18 @@ bool sleep_until_or_stopped(std::int64_t deadline_ns, std::int64_t spin_ns, cons
   return true;
 }
 
-}  // namespace
-
-PlayResult play(const Browser& browser, const PlayOptions& options, const std::function<bool()>& stop,
-                const std::function<void(const std::string&)>& progress) {
-  if (!(options.rate > 0)) throw std::invalid_argument("--rate must be above 0");
-  const mcap::Reader reader(options.input);
-  const auto& stats = reader.statistics();
-  if (stats.message_count == 0) throw std::invalid_argument(fmt::format("{} holds no data", options.input));
-  const auto first = stats.message_start_time + static_cast<std::uint64_t>(options.from_s * 1e9);
-  const auto last = options.to_s > 0 ? stats.message_start_time + static_cast<std::uint64_t>(options.to_s * 1e9)
-                                     : stats.message_end_time;
-  if (first > last || first > stats.message_end_time) {
-    throw std::invalid_argument(fmt::format("{} has no data from {} s to {} s", options.input, options.from_s,
-                                            options.to_s));
-  }
-
-  // Each channel's targets, checked as a connection is before anything is put.
+// Each channel's targets, checked as a connection is before anything is put: --map's, else
+// the recorded wiring's. The routes go into result, the channels with none into unrouted.
+std::map<std::uint16_t, std::vector<Target>> route_channels(const Browser& browser, const mcap::Reader& reader,
+                                                            const PlayOptions& options, PlayResult& result,
+                                                            const std::function<void(const std::string&)>& progress) {
   const auto mapped = parse_map(options.map);
   for (const auto& [topic, ports] : mapped) {
-    if (reader.channel(topic) == nullptr) throw std::invalid_argument(fmt::format("--map: {} has no channel {}", options.input, topic));
+    if (reader.channel(topic) == nullptr) {
+      throw std::invalid_argument(fmt::format("--map: {} has no channel {}", options.input, topic));
+    }
   }
   const auto wiring = mapped.empty() ? recorded_wiring(reader, options.input) : mapped;
-  PlayResult result;
   std::map<std::uint16_t, std::vector<Target>> targets;
   for (const auto& channel : reader.channels()) {
     const auto to = wiring.find(channel.topic);
@@ -106,7 +95,9 @@ PlayResult play(const Browser& browser, const PlayOptions& options, const std::f
     const std::string recorded_type = schema != nullptr ? schema->name : "<no schema>";
     for (const auto& address : to->second) {
       const auto port = browser.port(PortAddress::parse(address));
-      if (port.direction != Direction::in) throw BrowseError(fmt::format("{} is an OutPort; play puts into InPorts", port.address));
+      if (port.direction != Direction::in) {
+        throw BrowseError(fmt::format("{} is an OutPort; play puts into InPorts", port.address));
+      }
       const auto type = rtm::type_name(port.type);
       if (channel.message_encoding != "cdr" || type != recorded_type) {
         throw BrowseError(fmt::format("{}:{} ({}, {}) -> {} ({}): types differ", options.input, channel.topic,
@@ -126,6 +117,26 @@ PlayResult play(const Browser& browser, const PlayOptions& options, const std::f
                                             "running; send them with --map TOPIC=<component>.<InPort>",
                                             options.input));
   }
+  return targets;
+}
+
+}  // namespace
+
+PlayResult play(const Browser& browser, const PlayOptions& options, const std::function<bool()>& stop,
+                const std::function<void(const std::string&)>& progress) {
+  if (!(options.rate > 0)) throw std::invalid_argument("--rate must be above 0");
+  const mcap::Reader reader(options.input);
+  const auto& stats = reader.statistics();
+  if (stats.message_count == 0) throw std::invalid_argument(fmt::format("{} holds no data", options.input));
+  const auto first = stats.message_start_time + static_cast<std::uint64_t>(options.from_s * 1e9);
+  const auto last = options.to_s > 0 ? stats.message_start_time + static_cast<std::uint64_t>(options.to_s * 1e9)
+                                     : stats.message_end_time;
+  if (first > last || first > stats.message_end_time) {
+    throw std::invalid_argument(fmt::format("{} has no data from {} s to {} s", options.input, options.from_s,
+                                            options.to_s));
+  }
+  PlayResult result;
+  auto targets = route_channels(browser, reader, options, result, progress);
 
   std::vector<std::int64_t> lateness;
   lateness.reserve(stats.message_count);

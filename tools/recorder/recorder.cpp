@@ -69,21 +69,8 @@ struct Channel {
   std::unique_ptr<WatchSubscription> subscription;
 };
 
-}  // namespace
-
-RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& options,
-                    const std::function<bool()>& stop, const std::function<void(const std::string&)>& progress) {
-  if (options.output.empty()) throw std::invalid_argument("no output file (-o FILE.mcap)");
-  if (!options.overwrite && std::filesystem::exists(options.output)) {
-    throw std::invalid_argument(fmt::format("{} exists (--force to overwrite it)", options.output));
-  }
-  std::vector<Channel> channels;
-  for (auto& port : ports_to_record(browser, options)) {
-    auto& c = channels.emplace_back();
-    c.port = std::move(port);
-  }
-
-  // Every type's IDL first: a type that cannot be written stops the recording before the file.
+// Every type's IDL first: a type that cannot be written stops the recording before the file.
+std::map<std::string, std::string> idl_of_each_type(const std::vector<Channel>& channels) {
   std::map<std::string, std::string> idl;  // type name -> IDL text
   for (const auto& c : channels) {
     try {
@@ -92,25 +79,25 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
       throw std::invalid_argument(fmt::format("cannot record {}: {}", c.port.address, e.what()));
     }
   }
+  return idl;
+}
 
-  mcap::WriterOptions writer_options;
-  writer_options.compression = options.compression;
-  writer_options.profile = "";
-  writer_options.library = "rtm record";
-  mcap::Writer writer(options.output, writer_options);
-  std::map<std::string, std::uint16_t> schema_ids;
-  for (const auto& [name, text] : idl) schema_ids[name] = writer.add_schema(name, "omgidl", text);
-
-  RecordResult result;
+// The running system as a system file, and the components it could not hold.
+void write_system(mcap::Writer& writer, const Browser& browser, RecordResult& result) {
   std::vector<LeftOut> left_out;
   const SystemFile system = running_system(browser, "recorded", left_out);
-  mcap::KeyValues system_values{{"yaml", system.to_yaml()}};
+  mcap::KeyValues values{{"yaml", system.to_yaml()}};
   for (const auto& l : left_out) {
     result.left_out.push_back(fmt::format("{}: {}", l.name, l.why));
-    system_values["left_out." + l.name] = l.why;
+    values["left_out." + l.name] = l.why;
   }
-  writer.add_metadata("rtm.system", system_values);
+  writer.add_metadata("rtm.system", values);
+}
 
+void add_channels(mcap::Writer& writer, std::vector<Channel>& channels,
+                  const std::map<std::string, std::string>& idl) {
+  std::map<std::string, std::uint16_t> schema_ids;
+  for (const auto& [name, text] : idl) schema_ids[name] = writer.add_schema(name, "omgidl", text);
   for (auto& c : channels) {
     const auto type = rtm::type_name(c.port.type);
     c.stamped = starts_with_stamp(c.port.type);
@@ -124,14 +111,11 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
                                {"log_time", c.stamped ? "the datum's stamp (tm)" : "its arrival at the recorder"},
                                {"typecode", rtm::type_code_text(c.port.type)}});
   }
-  const auto owner = fmt::format("rtm-record-{}", ::getpid());
-  for (std::size_t i = 0; i < channels.size(); ++i) {
-    auto& c = channels[i];
-    c.subscription = std::make_unique<WatchSubscription>(orb, c.port.object, c.port.type, c.port.address,
-                                                         fmt::format("{}-{}", owner, i), kQueueCapacity, "the recording");
-    progress(fmt::format("recording {} ({})", c.port.address, rtm::type_name(c.port.type)));
-  }
+}
 
+// Takes what each subscription holds into the file until stopped or a limit is reached.
+void record_until(mcap::Writer& writer, std::vector<Channel>& channels, const RecordOptions& options,
+                  const std::function<bool()>& stop) {
   const auto start = Clock::now();
   auto last_flush = start;
   std::uint64_t total = 0;
@@ -141,9 +125,10 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
   // subscriber's queue or ring meanwhile, never in the publisher.
   const auto share = std::max(std::chrono::milliseconds(1),
                               std::chrono::milliseconds(20) / static_cast<long>(channels.size()));
+  const auto full = [&] { return options.count > 0 && total >= static_cast<std::uint64_t>(options.count); };
   const auto done = [&] {
-    if (options.count > 0 && total >= static_cast<std::uint64_t>(options.count)) return true;
-    return options.duration_s > 0 && Clock::now() - start >= std::chrono::duration<double>(options.duration_s);
+    return full() ||
+           (options.duration_s > 0 && Clock::now() - start >= std::chrono::duration<double>(options.duration_s));
   };
   while (!stop() && !done()) {
     for (auto& c : channels) {
@@ -151,7 +136,7 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
       c.subscription->port().drain(batch, share);
       const auto arrived = wall_ns();
       for (const auto& any : batch) {
-        if (options.count > 0 && total >= static_cast<std::uint64_t>(options.count)) break;
+        if (full()) break;
         rtm::to_cdr(any, cdr);
         writer.write(c.id, c.sequence++, c.stamped ? stamp_of(cdr) : arrived, arrived, cdr);
         ++total;
@@ -162,8 +147,12 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
       last_flush = Clock::now();
     }
   }
-  result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+}
 
+// What each port gave and lost, into the result and the file's "rtm.drops"; the subscriptions
+// end.
+void count_and_unsubscribe(mcap::Writer& writer, std::vector<Channel>& channels, RecordResult& result,
+                           const std::function<void(const std::string&)>& progress) {
   mcap::KeyValues drops;
   for (auto& c : channels) {
     RecordedPort r;
@@ -186,6 +175,42 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
   }
   drops["seconds"] = fmt::format("{:.3f}", result.seconds);
   writer.add_metadata("rtm.drops", drops);
+}
+
+}  // namespace
+
+RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& options,
+                    const std::function<bool()>& stop, const std::function<void(const std::string&)>& progress) {
+  if (options.output.empty()) throw std::invalid_argument("no output file (-o FILE.mcap)");
+  if (!options.overwrite && std::filesystem::exists(options.output)) {
+    throw std::invalid_argument(fmt::format("{} exists (--force to overwrite it)", options.output));
+  }
+  std::vector<Channel> channels;
+  for (auto& port : ports_to_record(browser, options)) {
+    auto& c = channels.emplace_back();
+    c.port = std::move(port);
+  }
+  const auto idl = idl_of_each_type(channels);
+
+  mcap::WriterOptions writer_options;
+  writer_options.compression = options.compression;
+  writer_options.library = "rtm record";
+  mcap::Writer writer(options.output, writer_options);
+  RecordResult result;
+  write_system(writer, browser, result);
+  add_channels(writer, channels, idl);
+  const auto owner = fmt::format("rtm-record-{}", ::getpid());
+  for (std::size_t i = 0; i < channels.size(); ++i) {
+    auto& c = channels[i];
+    c.subscription = std::make_unique<WatchSubscription>(orb, c.port.object, c.port.type, c.port.address,
+                                                         fmt::format("{}-{}", owner, i), kQueueCapacity, "the recording");
+    progress(fmt::format("recording {} ({})", c.port.address, rtm::type_name(c.port.type)));
+  }
+
+  const auto start = Clock::now();
+  record_until(writer, channels, options, stop);
+  result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  count_and_unsubscribe(writer, channels, result, progress);
   writer.close();
   result.bytes = writer.bytes_written();
   return result;

@@ -108,6 +108,51 @@ bool same_secret(const std::string& a, const std::string& b) {
   return diff == 0;
 }
 
+// A recording on this machine (rtm record's file): refused with 400 and the reader's
+// sentence when it is not a whole one; its data read only when a channel is plotted.
+std::string recording_file(const std::string& file) {
+  if (file.empty()) throw std::invalid_argument("file: which recording (a path on the server's machine)");
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(file, error)) throw std::invalid_argument(file + " is not a file");
+  return file;
+}
+
+json recording(const std::string& file) {
+  try {
+    const auto info = describe_recording(recording_file(file));
+    json channels = json::array();
+    for (const auto& c : info.channels) {
+      json elements = json::array();
+      for (const auto& e : c.elements) elements.push_back({{"name", e.name}, {"unit", e.unit}});
+      channels.push_back({{"topic", c.topic}, {"type", c.type}, {"count", c.count}, {"elements", elements}});
+    }
+    return {{"file", info.file}, {"start_ns", info.start_ns}, {"end_ns", info.end_ns}, {"channels", channels},
+            {"system", info.system_yaml}};
+  } catch (const std::system_error& e) {
+    throw std::invalid_argument(e.what());
+  } catch (const std::runtime_error& e) {  // mcap::FormatError
+    throw std::invalid_argument(e.what());
+  }
+}
+
+// One channel whole, as a plot's stream sends a port's data, at most kRecordedPoints data.
+json recording_values(const std::string& file, const std::string& topic) {
+  constexpr std::size_t kRecordedPoints = 5000;
+  try {
+    const auto series = recorded_series(recording_file(file), topic, kRecordedPoints);
+    json j = json::parse(plot_entry(series.type, series.samples, series.total, 0, 0));
+    j["total"] = series.total;
+    j["shown"] = series.samples.size();
+    return j;
+  } catch (const std::system_error& e) {
+    throw std::invalid_argument(e.what());
+  } catch (const std::invalid_argument&) {
+    throw;
+  } catch (const std::runtime_error& e) {  // mcap::FormatError
+    throw std::invalid_argument(e.what());
+  }
+}
+
 bool is_loopback(const std::string& host) { return host == "127.0.0.1" || host == "::1" || host == "localhost"; }
 
 void reply(httplib::Response& res, int status, const json& body) {
@@ -146,6 +191,15 @@ void answer(httplib::Response& res, const std::function<json()>& action) {
   decide(res, [&] { reply(res, 200, action()); });
 }
 
+// Recordings need nothing of the running system: their routes stand apart.
+void add_recording_routes(httplib::Server& server) {
+  server.Get("/api/recording", [](const httplib::Request& req, httplib::Response& res) {
+    answer(res, [&] { return recording(req.get_param_value("file")); });
+  });
+  server.Get("/api/recording/values", [](const httplib::Request& req, httplib::Response& res) {
+    answer(res, [&] { return recording_values(req.get_param_value("file"), req.get_param_value("topic")); });
+  });
+}
 
 // A component the API is asked about or to act on, by name: refused (std::invalid_argument,
 // answered 400 with the naming rule's sentence) when the name breaks the rule. Such an entry
@@ -462,49 +516,6 @@ struct WebServer::Impl {
     plot.errors.push_back(why);
   }
 
-  // A recording on this machine (rtm record's file): refused with 400 and the reader's
-  // sentence when it is not a whole one; its data read only when a channel is plotted.
-  static std::string recording_file(const std::string& file) {
-    if (file.empty()) throw std::invalid_argument("file: which recording (a path on the server's machine)");
-    std::error_code error;
-    if (!std::filesystem::is_regular_file(file, error)) throw std::invalid_argument(file + " is not a file");
-    return file;
-  }
-  static json recording(const std::string& file) {
-    try {
-      const auto info = describe_recording(recording_file(file));
-      json channels = json::array();
-      for (const auto& c : info.channels) {
-        json elements = json::array();
-        for (const auto& e : c.elements) elements.push_back({{"name", e.name}, {"unit", e.unit}});
-        channels.push_back({{"topic", c.topic}, {"type", c.type}, {"count", c.count}, {"elements", elements}});
-      }
-      return {{"file", info.file}, {"start_ns", info.start_ns}, {"end_ns", info.end_ns}, {"channels", channels},
-              {"system", info.system_yaml}};
-    } catch (const std::system_error& e) {
-      throw std::invalid_argument(e.what());
-    } catch (const std::runtime_error& e) {  // mcap::FormatError
-      throw std::invalid_argument(e.what());
-    }
-  }
-  // One channel whole, as a plot's stream sends a port's data, at most kRecordedPoints data.
-  static json recording_values(const std::string& file, const std::string& topic) {
-    constexpr std::size_t kRecordedPoints = 5000;
-    try {
-      const auto series = recorded_series(recording_file(file), topic, kRecordedPoints);
-      json j = json::parse(plot_entry(series.type, series.samples, series.total, 0, 0));
-      j["total"] = series.total;
-      j["shown"] = series.samples.size();
-      return j;
-    } catch (const std::system_error& e) {
-      throw std::invalid_argument(e.what());
-    } catch (const std::invalid_argument&) {
-      throw;
-    } catch (const std::runtime_error& e) {  // mcap::FormatError
-      throw std::invalid_argument(e.what());
-    }
-  }
-
   json port_value(const std::string& address) const {
     auto [name, out] = out_port(address);
     CORBA::Any_var value;
@@ -653,12 +664,6 @@ struct WebServer::Impl {
     server.Get(R"(/api/ports/(.+))", [this](const httplib::Request& req, httplib::Response& res) {
       answer(res, [&] { return port_value(req.matches[1].str()); });
     });
-    server.Get("/api/recording", [](const httplib::Request& req, httplib::Response& res) {
-      answer(res, [&] { return recording(req.get_param_value("file")); });
-    });
-    server.Get("/api/recording/values", [](const httplib::Request& req, httplib::Response& res) {
-      answer(res, [&] { return recording_values(req.get_param_value("file"), req.get_param_value("topic")); });
-    });
     server.Get("/api/values/stream", [this](const httplib::Request& req, httplib::Response& res) {
       decide(res, [&] {
         auto slot = streams.open(req.get_param_value("page"), StreamSlots::Kind::values);
@@ -683,6 +688,7 @@ WebServer::WebServer(const Browser& browser, ServeOptions options)
     : token_(random_token()) {
   impl_ = std::make_unique<Impl>(browser, std::move(options), token_);
   impl_->routes();
+  add_recording_routes(impl_->server);
 }
 
 WebServer::~WebServer() = default;
