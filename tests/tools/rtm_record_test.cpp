@@ -164,7 +164,8 @@ TEST_F(RtmRecord, CtrlCEndsWithAWholeFileAndNoSubscriptionLeft) {
   expect_every_datum_in_order(data);
   const auto cat = rtm({"--json", "cat", "t"});
   ASSERT_EQ(cat.exit_code, 0) << cat.err;
-  for (const auto& p : json::parse(cat.out)["ports"]) {
+  const json described = json::parse(cat.out);
+  for (const auto& p : described["ports"]) {
     if (p["name"] == "force") {
       EXPECT_TRUE(p["subscriptions"].empty()) << p;
     }
