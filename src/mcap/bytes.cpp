@@ -6,6 +6,7 @@
 #include <zlib.h>
 #include <zstd.h>
 
+#include <algorithm>
 #include <memory>
 
 namespace rtm::mcap {
@@ -122,13 +123,36 @@ void compress_zstd(const Bytes& in, Bytes& out) {
   out.resize(at + n);
 }
 
-void decompress_lz4(const std::uint8_t* in, std::size_t n, Bytes& out, const std::string& where) {
+// The output grows as the frame yields data, never past what the chunk declares: a chunk that
+// lies about its size costs what it holds, not what it says.
+void make_room(Bytes& out, std::size_t used, std::size_t declared) {
+  if (used == out.size() && out.size() < declared) {
+    out.resize(std::min(declared, std::max<std::size_t>(2 * out.size(), 64 * 1024)));
+  }
+}
+
+[[noreturn]] void stuck(const std::string& where, const char* codec, std::size_t declared) {
+  throw FormatError(fmt::format("{}: the {} frame ends early or holds more than the {} bytes the chunk declares",
+                                where, codec, declared));
+}
+
+void check_whole(std::size_t got, std::size_t declared, std::size_t in_used, std::size_t n, const std::string& where,
+                 const char* codec) {
+  if (got != declared || in_used != n) {
+    throw FormatError(fmt::format("{}: the {} frame gives {} bytes from {} of its {}, the chunk declares {}", where,
+                                  codec, got, in_used, n, declared));
+  }
+}
+
+Bytes decompress_lz4(const std::uint8_t* in, std::size_t n, std::size_t declared, const std::string& where) {
   LZ4F_dctx* raw = nullptr;
   if (LZ4F_isError(LZ4F_createDecompressionContext(&raw, LZ4F_VERSION))) throw std::bad_alloc();
   const std::unique_ptr<LZ4F_dctx, decltype(&LZ4F_freeDecompressionContext)> ctx(raw, LZ4F_freeDecompressionContext);
+  Bytes out;
   std::size_t in_at = 0;
   std::size_t out_at = 0;
   while (true) {
+    make_room(out, out_at, declared);
     std::size_t in_n = n - in_at;
     std::size_t out_n = out.size() - out_at;
     const auto hint = LZ4F_decompress(ctx.get(), out.data() + out_at, &out_n, in + in_at, &in_n, nullptr);
@@ -136,23 +160,31 @@ void decompress_lz4(const std::uint8_t* in, std::size_t n, Bytes& out, const std
     in_at += in_n;
     out_at += out_n;
     if (hint == 0) break;  // the frame is complete
-    if (in_at == n || (out_at == out.size() && out_n == 0 && in_n == 0)) {
-      throw FormatError(fmt::format("{}: lz4 frame ends early or holds more than the {} bytes the chunk declares",
-                                    where, out.size()));
-    }
+    if (in_n == 0 && out_n == 0) stuck(where, "lz4", declared);
   }
-  if (out_at != out.size() || in_at != n) {
-    throw FormatError(fmt::format("{}: lz4 frame gives {} bytes from {} of {}, the chunk declares {}", where, out_at,
-                                  in_at, n, out.size()));
-  }
+  check_whole(out_at, declared, in_at, n, where, "lz4");
+  return out;
 }
 
-void decompress_zstd(const std::uint8_t* in, std::size_t n, Bytes& out, const std::string& where) {
-  const auto got = ZSTD_decompress(out.data(), out.size(), in, n);
-  if (ZSTD_isError(got)) throw FormatError(fmt::format("{}: zstd: {}", where, ZSTD_getErrorName(got)));
-  if (got != out.size()) {
-    throw FormatError(fmt::format("{}: zstd gives {} bytes, the chunk declares {}", where, got, out.size()));
+Bytes decompress_zstd(const std::uint8_t* in, std::size_t n, std::size_t declared, const std::string& where) {
+  const std::unique_ptr<ZSTD_DCtx, decltype(&ZSTD_freeDCtx)> ctx(ZSTD_createDCtx(), ZSTD_freeDCtx);
+  if (!ctx) throw std::bad_alloc();
+  Bytes out;
+  ZSTD_inBuffer input{in, n, 0};
+  std::size_t out_at = 0;
+  while (true) {
+    make_room(out, out_at, declared);
+    ZSTD_outBuffer output{out.data(), out.size(), out_at};
+    const auto in_before = input.pos;
+    const auto left = ZSTD_decompressStream(ctx.get(), &output, &input);
+    if (ZSTD_isError(left)) throw FormatError(fmt::format("{}: zstd: {}", where, ZSTD_getErrorName(left)));
+    const bool progressed = output.pos != out_at || input.pos != in_before;
+    out_at = output.pos;
+    if (left == 0 && input.pos == n) break;  // the last frame is complete and every byte taken
+    if (!progressed) stuck(where, "zstd", declared);
   }
+  check_whole(out_at, declared, input.pos, n, where, "zstd");
+  return out;
 }
 
 }  // namespace
@@ -179,13 +211,8 @@ Bytes decompress(Compression c, const std::uint8_t* in, std::size_t n, std::uint
     }
     return Bytes(in, in + n);
   }
-  Bytes out(uncompressed_size);
-  if (c == Compression::lz4) {
-    decompress_lz4(in, n, out, where);
-  } else {
-    decompress_zstd(in, n, out, where);
-  }
-  return out;
+  return c == Compression::lz4 ? decompress_lz4(in, n, uncompressed_size, where)
+                                : decompress_zstd(in, n, uncompressed_size, where);
 }
 
 }  // namespace rtm::mcap::detail

@@ -179,6 +179,14 @@ TEST(McapDamage, LengthsThatLieAreErrorsNotAllocations) {
   write_bytes(path, bytes, bytes.size());
   EXPECT_NE(error_of(path).find("limit"), std::string::npos) << error_of(path);
 
+  // Under the limit but a lie: the frame holds far less. Decoding costs what the frame
+  // holds (the output grows as it yields), and the lie is named.
+  bytes = pristine;
+  const std::uint64_t lie = std::uint64_t{200} << 20;
+  std::memcpy(bytes.data() + ci.chunk_start_offset + 9 + 16, &lie, sizeof lie);
+  write_bytes(path, bytes, bytes.size());
+  EXPECT_NE(error_of(path).find("the chunk declares 209715200"), std::string::npos) << error_of(path);
+
   bytes = pristine;  // a string's length inside the header
   const std::uint32_t long_string = 0xFFFFFFF0u;
   std::memcpy(bytes.data() + 8 + 9, &long_string, sizeof long_string);
