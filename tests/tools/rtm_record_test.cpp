@@ -6,6 +6,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -260,6 +261,41 @@ TEST_F(RtmRecord, PlayPutsARecordingIntoTheInPortItsPortFedNoFasterThanRecorded)
   EXPECT_LT(faster["routes"][0]["put"].get<int>(), 200);
   EXPECT_GT(faster["routes"][0]["put"].get<int>(), 50);
   EXPECT_GE(faster["seconds"].get<double>(), (span_s - 0.2) / 4);
+}
+
+TEST_F(RtmRecord, AllRecordsEveryOutPortOfEveryComponent) {
+  talker("t", {"--on", "--period", "2ms"});
+  talker("u", {"--on", "--period", "2ms"});
+  const auto out = file("all.mcap");
+  const auto r = rtm({"--json", "record", "--all", "-o", out, "--count", "400"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const mcap::Reader reader(out);
+  std::vector<std::string> topics;
+  for (const auto& c : reader.channels()) topics.push_back(c.topic);
+  std::sort(topics.begin(), topics.end());
+  EXPECT_EQ(topics, (std::vector<std::string>{"t.force", "t.out3", "u.force", "u.out3"}));
+  EXPECT_EQ(reader.statistics().message_count, 400u);
+  EXPECT_GT(reader.statistics().channel_message_counts.at(reader.channel("u.force")->id), 50u);
+}
+
+TEST_F(RtmRecord, PlayLoopsUntilStoppedAndSaysHowManyPasses) {
+  talker("t", {"--on", "--period", "2ms"});
+  talker("u");
+  const auto out = file("run.mcap");
+  ASSERT_EQ(rtm({"record", "t.force", "-o", out, "--count", "50"}).exit_code, 0);
+  ChildProcess::Options opts;
+  opts.echo_output = false;
+  ChildProcess player(command({"--json", "play", out, "--map", "t.force=u.in0", "--loop"}), opts);
+  // Three passes' worth reached u.in0: the recording is played again and again.
+  eventually([&] { return accepted(json::parse(rtm({"--json", "cat", "u"}).out), "in0") >= 150; }, 15s);
+  player.send_signal(SIGINT);
+  const auto status = player.wait_for_exit(10s);
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(status->clean()) << status->to_string() << player.output();
+  const auto output = player.output();
+  const json played = json::parse(output.substr(output.find('{')));
+  EXPECT_GE(played["loops"].get<int>(), 3) << played;
+  EXPECT_GE(played["routes"][0]["put"].get<int>(), 150) << played;
 }
 
 TEST_F(RtmRecord, PlayingIntoAPortOfAnotherTypeIsRefusedBeforeAnythingIsPut) {
