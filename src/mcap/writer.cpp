@@ -2,6 +2,7 @@
 #include "mcap/writer.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -68,8 +69,18 @@ void put_statistics(Bytes& out, const Statistics& s) {
 }  // namespace
 
 Writer::Writer(const std::string& path, WriterOptions options) : path_(path), options_(std::move(options)) {
-  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd_ < 0) throw std::system_error(errno, std::generic_category(), fmt::format("cannot create {}", path));
+  const int exclusive = options_.replace ? O_TRUNC : O_EXCL;
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_NOFOLLOW | O_CLOEXEC | exclusive, options_.mode);
+  if (fd_ < 0) {
+    const int e = errno;
+    throw std::system_error(e, std::generic_category(),
+                            fmt::format("cannot create {}{}", path, e == ELOOP ? " (it is a symbolic link)" : ""));
+  }
+  if (::fchmod(fd_, options_.mode) != 0) {  // a file it replaced keeps its mode otherwise
+    const int e = errno;
+    ::close(fd_);
+    throw std::system_error(e, std::generic_category(), fmt::format("cannot set the mode of {}", path));
+  }
   Bytes start;
   put_raw(start, kMagic, sizeof kMagic);
   const auto at = begin_record(start, Opcode::header);

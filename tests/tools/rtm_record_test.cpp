@@ -331,6 +331,28 @@ TEST_F(RtmRecord, AnInPortAMissingPortAndAnExistingFileAreRefusedBeforeAnythingI
   std::string kept;
   std::getline(in, kept);
   EXPECT_EQ(kept, "keep me");
+
+  // A symbolic link planted where the recording goes (another user's trap in a shared folder)
+  // is not written through, even with --force.
+  const auto planted = file("planted.mcap");
+  fs::create_symlink(out, planted);
+  r = rtm({"record", "t.force", "-o", planted, "--count", "1", "--force"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("symbolic link"), std::string::npos) << r.err;
+  std::ifstream again(out);
+  std::getline(again, kept);
+  EXPECT_EQ(kept, "keep me");
+}
+
+TEST_F(RtmRecord, ARecordingIsItsOwnersAlone) {
+  talker("t", {"--on", "--period", "2ms"});
+  const auto out = file("private.mcap");
+  ASSERT_EQ(rtm({"record", "t.force", "-o", out, "--count", "5"}).exit_code, 0);
+  EXPECT_EQ(fs::status(out).permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write)
+      << "the data the access screen keeps to its owner stay its owner's on disk";
+  fs::permissions(out, fs::perms::all);  // a file it replaces (--force) takes the same mode
+  ASSERT_EQ(rtm({"record", "t.force", "-o", out, "--count", "5", "--force"}).exit_code, 0);
+  EXPECT_EQ(fs::status(out).permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write);
 }
 
 }  // namespace

@@ -195,6 +195,7 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
   mcap::WriterOptions writer_options;
   writer_options.compression = options.compression;
   writer_options.library = "rtm record";
+  writer_options.replace = options.overwrite;  // else one made since the check above is not lost either
   mcap::Writer writer(options.output, writer_options);
   RecordResult result;
   write_system(writer, browser, result);

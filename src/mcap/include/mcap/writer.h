@@ -23,11 +23,14 @@ struct WriterOptions {
   std::size_t chunk_size = 1 << 20;  // bytes of records before a chunk is compressed and written
   std::string profile;               // the header's profile
   std::string library = "rtm";       // the header's library
+  unsigned mode = 0600;              // of the file, also when it replaces one: its owner's alone
+  bool replace = true;               // else a file already there is refused (O_EXCL)
 };
 
 class Writer {
  public:
-  // Creates (or truncates) `path`, mode 0644 less the umask; throws std::system_error.
+  // Creates (or, with options.replace, truncates) `path` with options.mode. Never through a
+  // symbolic link (one planted where the file goes is refused). Throws std::system_error.
   Writer(const std::string& path, WriterOptions options = {});
   // Closes the file if close() was not called, dropping any error (call close() to see it).
   ~Writer();
