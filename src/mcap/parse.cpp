@@ -47,6 +47,13 @@ Bytes File::read_exact(std::uint64_t offset, std::uint64_t n) const {
   return out;
 }
 
+Header parse_header(Cursor& c) {
+  Header h;
+  h.profile = c.string("header profile");
+  h.library = c.string("header library");
+  return h;
+}
+
 Schema parse_schema(Cursor& c) {
   Schema s;
   s.id = c.u16("schema id");

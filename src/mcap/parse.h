@@ -33,6 +33,7 @@ class File {
   std::uint64_t size_ = 0;
 };
 
+Header parse_header(Cursor& c);
 Schema parse_schema(Cursor& c);
 Channel parse_channel(Cursor& c);
 Message parse_message(Cursor& c);

@@ -24,40 +24,37 @@ constexpr std::uint64_t kMaxSummaryBytes = std::uint64_t{256} << 20;
 Reader::Reader(const std::string& path) : path_(path) {
   file_ = std::make_unique<File>(path);
   size_ = file_->size();
-  {
-    constexpr std::uint64_t kTail = kRecordPrefix + kFooterContent + sizeof kMagic;
-    if (size_ < sizeof kMagic * 2 + kTail - sizeof kMagic) {
-      throw FormatError(fmt::format("{}: {} bytes is too short for an MCAP file", path, size_));
-    }
-    const auto head = file_->read_exact(0, sizeof kMagic);
-    const auto tail = file_->read_exact(size_ - kTail, kTail);
-    if (std::memcmp(head.data(), kMagic, sizeof kMagic) != 0) {
-      throw FormatError(fmt::format("{}: not an MCAP file (no magic at its start)", path));
-    }
-    if (std::memcmp(tail.data() + kTail - sizeof kMagic, kMagic, sizeof kMagic) != 0 ||
-        tail[0] != static_cast<std::uint8_t>(Opcode::footer)) {
-      throw FormatError(fmt::format("{}: has no footer: it was not closed (recover it with rtm record --recover)", path));
-    }
-    Cursor footer(tail.data() + kRecordPrefix, kFooterContent, size_ - kTail + kRecordPrefix);
-    const auto summary_start = footer.u64("footer summary start");
-    footer.u64("footer summary offset start");
-    const auto summary_crc = footer.u32("footer summary crc");
-    if (summary_start == 0) throw FormatError(fmt::format("{}: has no summary to seek with", path));
-    read_summary(summary_start, size_ - kTail, summary_crc);
-
-    // The header, for its profile and library.
-    const auto prefix = file_->read_exact(sizeof kMagic, kRecordPrefix);
-    Cursor hp(prefix.data(), prefix.size(), sizeof kMagic);
-    if (static_cast<Opcode>(hp.u8("opcode")) != Opcode::header) {
-      throw FormatError(fmt::format("{}: the first record is not a header", path));
-    }
-    const auto length = hp.u64("header length");
-    if (length > size_) throw FormatError(fmt::format("{}: the header claims {} bytes", path, length));
-    const auto content = file_->read_exact(sizeof kMagic + kRecordPrefix, length);
-    Cursor hc(content.data(), content.size(), sizeof kMagic + kRecordPrefix);
-    header_.profile = hc.string("header profile");
-    header_.library = hc.string("header library");
+  constexpr std::uint64_t kTail = kRecordPrefix + kFooterContent + sizeof kMagic;
+  if (size_ < sizeof kMagic + kTail) {
+    throw FormatError(fmt::format("{}: {} bytes is too short for an MCAP file", path, size_));
   }
+  const auto head = file_->read_exact(0, sizeof kMagic);
+  const auto tail = file_->read_exact(size_ - kTail, kTail);
+  if (std::memcmp(head.data(), kMagic, sizeof kMagic) != 0) {
+    throw FormatError(fmt::format("{}: not an MCAP file (no magic at its start)", path));
+  }
+  if (std::memcmp(tail.data() + kTail - sizeof kMagic, kMagic, sizeof kMagic) != 0 ||
+      tail[0] != static_cast<std::uint8_t>(Opcode::footer)) {
+    throw FormatError(fmt::format("{}: has no footer: it was not closed (recover it with rtm record --recover)", path));
+  }
+  Cursor footer(tail.data() + kRecordPrefix, kFooterContent, size_ - kTail + kRecordPrefix);
+  const auto summary_start = footer.u64("footer summary start");
+  footer.u64("footer summary offset start");
+  const auto summary_crc = footer.u32("footer summary crc");
+  if (summary_start == 0) throw FormatError(fmt::format("{}: has no summary to seek with", path));
+  read_summary(summary_start, size_ - kTail, summary_crc);
+
+  // The header, for its profile and library.
+  const auto prefix = file_->read_exact(sizeof kMagic, kRecordPrefix);
+  Cursor hp(prefix.data(), prefix.size(), sizeof kMagic);
+  if (static_cast<Opcode>(hp.u8("opcode")) != Opcode::header) {
+    throw FormatError(fmt::format("{}: the first record is not a header", path));
+  }
+  const auto length = hp.u64("header length");
+  if (length > size_) throw FormatError(fmt::format("{}: the header claims {} bytes", path, length));
+  const auto content = file_->read_exact(sizeof kMagic + kRecordPrefix, length);
+  Cursor hc(content.data(), content.size(), sizeof kMagic + kRecordPrefix);
+  header_ = parse_header(hc);
 }
 
 Reader::~Reader() = default;
@@ -194,8 +191,7 @@ std::uint64_t Reader::read_messages(const ReadRange& range,
       });
     });
   }
-  give_before(std::numeric_limits<std::uint64_t>::max());
-  while (!pending.empty()) {  // those at the largest time itself
+  while (!pending.empty()) {  // the rest, in order
     on_message(pending.top().message);
     pending.pop();
     ++given;

@@ -33,14 +33,9 @@ bool take_record(Opcode op, Cursor& c, Recovered& found, const std::function<voi
       // A chunk is taken whole or not at all: its messages are given only once all are read.
       Recovered inner;
       std::vector<Message> messages;
-      Cursor rc(records.data(), records.size(), 0);
-      while (rc.left() > 0) {
-        const auto inner_op = static_cast<Opcode>(rc.u8("record opcode"));
-        const auto length = rc.u64("record length");
-        const auto* content = rc.bytes(length, "record content");
-        Cursor ic(content, length, 0);
+      each_record(records, 0, [&](Opcode inner_op, Cursor& ic) {
         take_record(inner_op, ic, inner, [&](const Message& m) { messages.push_back(m); }, path);
-      }
+      });
       for (auto& s : inner.schemas) found.schemas.push_back(std::move(s));
       for (auto& ch : inner.channels) found.channels.push_back(std::move(ch));
       for (const auto& m : messages) on_message(m);
@@ -88,8 +83,7 @@ Recovered recover(const std::string& path, const std::function<void(const Messag
     try {
       if (first) {
         if (op != Opcode::header) throw FormatError(fmt::format("{}: the first record is not a header", path));
-        found.header.profile = c.string("header profile");
-        found.header.library = c.string("header library");
+        found.header = parse_header(c);
         first = false;
       } else if (!take_record(op, c, found, on_message, path)) {
         found.good_bytes = at;
@@ -110,40 +104,30 @@ Recovered recover(const std::string& path, const std::function<void(const Messag
 }
 
 Recovered recover_to(const std::string& damaged, const std::string& out) {
-  std::map<std::uint16_t, std::uint16_t> channel_ids;  // damaged file's -> out's
-  std::map<std::uint16_t, std::uint16_t> schema_ids;
-  std::size_t schemas_taken = 0;
-  std::size_t channels_taken = 0;
-  Recovered found;
-  WriterOptions options;
-  std::unique_ptr<Writer> writer;
-  // Schemas and channels arrive before the messages that use them; take each as it comes.
-  const auto take_new = [&](const Recovered& so_far) {
-    for (; schemas_taken < so_far.schemas.size(); ++schemas_taken) {
-      const auto& s = so_far.schemas[schemas_taken];
-      if (s.id != 0 && !schema_ids.contains(s.id)) schema_ids[s.id] = writer->add_schema(s.name, s.encoding, s.data);
-    }
-    for (; channels_taken < so_far.channels.size(); ++channels_taken) {
-      const auto& c = so_far.channels[channels_taken];
-      if (channel_ids.contains(c.id)) continue;
-      const auto schema = schema_ids.find(c.schema_id);
-      channel_ids[c.id] = writer->add_channel(schema == schema_ids.end() ? 0 : schema->second, c.topic,
-                                              c.message_encoding, c.metadata);
-    }
-  };
-  // recover() gives messages after the records before them: a first pass learns the header
-  // and the schemas and channels; the second writes.
+  // recover() gives each message after the records before it: a first pass learns the header,
+  // schemas, channels and metadata; the second writes the messages.
   const auto first = recover(damaged, [](const Message&) {});
+  WriterOptions options;
   options.profile = first.header.profile;
-  writer = std::make_unique<Writer>(out, options);
-  take_new(first);
-  for (const auto& m : first.metadata) writer->add_metadata(m.name, m.values);
-  found = recover(damaged, [&](const Message& m) {
+  Writer writer(out, options);
+  std::map<std::uint16_t, std::uint16_t> schema_ids;  // the damaged file's -> out's
+  for (const auto& s : first.schemas) {
+    if (s.id != 0 && !schema_ids.contains(s.id)) schema_ids[s.id] = writer.add_schema(s.name, s.encoding, s.data);
+  }
+  std::map<std::uint16_t, std::uint16_t> channel_ids;
+  for (const auto& c : first.channels) {
+    if (channel_ids.contains(c.id)) continue;
+    const auto schema = schema_ids.find(c.schema_id);
+    channel_ids[c.id] = writer.add_channel(schema == schema_ids.end() ? 0 : schema->second, c.topic,
+                                           c.message_encoding, c.metadata);
+  }
+  for (const auto& m : first.metadata) writer.add_metadata(m.name, m.values);
+  const auto found = recover(damaged, [&](const Message& m) {
     const auto id = channel_ids.find(m.channel_id);
     if (id == channel_ids.end()) return;  // a message on a channel never declared: nothing to say what it is
-    writer->write(id->second, m.sequence, m.log_time, m.publish_time, m.data);
+    writer.write(id->second, m.sequence, m.log_time, m.publish_time, m.data);
   });
-  writer->close();
+  writer.close();
   return found;
 }
 

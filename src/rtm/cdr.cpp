@@ -21,6 +21,12 @@ namespace {
 // bytes of options.
 constexpr std::uint8_t kCdrLittleEndian[4] = {0x00, 0x01, 0x00, 0x00};
 
+// omniORB gives a stream its character code sets at ORB_init: without them a string or a char
+// cannot be written (omniORB would dereference a null pointer).
+void need_code_sets(const cdrMemoryStream& stream) {
+  if (stream.TCS_C() == nullptr) throw std::logic_error("CDR needs the ORB: construct rtm::Orb first");
+}
+
 // The scoped name of a named type, and the modules it is in: IDL:RTM/Sub/Type:1.0 -> {RTM, Sub}, Type.
 struct ScopedName {
   std::vector<std::string> modules;
@@ -194,14 +200,6 @@ std::string idl_text(CORBA::TypeCode_ptr tc) {
   writer.define(tc, type_name(tc));
   return writer.text();
 }
-
-namespace {
-// omniORB gives a stream its character code sets at ORB_init: without them a string or a char
-// cannot be written (omniORB would dereference a null pointer).
-void need_code_sets(const cdrMemoryStream& stream) {
-  if (stream.TCS_C() == nullptr) throw std::logic_error("CDR needs the ORB: construct rtm::Orb first");
-}
-}  // namespace
 
 void to_cdr(const CORBA::Any& value, std::vector<std::uint8_t>& out) {
   cdrMemoryStream stream(0, true);  // padding zeroed: the same value gives the same bytes, and no stale memory leaves

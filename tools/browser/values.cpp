@@ -711,4 +711,9 @@ CORBA::Any parse_value(CORBA::TypeCode_ptr type, const std::vector<std::string>&
   return any;
 }
 
+bool is_timed_type(CORBA::TypeCode_ptr type) {
+  CORBA::TypeCode_var tc = unalias(type);
+  return tc->kind() == CORBA::tk_struct && is_timed(tc);
+}
+
 }  // namespace rtm::cli

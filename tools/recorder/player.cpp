@@ -4,13 +4,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cmath>
-#include <cstring>
 #include <map>
 
+#include "browser/values.h"
 #include "launcher/system_file.h"
 #include "mcap/reader.h"
 #include "rt/clock.h"
+#include "rt/histogram.h"
 #include "rtm/cdr.h"
 #include "rtm/data.h"
 #include "stamp.h"
@@ -48,12 +48,6 @@ std::map<std::string, std::vector<std::string>> recorded_wiring(const mcap::Read
     for (const auto& c : system.connections) out[c.from].push_back(c.to);
   }
   return out;
-}
-
-std::int64_t percentile(std::vector<std::int64_t>& sorted, double q) {
-  if (sorted.empty()) return 0;
-  const auto at = static_cast<std::size_t>(std::ceil(q * static_cast<double>(sorted.size()))) - 1;
-  return sorted[std::min(at, sorted.size() - 1)];
 }
 
 // Sleeps until spin_ns before deadline_ns (CLOCK_MONOTONIC), looking at `stop` at least every
@@ -104,7 +98,7 @@ std::map<std::uint16_t, std::vector<Target>> route_channels(const Browser& brows
                                       recorded_type, channel.message_encoding, port.address, type));
       }
       targets[channel.id].push_back(Target{result.routes.size(), RTM::InPort::_narrow(port.object),
-                                           CORBA::TypeCode::_duplicate(port.type), starts_with_stamp(port.type)});
+                                           CORBA::TypeCode::_duplicate(port.type), is_timed_type(port.type)});
       auto& route = result.routes.emplace_back();
       route.topic = channel.topic;
       route.port = port.address;
@@ -138,8 +132,7 @@ PlayResult play(const Browser& browser, const PlayOptions& options, const std::f
   PlayResult result;
   auto targets = route_channels(browser, reader, options, result, progress);
 
-  std::vector<std::int64_t> lateness;
-  lateness.reserve(stats.message_count);
+  rtm::LatenessHistogram lateness;
   const std::int64_t start_mono = rtm::monotonic_ns();
   const std::int64_t start_wall = rtm::realtime_ns();
   const auto span = static_cast<double>(last - first);
@@ -170,7 +163,7 @@ PlayResult play(const Browser& browser, const PlayOptions& options, const std::f
           stopped = true;
           return;
         }
-        lateness.push_back(rtm::monotonic_ns() - due);
+        lateness.record(rtm::monotonic_ns() - due);
         auto& route = result.routes[t.route];
         try {
           t.port->put(value);
@@ -186,10 +179,9 @@ PlayResult play(const Browser& browser, const PlayOptions& options, const std::f
   } while (options.loop && !stopped && !stop());
 
   result.seconds = static_cast<double>(rtm::monotonic_ns() - start_mono) / 1e9;
-  std::sort(lateness.begin(), lateness.end());
-  result.lateness_p50_ns = percentile(lateness, 0.5);
-  result.lateness_p99_ns = percentile(lateness, 0.99);
-  result.lateness_max_ns = lateness.empty() ? 0 : lateness.back();
+  result.lateness_p50_ns = lateness.percentile_ns(0.5);
+  result.lateness_p99_ns = lateness.percentile_ns(0.99);
+  result.lateness_max_ns = lateness.max_ns();
   return result;
 }
 

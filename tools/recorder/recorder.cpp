@@ -10,8 +10,10 @@
 #include <memory>
 
 #include "browser/watch_port.h"
+#include "browser/values.h"
 #include "launcher/running_system.h"
 #include "mcap/writer.h"
+#include "rt/clock.h"
 #include "rtm/cdr.h"
 #include "rtm/data.h"
 #include "stamp.h"
@@ -25,12 +27,6 @@ using Clock = std::chrono::steady_clock;
 // Each subscriber holds this many data between two drains: at 500 Hz, seconds of a stalled
 // disk before anything is lost (and then counted).
 constexpr std::size_t kQueueCapacity = 8192;
-
-std::uint64_t wall_ns() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
-}
 
 std::string joined(const std::vector<std::string>& words) {
   std::string out;
@@ -100,7 +96,7 @@ void add_channels(mcap::Writer& writer, std::vector<Channel>& channels,
   for (const auto& [name, text] : idl) schema_ids[name] = writer.add_schema(name, "omgidl", text);
   for (auto& c : channels) {
     const auto type = rtm::type_name(c.port.type);
-    c.stamped = starts_with_stamp(c.port.type);
+    c.stamped = is_timed_type(c.port.type);
     const auto dot = c.port.address.find('.');
     c.id = writer.add_channel(schema_ids.at(type), c.port.address, "cdr",
                               {{"type", type},
@@ -134,7 +130,7 @@ void record_until(mcap::Writer& writer, std::vector<Channel>& channels, const Re
     for (auto& c : channels) {
       batch.clear();
       c.subscription->port().drain(batch, share);
-      const auto arrived = wall_ns();
+      const auto arrived = static_cast<std::uint64_t>(rtm::realtime_ns());
       for (const auto& any : batch) {
         if (full()) break;
         rtm::to_cdr(any, cdr);

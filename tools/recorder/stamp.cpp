@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "stamp.h"
 
-#include <RTM.hh>
-
 #include <cstring>
 
 namespace rtm::cli {
@@ -10,14 +8,6 @@ namespace rtm::cli {
 namespace {
 constexpr std::size_t kStampAt = 4;  // after the encapsulation header
 }  // namespace
-
-bool starts_with_stamp(CORBA::TypeCode_ptr tc) {
-  CORBA::TypeCode_var t = CORBA::TypeCode::_duplicate(tc);
-  while (t->kind() == CORBA::tk_alias) t = t->content_type();
-  if (t->kind() != CORBA::tk_struct || t->member_count() == 0) return false;
-  CORBA::TypeCode_var first = t->member_type(0);
-  return std::strcmp(t->member_name(0), "tm") == 0 && first->equivalent(RTM::_tc_Time);
-}
 
 std::uint64_t stamp_of(const std::vector<std::uint8_t>& cdr) {
   std::uint32_t sec = 0;

@@ -108,49 +108,45 @@ bool same_secret(const std::string& a, const std::string& b) {
   return diff == 0;
 }
 
-// A recording on this machine (rtm record's file): refused with 400 and the reader's
-// sentence when it is not a whole one; its data read only when a channel is plotted.
-std::string recording_file(const std::string& file) {
+// A recording on this machine (rtm record's file), asked of with `read`: a path that is no
+// file, or a file that is no whole recording, is a bad request (400) with the reader's sentence.
+template <typename Read>
+json from_recording(const std::string& file, Read&& read) {
   if (file.empty()) throw std::invalid_argument("file: which recording (a path on the server's machine)");
   std::error_code error;
   if (!std::filesystem::is_regular_file(file, error)) throw std::invalid_argument(file + " is not a file");
-  return file;
+  try {
+    return read(file);
+  } catch (const std::runtime_error& e) {  // mcap::FormatError, std::system_error
+    throw std::invalid_argument(e.what());
+  }
 }
 
+// Its channels; their data are read only when one is plotted.
 json recording(const std::string& file) {
-  try {
-    const auto info = describe_recording(recording_file(file));
+  return from_recording(file, [](const std::string& f) {
+    const auto info = describe_recording(f);
     json channels = json::array();
     for (const auto& c : info.channels) {
       json elements = json::array();
       for (const auto& e : c.elements) elements.push_back({{"name", e.name}, {"unit", e.unit}});
       channels.push_back({{"topic", c.topic}, {"type", c.type}, {"count", c.count}, {"elements", elements}});
     }
-    return {{"file", info.file}, {"start_ns", info.start_ns}, {"end_ns", info.end_ns}, {"channels", channels},
-            {"system", info.system_yaml}};
-  } catch (const std::system_error& e) {
-    throw std::invalid_argument(e.what());
-  } catch (const std::runtime_error& e) {  // mcap::FormatError
-    throw std::invalid_argument(e.what());
-  }
+    return json{{"file", info.file}, {"start_ns", info.start_ns}, {"end_ns", info.end_ns}, {"channels", channels},
+                {"system", info.system_yaml}};
+  });
 }
 
 // One channel whole, as a plot's stream sends a port's data, at most kRecordedPoints data.
 json recording_values(const std::string& file, const std::string& topic) {
   constexpr std::size_t kRecordedPoints = 5000;
-  try {
-    const auto series = recorded_series(recording_file(file), topic, kRecordedPoints);
+  return from_recording(file, [&](const std::string& f) {
+    const auto series = recorded_series(f, topic, kRecordedPoints);
     json j = json::parse(plot_entry(series.type, series.samples, series.total, 0, 0));
     j["total"] = series.total;
     j["shown"] = series.samples.size();
     return j;
-  } catch (const std::system_error& e) {
-    throw std::invalid_argument(e.what());
-  } catch (const std::invalid_argument&) {
-    throw;
-  } catch (const std::runtime_error& e) {  // mcap::FormatError
-    throw std::invalid_argument(e.what());
-  }
+  });
 }
 
 bool is_loopback(const std::string& host) { return host == "127.0.0.1" || host == "::1" || host == "localhost"; }

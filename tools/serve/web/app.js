@@ -506,17 +506,23 @@ function writeUrl() {
   for (const address of plots.keys()) q.append("plot", address);
   history.replaceState(null, "", "#" + q.toString());
 }
-function startPlot(address) {
-  if (plots.has(address)) { plots.get(address).div.remove(); plots.delete(address); writeUrl(); openValues(); return; }
-  if (plots.size >= 10) { showError("at most 10 plots: click a plotted port to remove its plot"); return; }
+// A plot's elements under #plots: its title, axis line, canvas, legend and info line.
+function plotParts(className, title) {
   const div = node("div", document.getElementById("plots"));
-  div.className = "plot"; div.dataset.port = address;
-  node("b", div, address);
+  div.className = className;
+  node("b", div, title);
   const axis = node("div", div); axis.className = "axis";
   const canvas = node("canvas", div); canvas.width = PLOT_W; canvas.height = PLOT_H;
   const legend = node("div", div); legend.className = "legend";
   node("div", div).className = "info";
-  plots.set(address, { address, div, canvas, axis, legend, t: [], cols: [], start: 0, t0: null, received: 0, sent: 0,
+  return { div, canvas, axis, legend };
+}
+function startPlot(address) {
+  if (plots.has(address)) { plots.get(address).div.remove(); plots.delete(address); writeUrl(); openValues(); return; }
+  if (plots.size >= 10) { showError("at most 10 plots: click a plotted port to remove its plot"); return; }
+  const parts = plotParts("plot", address);
+  parts.div.dataset.port = address;
+  plots.set(address, { address, ...parts, t: [], cols: [], start: 0, t0: null, received: 0, sent: 0,
                        lost: 0, failed: 0, error: "", type: "", stamped: true, shownLegend: "", infoAt: 0 });
   writeUrl();
   openValues();
@@ -685,14 +691,9 @@ function openRecording() {
 function plotRecorded(file, channel) {
   const key = file + "\n" + channel.topic;
   if (recordedPlots.has(key)) { recordedPlots.get(key).div.remove(); recordedPlots.delete(key); return; }
-  const div = node("div", document.getElementById("plots"));
-  div.className = "plot recorded"; div.dataset.recording = file; div.dataset.topic = channel.topic;
-  node("b", div, `${channel.topic} (recorded)`);
-  const axis = node("div", div); axis.className = "axis";
-  const canvas = node("canvas", div); canvas.width = PLOT_W; canvas.height = PLOT_H;
-  const legend = node("div", div); legend.className = "legend";
-  node("div", div).className = "info";
-  const plot = { address: channel.topic, div, canvas, axis, legend, t: [], cols: [], start: 0, received: 0, sent: 0,
+  const parts = plotParts("plot recorded", `${channel.topic} (recorded)`);
+  parts.div.dataset.recording = file; parts.div.dataset.topic = channel.topic;
+  const plot = { address: channel.topic, ...parts, t: [], cols: [], start: 0, received: 0, sent: 0,
                  lost: 0, failed: 0, error: "", type: channel.type, stamped: true, shownLegend: "", infoAt: 0,
                  recorded: true, total: channel.count, elements: channel.elements.length ? channel.elements : null };
   recordedPlots.set(key, plot);

@@ -76,6 +76,9 @@ struct Sample {
   std::vector<double> values;
 };
 Sample to_sample(const CORBA::Any& value);
+// Whether a datum of this type (aliases followed) is stamped: a struct whose first member is an
+// RTM::Time named tm.
+bool is_timed_type(CORBA::TypeCode_ptr type);
 
 // Builds a datum of the port's type from words, one per leaf in order, stamped with the current
 // time (a `tm` stamp is never taken from the words). Numbers are range-checked for their member's
