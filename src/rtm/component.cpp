@@ -190,6 +190,7 @@ void ComponentServant::await_before_cycle(InPortBase& port, std::int64_t bound_n
 bool ComponentServant::run_cycle(const CycleContext& ctx) {
   const RTM::ComponentState state = state_.load();
   if (state != RTM::COMPONENT_ON) return state != RTM::COMPONENT_ERROR;
+  if (observer_ != nullptr) observer_->cycle(ctx);
   if (await_port_ != nullptr) {
     switch (await_port_->wait_new_until(ctx.deadline_ns + await_bound_ns_)) {
       case InPortBase::Awaited::there: break;
@@ -236,6 +237,7 @@ void ComponentServant::on() {
   }
   if (state == RTM::COMPONENT_ON) return;
   if (activity_) activity_->stop();  // joins a thread that ended by itself
+  if (observer_ != nullptr) observer_->starting();
   try {
     component_->on_start();
   } catch (const std::exception& e) {
@@ -256,6 +258,7 @@ void ComponentServant::off() {
   if (activity_) activity_->stop();
   RTM::ComponentState expected = RTM::COMPONENT_ON;
   if (!state_.compare_exchange_strong(expected, RTM::COMPONENT_OFF)) return;
+  if (observer_ != nullptr) observer_->stopping();
   try {
     component_->on_stop();
   } catch (const std::exception& e) {

@@ -219,6 +219,10 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   // with what the port holds). Before on(); bound_ns > 0.
   void await_before_cycle(InPortBase& port, std::int64_t bound_ns);
 
+  // Re-simulation (rtm/cycle_tap.h): `observer` is told when the component starts, before each
+  // cycle and when it stops. Before on(); null to stop. The observer outlives its use.
+  void observe_cycles(CycleObserver* observer) { observer_ = observer; }
+
   // Who keeps composites' holds; before activate(). Without one, hold() raises NO_IMPLEMENT.
   void keep_holds(std::unique_ptr<HoldKeeper> keeper) { holds_ = std::move(keeper); }
 
@@ -258,6 +262,7 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   std::unique_ptr<Activity> activity_;
   std::atomic<const Activity*> timing_source_{nullptr};
   std::shared_ptr<ArrivalSignal> arrival_;
+  CycleObserver* observer_ = nullptr;
   InPortBase* await_port_ = nullptr;  // await_before_cycle()
   std::int64_t await_bound_ns_ = 0;
   struct AwaitCounters : CounterSet {

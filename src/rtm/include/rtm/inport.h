@@ -10,6 +10,7 @@
 #include "rtm/conn_policy.h"
 #include "rtm/data.h"
 #include "rtm/describe.h"
+#include "rtm/read_result.h"
 #include "rtm/sender_order.h"
 
 #include <atomic>
@@ -29,15 +30,12 @@
 namespace rtm {
 
 class Orb;
+class PortTap;
+class TapSink;
+template <PortData T>
+class TypedTap;
 
 // ============================ policies ================================
-
-// What a read learned (Orocos' FlowStatus).
-enum class ReadResult {
-  NoData,   // nothing was ever stored (FIFO: nothing ever read either)
-  OldData,  // the value was read before (FIFO: empty now; out gets the last value read)
-  NewData,  // out holds a datum not read before
-};
 
 // What a full FIFO does with one more datum.
 enum class FullPolicy {
@@ -160,6 +158,12 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   // an in-process delivery, a condition variable. No allocation.
   Awaited wait_new_until(std::int64_t deadline_ns);
   std::size_t awaiting() const;  // threads in wait_new_until() now
+
+  // Re-simulation (rtm/cycle_tap.h): a tap logging into `sink` as port `key`, or (sink null)
+  // answering reads from a replay. The port keeps a pointer to it until untap(); only while
+  // the component does not cycle.
+  virtual std::unique_ptr<PortTap> tap(TapSink* sink, std::uint16_t key, std::uint32_t capacity) = 0;
+  virtual void untap() = 0;
 
   // True when storing a datum never waits nor runs user code (latest, FIFO drop-*): an
   // in-process publisher may then store straight from its writing thread.
@@ -299,6 +303,8 @@ class InPort final : public InPortBase {
   std::size_t read_many(std::span<T> out);
   // Stores value as a put would (the in-process path; counted in counters().in_process).
   void deliver(const T& value);
+  std::unique_ptr<PortTap> tap(TapSink* sink, std::uint16_t key, std::uint32_t capacity) override;
+  void untap() override { tap_ = nullptr; }
   std::size_t queued() const;  // FIFO length now; latest: 1 if unread data, else 0
 
   CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
@@ -312,6 +318,8 @@ class InPort final : public InPortBase {
   void put_in_order(const CORBA::Any& value, CORBA::ULongLong sender, CORBA::ULongLong seq) override;
 
  private:
+  ReadResult read_port(T& out);                // read() without a tap
+  std::size_t read_many_port(std::span<T> out);  // read_many() without a tap
   const T& extract(const CORBA::Any& value);  // the datum, or reject() and BAD_PARAM
   // order: checked under the same lock as the store. Caller holds no lock. False when the datum was dropped.
   bool store(const T& value, bool in_process, const SenderSeq* order = nullptr);
@@ -337,6 +345,7 @@ class InPort final : public InPortBase {
   T last_read_{};
   std::condition_variable space_cv_;  // FIFO Block: a read made room
   std::shared_ptr<std::function<void(const T&)>> callback_;
+  TypedTap<T>* tap_ = nullptr;  // re-simulation; the cycle thread's
 };
 
 }  // namespace rtm

@@ -2,6 +2,8 @@
 // Template definitions of rtm/inport.h; include that header, not this one.
 #pragma once
 
+#include "rtm/cycle_tap.h"
+
 #include <algorithm>
 #include <span>
 #include <stdexcept>
@@ -181,6 +183,33 @@ bool InPort<T>::has_unread_locked() {
 
 template <PortData T>
 ReadResult InPort<T>::read(T& out) {
+  if (tap_ == nullptr) [[likely]]
+    return read_port(out);
+  if (tap_->replaying()) return tap_->replay_read(out);
+  const ReadResult result = read_port(out);
+  tap_->logged_read(result, out);
+  return result;
+}
+
+template <PortData T>
+std::size_t InPort<T>::read_many(std::span<T> out) {
+  if (tap_ == nullptr) [[likely]]
+    return read_many_port(out);
+  if (tap_->replaying()) return tap_->replay_read_many(out);
+  const std::size_t n = read_many_port(out);
+  tap_->logged_read_many(std::span<const T>(out.data(), n));  // a read of none too: the order of calls
+  return n;
+}
+
+template <PortData T>
+std::unique_ptr<PortTap> InPort<T>::tap(TapSink* sink, std::uint16_t key, std::uint32_t capacity) {
+  auto tap = sink != nullptr ? std::make_unique<TypedTap<T>>(*sink, key, capacity) : std::make_unique<TypedTap<T>>();
+  tap_ = tap.get();
+  return tap;
+}
+
+template <PortData T>
+ReadResult InPort<T>::read_port(T& out) {
   std::unique_lock lock(mu_);
   // The same-host path: no system call. A FIFO takes what it holds first (older than what
   // the rings still hold: a put drains them before it stores), then the rings straight.
@@ -215,7 +244,7 @@ ReadResult InPort<T>::read(T& out) {
 }
 
 template <PortData T>
-std::size_t InPort<T>::read_many(std::span<T> out) {
+std::size_t InPort<T>::read_many_port(std::span<T> out) {
   if (out.empty()) return 0;
   std::unique_lock lock(mu_);
   const bool straight = reads_rings_straight();  // as read()

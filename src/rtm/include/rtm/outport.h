@@ -136,6 +136,11 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   std::string last_error_text() const;
   std::size_t subscription_count() const;
 
+  // Re-simulation: as InPortBase::tap(). A replay's tap keeps what write() wrote instead of
+  // publishing it.
+  virtual std::unique_ptr<PortTap> tap(TapSink* sink, std::uint16_t key, std::uint32_t capacity) = 0;
+  virtual void untap() = 0;
+
   RTM::OutPortEx_ptr activate(Orb& orb);  // idempotent
   void deactivate();                      // idempotent; waits until the POA released it
   RTM::OutPortEx_ptr reference() const;   // nil before activate(); caller owns the duplicate
@@ -234,6 +239,8 @@ class OutPort final : public OutPortBase {
   void write(const T& value);
   // The last written value; false before the first write().
   bool latest(T& out) const;
+  std::unique_ptr<PortTap> tap(TapSink* sink, std::uint16_t key, std::uint32_t capacity) override;
+  void untap() override { tap_ = nullptr; }
 
   // Direct C++ connection to an InPort of this process, without the ORB (composites). The same rules as
   // subscribe(): false (with last_error_text()) for a duplicate or a reader policy the InPort does not keep.
@@ -274,6 +281,7 @@ class OutPort final : public OutPortBase {
   std::uint32_t ring_slots_ = 0;              // guarded by ring_mu_
   T latest_{};
   bool has_latest_ = false;
+  TypedTap<T>* tap_ = nullptr;  // re-simulation; the cycle thread's
 };
 
 }  // namespace rtm

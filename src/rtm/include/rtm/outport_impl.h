@@ -24,7 +24,21 @@ OutPort<T>::~OutPort() {
 }
 
 template <PortData T>
+std::unique_ptr<PortTap> OutPort<T>::tap(TapSink* sink, std::uint16_t key, std::uint32_t capacity) {
+  auto tap = sink != nullptr ? std::make_unique<TypedTap<T>>(*sink, key, capacity) : std::make_unique<TypedTap<T>>();
+  tap_ = tap.get();
+  return tap;
+}
+
+template <PortData T>
 void OutPort<T>::write(const T& value) {
+  if (tap_ != nullptr) [[unlikely]] {
+    if (tap_->replaying()) {
+      tap_->replay_write(value);
+      return;
+    }
+    tap_->logged_write(value);
+  }
   // Timed always when it may call or queue, else one call in kWriteCostSampling (WriteCost).
   // The counter is read before the lock: a subscription made meanwhile is seen below.
   bool timed = calling_connections_.load(std::memory_order_relaxed) != 0 ||
