@@ -106,6 +106,7 @@ struct Member {
   RunSettings settings;
   PortableServer::Servant_var<ComponentServant> servant;
   std::vector<std::unique_ptr<NameBinding>> bindings;
+  std::unique_ptr<CycleLog> cycle_log;
 };
 
 constexpr const char* kUsage =
@@ -244,7 +245,7 @@ int run_container(int argc, char** argv) {
   int status = 0;
   for (Member& m : members) {
     try {
-      bring_up(m.main, RunContext{m.settings, *orb}, m.servant, m.bindings);
+      bring_up(m.main, RunContext{m.settings, *orb}, m.servant, m.bindings, m.cycle_log);
       continue;
     } catch (const CORBA::Exception& e) {
       log().error("{}: {} could not start: CORBA {}", line.name, m.settings.name, e._name());
@@ -262,7 +263,7 @@ int run_container(int argc, char** argv) {
     log().info("stopping {} ({})", line.name, received == SIGINT ? "SIGINT" : "SIGTERM");
   }
   // ---- shut down in order, the last member first ----
-  for (auto it = members.rbegin(); it != members.rend(); ++it) shut_down(it->servant, it->bindings, it->settings.name);
+  for (auto it = members.rbegin(); it != members.rend(); ++it) shut_down(it->servant, it->bindings, it->cycle_log, it->settings.name);
   members.clear();
   orb.reset();
   return status;

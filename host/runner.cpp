@@ -258,6 +258,8 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   add_port_options(app, port_texts);
   std::string access_text = "owner";
   if (alone) add_process_options(app, settings, access_text);
+  app.add_option("--log-cycles", settings.cycle_log,
+                 "log what each cycle read and wrote to this MCAP file, for rtm replay (replaced if there)");
   if (main.add_options) main.add_options(app);
   // A wrapper script may add its own default before the user's: the last one given wins.
   for (auto* option : app.get_options()) {
@@ -346,7 +348,7 @@ InPortBase& find_in_port(Component& component, const std::string& which) {
 // asked. Throws what the component's factory or the ORB throws; what was made by then is in
 // servant and bindings, for the caller's ordered shutdown.
 void bring_up(const ComponentMain& main, const RunContext& context, PortableServer::Servant_var<ComponentServant>& servant,
-              std::vector<std::unique_ptr<NameBinding>>& bindings) {
+              std::vector<std::unique_ptr<NameBinding>>& bindings, std::unique_ptr<CycleLog>& cycle_log) {
   const RunSettings& settings = context.settings;
   auto component = main.create_with_orb ? main.create_with_orb(context) : main.create(settings);
   if (!component) throw std::runtime_error("the factory made no component");
@@ -372,6 +374,7 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   }));
   if (!settings.await_port.empty())  // refused there for a cycle that is not periodic
     servant->await_before_cycle(find_in_port(servant->component(), settings.await_port), settings.await_bound_ns);
+  if (!settings.cycle_log.empty()) cycle_log = std::make_unique<CycleLog>(*servant, settings.cycle_log);
   RTM::RtComponentEx_var reference = servant->activate(context.orb);
   std::vector<ExtraName> extra_names;
   if (main.on_activated) extra_names = main.on_activated(*servant, context);
@@ -387,7 +390,7 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
 // Turns the component off, unbinds its names and deactivates its servant: the ordered
 // shutdown, whatever bring_up() made.
 void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vector<std::unique_ptr<NameBinding>>& bindings,
-               const std::string& name) {
+               std::unique_ptr<CycleLog>& cycle_log, const std::string& name) {
   try {
     if (servant) servant->off();
   } catch (const CORBA::Exception& e) {
@@ -395,6 +398,7 @@ void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vect
   } catch (const std::exception& e) {
     log().warn("{}: off() failed: {}", name, e.what());
   }
+  cycle_log.reset();  // no more cycles: the log's end is written
   bindings.clear();
   if (servant) servant->deactivate();
 }
@@ -451,8 +455,9 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
   {
     PortableServer::Servant_var<ComponentServant> servant;
     std::vector<std::unique_ptr<NameBinding>> bindings;
+    std::unique_ptr<CycleLog> cycle_log;
     try {
-      bring_up(main, RunContext{settings, *orb}, servant, bindings);
+      bring_up(main, RunContext{settings, *orb}, servant, bindings, cycle_log);
     } catch (const CORBA::Exception& e) {
       log().error("{} could not start: CORBA {}", settings.name, e._name());
       status = 1;
@@ -467,7 +472,7 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
     }
 
     // ---- shut down in order: no more cycles, no more names, no more servants ----
-    shut_down(servant, bindings, settings.name);
+    shut_down(servant, bindings, cycle_log, settings.name);
   }
   orb.reset();
   return status;

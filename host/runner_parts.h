@@ -3,6 +3,7 @@
 // run_container (several in one process, host/module.h). Not installed.
 #pragma once
 
+#include "host/cycle_log.h"
 #include "host/name_binding.h"
 #include "host/runner.h"
 #include "rtm/orb.h"
@@ -55,11 +56,12 @@ std::optional<int> check_endpoints(const char* program, RunSettings& settings);
 
 // Builds the component and its servant, activates it and binds its names; turns it on when
 // asked. Throws what the component's factory or the ORB throws; what was made by then is in
-// servant and bindings, for shut_down().
+// servant, bindings and cycle_log (--log-cycles), for shut_down().
 void bring_up(const ComponentMain& main, const RunContext& context, PortableServer::Servant_var<ComponentServant>& servant,
-              std::vector<std::unique_ptr<NameBinding>>& bindings);
+              std::vector<std::unique_ptr<NameBinding>>& bindings, std::unique_ptr<CycleLog>& cycle_log);
+// Off, then the cycle log's end (if any), the names, the servant.
 void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vector<std::unique_ptr<NameBinding>>& bindings,
-               const std::string& name);
+               std::unique_ptr<CycleLog>& cycle_log, const std::string& name);
 
 // The access screen, the certificates and the ORB of the process (into orb); false, after
 // one error line, when one of them cannot be had.

@@ -15,6 +15,8 @@
 //                                         --recover DAMAGED: a recording that was not closed)
 //   rtm play F.mcap                       put a recording into InPorts at its pace (--map, --rate,
 //                                         --loop, --from/--to)
+//   rtm replay PROGRAM LOG.mcap [-- OPTS]  a component's logic again against its cycle log
+//                                         (--log-cycles), outputs compared byte for byte
 //   rtm up <system.yaml> [--set NAME] / rtm down <system.yaml|name>
 //   rtm names [--stop]                    a naming service of one's own on loopback: prints
 //                                         `export RTM_NAMING=…` (eval "$(rtm names)")
@@ -33,6 +35,7 @@
 #include "new_command.h"
 #include "play_command.h"
 #include "record_command.h"
+#include "replay_command.h"
 #include "serve/serve.h"
 #include "tls_command.h"
 #include "browser/values.h"
@@ -112,6 +115,7 @@ struct Cli {
   NewCommand new_command;
   RecordCommand record_command;
   PlayCommand play_command;
+  ReplayCommand replay_command;
   std::string listen = "127.0.0.1:0";
 };
 
@@ -516,6 +520,7 @@ int run(const Cli& c) {
   }
   if (c.names->parsed()) return run_names(c);
   if (c.record_command.recovers()) return c.record_command.run_recover(c.json);
+  if (c.replay_command.parsed()) return c.replay_command.run(c.json);
   if (!c.tls.empty()) {
     try {
       rtm::configure_tls(rtm::check_tls_folder(c.tls));
@@ -578,6 +583,7 @@ int main(int argc, char** argv) {
   c.new_command.add_to(app);
   c.record_command.add_to(app);
   c.play_command.add_to(app);
+  c.replay_command.add_to(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -93,6 +93,9 @@ struct RunSettings {
   AccessPolicy access = AccessPolicy::owner;  // --access: who may change it (host/access.h)
   std::string tls_folder;  // --tls / $RTM_TLS: certificates for giop:ssl: endpoints (host/tls.h)
   std::vector<std::string> orb_args;   // -ORB... options, passed through
+  // --log-cycles FILE: every read and write of every cycle, into an MCAP file a replay steps
+  // the component through again (host/cycle_log.h). Empty: none.
+  std::string cycle_log;
 
   // The periodic activity these settings describe (thread named after the component).
   PeriodicOptions periodic_options() const;

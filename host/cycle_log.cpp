@@ -1,0 +1,579 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "host/cycle_log.h"
+
+#include "mcap/reader.h"
+#include "mcap/writer.h"
+#include "rt/clock.h"
+#include "rtm/cdr.h"
+#include "rtm/log.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/logger.h>
+
+#include <chrono>
+#include <stdexcept>
+
+namespace rtm {
+
+namespace {
+
+constexpr std::size_t kEvents = std::size_t{1} << 14;
+constexpr const char* kMetadata = "rtm.cycle_log";
+constexpr const char* kEndMetadata = "rtm.cycle_log.end";
+constexpr const char* kCyclesTopic = "cycles";
+
+enum Kind : std::uint8_t { start, cycle_begins, stop, read, read_many, write_datum, lost_datum };
+constexpr const char* kGroupNames[] = {"start", "cycle", "stop"};
+constexpr int kMany = 3;  // a read_many in a group's reads: [port, 3, count]
+
+std::map<std::string, std::string> parameter_values(ComponentServant& servant, std::map<std::string, std::string>* access) {
+  std::map<std::string, std::string> values;
+  RTM::ParameterList_var list = servant.parameters();
+  for (CORBA::ULong i = 0; i < list->length(); ++i) {
+    values[list[i].name.in()] = list[i].value.in();
+    if (access != nullptr) {
+      (*access)[list[i].name.in()] = list[i].access == RTM::PARAMETER_FIXED      ? "fixed"
+                                     : list[i].access == RTM::PARAMETER_WHEN_OFF ? "when_off"
+                                                                                 : "live";
+    }
+  }
+  return values;
+}
+
+}  // namespace
+
+// ============================ the log ==================================
+
+CycleLog::CycleLog(ComponentServant& servant, const std::string& path, CycleLogOptions options)
+    : servant_(servant), ring_(kEvents), options_(options) {
+  if (options_.slots_per_port == 0) throw std::invalid_argument("a cycle log needs at least one slot per port");
+  Component& component = servant.component();
+  std::uint16_t key = 0;
+  const auto words = [](const PortInfo& info, bool units) {
+    std::string out;
+    for (const auto& e : info.elements) out += (out.empty() ? "" : " ") + (units ? (e.unit.empty() ? "-" : e.unit) : e.name);
+    return out;
+  };
+  std::vector<std::pair<std::string, std::string>> described;
+  for (InPortBase* port : component.in_ports()) {
+    ports_.push_back({port->full_name(), true, port->tap(this, key++, options_.slots_per_port), 0});
+    described.emplace_back(words(port->info(), false), words(port->info(), true));
+  }
+  for (OutPortBase* port : component.out_ports()) {
+    ports_.push_back({port->full_name(), false, port->tap(this, key++, options_.slots_per_port), 0});
+    described.emplace_back(words(port->info(), false), words(port->info(), true));
+  }
+  try {
+    mcap::WriterOptions options;
+    options.profile = "rtm-cycles";
+    writer_ = std::make_unique<mcap::Writer>(path, options);
+    mcap::KeyValues meta{{"component", component.name()}, {"kind", component.kind()}, {"format", "1"}};
+    std::map<std::string, std::string> access;
+    for (const auto& [name, value] : parameter_values(servant, &access)) {
+      meta["parameter." + name] = value;
+      meta["access." + name] = access[name];
+    }
+    writer_->add_metadata(kMetadata, meta);
+    std::map<std::string, std::uint16_t> schemas;
+    for (std::size_t k = 0; k < ports_.size(); ++k) {
+      Port& p = ports_[k];
+      const std::string type = type_name(p.tap->type_code());
+      if (!schemas.contains(type)) schemas[type] = writer_->add_schema(type, "omgidl", idl_text(p.tap->type_code()));
+      const auto dot = p.name.find('.');
+      p.channel = writer_->add_channel(schemas[type], p.name, "cdr",
+                                       {{"type", type},
+                                        {"component", p.name.substr(0, dot)},
+                                        {"port", p.name.substr(dot + 1)},
+                                        {"direction", p.in ? "in" : "out"},
+                                        {"elements", described[k].first},
+                                        {"units", described[k].second},
+                                        {"log_time", "the due time of the cycle that read or wrote it (CLOCK_MONOTONIC)"},
+                                        {"typecode", type_code_text(p.tap->type_code())}});
+    }
+    cycles_channel_ = writer_->add_channel(0, kCyclesTopic, "json", {{"content", "each start, cycle and stop"}});
+  } catch (...) {
+    for (InPortBase* port : component.in_ports()) port->untap();
+    for (OutPortBase* port : component.out_ports()) port->untap();
+    throw;
+  }
+  servant.observe_cycles(this);
+  thread_ = std::thread([this] { run(); });
+}
+
+CycleLog::~CycleLog() {
+  servant_.observe_cycles(nullptr);
+  {
+    std::lock_guard lock(flush_mu_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  Component& component = servant_.component();
+  for (InPortBase* port : component.in_ports()) port->untap();
+  for (OutPortBase* port : component.out_ports()) port->untap();
+  try {
+    drain();
+    end_group();
+    mcap::KeyValues end{{"lost", std::to_string(lost_.load())}};
+    for (const auto& [name, value] : parameter_values(servant_, nullptr)) end["parameter." + name] = value;
+    writer_->add_metadata(kEndMetadata, end);
+    writer_->close();
+    if (lost_.load() > 0)
+      log().warn("{}: the cycle log lost {} events or data (its writer fell behind): those cycles cannot be replayed",
+                 component.name(), lost_.load());
+  } catch (const std::exception& e) {
+    log().error("{}: the cycle log could not be finished: {}", component.name(), e.what());
+  }
+}
+
+void CycleLog::push(const Event& e) noexcept {
+  if (head_ - taken_.load(std::memory_order_acquire) >= ring_.size()) {
+    lost_.fetch_add(1, std::memory_order_relaxed);
+    ++lost_unpushed_;
+    return;
+  }
+  Event& slot = ring_[head_ % ring_.size()];
+  slot = e;
+  slot.lost_before = lost_unpushed_;
+  lost_unpushed_ = 0;
+  ++head_;
+  published_.store(head_, std::memory_order_release);
+}
+
+void CycleLog::tapped(std::uint16_t port, TapEvent event, ReadResult result, std::uint32_t slot,
+                      std::uint32_t count) noexcept {
+  Event e;
+  e.kind = event == TapEvent::read ? read : event == TapEvent::read_many ? read_many : event == TapEvent::write ? write_datum : lost_datum;
+  e.result = static_cast<std::uint8_t>(result);
+  e.port = port;
+  e.slot = slot;
+  e.count = count;
+  if (event == TapEvent::lost) lost_.fetch_add(1, std::memory_order_relaxed);
+  push(e);
+}
+
+void CycleLog::starting() noexcept {
+  Event e;
+  e.kind = start;
+  e.deadline_ns = e.wake_ns = monotonic_ns();
+  push(e);
+}
+
+void CycleLog::cycle(const CycleContext& ctx) noexcept {
+  Event e;
+  e.kind = cycle_begins;
+  e.cycle = ctx.cycle;
+  e.deadline_ns = ctx.deadline_ns;
+  e.wake_ns = ctx.wake_ns;
+  e.period_ns = ctx.period_ns;
+  push(e);
+}
+
+void CycleLog::stopping() noexcept {
+  Event e;
+  e.kind = stop;
+  e.deadline_ns = e.wake_ns = monotonic_ns();
+  push(e);
+}
+
+void CycleLog::run() {
+  std::unique_lock lock(flush_mu_);
+  while (!stop_) {
+    wake_.wait_for(lock, options_.write_every, [this] { return stop_; });
+    try {
+      drain_locked();
+    } catch (const std::exception& e) {
+      if (error_.empty()) log().error("{}: the cycle log stopped writing: {}", servant_.component().name(), e.what());
+      error_ = e.what();
+    }
+  }
+}
+
+void CycleLog::flush() {
+  std::lock_guard lock(flush_mu_);
+  drain_locked();
+  writer_->flush();
+}
+
+void CycleLog::drain() {
+  std::lock_guard lock(flush_mu_);
+  drain_locked();
+}
+
+void CycleLog::drain_locked() {
+  const std::uint64_t end = published_.load(std::memory_order_acquire);
+  if (!error_.empty()) {  // the cycle thread goes on; what it logs is dropped
+    taken_.store(end, std::memory_order_release);
+    return;
+  }
+  for (std::uint64_t i = taken_.load(std::memory_order_relaxed); i < end; ++i) {
+    write(ring_[i % ring_.size()]);
+    taken_.store(i + 1, std::memory_order_release);
+  }
+}
+
+void CycleLog::write(const Event& e) {
+  group_lost_ += e.lost_before;
+  if (e.kind <= stop) {
+    end_group();
+    group_open_ = true;
+    group_kind_ = e.kind;
+    group_cycle_ = e.cycle;
+    group_deadline_ns_ = e.deadline_ns;
+    group_wake_ns_ = e.wake_ns;
+    group_period_ns_ = e.period_ns;
+    return;
+  }
+  if (!group_open_) return;  // a port used outside start, cycles and stop: not part of the component's logic
+  if (e.kind == lost_datum) {
+    group_lost_ += std::max<std::uint32_t>(e.count, 1);
+    return;
+  }
+  if (e.port >= ports_.size()) return;
+  Port& port = ports_[e.port];
+  const auto time = static_cast<std::uint64_t>(group_deadline_ns_);
+  const auto put = [&](std::uint32_t slot) {
+    port.tap->encode(slot, scratch_);
+    writer_->write(port.channel, group_number_, time, time, scratch_);
+  };
+  if (e.kind == read) {
+    fmt::format_to(std::back_inserter(group_reads_), "{}[{},{}]", group_reads_.empty() ? "" : ",", e.port, e.result);
+    if (e.count == 1) {
+      put(e.slot);
+      port.tap->release(1);
+    }
+  } else if (e.kind == read_many) {
+    fmt::format_to(std::back_inserter(group_reads_), "{}[{},{},{}]", group_reads_.empty() ? "" : ",", e.port, kMany,
+                   e.count);
+    for (std::uint32_t k = 0; k < e.count; ++k) put((e.slot + k) % options_.slots_per_port);
+    port.tap->release(e.count);
+  } else if (e.kind == write_datum) {
+    fmt::format_to(std::back_inserter(group_writes_), "{}{}", group_writes_.empty() ? "" : ",", e.port);
+    put(e.slot);
+    port.tap->release(1);
+  }
+}
+
+void CycleLog::end_group() {
+  if (!group_open_) return;
+  const std::string json = fmt::format(
+      R"({{"group":"{}","number":{},"cycle":{},"deadline_ns":{},"wake_ns":{},"period_ns":{},"reads":[{}],"writes":[{}],"lost":{}}})",
+      kGroupNames[group_kind_], group_number_, group_cycle_, group_deadline_ns_, group_wake_ns_, group_period_ns_,
+      group_reads_, group_writes_, group_lost_);
+  const auto time = static_cast<std::uint64_t>(group_deadline_ns_);
+  writer_->write(cycles_channel_, group_number_, time, time,
+                 std::span(reinterpret_cast<const std::uint8_t*>(json.data()), json.size()));
+  group_open_ = false;
+  ++group_number_;
+  group_reads_.clear();
+  group_writes_.clear();
+  group_lost_ = 0;
+}
+
+// ============================ the replay ===============================
+
+namespace {
+
+struct Group {
+  int kind = 0;  // Kind: start, cycle_begins, stop
+  std::uint32_t number = 0;
+  CycleContext ctx;
+  struct Read {
+    std::uint16_t port = 0;
+    int result = 0;  // ReadResult, or kMany
+    std::uint32_t count = 0;
+  };
+  std::vector<Read> reads;
+  std::vector<std::uint16_t> writes;
+  std::uint64_t lost = 0;
+};
+
+Group parse_group(const mcap::Message& m) {
+  const std::string text(m.data.begin(), m.data.end());
+  const auto fail = [&](const std::string& why) {
+    return std::runtime_error(fmt::format("group {} of the log is malformed: {}", m.sequence, why));
+  };
+  nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) throw fail("not a JSON object");
+  try {
+    Group g;
+    const std::string name = j.at("group").get<std::string>();
+    if (name == "start") g.kind = start;
+    else if (name == "cycle") g.kind = cycle_begins;
+    else if (name == "stop") g.kind = stop;
+    else throw fail("group \"" + name + "\" is none of start, cycle, stop");
+    g.number = j.at("number").get<std::uint32_t>();
+    g.ctx.cycle = j.at("cycle").get<std::uint64_t>();
+    g.ctx.deadline_ns = j.at("deadline_ns").get<std::int64_t>();
+    g.ctx.wake_ns = j.at("wake_ns").get<std::int64_t>();
+    g.ctx.period_ns = j.at("period_ns").get<std::int64_t>();
+    g.lost = j.at("lost").get<std::uint64_t>();
+    for (const auto& r : j.at("reads")) {
+      Group::Read read;
+      read.port = r.at(0).get<std::uint16_t>();
+      read.result = r.at(1).get<int>();
+      if (read.result == kMany) read.count = r.at(2).get<std::uint32_t>();
+      else if (read.result < 0 || read.result > 2) throw fail("a read result out of range");
+      g.reads.push_back(read);
+    }
+    for (const auto& w : j.at("writes")) g.writes.push_back(w.get<std::uint16_t>());
+    return g;
+  } catch (const nlohmann::json::exception& e) {
+    throw fail(e.what());
+  }
+}
+
+std::map<std::string, std::string> prefixed(const mcap::KeyValues& values, const std::string& prefix) {
+  std::map<std::string, std::string> out;
+  for (const auto& [key, value] : values)
+    if (key.starts_with(prefix)) out[key.substr(prefix.size())] = value;
+  return out;
+}
+
+}  // namespace
+
+CycleLogInfo read_cycle_log_info(const std::string& log) {
+  mcap::Reader reader(log);
+  CycleLogInfo info;
+  bool found = false;
+  for (const auto& m : reader.metadata()) {
+    if (m.name == kMetadata) {
+      found = true;
+      const auto component = m.values.find("component");
+      const auto kind = m.values.find("kind");
+      if (component == m.values.end() || kind == m.values.end())
+        throw std::runtime_error(log + ": its cycle-log metadata names no component");
+      info.component = component->second;
+      info.kind = kind->second;
+      info.parameters = prefixed(m.values, "parameter.");
+      info.access = prefixed(m.values, "access.");
+    } else if (m.name == kEndMetadata) {
+      info.parameters_at_end = prefixed(m.values, "parameter.");
+      const auto lost = m.values.find("lost");
+      if (lost != m.values.end()) info.lost = std::stoull(lost->second);
+    }
+  }
+  if (!found) throw std::runtime_error(log + ": not a cycle log (no " + std::string(kMetadata) + " metadata)");
+  return info;
+}
+
+ReplayResult replay_cycle_log(std::unique_ptr<Component> component, const std::string& log, const ReplayOptions& options) {
+  const CycleLogInfo info = read_cycle_log_info(log);
+  mcap::Reader reader(log);
+  ReplayResult result;
+  result.component = info.component;
+  if (component->name() != info.component)
+    throw std::runtime_error(fmt::format("the log is {}'s, the component built is {}", info.component, component->name()));
+
+  // The log's ports by key, and this component's ports for them.
+  struct Tapped {
+    std::string name;
+    bool in = false;
+    const mcap::Channel* channel = nullptr;
+    PortTap* tap = nullptr;
+    std::vector<const mcap::Message*> messages;  // in file order
+    std::size_t next = 0;
+    std::uint16_t output_channel = 0;
+  };
+  std::vector<Tapped> tapped;
+  std::map<std::uint16_t, std::size_t> by_channel;
+  const mcap::Channel* cycles = reader.channel(std::string(kCyclesTopic));
+  if (cycles == nullptr) throw std::runtime_error(log + ": not a cycle log (no \"cycles\" channel)");
+  for (const auto& c : reader.channels()) {
+    if (c.id == cycles->id) continue;
+    const auto dir = c.metadata.find("direction");
+    const auto tc_text = c.metadata.find("typecode");
+    if (dir == c.metadata.end() || tc_text == c.metadata.end())
+      throw std::runtime_error(log + ": channel " + c.topic + " says no direction or type");
+    by_channel[c.id] = tapped.size();
+    tapped.push_back({c.topic, dir->second == "in", &c, nullptr, {}, 0, 0});
+  }
+  // Keys are the ports in order, in ports first, as the log made them.
+  const auto& ins = component->in_ports();
+  const auto& outs = component->out_ports();
+  if (tapped.size() != ins.size() + outs.size())
+    throw std::runtime_error(fmt::format("the log has {} ports, {} has {}", tapped.size(), component->name(),
+                                         ins.size() + outs.size()));
+  std::vector<std::unique_ptr<PortTap>> taps;
+  for (std::size_t k = 0; k < tapped.size(); ++k) {
+    const bool in = k < ins.size();
+    const std::string name = in ? ins[k]->full_name() : outs[k - ins.size()]->full_name();
+    if (tapped[k].name != name || tapped[k].in != in)
+      throw std::runtime_error(fmt::format("the log's port {} is the {} {}; this build has {} in its place", k,
+                                           tapped[k].in ? "InPort" : "OutPort", tapped[k].name, name));
+    const CORBA::TypeCode_var logged = type_code_from_text(tapped[k].channel->metadata.at("typecode"));
+    CORBA::TypeCode_ptr own = in ? ins[k]->type_code() : outs[k - ins.size()]->type_code();  // not ours to release
+    if (!own->equivalent(logged))
+      throw std::runtime_error(fmt::format("{} carries {} here, {} in the log", name, type_name(own), type_name(logged)));
+    taps.push_back(in ? ins[k]->tap(nullptr, static_cast<std::uint16_t>(k), 0)
+                      : outs[k - ins.size()]->tap(nullptr, static_cast<std::uint16_t>(k), 0));
+    tapped[k].tap = taps.back().get();
+    if (!in) {
+      result.types[name] = CORBA::TypeCode::_duplicate(own);
+      const auto elements = tapped[k].channel->metadata.find("elements");
+      if (elements != tapped[k].channel->metadata.end()) result.elements[name] = split_words(elements->second);
+    }
+  }
+
+  // Everything, grouped: a channel's messages keep file order within a group.
+  const std::vector<mcap::Message> messages = reader.messages();
+  std::vector<Group> groups;
+  for (const auto& m : messages) {
+    if (m.channel_id == cycles->id) {
+      groups.push_back(parse_group(m));
+    } else if (const auto it = by_channel.find(m.channel_id); it != by_channel.end()) {
+      tapped[it->second].messages.push_back(&m);
+    }
+  }
+  std::stable_sort(groups.begin(), groups.end(), [](const Group& a, const Group& b) { return a.number < b.number; });
+  for (auto& t : tapped)
+    std::stable_sort(t.messages.begin(), t.messages.end(),
+                     [](const mcap::Message* a, const mcap::Message* b) { return a->sequence < b->sequence; });
+
+  std::unique_ptr<mcap::Writer> output;
+  if (!options.output.empty()) {
+    output = std::make_unique<mcap::Writer>(options.output);
+    output->add_metadata("rtm.replay", {{"component", info.component}, {"log", log}});
+    std::map<std::string, std::uint16_t> schemas;
+    for (auto& t : tapped) {
+      if (t.in) continue;
+      const mcap::Schema* schema = reader.schema(t.channel->schema_id);
+      if (schema == nullptr) throw std::runtime_error(log + ": channel " + t.name + " has no schema");
+      if (!schemas.contains(schema->name)) schemas[schema->name] = output->add_schema(schema->name, schema->encoding, schema->data);
+      t.output_channel = output->add_channel(schemas[schema->name], t.name, "cdr", t.channel->metadata);
+    }
+  }
+
+  // Built afresh with no activity; the logged parameters, then the caller's.
+  ComponentServant servant(std::move(component), ExternalTick{});
+  const auto untap = [&] {
+    for (InPortBase* port : servant.component().in_ports()) port->untap();
+    for (OutPortBase* port : servant.component().out_ports()) port->untap();
+  };
+  struct Untap {
+    std::function<void()> f;
+    ~Untap() { f(); }
+  } untap_at_end{untap};
+  std::map<std::string, std::string> access;
+  const auto built = parameter_values(servant, &access);
+  const auto set = [&](const std::string& name, const std::string& value, bool from_log) {
+    const auto a = access.find(name);
+    if (a == access.end()) {
+      if (from_log) result.warnings.push_back("the log has a parameter " + name + " this build does not: ignored");
+      else throw std::runtime_error(info.component + " has no parameter " + name);
+      return;
+    }
+    if (a->second == "fixed") {
+      if (built.at(name) != value)
+        throw std::runtime_error(fmt::format("{} is fixed at build: it was {} in the log, {} here (give it as the "
+                                             "component's option)", name, value, built.at(name)));
+      return;
+    }
+    try {
+      servant.set_parameter(name.c_str(), value.c_str());
+    } catch (const RTM::ParameterRefused& e) {
+      throw std::runtime_error(fmt::format("parameter {}={} refused: {}", name, value, e.reason.in()));
+    }
+  };
+  for (const auto& [name, value] : info.parameters)
+    if (!options.parameters.contains(name)) set(name, value, true);
+  for (const auto& [name, value] : options.parameters) set(name, value, false);
+  for (const auto& [name, value] : info.parameters_at_end) {
+    const auto at_start = info.parameters.find(name);
+    if (at_start != info.parameters.end() && at_start->second != value && !options.parameters.contains(name))
+      result.warnings.push_back(fmt::format("the run changed {} while on ({} at the start, {} at the end): the replay "
+                                            "uses {} throughout", name, at_start->second, value, at_start->second));
+  }
+
+  const CycleFunction step = servant.cycle_function();
+  bool have_span = false;
+  std::int64_t first_ns = 0, last_ns = 0;
+  const auto started = std::chrono::steady_clock::now();
+  for (const Group& g : groups) {
+    // Answers for its reads, in order.
+    bool malformed = false;
+    for (const auto& r : g.reads) {
+      if (r.port >= tapped.size() || !tapped[r.port].in) {
+        malformed = true;
+        break;
+      }
+      Tapped& t = tapped[r.port];
+      const auto take = [&]() -> std::span<const std::uint8_t> {
+        if (t.next >= t.messages.size() || t.messages[t.next]->sequence != g.number) {
+          malformed = true;
+          return {};
+        }
+        return t.messages[t.next++]->data;
+      };
+      if (r.result == kMany) {
+        std::vector<std::span<const std::uint8_t>> values;
+        for (std::uint32_t k = 0; k < r.count; ++k) values.push_back(take());
+        if (!malformed) t.tap->answer_read_many(values);
+      } else {
+        const auto value = r.result == static_cast<int>(ReadResult::NewData) ? take() : std::span<const std::uint8_t>{};
+        if (!malformed) t.tap->answer_read(static_cast<ReadResult>(r.result), value);
+      }
+      if (malformed) break;
+    }
+    if (malformed) throw std::runtime_error(fmt::format("group {} of the log names data it does not hold", g.number));
+    // The step itself.
+    if (g.kind == start) {
+      servant.on();
+    } else if (g.kind == stop) {
+      servant.off();
+    } else {
+      ++result.cycles;
+      if (!have_span) first_ns = g.ctx.deadline_ns;
+      have_span = true;
+      last_ns = g.ctx.deadline_ns;
+      if (!step(g.ctx))
+        throw std::runtime_error(fmt::format("{} failed in cycle {}: {}", info.component, g.ctx.cycle, servant.error_text()));
+    }
+    // Its writes against the logged ones.
+    for (auto& t : tapped) {
+      if (t.in) {
+        result.unanswered_reads += t.tap->unanswered();
+        result.unused_answers += t.tap->unused_answers();
+        t.tap->clear();
+        continue;
+      }
+      const auto replayed = t.tap->take_written();
+      std::vector<const mcap::Message*> logged;
+      while (t.next < t.messages.size() && t.messages[t.next]->sequence == g.number) logged.push_back(t.messages[t.next++]);
+      if (output)
+        for (const auto& bytes : replayed) {
+          const auto time = static_cast<std::uint64_t>(g.ctx.deadline_ns);
+          output->write(t.output_channel, g.number, time, time, bytes);
+        }
+      if (g.lost > 0) continue;
+      const std::size_t n = std::max(replayed.size(), logged.size());
+      for (std::size_t i = 0; i < n; ++i) {
+        ++result.writes;
+        const bool same = i < replayed.size() && i < logged.size() &&
+                          std::equal(replayed[i].begin(), replayed[i].end(), logged[i]->data.begin(), logged[i]->data.end());
+        if (same) continue;
+        ++result.differing;
+        if (result.mismatches.size() >= options.keep) continue;
+        ReplayMismatch mm;
+        mm.port = t.name;
+        mm.cycle = g.ctx.cycle;
+        mm.group = kGroupNames[g.kind];
+        mm.deadline_ns = g.ctx.deadline_ns;
+        mm.index = i;
+        if (i < logged.size()) mm.logged = logged[i]->data;
+        if (i < replayed.size()) mm.replayed = replayed[i];
+        result.mismatches.push_back(std::move(mm));
+      }
+    }
+    if (g.lost > 0) ++result.unjudged;
+  }
+  if (servant.current_state() == RTM::COMPONENT_ON) servant.off();  // a log that ends with no stop
+  result.replay_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  result.logged_span_ns = last_ns - first_ns;
+  if (info.lost > 0) result.warnings.push_back(fmt::format("the log lost {} events or data while it was written", info.lost));
+  if (output) output->close();
+  return result;
+}
+
+}  // namespace rtm
