@@ -52,7 +52,8 @@ CycleLog::CycleLog(ComponentServant& servant, const std::string& path, CycleLogO
   std::uint16_t key = 0;
   const auto words = [](const PortInfo& info, bool units) {
     std::string out;
-    for (const auto& e : info.elements) out += (out.empty() ? "" : " ") + (units ? (e.unit.empty() ? "-" : e.unit) : e.name);
+    for (std::size_t i = 0; i < info.elements.size(); ++i)  // as rtm record writes them
+      out += (i == 0 ? "" : ",") + (units ? info.elements[i].unit : info.elements[i].name);
     return out;
   };
   std::vector<std::pair<std::string, std::string>> described;
@@ -476,12 +477,15 @@ ReplayResult replay_cycle_log(std::unique_ptr<Component> component, const std::s
       throw std::runtime_error(fmt::format("parameter {}={} refused: {}", name, value, e.reason.in()));
     }
   };
+  const auto chosen = [&](const std::string& name) {
+    return options.parameters.contains(name) || options.keep_built.contains(name);
+  };
   for (const auto& [name, value] : info.parameters)
-    if (!options.parameters.contains(name)) set(name, value, true);
+    if (!chosen(name)) set(name, value, true);
   for (const auto& [name, value] : options.parameters) set(name, value, false);
   for (const auto& [name, value] : info.parameters_at_end) {
     const auto at_start = info.parameters.find(name);
-    if (at_start != info.parameters.end() && at_start->second != value && !options.parameters.contains(name))
+    if (at_start != info.parameters.end() && at_start->second != value && !chosen(name))
       result.warnings.push_back(fmt::format("the run changed {} while on ({} at the start, {} at the end): the replay "
                                             "uses {} throughout", name, at_start->second, value, at_start->second));
   }

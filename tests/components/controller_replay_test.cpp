@@ -10,6 +10,7 @@
 #include "mcap/reader.h"
 #include "mcap/writer.h"
 #include "rtm/cdr.h"
+#include "rtm_test/allocation_counter.h"
 #include "rtm_test/orb_environment.h"
 #include "rtm_test/temp_dir.h"
 
@@ -187,6 +188,29 @@ TEST_F(ControllerReplay, ALogCutShortOrNotALogIsRefusedWithTheReason) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("not a cycle log"), std::string::npos) << e.what();
   }
+}
+
+// Logging takes nothing from the cycle but a copy: no allocation on the cycle's thread, once
+// running (the controller's own warnings aside: its inputs stay fresh here).
+TEST_F(ControllerReplay, ALoggedCycleAllocatesNothing) {
+  rtm::ComponentServant servant(controller(), rtm::ExternalTick{});
+  auto& c = static_cast<Controller&>(servant.component());
+  rtm::CycleLog cycle_log(servant, dir_.file("controller.mcap"));
+  servant.on();
+  const rtm::CycleFunction step = servant.cycle_function();
+  std::uint64_t allocations = 0;
+  for (std::uint64_t k = 0; k < 400; ++k) {
+    const auto w = float6({1, 2, -9, 0, 0, 0}, 5'000'000'000 + static_cast<std::int64_t>(k) * kPeriod);
+    c.sensor_in().deliver(w);
+    c.reference_in().deliver(float6({0, 0, 10, 0, 0, 0}, w.tm.sec * 1'000'000'000LL + w.tm.nsec));
+    const std::uint64_t before = rtm_test::allocations_on_this_thread();
+    ASSERT_TRUE(step(context(k)));
+    if (k >= 10) allocations += rtm_test::allocations_on_this_thread() - before;
+  }
+  servant.off();
+  EXPECT_EQ(c.counters().commands, 400u);
+  EXPECT_EQ(allocations, 0u) << "allocations in 390 logged cycles";
+  EXPECT_EQ(cycle_log.lost(), 0u);
 }
 
 // A component that writes more in one cycle than the log keeps slots for: what the log could not

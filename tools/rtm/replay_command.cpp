@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/logger.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <stdexcept>
@@ -121,6 +122,12 @@ int ReplayCommand::run(bool json_output) const {
     throw std::invalid_argument(fmt::format("{} makes a {}; the log is of a {} ({})", program, component->kind(),
                                             info.kind, info.component));
   ReplayOptions replay_options;
+  for (const CLI::Option* option : options.get_options()) {  // --stale-periods: the parameter stale_periods
+    if (option->count() == 0 || option->get_lnames().empty()) continue;
+    std::string name = option->get_lnames().front();
+    std::replace(name.begin(), name.end(), '-', '_');
+    replay_options.keep_built.insert(name);
+  }
   replay_options.output = output;
   replay_options.parameters = parameter_settings(set);
   replay_options.keep = 100'000;

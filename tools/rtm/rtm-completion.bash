@@ -14,7 +14,7 @@ _rtm_ports() {
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat set connect disconnect on off reset get put watch record play up down names serve tls new demo"
+  local commands="ls cat set connect disconnect on off reset get put watch record play replay up down names serve tls new demo"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
@@ -68,6 +68,15 @@ _rtm() {
     play)
       if [[ $cur == -* ]]; then
         COMPREPLY=($(compgen -W "--map --rate --loop --from --to --keep-stamps --spin-us" -- "$cur"))
+      else
+        COMPREPLY=($(compgen -f -X '!*.mcap' -- "$cur"))
+      fi
+      ;;
+    replay)
+      if [[ $cur == -* ]]; then
+        COMPREPLY=($(compgen -W "-o --output --set --show" -- "$cur"))
+      elif [[ $prev == replay ]]; then
+        COMPREPLY=($(compgen -c -- "$cur" | grep '^rtm-'; compgen -f -- "$cur"))
       else
         COMPREPLY=($(compgen -f -X '!*.mcap' -- "$cur"))
       fi

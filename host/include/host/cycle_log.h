@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <map>
 #include <mutex>
+#include <set>
 #include <memory>
 #include <string>
 #include <thread>
@@ -160,6 +161,8 @@ struct ReplayOptions {
   // Set before on(), after the logged ones (a parameter fixed at build time is checked against
   // the logged value instead: a difference is an error naming it).
   std::map<std::string, std::string> parameters;
+  // Parameters the component was built with on purpose (its options): kept, not set from the log.
+  std::set<std::string> keep_built;
   std::size_t keep = 1000;  // mismatches kept in the result
 };
 
