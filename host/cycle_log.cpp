@@ -359,207 +359,238 @@ CycleLogInfo read_cycle_log_info(const std::string& log) {
   return info;
 }
 
-ReplayResult replay_cycle_log(std::unique_ptr<Component> component, const std::string& log, const ReplayOptions& options) {
-  const CycleLogInfo info = read_cycle_log_info(log);
-  mcap::Reader reader(log);
-  ReplayResult result;
-  result.component = info.component;
-  if (component->name() != info.component)
-    throw std::runtime_error(fmt::format("the log is {}'s, the component built is {}", info.component, component->name()));
+namespace {
 
-  // The log's ports by key, and this component's ports for them.
-  struct Tapped {
-    std::string name;
-    bool in = false;
-    const mcap::Channel* channel = nullptr;
-    PortTap* tap = nullptr;
-    std::vector<const mcap::Message*> messages;  // in file order
-    std::size_t next = 0;
-    std::uint16_t output_channel = 0;
-  };
-  std::vector<Tapped> tapped;
-  std::map<std::uint16_t, std::size_t> by_channel;
-  const mcap::Channel* cycles = reader.channel(std::string(kCyclesTopic));
-  if (cycles == nullptr) throw std::runtime_error(log + ": not a cycle log (no \"cycles\" channel)");
-  for (const auto& c : reader.channels()) {
-    if (c.id == cycles->id) continue;
-    const auto dir = c.metadata.find("direction");
-    const auto tc_text = c.metadata.find("typecode");
-    if (dir == c.metadata.end() || tc_text == c.metadata.end())
-      throw std::runtime_error(log + ": channel " + c.topic + " says no direction or type");
-    by_channel[c.id] = tapped.size();
-    tapped.push_back({c.topic, dir->second == "in", &c, nullptr, {}, 0, 0});
+// One of the log's ports, and the component's tap in its place.
+struct Tapped {
+  std::string name;
+  bool in = false;
+  const mcap::Channel* channel = nullptr;
+  PortTap* tap = nullptr;
+  std::vector<const mcap::Message*> messages;  // by group, each group's in file order
+  std::size_t next = 0;
+  std::uint16_t output_channel = 0;
+};
+
+// A replay: the log read whole, the component built afresh with no activity, the log's groups
+// stepped through one by one.
+class Replay {
+ public:
+  Replay(std::unique_ptr<Component> component, const std::string& log, const ReplayOptions& options)
+      : log_(log), options_(options), info_(read_cycle_log_info(log)), reader_(log) {
+    result_.component = info_.component;
+    if (component->name() != info_.component)
+      throw std::runtime_error(fmt::format("the log is {}'s, the component built is {}", info_.component, component->name()));
+    read_ports(*component);
+    servant_ = std::make_unique<ComponentServant>(std::move(component), ExternalTick{});
+    tap_ports();
+    read_groups();
   }
-  // Keys are the ports in order, in ports first, as the log made them.
-  const auto& ins = component->in_ports();
-  const auto& outs = component->out_ports();
-  if (tapped.size() != ins.size() + outs.size())
-    throw std::runtime_error(fmt::format("the log has {} ports, {} has {}", tapped.size(), component->name(),
-                                         ins.size() + outs.size()));
-  std::vector<std::unique_ptr<PortTap>> taps;
-  for (std::size_t k = 0; k < tapped.size(); ++k) {
-    const bool in = k < ins.size();
-    const std::string name = in ? ins[k]->full_name() : outs[k - ins.size()]->full_name();
-    if (tapped[k].name != name || tapped[k].in != in)
-      throw std::runtime_error(fmt::format("the log's port {} is the {} {}; this build has {} in its place", k,
-                                           tapped[k].in ? "InPort" : "OutPort", tapped[k].name, name));
-    const CORBA::TypeCode_var logged = type_code_from_text(tapped[k].channel->metadata.at("typecode"));
-    CORBA::TypeCode_ptr own = in ? ins[k]->type_code() : outs[k - ins.size()]->type_code();  // not ours to release
-    if (!own->equivalent(logged))
-      throw std::runtime_error(fmt::format("{} carries {} here, {} in the log", name, type_name(own), type_name(logged)));
-    taps.push_back(in ? ins[k]->tap(nullptr, static_cast<std::uint16_t>(k), 0)
-                      : outs[k - ins.size()]->tap(nullptr, static_cast<std::uint16_t>(k), 0));
-    tapped[k].tap = taps.back().get();
-    if (!in) {
-      result.types[name] = CORBA::TypeCode::_duplicate(own);
-      const auto elements = tapped[k].channel->metadata.find("elements");
-      if (elements != tapped[k].channel->metadata.end()) result.elements[name] = split_words(elements->second);
+  ~Replay() {
+    if (!servant_) return;
+    for (InPortBase* port : servant_->component().in_ports()) port->untap();
+    for (OutPortBase* port : servant_->component().out_ports()) port->untap();
+  }
+  Replay(const Replay&) = delete;
+  Replay& operator=(const Replay&) = delete;
+
+  ReplayResult run() {
+    open_output();
+    set_parameters();
+    const CycleFunction step = servant_->cycle_function();
+    bool have_span = false;
+    std::int64_t first_ns = 0, last_ns = 0;
+    const auto started = std::chrono::steady_clock::now();
+    for (const Group& g : groups_) {
+      answer_reads(g);
+      if (g.kind == start) {
+        servant_->on();
+      } else if (g.kind == stop) {
+        servant_->off();
+      } else {
+        ++result_.cycles;
+        if (!have_span) first_ns = g.ctx.deadline_ns;
+        have_span = true;
+        last_ns = g.ctx.deadline_ns;
+        if (!step(g.ctx))
+          throw std::runtime_error(
+              fmt::format("{} failed in cycle {}: {}", info_.component, g.ctx.cycle, servant_->error_text()));
+      }
+      compare_writes(g);
+    }
+    if (servant_->current_state() == RTM::COMPONENT_ON) servant_->off();  // a log that ends with no stop
+    result_.replay_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    result_.logged_span_ns = last_ns - first_ns;
+    if (info_.lost > 0) result_.warnings.push_back(fmt::format("the log lost {} events or data while it was written", info_.lost));
+    if (output_) output_->close();
+    return std::move(result_);
+  }
+
+ private:
+  // The log's channels, keyed as the log made them (in ports first, in order), against the
+  // component's ports: the same names, directions and types.
+  void read_ports(Component& component) {
+    const mcap::Channel* cycles = reader_.channel(std::string(kCyclesTopic));
+    if (cycles == nullptr) throw std::runtime_error(log_ + ": not a cycle log (no \"cycles\" channel)");
+    cycles_id_ = cycles->id;
+    for (const auto& c : reader_.channels()) {
+      if (c.id == cycles_id_) continue;
+      const auto dir = c.metadata.find("direction");
+      if (dir == c.metadata.end() || !c.metadata.contains("typecode"))
+        throw std::runtime_error(log_ + ": channel " + c.topic + " says no direction or type");
+      by_channel_[c.id] = tapped_.size();
+      tapped_.push_back({c.topic, dir->second == "in", &c, nullptr, {}, 0, 0});
+    }
+    const auto& ins = component.in_ports();
+    const auto& outs = component.out_ports();
+    if (tapped_.size() != ins.size() + outs.size())
+      throw std::runtime_error(fmt::format("the log has {} ports, {} has {}", tapped_.size(), component.name(),
+                                           ins.size() + outs.size()));
+    for (std::size_t k = 0; k < tapped_.size(); ++k) {
+      const bool in = k < ins.size();
+      const std::string name = in ? ins[k]->full_name() : outs[k - ins.size()]->full_name();
+      if (tapped_[k].name != name || tapped_[k].in != in)
+        throw std::runtime_error(fmt::format("the log's port {} is the {} {}; this build has {} in its place", k,
+                                             tapped_[k].in ? "InPort" : "OutPort", tapped_[k].name, name));
+      const CORBA::TypeCode_var logged = type_code_from_text(tapped_[k].channel->metadata.at("typecode"));
+      CORBA::TypeCode_ptr own = in ? ins[k]->type_code() : outs[k - ins.size()]->type_code();  // not ours to release
+      if (!own->equivalent(logged))
+        throw std::runtime_error(fmt::format("{} carries {} here, {} in the log", name, type_name(own), type_name(logged)));
+      if (in) continue;
+      result_.types[name] = CORBA::TypeCode::_duplicate(own);
+      const auto elements = tapped_[k].channel->metadata.find("elements");
+      if (elements != tapped_[k].channel->metadata.end()) result_.elements[name] = split_words(elements->second);
+    }
+  }
+
+  void tap_ports() {
+    Component& component = servant_->component();
+    const auto& ins = component.in_ports();
+    const auto& outs = component.out_ports();
+    for (std::size_t k = 0; k < tapped_.size(); ++k) {
+      const auto key = static_cast<std::uint16_t>(k);
+      taps_.push_back(k < ins.size() ? ins[k]->tap(nullptr, key, 0) : outs[k - ins.size()]->tap(nullptr, key, 0));
+      tapped_[k].tap = taps_.back().get();
     }
   }
 
   // Everything, grouped: a channel's messages keep file order within a group.
-  const std::vector<mcap::Message> messages = reader.messages();
-  std::vector<Group> groups;
-  for (const auto& m : messages) {
-    if (m.channel_id == cycles->id) {
-      groups.push_back(parse_group(m));
-    } else if (const auto it = by_channel.find(m.channel_id); it != by_channel.end()) {
-      tapped[it->second].messages.push_back(&m);
-    }
-  }
-  std::stable_sort(groups.begin(), groups.end(), [](const Group& a, const Group& b) { return a.number < b.number; });
-  for (auto& t : tapped)
-    std::stable_sort(t.messages.begin(), t.messages.end(),
-                     [](const mcap::Message* a, const mcap::Message* b) { return a->sequence < b->sequence; });
-
-  std::unique_ptr<mcap::Writer> output;
-  if (!options.output.empty()) {
-    output = std::make_unique<mcap::Writer>(options.output);
-    output->add_metadata("rtm.replay", {{"component", info.component}, {"log", log}});
-    std::map<std::string, std::uint16_t> schemas;
-    for (auto& t : tapped) {
-      if (t.in) continue;
-      const mcap::Schema* schema = reader.schema(t.channel->schema_id);
-      if (schema == nullptr) throw std::runtime_error(log + ": channel " + t.name + " has no schema");
-      if (!schemas.contains(schema->name)) schemas[schema->name] = output->add_schema(schema->name, schema->encoding, schema->data);
-      t.output_channel = output->add_channel(schemas[schema->name], t.name, "cdr", t.channel->metadata);
-    }
-  }
-
-  // Built afresh with no activity; the logged parameters, then the caller's.
-  ComponentServant servant(std::move(component), ExternalTick{});
-  const auto untap = [&] {
-    for (InPortBase* port : servant.component().in_ports()) port->untap();
-    for (OutPortBase* port : servant.component().out_ports()) port->untap();
-  };
-  struct Untap {
-    std::function<void()> f;
-    ~Untap() { f(); }
-  } untap_at_end{untap};
-  std::map<std::string, std::string> access;
-  const auto built = parameter_values(servant, &access);
-  const auto set = [&](const std::string& name, const std::string& value, bool from_log) {
-    const auto a = access.find(name);
-    if (a == access.end()) {
-      if (from_log) result.warnings.push_back("the log has a parameter " + name + " this build does not: ignored");
-      else throw std::runtime_error(info.component + " has no parameter " + name);
-      return;
-    }
-    if (a->second == "fixed") {
-      if (built.at(name) != value)
-        throw std::runtime_error(fmt::format("{} is fixed at build: it was {} in the log, {} here (give it as the "
-                                             "component's option)", name, value, built.at(name)));
-      return;
-    }
-    try {
-      servant.set_parameter(name.c_str(), value.c_str());
-    } catch (const RTM::ParameterRefused& e) {
-      throw std::runtime_error(fmt::format("parameter {}={} refused: {}", name, value, e.reason.in()));
-    }
-  };
-  const auto chosen = [&](const std::string& name) {
-    return options.parameters.contains(name) || options.keep_built.contains(name);
-  };
-  for (const auto& [name, value] : info.parameters)
-    if (!chosen(name)) set(name, value, true);
-  for (const auto& [name, value] : options.parameters) set(name, value, false);
-  for (const auto& [name, value] : info.parameters_at_end) {
-    const auto at_start = info.parameters.find(name);
-    if (at_start != info.parameters.end() && at_start->second != value && !chosen(name))
-      result.warnings.push_back(fmt::format("the run changed {} while on ({} at the start, {} at the end): the replay "
-                                            "uses {} throughout", name, at_start->second, value, at_start->second));
-  }
-
-  const CycleFunction step = servant.cycle_function();
-  bool have_span = false;
-  std::int64_t first_ns = 0, last_ns = 0;
-  const auto started = std::chrono::steady_clock::now();
-  for (const Group& g : groups) {
-    // Answers for its reads, in order.
-    bool malformed = false;
-    for (const auto& r : g.reads) {
-      if (r.port >= tapped.size() || !tapped[r.port].in) {
-        malformed = true;
-        break;
+  void read_groups() {
+    messages_ = reader_.messages();
+    for (const auto& m : messages_) {
+      if (m.channel_id == cycles_id_) {
+        groups_.push_back(parse_group(m));
+      } else if (const auto it = by_channel_.find(m.channel_id); it != by_channel_.end()) {
+        tapped_[it->second].messages.push_back(&m);
       }
-      Tapped& t = tapped[r.port];
+    }
+    std::stable_sort(groups_.begin(), groups_.end(), [](const Group& a, const Group& b) { return a.number < b.number; });
+    for (auto& t : tapped_)
+      std::stable_sort(t.messages.begin(), t.messages.end(),
+                       [](const mcap::Message* a, const mcap::Message* b) { return a->sequence < b->sequence; });
+  }
+
+  void open_output() {
+    if (options_.output.empty()) return;
+    output_ = std::make_unique<mcap::Writer>(options_.output);
+    output_->add_metadata("rtm.replay", {{"component", info_.component}, {"log", log_}});
+    std::map<std::string, std::uint16_t> schemas;
+    for (auto& t : tapped_) {
+      if (t.in) continue;
+      const mcap::Schema* schema = reader_.schema(t.channel->schema_id);
+      if (schema == nullptr) throw std::runtime_error(log_ + ": channel " + t.name + " has no schema");
+      if (!schemas.contains(schema->name))
+        schemas[schema->name] = output_->add_schema(schema->name, schema->encoding, schema->data);
+      t.output_channel = output_->add_channel(schemas[schema->name], t.name, "cdr", t.channel->metadata);
+    }
+  }
+
+  // The logged parameters, then the caller's; one fixed at build is checked, not set.
+  void set_parameters() {
+    std::map<std::string, std::string> access;
+    const auto built = parameter_values(*servant_, &access);
+    const auto set = [&](const std::string& name, const std::string& value, bool from_log) {
+      const auto a = access.find(name);
+      if (a == access.end()) {
+        if (!from_log) throw std::runtime_error(info_.component + " has no parameter " + name);
+        result_.warnings.push_back("the log has a parameter " + name + " this build does not: ignored");
+        return;
+      }
+      if (a->second == "fixed") {
+        if (built.at(name) != value)
+          throw std::runtime_error(fmt::format("{} is fixed at build: it was {} in the log, {} here (give it as the "
+                                               "component's option)", name, value, built.at(name)));
+        return;
+      }
+      try {
+        servant_->set_parameter(name.c_str(), value.c_str());
+      } catch (const RTM::ParameterRefused& e) {
+        throw std::runtime_error(fmt::format("parameter {}={} refused: {}", name, value, e.reason.in()));
+      }
+    };
+    const auto chosen = [&](const std::string& name) {
+      return options_.parameters.contains(name) || options_.keep_built.contains(name);
+    };
+    for (const auto& [name, value] : info_.parameters)
+      if (!chosen(name)) set(name, value, true);
+    for (const auto& [name, value] : options_.parameters) set(name, value, false);
+    for (const auto& [name, value] : info_.parameters_at_end) {
+      const auto at_start = info_.parameters.find(name);
+      if (at_start != info_.parameters.end() && at_start->second != value && !chosen(name))
+        result_.warnings.push_back(fmt::format("the run changed {} while on ({} at the start, {} at the end): the "
+                                               "replay uses {} throughout", name, at_start->second, value,
+                                               at_start->second));
+    }
+  }
+
+  // The group's reads answered, in order, from the log.
+  void answer_reads(const Group& g) {
+    const auto malformed = [&] {
+      return std::runtime_error(fmt::format("group {} of the log names data it does not hold", g.number));
+    };
+    for (const auto& r : g.reads) {
+      if (r.port >= tapped_.size() || !tapped_[r.port].in) throw malformed();
+      Tapped& t = tapped_[r.port];
       const auto take = [&]() -> std::span<const std::uint8_t> {
-        if (t.next >= t.messages.size() || t.messages[t.next]->sequence != g.number) {
-          malformed = true;
-          return {};
-        }
+        if (t.next >= t.messages.size() || t.messages[t.next]->sequence != g.number) throw malformed();
         return t.messages[t.next++]->data;
       };
       if (r.result == kMany) {
         std::vector<std::span<const std::uint8_t>> values;
         for (std::uint32_t k = 0; k < r.count; ++k) values.push_back(take());
-        if (!malformed) t.tap->answer_read_many(values);
+        t.tap->answer_read_many(values);
       } else {
         const auto value = r.result == static_cast<int>(ReadResult::NewData) ? take() : std::span<const std::uint8_t>{};
-        if (!malformed) t.tap->answer_read(static_cast<ReadResult>(r.result), value);
+        t.tap->answer_read(static_cast<ReadResult>(r.result), value);
       }
-      if (malformed) break;
     }
-    if (malformed) throw std::runtime_error(fmt::format("group {} of the log names data it does not hold", g.number));
-    // The step itself.
-    if (g.kind == start) {
-      servant.on();
-    } else if (g.kind == stop) {
-      servant.off();
-    } else {
-      ++result.cycles;
-      if (!have_span) first_ns = g.ctx.deadline_ns;
-      have_span = true;
-      last_ns = g.ctx.deadline_ns;
-      if (!step(g.ctx))
-        throw std::runtime_error(fmt::format("{} failed in cycle {}: {}", info.component, g.ctx.cycle, servant.error_text()));
-    }
-    // Its writes against the logged ones.
-    for (auto& t : tapped) {
+  }
+
+  // The group's writes against the logged ones (not for a group the log lost part of).
+  void compare_writes(const Group& g) {
+    for (auto& t : tapped_) {
       if (t.in) {
-        result.unanswered_reads += t.tap->unanswered();
-        result.unused_answers += t.tap->unused_answers();
+        result_.unanswered_reads += t.tap->unanswered();
+        result_.unused_answers += t.tap->unused_answers();
         t.tap->clear();
         continue;
       }
       const auto replayed = t.tap->take_written();
       std::vector<const mcap::Message*> logged;
       while (t.next < t.messages.size() && t.messages[t.next]->sequence == g.number) logged.push_back(t.messages[t.next++]);
-      if (output)
-        for (const auto& bytes : replayed) {
-          const auto time = static_cast<std::uint64_t>(g.ctx.deadline_ns);
-          output->write(t.output_channel, g.number, time, time, bytes);
-        }
+      const auto time = static_cast<std::uint64_t>(g.ctx.deadline_ns);
+      if (output_)
+        for (const auto& bytes : replayed) output_->write(t.output_channel, g.number, time, time, bytes);
       if (g.lost > 0) continue;
       const std::size_t n = std::max(replayed.size(), logged.size());
       for (std::size_t i = 0; i < n; ++i) {
-        ++result.writes;
-        const bool same = i < replayed.size() && i < logged.size() &&
-                          std::equal(replayed[i].begin(), replayed[i].end(), logged[i]->data.begin(), logged[i]->data.end());
-        if (same) continue;
-        ++result.differing;
-        if (result.mismatches.size() >= options.keep) continue;
-        ReplayMismatch mm;
+        ++result_.writes;
+        if (i < replayed.size() && i < logged.size() &&
+            std::equal(replayed[i].begin(), replayed[i].end(), logged[i]->data.begin(), logged[i]->data.end()))
+          continue;
+        ++result_.differing;
+        if (result_.mismatches.size() >= options_.keep) continue;
+        ReplayMismatch& mm = result_.mismatches.emplace_back();
         mm.port = t.name;
         mm.cycle = g.ctx.cycle;
         mm.group = kGroupNames[g.kind];
@@ -567,17 +598,31 @@ ReplayResult replay_cycle_log(std::unique_ptr<Component> component, const std::s
         mm.index = i;
         if (i < logged.size()) mm.logged = logged[i]->data;
         if (i < replayed.size()) mm.replayed = replayed[i];
-        result.mismatches.push_back(std::move(mm));
       }
     }
-    if (g.lost > 0) ++result.unjudged;
+    if (g.lost > 0) ++result_.unjudged;
   }
-  if (servant.current_state() == RTM::COMPONENT_ON) servant.off();  // a log that ends with no stop
-  result.replay_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  result.logged_span_ns = last_ns - first_ns;
-  if (info.lost > 0) result.warnings.push_back(fmt::format("the log lost {} events or data while it was written", info.lost));
-  if (output) output->close();
-  return result;
+
+  std::string log_;
+  const ReplayOptions& options_;
+  CycleLogInfo info_;
+  mcap::Reader reader_;
+  std::uint16_t cycles_id_ = 0;
+  std::vector<Tapped> tapped_;
+  std::map<std::uint16_t, std::size_t> by_channel_;
+  std::vector<mcap::Message> messages_;
+  std::vector<Group> groups_;
+  std::vector<std::unique_ptr<PortTap>> taps_;  // outlive the servant's ports' use of them
+  std::unique_ptr<ComponentServant> servant_;
+  std::unique_ptr<mcap::Writer> output_;
+  ReplayResult result_;
+};
+
+}  // namespace
+
+ReplayResult replay_cycle_log(std::unique_ptr<Component> component, const std::string& log, const ReplayOptions& options) {
+  Replay replay(std::move(component), log, options);
+  return replay.run();
 }
 
 }  // namespace rtm

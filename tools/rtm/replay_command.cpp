@@ -95,10 +95,13 @@ void ReplayCommand::add_to(CLI::App& parent) {
   app->add_option("--show", show, "mismatches to list (0: none)")->capture_default_str();
 }
 
-int ReplayCommand::run(bool json_output) const {
-  const CycleLogInfo info = read_cycle_log_info(log);
-  const ComponentModule& module = load_component_module(program);
-  const ComponentMain main = module.make();
+namespace {
+
+// The component as the log's program builds it, named as logged, with the options after --;
+// replay_options.keep_built gets the parameters those options set.
+std::unique_ptr<Component> build(const std::string& program, const std::vector<std::string>& component_args,
+                                 const CycleLogInfo& info, ReplayOptions& replay_options) {
+  const ComponentMain main = load_component_module(program).make();
   if (!main.kind.empty() && main.kind != info.kind)
     throw std::invalid_argument(fmt::format("{} makes a {}; the log is of a {} ({})", program, main.kind, info.kind,
                                             info.component));
@@ -116,52 +119,47 @@ int ReplayCommand::run(bool json_output) const {
     throw std::invalid_argument(fmt::format("{}'s options after --: {}", program, e.what()));
   }
   if (main.validate) main.validate(settings);
-  rtm::Orb orb;  // the encodings' code sets; no naming service, no endpoint used
   auto component = main.create(settings);
   if (component->kind() != info.kind)
     throw std::invalid_argument(fmt::format("{} makes a {}; the log is of a {} ({})", program, component->kind(),
                                             info.kind, info.component));
-  ReplayOptions replay_options;
   for (const CLI::Option* option : options.get_options()) {  // --stale-periods: the parameter stale_periods
     if (option->count() == 0 || option->get_lnames().empty()) continue;
     std::string name = option->get_lnames().front();
     std::replace(name.begin(), name.end(), '-', '_');
     replay_options.keep_built.insert(name);
   }
-  replay_options.output = output;
-  replay_options.parameters = parameter_settings(set);
-  replay_options.keep = 100'000;
-  // What the component logs while replayed (an input going stale, ...) it logged in the run too.
-  const auto level = rtm::log().level();
-  rtm::log().set_level(spdlog::level::err);
-  const ReplayResult result = replay_cycle_log(std::move(component), log, replay_options);
-  rtm::log().set_level(level);
-  const double logged_s = static_cast<double>(result.logged_span_ns) / 1e9;
-  const double speed = result.replay_seconds > 0 ? logged_s / result.replay_seconds : 0;
-  const auto by_port = differences(result);
+  return component;
+}
 
-  if (json_output) {
-    json ports = json::object();
-    for (const auto& [port, d] : by_port) {
-      json elements = json::array();
-      for (std::size_t i = 0; i < d.largest.size(); ++i)
-        elements.push_back({{"element", i < d.labels.size() ? d.labels[i] : std::to_string(i)},
-                            {"largest_difference", d.largest[i]},
-                            {"at_cycle", d.at_cycle[i]}});
-      ports[port] = {{"differing", d.differing}, {"one_sided", d.one_sided}, {"first_cycle", d.first->cycle},
-                     {"elements", elements}};
-    }
-    fmt::print("{}\n", json{{"component", result.component}, {"cycles", result.cycles}, {"logged_seconds", logged_s},
-                            {"replay_seconds", result.replay_seconds}, {"times_real_time", speed},
-                            {"writes", result.writes}, {"differing", result.differing}, {"unjudged", result.unjudged},
-                            {"unanswered_reads", result.unanswered_reads}, {"unused_answers", result.unused_answers},
-                            {"ports", ports}, {"warnings", result.warnings}}
-                           .dump());
-    return result.differing == 0 ? 0 : 1;
+double times_real_time(const ReplayResult& result) {
+  return result.replay_seconds > 0 ? static_cast<double>(result.logged_span_ns) / 1e9 / result.replay_seconds : 0;
+}
+
+void print_json(const ReplayResult& result, const std::map<std::string, PortDifference>& by_port) {
+  json ports = json::object();
+  for (const auto& [port, d] : by_port) {
+    json elements = json::array();
+    for (std::size_t i = 0; i < d.largest.size(); ++i)
+      elements.push_back({{"element", i < d.labels.size() ? d.labels[i] : std::to_string(i)},
+                          {"largest_difference", d.largest[i]},
+                          {"at_cycle", d.at_cycle[i]}});
+    ports[port] = {{"differing", d.differing}, {"one_sided", d.one_sided}, {"first_cycle", d.first->cycle},
+                   {"elements", elements}};
   }
+  fmt::print("{}\n", json{{"component", result.component}, {"cycles", result.cycles},
+                          {"logged_seconds", static_cast<double>(result.logged_span_ns) / 1e9},
+                          {"replay_seconds", result.replay_seconds}, {"times_real_time", times_real_time(result)},
+                          {"writes", result.writes}, {"differing", result.differing}, {"unjudged", result.unjudged},
+                          {"unanswered_reads", result.unanswered_reads}, {"unused_answers", result.unused_answers},
+                          {"ports", ports}, {"warnings", result.warnings}}
+                         .dump());
+}
+
+void print_text(const ReplayResult& result, const std::map<std::string, PortDifference>& by_port, std::size_t show) {
   for (const auto& w : result.warnings) fmt::print(stderr, "rtm replay: {}\n", terminal_text(w));
   fmt::print("{}: {} cycles replayed ({:.2f} s logged) in {:.3f} s: {:.0f}x real time\n", result.component, result.cycles,
-             logged_s, result.replay_seconds, speed);
+             static_cast<double>(result.logged_span_ns) / 1e9, result.replay_seconds, times_real_time(result));
   if (result.unjudged > 0)
     fmt::print("{} cycles not compared: the log lost part of them while it was written\n", result.unjudged);
   if (result.unanswered_reads > 0 || result.unused_answers > 0)
@@ -170,8 +168,7 @@ int ReplayCommand::run(bool json_output) const {
                result.unanswered_reads, result.unused_answers);
   if (result.differing == 0) {
     fmt::print("{} writes compared: all identical to the log, byte for byte\n", result.writes);
-    if (!output.empty()) fmt::print("replayed outputs: {}\n", output);
-    return 0;
+    return;
   }
   fmt::print("{} of {} writes differ from the log\n", result.differing, result.writes);
   for (const auto& [port, d] : by_port) {
@@ -193,8 +190,31 @@ int ReplayCommand::run(bool json_output) const {
     fmt::print("  cycle {} {}: logged {}\n  {:>{}}  replayed {}\n", m.cycle, m.port, terminal_text(text(m.logged)), "",
                fmt::formatted_size("cycle {} {}:", m.cycle, m.port), terminal_text(text(m.replayed)));
   }
-  if (!output.empty()) fmt::print("replayed outputs: {}\n", output);
-  return 1;
+}
+
+}  // namespace
+
+int ReplayCommand::run(bool json_output) const {
+  const CycleLogInfo info = read_cycle_log_info(log);
+  rtm::Orb orb;  // the encodings' code sets; no naming service, no endpoint used
+  ReplayOptions replay_options;
+  auto component = build(program, component_args, info, replay_options);
+  replay_options.output = output;
+  replay_options.parameters = parameter_settings(set);
+  replay_options.keep = 100'000;
+  // What the component logs while replayed (an input going stale, ...) it logged in the run too.
+  const auto level = rtm::log().level();
+  rtm::log().set_level(spdlog::level::err);
+  const ReplayResult result = replay_cycle_log(std::move(component), log, replay_options);
+  rtm::log().set_level(level);
+  const auto by_port = differences(result);
+  if (json_output) {
+    print_json(result, by_port);
+  } else {
+    print_text(result, by_port, show);
+    if (!output.empty()) fmt::print("replayed outputs: {}\n", output);
+  }
+  return result.differing == 0 ? 0 : 1;
 }
 
 }  // namespace rtm::cli
