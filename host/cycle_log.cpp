@@ -154,12 +154,7 @@ void CycleLog::tapped(std::uint16_t port, TapEvent event, ReadResult result, std
   push(e);
 }
 
-void CycleLog::starting() noexcept {
-  Event e;
-  e.kind = start;
-  e.deadline_ns = e.wake_ns = monotonic_ns();
-  push(e);
-}
+void CycleLog::starting() noexcept { push_edge(start); }
 
 void CycleLog::cycle(const CycleContext& ctx) noexcept {
   Event e;
@@ -171,9 +166,11 @@ void CycleLog::cycle(const CycleContext& ctx) noexcept {
   push(e);
 }
 
-void CycleLog::stopping() noexcept {
+void CycleLog::stopping() noexcept { push_edge(stop); }
+
+void CycleLog::push_edge(std::uint8_t kind) noexcept {  // a start or a stop, timed now
   Event e;
-  e.kind = stop;
+  e.kind = kind;
   e.deadline_ns = e.wake_ns = monotonic_ns();
   push(e);
 }

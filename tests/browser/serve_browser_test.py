@@ -347,6 +347,30 @@ try:
     driver.find_element(By.CSS_SELECTOR, CHANNEL).click()
     wait_for(lambda: not driver.find_elements(By.CSS_SELECTOR, RECORDED), 5, "a second click removes the recorded plot")
 
+    # The same channel on the live plot of the port it came from: the live plot is started, the
+    # recording drawn over it dashed, six lines, while the live data go on arriving.
+    driver.find_element(By.CSS_SELECTOR, 'button.overlay[data-topic="sensor0.wrench"]').click()
+    LIVE = '#plots .plot[data-port="sensor0.wrench"]'
+    def live_facts():
+        return driver.execute_script(
+            "const d = document.querySelector(arguments[0]); if (!d) return null; const c = d.querySelector('canvas');"
+            "return {...c.dataset, info: d.querySelector('.info').textContent}", LIVE)
+    wait_for(lambda: int((live_facts() or {}).get("overlay", "0")) > 0, 10,
+             "the recording is drawn over the live plot: " + repr(live_facts()))
+    first = live_facts() or {}
+    check(first.get("overlaySeries") == "6", "six recorded lines over the live ones: " + repr(first))
+    wait_for(lambda: int((live_facts() or {}).get("received", "0")) > int(first.get("received", "0")), 10,
+             "live data go on arriving under the recording: " + repr(live_facts()))
+    # It plays along: more of it is drawn as the live data advance (the recording is 1 s long).
+    wait_for(lambda: int((live_facts() or {}).get("overlay", "0")) >= 400, 10,
+             "the recording is drawn further as the live data advance: " + repr(live_facts()))
+    wait_for(lambda: "dashed: as recorded" in (live_facts() or {}).get("info", ""), 5,
+             "the plot says what the dashed lines are: " + repr((live_facts() or {}).get("info")))
+    driver.execute_script("document.querySelector(arguments[0]).scrollIntoView()", LIVE)
+    shot(driver, "8b-recording-over-live")
+    driver.find_element(By.CSS_SELECTOR, 'button.overlay[data-topic="sensor0.wrench"]').click()
+    wait_for(lambda: (live_facts() or {}).get("overlay") == "0", 5, "a second click takes the recording off the live plot")
+
     # Without the token the API refuses (what a page from elsewhere would meet).
     api = url.split("/#")[0] + "/api/system"
     try:

@@ -85,6 +85,7 @@ class CycleLog final : public TapSink, public CycleObserver {
     std::uint16_t channel = 0;
   };
   void push(const Event& e) noexcept;
+  void push_edge(std::uint8_t kind) noexcept;
   void run();
   void drain();
   void drain_locked();

@@ -607,9 +607,14 @@ function drawPlot(plot) {
   const n = plot.t.length - plot.start;
   const x0 = AX_L, x1 = canvas.width - AX_R, y0 = AX_T, y1 = canvas.height - AX_B, px = x1 - x0;
   const W = plot.window || WINDOW_S;  // a recording's plot spans the whole recording
-  const newest = n ? plot.t[plot.t.length - 1] : 0, from = newest - W;
+  const o = plot.overlay;
+  if (o && o.at === null) o.at = n ? plot.t[plot.t.length - 1] : 0;  // the live plot's newest when laid over
+  // With no live datum yet the window shows the recording's first seconds.
+  const newest = n ? plot.t[plot.t.length - 1] : o && o.t.length ? Math.min(o.t[o.t.length - 1], W) : 0, from = newest - W;
   let lo = Infinity, hi = -Infinity;
   for (const c of plot.cols) for (let i = plot.start; i < c.length; i++) { const v = c[i]; if (v !== null) { if (v < lo) lo = v; if (v > hi) hi = v; } }
+  const shown = i => o.t[i] + o.at >= from && o.t[i] + o.at <= newest;
+  if (o) for (const c of o.cols) for (let i = 0; i < c.length; i++) { const v = c[i]; if (v !== null && shown(i)) { if (v < lo) lo = v; if (v > hi) hi = v; } }
   if (lo === Infinity) { lo = -1; hi = 1; }
   if (hi === lo) { hi += Math.abs(hi) * 0.1 || 1; lo -= Math.abs(lo) * 0.1 || 1; }
   const pad = (hi - lo) * 0.05; lo -= pad; hi += pad;
@@ -647,7 +652,26 @@ function drawPlot(plot) {
     }
     g.stroke();
   });
+  let overlaid = 0;
+  if (o) {
+    g.setLineDash([5, 3]);
+    o.cols.forEach((c, k) => {
+      g.strokeStyle = COLOURS[k % COLOURS.length]; g.beginPath();
+      let pen = false;
+      for (let i = 0; i < c.length; i++) {
+        if (c[i] === null || !shown(i)) { pen = false; continue; }
+        const x = X(o.t[i] + o.at), y = Y(c[i]);
+        if (pen) g.lineTo(x, y); else g.moveTo(x, y);
+        pen = true;
+        if (k === 0) overlaid++;
+      }
+      g.stroke();
+    });
+    g.setLineDash([]);
+  }
   g.restore();
+  canvas.dataset.overlay = overlaid;
+  canvas.dataset.overlaySeries = o ? o.cols.length : 0;
   canvas.dataset.series = plot.cols.length;
   canvas.dataset.received = plot.received;
   canvas.dataset.sent = plot.sent;
@@ -664,10 +688,11 @@ function drawPlot(plot) {
       `${envelope ? " · min–max per pixel" : ""}`;
     return;
   }
-  plot.div.querySelector(".info").textContent = plot.error ? "cannot plot: " + plot.error :
+  plot.div.querySelector(".info").textContent = (plot.error ? "cannot plot: " + plot.error :
     `${plot.received} data received of ${plot.sent} sent · ${plot.lost} lost before the page` +
     ` · ${n} in the last ${WINDOW_S} s (${span > 0 ? ((n - 1) / span).toFixed(0) : "–"}/s${plot.stamped ? "" : ", by arrival: the datum has no stamp"})` +
-    `${envelope ? " · min–max per pixel" : ""} · ${plot.failed} stream errors`;
+    `${envelope ? " · min–max per pixel" : ""} · ${plot.failed} stream errors`) +
+    (o ? ` · dashed: as recorded (${overlaid} of ${o.t.length} shown${o.t.length < o.total ? `, ${o.total} in the file` : ""}), from where the live plot was when laid over` : "");
 }
 
 // A recording (rtm record's MCAP file, on the server's machine): its channels, each plotted
@@ -685,6 +710,10 @@ function openRecording() {
       const b = node("button", list, `${c.topic} (${c.type}, ${c.count})`);
       b.className = "channel"; b.dataset.topic = c.topic;
       b.addEventListener("click", () => plotRecorded(file, c));
+      const o = node("button", list, "on the live plot");
+      o.className = "overlay"; o.dataset.topic = c.topic;
+      o.title = `${c.topic} as recorded, dashed over the live plot of ${c.topic}`;
+      o.addEventListener("click", () => overlayRecorded(file, c));
     }
   }).catch(e => { node("div", list, "cannot open: " + e.message).className = "err"; });
 }
@@ -708,6 +737,26 @@ function plotRecorded(file, channel) {
     plot.window = plot.t.length > 1 ? Math.max(plot.t[plot.t.length - 1] - plot.t[0], 1e-3) : 1;
     drawPlot(plot);
   }).catch(e => { plot.error = e.message; drawPlot(plot); });
+}
+// A recorded channel on the live plot of the port it was recorded from (started if need be):
+// dashed, in the same colours, its first datum placed where the live plot's newest datum was
+// when it was laid over, so that it runs along the live data as if it were playing now: a run
+// beside a recorded one. Click again to take it off.
+function overlayRecorded(file, channel) {
+  const key = file + "\n" + channel.topic;
+  if (!plots.has(channel.topic)) startPlot(channel.topic);
+  const plot = plots.get(channel.topic);
+  if (!plot) return;  // refused (at most 10 plots): said by startPlot
+  if (plot.overlay && plot.overlay.key === key) { plot.overlay = null; plot.infoAt = 0; drawPlot(plot); return; }
+  const q = `file=${encodeURIComponent(file)}&topic=${encodeURIComponent(channel.topic)}`;
+  api("GET", "/api/recording/values?" + q).then(d => {
+    const t = d.t || [];
+    const t0 = t.length ? t[0] : 0;
+    plot.overlay = { key, t: t.map(x => x - t0), cols: (d.v || []).map(col => col.slice()), at: null, total: d.total };
+    plot.div.dataset.overlay = file;
+    plot.infoAt = 0;  // its info line says so at once
+    drawPlot(plot);
+  }).catch(e => showError("cannot lay the recording over the live plot: " + e.message));
 }
 document.getElementById("open-recording").addEventListener("click", openRecording);
 document.getElementById("recording").addEventListener("keydown", ev => { if (ev.key === "Enter") openRecording(); });

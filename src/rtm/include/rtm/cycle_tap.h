@@ -21,6 +21,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -203,5 +204,13 @@ class TypedTap final : public PortTap {
   std::size_t unanswered_ = 0;
   T last_{};
 };
+
+// A port's tap(): a log's tap (sink given) or a replay's, kept in `held` for the port's use.
+template <PortData T>
+std::unique_ptr<PortTap> make_tap(TapSink* sink, std::uint16_t key, std::uint32_t capacity, TypedTap<T>*& held) {
+  auto tap = sink != nullptr ? std::make_unique<TypedTap<T>>(*sink, key, capacity) : std::make_unique<TypedTap<T>>();
+  held = tap.get();
+  return tap;
+}
 
 }  // namespace rtm

@@ -203,9 +203,7 @@ std::size_t InPort<T>::read_many(std::span<T> out) {
 
 template <PortData T>
 std::unique_ptr<PortTap> InPort<T>::tap(TapSink* sink, std::uint16_t key, std::uint32_t capacity) {
-  auto tap = sink != nullptr ? std::make_unique<TypedTap<T>>(*sink, key, capacity) : std::make_unique<TypedTap<T>>();
-  tap_ = tap.get();
-  return tap;
+  return make_tap(sink, key, capacity, tap_);
 }
 
 template <PortData T>
