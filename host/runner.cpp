@@ -361,6 +361,11 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   component->add_process_statistic();
   ActivitySpec activity =
       main.activity ? main.activity(settings, *component) : ActivitySpec{settings.periodic_options()};
+  // The log's events come from one thread at a time: the component's own activity, or the
+  // thread that turns it on or off while that activity is stopped. Another's tick is neither.
+  if (!settings.cycle_log.empty() && std::holds_alternative<ExternalTick>(activity))
+    throw std::invalid_argument("--log-cycles: " + settings.name +
+                                " runs on another component's tick (a composite's member); log a component that runs its own loop");
   servant = new ComponentServant(std::move(component), std::move(activity));
   servant->keep_holds(std::make_unique<Leases>([s = servant.in()](const std::string& holder, std::uint32_t lease_ms) {
     log().warn("{}: {} stopped renewing its hold ({} ms lease): turning off", s->component().name(), holder, lease_ms);
