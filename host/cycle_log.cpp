@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/logger.h>
 
+#include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <stdexcept>
 
@@ -23,22 +25,25 @@ constexpr const char* kMetadata = "rtm.cycle_log";
 constexpr const char* kEndMetadata = "rtm.cycle_log.end";
 constexpr const char* kCyclesTopic = "cycles";
 
+// An event's kind: a group's edge, or what a tap told (TapEvent, in its order, from `read`).
 enum Kind : std::uint8_t { start, cycle_begins, stop, read, read_many, write_datum, lost_datum };
+static_assert(read + static_cast<int>(TapEvent::read_many) == read_many &&
+              read + static_cast<int>(TapEvent::write) == write_datum &&
+              read + static_cast<int>(TapEvent::lost) == lost_datum);
 constexpr const char* kGroupNames[] = {"start", "cycle", "stop"};
 constexpr int kMany = 3;  // a read_many in a group's reads: [port, 3, count]
 
-std::map<std::string, std::string> parameter_values(ComponentServant& servant, std::map<std::string, std::string>* access) {
+// Each parameter's value as set_parameter takes it (read as the servant does: under its lock).
+std::map<std::string, std::string> parameter_values(ComponentServant& servant) {
   std::map<std::string, std::string> values;
   RTM::ParameterList_var list = servant.parameters();
-  for (CORBA::ULong i = 0; i < list->length(); ++i) {
-    values[list[i].name.in()] = list[i].value.in();
-    if (access != nullptr) {
-      (*access)[list[i].name.in()] = list[i].access == RTM::PARAMETER_FIXED      ? "fixed"
-                                     : list[i].access == RTM::PARAMETER_WHEN_OFF ? "when_off"
-                                                                                 : "live";
-    }
-  }
+  for (CORBA::ULong i = 0; i < list->length(); ++i) values[list[i].name.in()] = list[i].value.in();
   return values;
+}
+
+void untap(Component& component) {
+  for (InPortBase* port : component.in_ports()) port->untap();
+  for (OutPortBase* port : component.out_ports()) port->untap();
 }
 
 }  // namespace
@@ -70,11 +75,7 @@ CycleLog::CycleLog(ComponentServant& servant, const std::string& path, CycleLogO
     options.profile = "rtm-cycles";
     writer_ = std::make_unique<mcap::Writer>(path, options);
     mcap::KeyValues meta{{"component", component.name()}, {"kind", component.kind()}, {"format", "1"}};
-    std::map<std::string, std::string> access;
-    for (const auto& [name, value] : parameter_values(servant, &access)) {
-      meta["parameter." + name] = value;
-      meta["access." + name] = access[name];
-    }
+    for (const auto& [name, value] : parameter_values(servant)) meta["parameter." + name] = value;
     writer_->add_metadata(kMetadata, meta);
     std::map<std::string, std::uint16_t> schemas;
     for (std::size_t k = 0; k < ports_.size(); ++k) {
@@ -94,8 +95,7 @@ CycleLog::CycleLog(ComponentServant& servant, const std::string& path, CycleLogO
     }
     cycles_channel_ = writer_->add_channel(0, kCyclesTopic, "json", {{"content", "each start, cycle and stop"}});
   } catch (...) {
-    for (InPortBase* port : component.in_ports()) port->untap();
-    for (OutPortBase* port : component.out_ports()) port->untap();
+    untap(component);
     throw;
   }
   servant.observe_cycles(this);
@@ -111,13 +111,12 @@ CycleLog::~CycleLog() {
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
   Component& component = servant_.component();
-  for (InPortBase* port : component.in_ports()) port->untap();
-  for (OutPortBase* port : component.out_ports()) port->untap();
+  untap(component);
   try {
     drain();
     end_group();
     mcap::KeyValues end{{"lost", std::to_string(lost_.load())}};
-    for (const auto& [name, value] : parameter_values(servant_, nullptr)) end["parameter." + name] = value;
+    for (const auto& [name, value] : parameter_values(servant_)) end["parameter." + name] = value;
     writer_->add_metadata(kEndMetadata, end);
     writer_->close();
     if (lost_.load() > 0)
@@ -145,7 +144,7 @@ void CycleLog::push(const Event& e) noexcept {
 void CycleLog::tapped(std::uint16_t port, TapEvent event, ReadResult result, std::uint32_t slot,
                       std::uint32_t count) noexcept {
   Event e;
-  e.kind = event == TapEvent::read ? read : event == TapEvent::read_many ? read_many : event == TapEvent::write ? write_datum : lost_datum;
+  e.kind = static_cast<std::uint8_t>(read + static_cast<std::uint8_t>(event));
   e.result = static_cast<std::uint8_t>(result);
   e.port = port;
   e.slot = slot;
@@ -201,12 +200,11 @@ void CycleLog::drain() {
 
 void CycleLog::drain_locked() {
   const std::uint64_t end = published_.load(std::memory_order_acquire);
-  if (!error_.empty()) {  // the cycle thread goes on; what it logs is dropped
-    taken_.store(end, std::memory_order_release);
-    return;
-  }
   for (std::uint64_t i = taken_.load(std::memory_order_relaxed); i < end; ++i) {
-    write(ring_[i % ring_.size()]);
+    const Event& e = ring_[i % ring_.size()];
+    if (error_.empty()) write(e);  // after an error the cycle thread goes on; what it logs is dropped
+    // A datum event's slots go back to its tap, written out or not.
+    if (e.kind >= read && e.kind != lost_datum && e.port < ports_.size()) ports_[e.port].tap->release(e.count);
     taken_.store(i + 1, std::memory_order_release);
   }
 }
@@ -223,33 +221,22 @@ void CycleLog::write(const Event& e) {
     group_period_ns_ = e.period_ns;
     return;
   }
-  if (!group_open_) return;  // a port used outside start, cycles and stop: not part of the component's logic
   if (e.kind == lost_datum) {
     group_lost_ += std::max<std::uint32_t>(e.count, 1);
     return;
   }
-  if (e.port >= ports_.size()) return;
+  // A port used before the first start is no part of a cycle: not written.
+  if (!group_open_ || e.port >= ports_.size()) return;
   Port& port = ports_[e.port];
+  std::string& list = e.kind == write_datum ? group_writes_ : group_reads_;
+  const char* comma = list.empty() ? "" : ",";
+  if (e.kind == read) fmt::format_to(std::back_inserter(list), "{}[{},{}]", comma, e.port, e.result);
+  else if (e.kind == read_many) fmt::format_to(std::back_inserter(list), "{}[{},{},{}]", comma, e.port, kMany, e.count);
+  else fmt::format_to(std::back_inserter(list), "{}{}", comma, e.port);
   const auto time = static_cast<std::uint64_t>(group_deadline_ns_);
-  const auto put = [&](std::uint32_t slot) {
-    port.tap->encode(slot, scratch_);
+  for (std::uint32_t k = 0; k < e.count; ++k) {
+    port.tap->encode((e.slot + k) % options_.slots_per_port, scratch_);
     writer_->write(port.channel, group_number_, time, time, scratch_);
-  };
-  if (e.kind == read) {
-    fmt::format_to(std::back_inserter(group_reads_), "{}[{},{}]", group_reads_.empty() ? "" : ",", e.port, e.result);
-    if (e.count == 1) {
-      put(e.slot);
-      port.tap->release(1);
-    }
-  } else if (e.kind == read_many) {
-    fmt::format_to(std::back_inserter(group_reads_), "{}[{},{},{}]", group_reads_.empty() ? "" : ",", e.port, kMany,
-                   e.count);
-    for (std::uint32_t k = 0; k < e.count; ++k) put((e.slot + k) % options_.slots_per_port);
-    port.tap->release(e.count);
-  } else if (e.kind == write_datum) {
-    fmt::format_to(std::back_inserter(group_writes_), "{}{}", group_writes_.empty() ? "" : ",", e.port);
-    put(e.slot);
-    port.tap->release(1);
   }
 }
 
@@ -282,8 +269,7 @@ struct Group {
     int result = 0;  // ReadResult, or kMany
     std::uint32_t count = 0;
   };
-  std::vector<Read> reads;
-  std::vector<std::uint16_t> writes;
+  std::vector<Read> reads;  // its writes are found by group number on the out ports' channels
   std::uint64_t lost = 0;
 };
 
@@ -315,7 +301,6 @@ Group parse_group(const mcap::Message& m) {
       else if (read.result < 0 || read.result > 2) throw fail("a read result out of range");
       g.reads.push_back(read);
     }
-    for (const auto& w : j.at("writes")) g.writes.push_back(w.get<std::uint16_t>());
     return g;
   } catch (const nlohmann::json::exception& e) {
     throw fail(e.what());
@@ -331,8 +316,9 @@ std::map<std::string, std::string> prefixed(const mcap::KeyValues& values, const
 
 }  // namespace
 
-CycleLogInfo read_cycle_log_info(const std::string& log) {
-  mcap::Reader reader(log);
+namespace {
+
+CycleLogInfo info_of(const mcap::Reader& reader, const std::string& log) {
   CycleLogInfo info;
   bool found = false;
   for (const auto& m : reader.metadata()) {
@@ -345,16 +331,23 @@ CycleLogInfo read_cycle_log_info(const std::string& log) {
       info.component = component->second;
       info.kind = kind->second;
       info.parameters = prefixed(m.values, "parameter.");
-      info.access = prefixed(m.values, "access.");
     } else if (m.name == kEndMetadata) {
       info.parameters_at_end = prefixed(m.values, "parameter.");
       const auto lost = m.values.find("lost");
-      if (lost != m.values.end()) info.lost = std::stoull(lost->second);
+      if (lost == m.values.end()) continue;
+      const auto& text = lost->second;
+      const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), info.lost);
+      if (error != std::errc() || end != text.data() + text.size())
+        throw std::runtime_error(log + ": its end says it lost '" + text + "': not a count");
     }
   }
   if (!found) throw std::runtime_error(log + ": not a cycle log (no " + std::string(kMetadata) + " metadata)");
   return info;
 }
+
+}  // namespace
+
+CycleLogInfo read_cycle_log_info(const std::string& log) { return info_of(mcap::Reader(log), log); }
 
 namespace {
 
@@ -374,7 +367,7 @@ struct Tapped {
 class Replay {
  public:
   Replay(std::unique_ptr<Component> component, const std::string& log, const ReplayOptions& options)
-      : log_(log), options_(options), info_(read_cycle_log_info(log)), reader_(log) {
+      : log_(log), options_(options), reader_(log), info_(info_of(reader_, log)) {
     result_.component = info_.component;
     if (component->name() != info_.component)
       throw std::runtime_error(fmt::format("the log is {}'s, the component built is {}", info_.component, component->name()));
@@ -384,9 +377,7 @@ class Replay {
     read_groups();
   }
   ~Replay() {
-    if (!servant_) return;
-    for (InPortBase* port : servant_->component().in_ports()) port->untap();
-    for (OutPortBase* port : servant_->component().out_ports()) port->untap();
+    if (servant_) untap(servant_->component());
   }
   Replay(const Replay&) = delete;
   Replay& operator=(const Replay&) = delete;
@@ -504,16 +495,16 @@ class Replay {
 
   // The logged parameters, then the caller's; one fixed at build is checked, not set.
   void set_parameters() {
-    std::map<std::string, std::string> access;
-    const auto built = parameter_values(*servant_, &access);
+    const auto& declared = servant_->component().parameters();
+    const auto built = parameter_values(*servant_);
     const auto set = [&](const std::string& name, const std::string& value, bool from_log) {
-      const auto a = access.find(name);
-      if (a == access.end()) {
+      const auto p = std::find_if(declared.begin(), declared.end(), [&](const Parameter& d) { return d.name == name; });
+      if (p == declared.end()) {
         if (!from_log) throw std::runtime_error(info_.component + " has no parameter " + name);
         result_.warnings.push_back("the log has a parameter " + name + " this build does not: ignored");
         return;
       }
-      if (a->second == "fixed") {
+      if (p->access == ParameterAccess::fixed) {
         if (built.at(name) != value)
           throw std::runtime_error(fmt::format("{} is fixed at build: it was {} in the log, {} here (give it as the "
                                                "component's option)", name, value, built.at(name)));
@@ -602,8 +593,8 @@ class Replay {
 
   std::string log_;
   const ReplayOptions& options_;
-  CycleLogInfo info_;
   mcap::Reader reader_;
+  CycleLogInfo info_;
   std::uint16_t cycles_id_ = 0;
   std::vector<Tapped> tapped_;
   std::map<std::uint16_t, std::size_t> by_channel_;

@@ -149,7 +149,6 @@ struct ReplayResult {
 struct CycleLogInfo {
   std::string component, kind;
   std::map<std::string, std::string> parameters;  // at the start, as set_parameter takes them
-  std::map<std::string, std::string> access;      // each parameter's: fixed, when_off, live
   std::map<std::string, std::string> parameters_at_end;
   std::uint64_t lost = 0;
 };

@@ -753,7 +753,6 @@ function overlayRecorded(file, channel) {
     const t = d.t || [];
     const t0 = t.length ? t[0] : 0;
     plot.overlay = { key, t: t.map(x => x - t0), cols: (d.v || []).map(col => col.slice()), at: null, total: d.total };
-    plot.div.dataset.overlay = file;
     plot.infoAt = 0;  // its info line says so at once
     drawPlot(plot);
   }).catch(e => showError("cannot lay the recording over the live plot: " + e.message));

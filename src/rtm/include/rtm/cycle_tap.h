@@ -17,18 +17,23 @@
 #include "rtm/read_result.h"
 #include "rt/schedule.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <memory>
 #include <span>
+#include <stdexcept>
+#include <string>
+#include <utility>
 #include <vector>
 
 namespace rtm {
 
-// What a tap tells its sink. read_many covers `count` values in consecutive slots (mod the
-// tap's capacity); a read gives one value (in `slot`) only when its result is NewData.
+// What a tap tells its sink. `count` values are in consecutive slots from `slot` (mod the
+// tap's capacity): a read's one when its result is NewData (else none), a read_many's count, a
+// write's one; `lost`: that many found no room and were not kept.
 enum class TapEvent : std::uint8_t { read, read_many, write, lost };
 
 // The log's side, called on the cycle thread: it must not block, allocate or do I/O.
@@ -90,28 +95,11 @@ class TypedTap final : public PortTap {
 
   // ---- the port's side ----
   void logged_read(ReadResult result, const T& value) noexcept {
-    if (result != ReadResult::NewData) {
-      sink_->tapped(port_, TapEvent::read, result, 0, 0);
-      return;
-    }
-    std::uint32_t slot = 0;
-    if (!reserve(1, slot)) return;
-    slots_[slot] = value;
-    sink_->tapped(port_, TapEvent::read, result, slot, 1);
+    if (result == ReadResult::NewData) keep(TapEvent::read, std::span(&value, 1));
+    else sink_->tapped(port_, TapEvent::read, result, 0, 0);
   }
-  void logged_read_many(std::span<const T> values) noexcept {
-    std::uint32_t slot = 0;
-    const auto n = static_cast<std::uint32_t>(values.size());
-    if (!reserve(n, slot)) return;
-    for (std::uint32_t i = 0; i < n; ++i) slots_[(slot + i) % slots_.size()] = values[i];
-    sink_->tapped(port_, TapEvent::read_many, ReadResult::NewData, slot, n);
-  }
-  void logged_write(const T& value) noexcept {
-    std::uint32_t slot = 0;
-    if (!reserve(1, slot)) return;
-    slots_[slot] = value;
-    sink_->tapped(port_, TapEvent::write, ReadResult::NewData, slot, 1);
-  }
+  void logged_read_many(std::span<const T> values) noexcept { keep(TapEvent::read_many, values); }
+  void logged_write(const T& value) noexcept { keep(TapEvent::write, std::span(&value, 1)); }
   ReadResult replay_read(T& out) {
     if (answers_.empty() || answers_.front().many) {
       ++unanswered_;
@@ -182,16 +170,18 @@ class TypedTap final : public PortTap {
       throw std::invalid_argument(std::string("a logged datum is not of type ") + std::string(DataTraits<T>::name));
     return *value;
   }
-  // `n` consecutive slots from the cycle thread's head, or `lost` told and false.
-  bool reserve(std::uint32_t n, std::uint32_t& slot) noexcept {
-    const std::uint64_t tail = tail_.load(std::memory_order_acquire);
-    if (n > slots_.size() || head_ + n - tail > slots_.size()) {
+  // Copies values into consecutive slots from the cycle thread's head and tells the sink; or,
+  // with no room for them all, tells it `lost`.
+  void keep(TapEvent event, std::span<const T> values) noexcept {
+    const auto n = static_cast<std::uint32_t>(values.size());
+    if (n > slots_.size() || head_ + n - tail_.load(std::memory_order_acquire) > slots_.size()) {
       sink_->tapped(port_, TapEvent::lost, ReadResult::NoData, 0, n);
-      return false;
+      return;
     }
-    slot = static_cast<std::uint32_t>(head_ % slots_.size());
+    const auto slot = static_cast<std::uint32_t>(head_ % slots_.size());
+    for (std::uint32_t i = 0; i < n; ++i) slots_[(slot + i) % slots_.size()] = values[i];
     head_ += n;
-    return true;
+    sink_->tapped(port_, event, ReadResult::NewData, slot, n);
   }
 
   TapSink* sink_ = nullptr;
