@@ -259,6 +259,9 @@ int run_container(int argc, char** argv) {
     std::string listed;
     for (const Member& m : members) listed.append(listed.empty() ? "" : ", ").append(m.settings.name);
     log().info("{}: {} members up: {}", line.name, members.size(), listed);
+    std::vector<const ComponentServant*> servants;
+    for (const Member& m : members) servants.push_back(m.servant.in());
+    const ContractWarner warner(std::move(servants));
     const int received = signals.wait();
     log().info("stopping {} ({})", line.name, received == SIGINT ? "SIGINT" : "SIGTERM");
   }

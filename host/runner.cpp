@@ -73,37 +73,40 @@ PeriodicOptions RunSettings::periodic_options() const {
   // A first deadline in the past on the grid k * period + phase: the activity joins that grid
   // at every start, and so does every component of the host with the same period and a phase.
   if (phase_ns) options.first_deadline_ns = period_ns + *phase_ns;
+  if (sched_runtime_ns > 0) {
+    options.fifo_priority = 0;
+    options.deadline_runtime_ns = sched_runtime_ns;
+    options.deadline_ns = deadline_ns;
+  }
   return options;
 }
 
-namespace {
-
-// A duration as "2ms", "500us", "250000ns", "0.002s" or "0.002" (seconds); nullopt when the
-// text is none or not finite.
-std::optional<double> parse_duration_ns(std::string_view text) {
-  struct Unit {
-    std::string_view suffix;
-    double ns;
-  };
-  // Longest suffixes first: "ms" and "ns" also end in "s".
-  static constexpr Unit kUnits[] = {{"ms", 1e6}, {"us", 1e3}, {"ns", 1.0}, {"s", 1e9}};
-  std::string_view number = text;
-  double scale = 1e9;
-  for (const auto& unit : kUnits) {
-    if (text.size() > unit.suffix.size() && text.ends_with(unit.suffix)) {
-      number = text.substr(0, text.size() - unit.suffix.size());
-      scale = unit.ns;
-      break;
-    }
-  }
-  double value = 0;
-  const auto [end, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
-  const double ns = value * scale;
-  if (ec != std::errc{} || end != number.data() + number.size() || !std::isfinite(ns)) return std::nullopt;
-  return ns;
+TimingContract RunSettings::contract() const {
+  TimingContract c;
+  c.component = name;
+  c.period_ns = period_ns;
+  c.phase_ns = phase_ns;
+  c.deadline_ns = deadline_ns > 0 ? deadline_ns : period_ns;
+  c.budget_ns = budget_ns;
+  c.await_ns = await_port.empty() ? 0 : await_bound_ns;
+  c.await_port = await_port;
+  c.cpu = cpu;
+  c.sched = sched_runtime_ns > 0 ? SchedClass::deadline : rt_priority > 0 ? SchedClass::fifo : SchedClass::other;
+  c.fifo_priority = c.sched == SchedClass::fifo ? rt_priority : 0;
+  c.runtime_ns = sched_runtime_ns;
+  c.on_miss = on_miss;
+  return c;
 }
 
-}  // namespace
+std::string contract_json(const TimingContract& c) {
+  // Names follow the rule "lower-case letters, digits, '_'": nothing to escape.
+  return fmt::format(
+      R"({{"component":"{}","period_ns":{},"phase_ns":{},"deadline_ns":{},"budget_ns":{},"await_ns":{},"await_port":"{}",)"
+      R"("cpu":{},"sched":"{}","fifo_priority":{},"runtime_ns":{},"on_miss":"{}"}})",
+      c.component, c.period_ns, c.phase_ns ? std::to_string(*c.phase_ns) : std::string("null"), c.effective_deadline_ns(),
+      c.budget_ns, c.await_ns, c.await_port, c.cpu, sched_class_name(c.sched), c.fifo_priority, c.runtime_ns,
+      miss_action_name(c.on_miss));
+}
 
 std::int64_t parse_period_ns(std::string_view text) {
   const std::optional<double> ns = parse_duration_ns(text);
@@ -201,6 +204,74 @@ void apply_schedule_texts(const ScheduleTexts& texts, RunSettings& settings) {
   if (!texts.await.empty()) std::tie(settings.await_port, settings.await_bound_ns) = parse_await(texts.await, settings.period_ns);
 }
 
+// The contract's options as given, checked once the command line is parsed.
+struct ContractTexts {
+  std::string deadline;
+  std::string budget;
+  std::string on_miss = "count";
+  std::string sched_deadline;
+  std::string watch = "on";
+};
+
+void add_contract_options(CLI::App& app, ContractTexts& texts, std::int64_t default_budget_ns, RunSettings& settings) {
+  app.add_option("--deadline", texts.deadline,
+                 "each cycle ends within this of its release (above 0, at most the period): watched, and "
+                 "counted as missed_deadline (rtm ls -l, rtm cat)")
+      ->default_str("the period");
+  app.add_option("--budget", texts.budget,
+                 "the longest one cycle may run, from its start (after --await) to its end: watched, and "
+                 "counted as over_budget; `rtm check` adds it up per CPU")
+      ->default_str(default_budget_ns > 0 ? format_duration(default_budget_ns) + " (this component's own)"
+                                          : std::string("none declared"));
+  app.add_option("--on-miss", texts.on_miss,
+                 "what a cycle past its budget or deadline does besides being counted: count, warn (a "
+                 "warning line, at most one a second) or brake (COMPONENT_ERROR: the component stops acting)")
+      ->check(CLI::IsMember({"count", "warn", "brake"}))
+      ->capture_default_str();
+  app.add_option("--sched-deadline", texts.sched_deadline,
+                 "run the activity under SCHED_DEADLINE, this runtime reserved every period and due at "
+                 "--deadline (needs CAP_SYS_NICE; not with --rt-priority or --cpu)");
+  app.add_option("--watch-contract", texts.watch, "watch each cycle against the contract (on) or not (off)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  app.add_flag("--print-contract", settings.print_contract,
+               "print the timing contract these options give, as JSON, and exit (what `rtm check` reads)");
+}
+
+// Throws std::invalid_argument naming a bad value; after apply_schedule_texts().
+void apply_contract_texts(const ContractTexts& texts, std::int64_t default_budget_ns, RunSettings& settings) {
+  const auto duration = [](const char* option, const std::string& text) {
+    const std::optional<double> ns = parse_duration_ns(text);
+    if (!ns || std::llround(*ns) <= 0)
+      throw std::invalid_argument(fmt::format("{} '{}': want a duration above 0, e.g. 0.3ms, 150us", option, text));
+    return static_cast<std::int64_t>(std::llround(*ns));
+  };
+  settings.deadline_ns = texts.deadline.empty() ? settings.period_ns : duration("--deadline", texts.deadline);
+  if (settings.deadline_ns > settings.period_ns)
+    throw std::invalid_argument(fmt::format("--deadline {}: above the period ({}); the cycles of one activity never overlap",
+                                            texts.deadline, format_duration(settings.period_ns)));
+  settings.budget_ns = texts.budget.empty() ? default_budget_ns : duration("--budget", texts.budget);
+  if (settings.budget_ns > settings.deadline_ns)
+    throw std::invalid_argument(fmt::format("--budget {}: above the deadline ({})", format_duration(settings.budget_ns),
+                                            format_duration(settings.deadline_ns)));
+  settings.on_miss = texts.on_miss == "brake" ? MissAction::brake
+                     : texts.on_miss == "warn" ? MissAction::warn
+                                               : MissAction::count;
+  settings.watch_contract = texts.watch == "on";
+  if (texts.sched_deadline.empty()) return;
+  settings.sched_runtime_ns = duration("--sched-deadline", texts.sched_deadline);
+  if (settings.sched_runtime_ns > settings.deadline_ns)
+    throw std::invalid_argument(fmt::format("--sched-deadline {}: a runtime above the deadline ({})", texts.sched_deadline,
+                                            format_duration(settings.deadline_ns)));
+  if (settings.budget_ns > settings.sched_runtime_ns)
+    throw std::invalid_argument(fmt::format("--sched-deadline {}: below the budget ({}); the reservation must hold a cycle",
+                                            texts.sched_deadline, format_duration(settings.budget_ns)));
+  if (settings.rt_priority > 0)
+    throw std::invalid_argument("--sched-deadline and --rt-priority: give one scheduling class");
+  if (settings.cpu >= 0)
+    throw std::invalid_argument("--sched-deadline and --cpu: the kernel refuses SCHED_DEADLINE for a thread pinned to one CPU");
+}
+
 struct PortTexts {
   std::string delivery;       // --delivery
   std::string shared_memory;  // --shared-memory
@@ -253,6 +324,8 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   app.add_option("--cpu", settings.cpu,
                  main.pin_process_to_cpu && alone ? "pin the process to this CPU" : "pin the component's threads to this CPU")
       ->check(CLI::NonNegativeNumber);
+  ContractTexts contract_texts;
+  add_contract_options(app, contract_texts, main.budget_ns, settings);
   app.add_flag("--on", settings.turn_on, "turn the component on once it is up");
   PortTexts port_texts;
   add_port_options(app, port_texts);
@@ -271,6 +344,7 @@ std::optional<int> parse_command_line(int argc, char** argv, const char* program
   try {
     app.parse(static_cast<int>(own_argv.size()), own_argv.data());
     apply_schedule_texts(schedule_texts, settings);
+    apply_contract_texts(contract_texts, main.budget_ns, settings);
     settings.access = *parse_access_policy(access_text);
     check_name(settings.name);
     apply_port_options(port_texts, settings);
@@ -379,6 +453,7 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
   }));
   if (!settings.await_port.empty())  // refused there for a cycle that is not periodic
     servant->await_before_cycle(find_in_port(servant->component(), settings.await_port), settings.await_bound_ns);
+  if (settings.watch_contract && main.has_contract) servant->watch_contract(settings.contract());
   if (!settings.cycle_log.empty()) cycle_log = std::make_unique<CycleLog>(*servant, settings.cycle_log);
   RTM::RtComponentEx_var reference = servant->activate(context.orb);
   std::vector<ExtraName> extra_names;
@@ -406,6 +481,47 @@ void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vect
   cycle_log.reset();  // no more cycles: the log's end is written
   bindings.clear();
   if (servant) servant->deactivate();
+}
+
+ContractWarner::ContractWarner(std::vector<const ComponentServant*> servants) {
+  for (const ComponentServant* servant : servants) {
+    const TimingContract* contract = servant != nullptr ? servant->timing_contract() : nullptr;
+    if (contract != nullptr && contract->on_miss == MissAction::warn) servants_.push_back(servant);
+  }
+  if (servants_.empty()) return;
+  for (const ComponentServant* servant : servants_) seen_.push_back(servant->contract_stats());
+  thread_ = std::thread([this] { loop(); });
+}
+
+ContractWarner::~ContractWarner() {
+  {
+    std::lock_guard lock(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void ContractWarner::loop() {
+  set_thread_name("rtm-contract");
+  std::unique_lock lock(mu_);
+  while (!cv_.wait_for(lock, std::chrono::seconds(1), [this] { return stop_; })) {
+    for (std::size_t i = 0; i < servants_.size(); ++i) {
+      const CycleWatchStats now = servants_[i]->contract_stats();
+      CycleWatchStats& before = seen_[i];
+      const std::uint64_t over = now.over_budget - before.over_budget;
+      const std::uint64_t missed = now.missed_deadline - before.missed_deadline;
+      if (over > 0 || missed > 0) {
+        const TimingContract& c = *servants_[i]->timing_contract();
+        log().warn("{}: contract missed in {} of {} cycles: {} past the deadline of {} (worst response {}), {} over the "
+                   "budget of {} (longest cycle {})",
+                   c.component, std::max(over, missed), now.cycles - before.cycles, missed,
+                   format_duration(c.effective_deadline_ns()), format_duration(now.response_max_ns), over,
+                   c.budget_ns > 0 ? format_duration(c.budget_ns) : std::string("none"), format_duration(now.cycle_max_ns));
+      }
+      before = now;
+    }
+  }
 }
 
 // The access screen, the certificates and the ORB of the process; nullopt (and one error line)
@@ -445,6 +561,21 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
 
   RunSettings settings;
   if (auto exit_status = parse_command_line(argc, argv, program, main, settings, ParseMode::process)) return *exit_status;
+  if (settings.print_contract && !main.has_contract) {
+    std::printf("{\"component\":\"%s\",\"contract\":null}\n", settings.name.c_str());
+    return 0;
+  }
+  if (settings.print_contract) {
+    // Started under chrt, the activity would take the priority it inherits: so does its contract.
+    if (settings.rt_priority == 0 && settings.sched_runtime_ns == 0) {
+      int policy = SCHED_OTHER;
+      sched_param param{};
+      if (pthread_getschedparam(pthread_self(), &policy, &param) == 0 && (policy == SCHED_FIFO || policy == SCHED_RR))
+        settings.rt_priority = param.sched_priority;
+    }
+    std::printf("%s\n", contract_json(settings.contract()).c_str());
+    return 0;
+  }
   if (settings.cpu >= 0 && main.pin_process_to_cpu) pin_process_to_cpu(settings.cpu);
   const int inherited = keep_real_time_for_the_activity(settings.name);
   if (settings.rt_priority == 0) settings.rt_priority = inherited;
@@ -472,6 +603,7 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
     }
 
     if (status == 0) {
+      const ContractWarner warner({servant.in()});
       const int received = signals.wait();
       log().info("stopping {} ({})", settings.name, received == SIGINT ? "SIGINT" : "SIGTERM");
     }

@@ -10,6 +10,10 @@
 
 #include <signal.h>
 
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
 #include <memory>
 #include <optional>
 #include <string>
@@ -62,6 +66,27 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
 // Off, then the cycle log's end (if any), the names, the servant.
 void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vector<std::unique_ptr<NameBinding>>& bindings,
                std::unique_ptr<CycleLog>& cycle_log, const std::string& name);
+
+// Logs the misses of each component whose contract says MissAction::warn: from a thread of its
+// own at SCHED_OTHER, at most one line a second per component, with the counts since the last
+// line and the worst case. The cycles only count (rt/cycle_watch.h). Without such a component
+// it starts no thread.
+class ContractWarner {
+ public:
+  explicit ContractWarner(std::vector<const ComponentServant*> servants);
+  ~ContractWarner();  // stops and joins the thread
+  ContractWarner(const ContractWarner&) = delete;
+  ContractWarner& operator=(const ContractWarner&) = delete;
+
+ private:
+  void loop();
+  std::vector<const ComponentServant*> servants_;
+  std::vector<CycleWatchStats> seen_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool stop_ = false;
+  std::thread thread_;
+};
 
 // The access screen, the certificates and the ORB of the process (into orb); false, after
 // one error line, when one of them cannot be had.

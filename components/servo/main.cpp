@@ -179,6 +179,7 @@ rtm::ComponentMain servo() {
             for (auto* member : shared->members()) members.push_back({member->component().name(), member->reference()});
             return members;
           },
+      .has_contract = false,  // its members' loops, or its tick, keep theirs
       .pin_process_to_cpu = false,
   };
 }

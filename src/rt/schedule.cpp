@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rt/schedule.h"
 
+#include <charconv>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -31,6 +33,29 @@ std::int64_t grid_point_at_or_after(std::int64_t origin_ns, std::int64_t period_
 std::int64_t first_deadline(std::int64_t requested_ns, std::int64_t period_ns, std::int64_t now_ns) {
   if (requested_ns == 0 || requested_ns >= now_ns) return requested_ns == 0 ? now_ns : requested_ns;
   return grid_point_at_or_after(requested_ns, period_ns, now_ns);
+}
+
+std::optional<double> parse_duration_ns(std::string_view text) {
+  struct Unit {
+    std::string_view suffix;
+    double ns;
+  };
+  // Longest suffixes first: "ms" and "ns" also end in "s".
+  static constexpr Unit kUnits[] = {{"ms", 1e6}, {"us", 1e3}, {"ns", 1.0}, {"s", 1e9}};
+  std::string_view number = text;
+  double scale = 1e9;
+  for (const auto& unit : kUnits) {
+    if (text.size() > unit.suffix.size() && text.ends_with(unit.suffix)) {
+      number = text.substr(0, text.size() - unit.suffix.size());
+      scale = unit.ns;
+      break;
+    }
+  }
+  double value = 0;
+  const auto [end, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
+  const double ns = value * scale;
+  if (ec != std::errc{} || end != number.data() + number.size() || !std::isfinite(ns)) return std::nullopt;
+  return ns;
 }
 
 // ============================ PeriodicSchedule ========================

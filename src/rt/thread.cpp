@@ -63,6 +63,17 @@ bool request_slice(long slice_ns) {
   return ::syscall(SYS_sched_setattr, 0, &attr, 0) == 0;
 }
 
+// SCHED_DEADLINE for the calling thread; false (errno set) when the kernel refuses.
+bool request_deadline(std::int64_t runtime_ns, std::int64_t deadline_ns, std::int64_t period_ns) {
+  SchedAttr attr{};
+  attr.size = sizeof attr;
+  attr.policy = 6;  // SCHED_DEADLINE: <sched.h> has no name for it
+  attr.runtime = static_cast<std::uint64_t>(runtime_ns);
+  attr.deadline = static_cast<std::uint64_t>(deadline_ns > 0 ? deadline_ns : period_ns);
+  attr.period = static_cast<std::uint64_t>(period_ns);
+  return ::syscall(SYS_sched_setattr, 0, &attr, 0) == 0;
+}
+
 }  // namespace
 
 long current_slice_ns() {
@@ -107,7 +118,16 @@ void apply_thread_settings(const ThreadSettings& settings) {
            std::strerror(err) + "); running SCHED_OTHER" +
            (err == EPERM ? " (needs CAP_SYS_NICE or an rtprio limit)" : ""));
   }
-  if (settings.slice_ns > 0 && !request_slice(settings.slice_ns))
+  if (settings.deadline_runtime_ns > 0 &&
+      !request_deadline(settings.deadline_runtime_ns, settings.deadline_ns, settings.deadline_period_ns)) {
+    const int err = errno;
+    warn(who + ": SCHED_DEADLINE reservation of " + std::to_string(settings.deadline_runtime_ns / 1000) + " us every " +
+         std::to_string(settings.deadline_period_ns / 1000) + " us refused (" + std::strerror(err) +
+         "); running SCHED_OTHER" +
+         (err == EPERM ? " (needs CAP_SYS_NICE, and no CPU pinning)"
+                       : err == EBUSY ? " (the kernel's admission test: the CPUs' deadline bandwidth is taken)" : ""));
+  }
+  if (settings.deadline_runtime_ns == 0 && settings.slice_ns > 0 && !request_slice(settings.slice_ns))
     warn(who + ": a time slice of " + std::to_string(settings.slice_ns / 1000) + " us refused (" +
          std::strerror(errno) + "); at SCHED_OTHER a waking cycle may wait for another thread's slice");
   if (settings.lock_memory && mlockall(MCL_CURRENT | MCL_FUTURE) != 0)

@@ -198,9 +198,21 @@ bool ComponentServant::run_cycle(const CycleContext& ctx) {
       case InPortBase::Awaited::none: await_counters_.missed.add(); break;
     }
   }
+  // The cycle starts once its datum is there: the budget is the component's own time.
+  const std::int64_t start_ns = watched_ && await_port_ != nullptr ? monotonic_ns() : ctx.wake_ns;
   try {
     component_->on_cycle(ctx);
-    return true;
+    if (!watched_) return true;
+    const std::int64_t end_ns = monotonic_ns();
+    const CycleVerdict verdict = watch_.record(ctx.deadline_ns, start_ns, end_ns);
+    if (contract_.on_miss != MissAction::brake || (!verdict.over_budget && !verdict.missed_deadline)) return true;
+    std::string why = "cycle " + std::to_string(ctx.cycle);
+    if (verdict.over_budget)
+      why += " ran " + format_duration(end_ns - start_ns) + ", over its budget of " + format_duration(contract_.budget_ns);
+    if (verdict.missed_deadline)
+      why += std::string(verdict.over_budget ? " and" : "") + " ended " + format_duration(end_ns - ctx.deadline_ns) +
+             " after its release, past its deadline of " + format_duration(contract_.effective_deadline_ns());
+    fail(why + " (on miss: brake)");
   } catch (const std::exception& e) {
     fail(std::string("cycle ") + std::to_string(ctx.cycle) + " threw: " + e.what());
   } catch (const CORBA::Exception& e) {
@@ -217,6 +229,19 @@ bool ComponentServant::run_cycle(const CycleContext& ctx) {
     log().error("{}: on_stop after the error threw too", component_->name());
   }
   return false;
+}
+
+void ComponentServant::watch_contract(const TimingContract& contract) {
+  contract_ = contract;
+  watch_.set_limits({contract.budget_ns, contract.effective_deadline_ns()});
+  if (watched_) return;
+  watched_ = true;
+  component_->add_percentile_statistics("cycle_time", "one cycle, from its start to its end", watch_.cycle_histogram());
+  component_->add_percentile_statistics("response", "from a cycle's release to its end", watch_.response_histogram());
+  component_->add_statistic("over_budget", "", "cycles that ran longer than the contract's budget",
+                            [this] { return static_cast<double>(watch_.stats().over_budget); });
+  component_->add_statistic("missed_deadline", "", "cycles that ended after the contract's deadline",
+                            [this] { return static_cast<double>(watch_.stats().missed_deadline); });
 }
 
 void ComponentServant::fail(const std::string& why) {
@@ -321,6 +346,45 @@ RTM::TimingStats ComponentServant::timing() {
   out.lateness_p99_ns = static_cast<CORBA::ULongLong>(s.lateness_p99_ns);
   out.lateness_max_ns = static_cast<CORBA::ULongLong>(s.lateness_max_ns);
   out.mean_period_error_ns = s.mean_period_error_ns;
+  return out;
+}
+
+RTM::ContractStatus ComponentServant::contract() {
+  RTM::ContractStatus out{};
+  const TimingContract& c = contract_;
+  const Activity* source = activity_ ? activity_.get() : timing_source_.load();
+  const ActivityStats timing = source != nullptr ? source->stats() : ActivityStats{};
+  // Unwatched, the contract is what the activity runs: its period and nothing promised.
+  out.contract.period_ns = static_cast<CORBA::ULongLong>(watched_ ? c.period_ns : timing.period_ns);
+  out.contract.phased = watched_ && c.phase_ns.has_value();
+  out.contract.phase_ns = static_cast<CORBA::ULongLong>(out.contract.phased ? *c.phase_ns : 0);
+  out.contract.deadline_ns = static_cast<CORBA::ULongLong>(watched_ ? c.effective_deadline_ns() : timing.period_ns);
+  out.contract.budget_ns = static_cast<CORBA::ULongLong>(watched_ ? c.budget_ns : 0);
+  out.contract.await_ns = static_cast<CORBA::ULongLong>(watched_ ? c.await_ns : await_bound_ns_);
+  out.contract.cpu = watched_ ? c.cpu : -1;
+  out.contract.sched = c.sched == SchedClass::fifo       ? RTM::SCHED_CLASS_FIFO
+                       : c.sched == SchedClass::deadline ? RTM::SCHED_CLASS_DEADLINE
+                                                         : RTM::SCHED_CLASS_OTHER;
+  out.contract.fifo_priority = c.fifo_priority;
+  out.contract.runtime_ns = static_cast<CORBA::ULongLong>(c.sched == SchedClass::deadline ? c.effective_runtime_ns() : 0);
+  out.contract.on_miss = c.on_miss == MissAction::brake  ? RTM::MISS_BRAKE
+                         : c.on_miss == MissAction::warn ? RTM::MISS_WARN
+                                                         : RTM::MISS_COUNT;
+  out.watched = watched_;
+  if (!watched_) return out;
+  const CycleWatchStats s = watch_.stats();
+  out.cycles = s.cycles;
+  out.over_budget = s.over_budget;
+  // A release the schedule skipped after an overrun never ran: its deadline was missed too.
+  out.missed_deadline = s.missed_deadline + timing.skipped;
+  out.cycle_p50_ns = static_cast<CORBA::ULongLong>(s.cycle_p50_ns);
+  out.cycle_p99_ns = static_cast<CORBA::ULongLong>(s.cycle_p99_ns);
+  out.cycle_max_ns = static_cast<CORBA::ULongLong>(s.cycle_max_ns);
+  out.cycle_max_at_ns = s.cycle_max_at_ns;
+  out.response_p50_ns = static_cast<CORBA::ULongLong>(s.response_p50_ns);
+  out.response_p99_ns = static_cast<CORBA::ULongLong>(s.response_p99_ns);
+  out.response_max_ns = static_cast<CORBA::ULongLong>(s.response_max_ns);
+  out.response_max_at_ns = s.response_max_at_ns;
   return out;
 }
 

@@ -39,7 +39,7 @@ std::set<std::string> operations_in(const std::string& file) {
 TEST(AccessOperations, EveryOperationOfTheIdlIsAReadListedHereOrAChangeTheScreenKnows) {
   const std::set<std::string> reads = {"get",   "in_ports", "out_ports",  "counters",   "describe",
                                        "state", "timing",   "statistics", "parameters", "subscriptions",
-                                       "last_error", "members"};
+                                       "last_error", "members", "contract"};
   std::set<std::string> ops = operations_in(std::string(RTM_IDL_DIR) + "/RTM.idl");
   const std::set<std::string> ext = operations_in(std::string(RTM_IDL_DIR) + "/RTMExt.idl");
   ops.insert(ext.begin(), ext.end());

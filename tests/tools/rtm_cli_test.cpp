@@ -310,7 +310,7 @@ TEST_F(RtmCli, CatShowsWhatAComponentSaysOfItselfPortsWithUnitsStatisticsAndPara
   EXPECT_EQ(t["parameters"]["name"]["access"], "fixed");
   EXPECT_EQ(t["parameters"]["name"]["value"], "t");
   EXPECT_EQ(rtm({"cat", "--names", "t"}).out, "in0\npos3\nforce\nout3\n");
-  EXPECT_EQ(rtm({"cat", "--parameters", "t"}).out, "offset\nfail_after\nname\n");
+  EXPECT_EQ(rtm({"cat", "--parameters", "t"}).out, "offset\nfail_after\nname\nspin_us\n");
 }
 
 TEST_F(RtmCli, SetChangesALiveParameterThatTheNextCyclesUse) {
@@ -331,7 +331,7 @@ TEST_F(RtmCli, SetRefusesAnUnknownAFixedAWhenOffWhileOnOrABadValueAndChangesNoth
   talker("t", {"--on"});
   auto unknown = rtm({"set", "t", "nope", "1"});
   EXPECT_EQ(unknown.exit_code, 1);
-  EXPECT_NE(unknown.err.find("t: no parameter 'nope' (parameters: offset, fail_after, name)"), std::string::npos)
+  EXPECT_NE(unknown.err.find("t: no parameter 'nope' (parameters: offset, fail_after, name, spin_us)"), std::string::npos)
       << unknown.err;
   auto fixed = rtm({"set", "t", "name", "x"});
   EXPECT_EQ(fixed.exit_code, 1);
@@ -733,7 +733,7 @@ TEST_F(RtmUpDown, UpWithAParameterTheComponentRefusesSaysWhyOnceAndLeavesNothing
   auto file = write_system("components:\n  - {name: a, command: rtm-test-talker, parameters: {nope: 1}}\n");
   auto up = rtm_env({"up", file.string()});
   EXPECT_EQ(up.exit_code, 1);
-  EXPECT_NE(up.err.find("a: no parameter 'nope' (parameters: offset, fail_after, name)"), std::string::npos)
+  EXPECT_NE(up.err.find("a: no parameter 'nope' (parameters: offset, fail_after, name, spin_us)"), std::string::npos)
       << up.err;
   EXPECT_TRUE(rtm_json({"ls"}).empty()) << "what up started is stopped again";
 }

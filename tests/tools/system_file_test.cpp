@@ -148,7 +148,7 @@ TEST(RtmSystemFile, MalformedParametersAndUnknownComponentKeysAreRefusedWithTheL
       << "or YAML's own refusal of a repeated key";
   const std::string unknown = refusal("components:\n  - name: c\n    command: x\n    paramters: {gain: 1}\n");
   EXPECT_NE(unknown.find(
-                ":4: unknown key 'paramters' in a component (known: name, command, host, parameters, parameter_sets)"),
+                ":4: unknown key 'paramters' in a component (known: name, command, host, parameters, parameter_sets, contract)"),
             std::string::npos)
       << unknown;
 }
@@ -488,6 +488,97 @@ TEST(RtmPortAddress, RefusesAddressesWithoutAPort) {
   EXPECT_THROW(rtm::cli::PortAddress::parse("sensor0"), std::invalid_argument);
   EXPECT_THROW(rtm::cli::PortAddress::parse("sensor0."), std::invalid_argument);
   EXPECT_THROW(rtm::cli::PortAddress::parse(".out0"), std::invalid_argument);
+}
+
+}  // namespace
+
+namespace {
+
+// ------------------------------------------------------------------ timing contracts
+
+TEST(RtmSystemFile, AContractIsGivenToTheProgramAsOptionsAfterItsOwnSoThatItWins) {
+  auto f = SystemFile::parse(R"(
+components:
+  - name: controller0
+    command: [rtm-controller, --phase, 0.5ms]
+    contract: {phase: 0.1ms, deadline: 0.5ms, budget: 80us, await: "wrench:0.15ms", cpu: 1, priority: 80, on_miss: warn}
+  - {name: joystick0, command: rtm-joystick, contract: {sched_deadline: 100us, period: 4ms}}
+)",
+                             kFile);
+  EXPECT_EQ(f.components[0].arguments(),
+            (std::vector<std::string>{"rtm-controller", "--phase", "0.5ms", "--phase", "0.1ms", "--deadline", "0.5ms",
+                                      "--budget", "80us", "--await", "wrench:0.15ms", "--cpu", "1", "--rt-priority",
+                                      "80", "--on-miss", "warn"}));
+  EXPECT_EQ(f.components[1].arguments(),
+            (std::vector<std::string>{"rtm-joystick", "--sched-deadline", "100us", "--period", "4ms"}));
+  const auto starts = rtm::cli::processes_to_start(f, "127.0.0.1:2809", [](const std::string& p, const auto&) {
+    return std::filesystem::path("/opt/rtm/bin") / p;
+  });
+  ASSERT_EQ(starts.size(), 2u);
+  EXPECT_EQ(starts[0].command[2], "0.5ms");
+  EXPECT_EQ(starts[0].command[3], "--phase") << "the contract's phase after the command's";
+  EXPECT_EQ(starts[0].command[4], "0.1ms");
+}
+
+TEST(RtmSystemFile, ChainsAreReadWithTheirBoundsAndWrittenBack) {
+  auto f = SystemFile::parse(R"(
+name: servo
+components:
+  - {name: sensor0, command: rtm-sensor, contract: {phase: 0, budget: 50us}}
+  - {name: controller0, command: rtm-controller}
+  - {name: actuator0, command: rtm-actuator}
+chains:
+  - {name: wrist_to_twist, path: [sensor0.wrench, controller0, actuator0], deadline: 1ms, max_age: 2.5ms}
+  - {name: short, path: [sensor0.wrench, controller0]}
+)",
+                             kFile);
+  ASSERT_EQ(f.chains.size(), 2u);
+  EXPECT_EQ(f.chains[0].name, "wrist_to_twist");
+  EXPECT_EQ(f.chains[0].path, (std::vector<std::string>{"sensor0.wrench", "controller0", "actuator0"}));
+  EXPECT_EQ(f.chains[0].deadline_ns, 1'000'000);
+  EXPECT_EQ(f.chains[0].max_age_ns, 2'500'000);
+  EXPECT_EQ(f.chains[1].deadline_ns, 0) << "none given";
+  const auto again = SystemFile::parse(f.to_yaml(), kFile);
+  ASSERT_EQ(again.chains.size(), 2u);
+  EXPECT_EQ(again.chains[0].path, f.chains[0].path);
+  EXPECT_EQ(again.chains[0].deadline_ns, 1'000'000);
+  EXPECT_EQ(again.chains[0].max_age_ns, 2'500'000);
+  EXPECT_EQ(again.components[0].contract, f.components[0].contract);
+}
+
+TEST(RtmSystemFile, AMalformedContractOrChainIsRefusedWithTheLineAndWhatIsWanted) {
+  const std::string head = "components:\n  - {name: a, command: rtm-a}\n  - {name: b, command: rtm-b}\n";
+  const auto contract_error = [](const std::string& contract) {
+    return error_of("components:\n  - name: a\n    command: rtm-a\n    contract: " + contract + "\n");
+  };
+  EXPECT_NE(contract_error("{budget: fast}").find("servo.yaml:4: component 'a': contract budget 'fast': want a duration"),
+            std::string::npos)
+      << contract_error("{budget: fast}");
+  EXPECT_NE(contract_error("{period: 10us}").find("from 50us to 1 h"), std::string::npos);
+  EXPECT_NE(contract_error("{priority: 100}").find("1..99"), std::string::npos);
+  EXPECT_NE(contract_error("{cpu: -1}").find("a CPU's number"), std::string::npos);
+  EXPECT_NE(contract_error("{on_miss: panic}").find("count, warn or brake"), std::string::npos);
+  EXPECT_NE(contract_error("{await: 0.1ms}").find("PORT:BOUND"), std::string::npos);
+  EXPECT_NE(contract_error("{wcet: 1ms}").find("unknown key 'wcet' in a contract"), std::string::npos);
+  EXPECT_NE(contract_error("{sched_deadline: 100us, cpu: 1}").find("takes no priority and no cpu"), std::string::npos);
+  EXPECT_NE(contract_error("[1ms]").find("'contract' must be a mapping"), std::string::npos);
+
+  EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a, b]}\n").find("servo.yaml:5: chain 'c': its path starts at an OutPort"),
+            std::string::npos)
+      << error_of(head + "chains:\n  - {name: c, path: [a, b]}\n");
+  EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a.out, b.]}\n").find("after its head the path names components"),
+            std::string::npos);
+  EXPECT_EQ(error_of(head + "chains:\n  - {name: c, path: [a.out, b.in]}\n"), "") << "a component and its InPort";
+  EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a.out, z]}\n").find("component 'z', which 'components' does not list"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a.out]}\n").find("'path' must list"), std::string::npos);
+  EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a.out, b], deadline: soon}\n").find("deadline 'soon'"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + "chains:\n  - {name: C!, path: [a.out, b]}\n").find("chain name"), std::string::npos);
+  EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a.out, b]}\n  - {name: c, path: [a.out, b]}\n").find("listed twice"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a.out, b], latency: 1ms}\n").find("unknown key 'latency' in a chain"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -3,10 +3,12 @@
 //   in:  in0 (TimedFloat6, undescribed), pos3 (TimedFloat3, x y z in m)
 //   out: force (TimedFloat6, a ramp: value i of cycle n is n + i + offset; fx..tz in N, N·m),
 //        out3 (TimedFloat3)
-// Statistic "cycles"; parameters "offset" (live), "fail_after" (while off) and "name" (fixed).
+// Statistic "cycles"; parameters "offset" (live), "fail_after" (while off), "name" (fixed) and
+// "spin_us" (live: each cycle first spins that long).
 // --fail-after N makes its N-th cycle throw (the component goes to COMPONENT_ERROR);
 // --in0-delay-ms N makes in0 a reader slow to take its data: each put waits N ms (its writer's
 // calls time out, while the component answers everything else).
+#include "rt/clock.h"
 #include "rt/live_value.h"
 #include "rtm/data.h"
 #include "host/module.h"
@@ -44,9 +46,21 @@ class Talker final : public rtm::Component {
                      fail_after_ = static_cast<long>(rtm::parse_whole_number(text, 0, 1'000'000));
                    }});
     add_parameter({.name = "name", .description = "the name it is bound as", .get = [this] { return this->name(); }});
+    add_parameter({.name = "spin_us",
+                   .unit = "us",
+                   .description = "each cycle first spins this long on the CPU (a cycle slowed past its budget)",
+                   .access = rtm::ParameterAccess::live,
+                   .get = [this] { return std::to_string(spin_us_.load()); },
+                   .set = [this](std::string_view text) {
+                     spin_us_.store(static_cast<long>(rtm::parse_whole_number(text, 0, 1'000'000)));
+                   }});
   }
 
   void on_cycle(const rtm::CycleContext&) override {
+    // Busy, not asleep: the cycle takes at least this long whatever the machine does.
+    const std::int64_t spin_until = rtm::monotonic_ns() + spin_us_.load() * 1000;
+    while (rtm::monotonic_ns() < spin_until) {
+    }
     ++cycle_;
     cycles_.store(cycle_);
     if (fail_after_ > 0 && cycle_ % fail_after_ == 0) {
@@ -76,6 +90,7 @@ class Talker final : public rtm::Component {
   RTM::TimedFloat6 last_in_{};
   long cycle_ = 0;
   std::atomic<long> cycles_{0};
+  std::atomic<long> spin_us_{0};
   long fail_after_;  // changes only while off
   float offset_ = 0;        // the cycle's
   float offset_shown_ = 0;  // the last set (set_parameter calls are serialised)

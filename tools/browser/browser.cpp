@@ -184,6 +184,13 @@ ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr obje
       } catch (const CORBA::BAD_OPERATION&) {
         // an RtComponentEx of before members(): no composite that tools can draw
       }
+      if (detail != Detail::brief) {
+        try {
+          info.contract = ex->contract();
+        } catch (const CORBA::BAD_OPERATION&) {
+          // an RtComponentEx of before contracts
+        }
+      }
       if (detail == Detail::full) read_self_description(ex, info);
       comp = RTM::RtComponent::_duplicate(ex);
     } else {
@@ -223,6 +230,7 @@ ComponentInfo Browser::inspect(const ComponentPath& path, CORBA::Object_ptr obje
     info.dead_reason = out_of_reach ? std::string(kOutOfReach) : *dead;
     info.ports.clear();
     info.timing.reset();
+    info.contract.reset();
   }
   return info;
 }

@@ -34,6 +34,33 @@ json timing_json(const RTM::TimingStats& t) {
           {"mean_period_error_ns", t.mean_period_error_ns}};
 }
 
+json contract_json(const RTM::ContractStatus& s) {
+  const RTM::TimingContract& c = s.contract;
+  const char* sched = c.sched == RTM::SCHED_CLASS_FIFO ? "fifo" : c.sched == RTM::SCHED_CLASS_DEADLINE ? "deadline" : "other";
+  const char* on_miss = c.on_miss == RTM::MISS_BRAKE ? "brake" : c.on_miss == RTM::MISS_WARN ? "warn" : "count";
+  json j{{"period_ns", c.period_ns},
+         {"phase_ns", c.phased ? json(c.phase_ns) : json(nullptr)},
+         {"deadline_ns", c.deadline_ns},
+         {"budget_ns", c.budget_ns},
+         {"await_ns", c.await_ns},
+         {"cpu", c.cpu},
+         {"sched", sched},
+         {"fifo_priority", c.fifo_priority},
+         {"runtime_ns", c.runtime_ns},
+         {"on_miss", on_miss},
+         {"watched", s.watched}};
+  if (!s.watched) return j;
+  j["cycles"] = s.cycles;
+  j["over_budget"] = s.over_budget;
+  j["missed_deadline"] = s.missed_deadline;
+  j["deadline_met"] = s.missed_deadline == 0;
+  j["budget_met"] = c.budget_ns == 0 ? json(nullptr) : json(s.over_budget == 0);
+  j["cycle_ns"] = {{"p50", s.cycle_p50_ns}, {"p99", s.cycle_p99_ns}, {"max", s.cycle_max_ns}, {"max_at_ns", s.cycle_max_at_ns}};
+  j["response_ns"] = {
+      {"p50", s.response_p50_ns}, {"p99", s.response_p99_ns}, {"max", s.response_max_ns}, {"max_at_ns", s.response_max_at_ns}};
+  return j;
+}
+
 json port_json(const PortInfo& p) {
   json j{{"name", p.name}, {"direction", to_string(p.direction)}, {"index", p.index}, {"type", p.type}};
   if (!p.description.empty()) j["description"] = p.description;
@@ -83,6 +110,7 @@ json component_json(const ComponentInfo& c, bool detailed) {
     j["period_ns"] = c.timing->period_ns;
     if (detailed) j["timing"] = timing_json(*c.timing);
   }
+  if (detailed && c.contract) j["contract"] = contract_json(*c.contract);
   j["ports"] = json::array();
   for (const auto& p : c.ports) j["ports"].push_back(port_json(p));
   if (detailed && c.extended) {

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "launcher/launcher.h"
 
+#include "launcher/timing_check.h"
+
 #include "process.h"
 
 #include "host/access.h"
@@ -232,7 +234,7 @@ std::vector<ProcessToStart> processes_to_start(const SystemFile& file, const std
   std::map<std::string, std::size_t> hosts;  // a host's process in out
   for (const auto& c : file.components) {
     if (c.host.empty()) {
-      ProcessToStart p{c.name, c.command, {c.name}};
+      ProcessToStart p{c.name, c.arguments(), {c.name}};
       p.command[0] = find(p.command[0], base).string();
       p.command.insert(p.command.end(), {"--name", c.name, "--naming", naming});
       out.push_back(std::move(p));
@@ -253,11 +255,40 @@ std::vector<ProcessToStart> processes_to_start(const SystemFile& file, const std
       if (program.find('/') != std::string::npos) throw;
     }
     p.command.insert(p.command.end(), {"--", c.name, resolved});
-    p.command.insert(p.command.end(), std::next(c.command.begin()), c.command.end());
+    const std::vector<std::string> arguments = c.arguments();
+    p.command.insert(p.command.end(), std::next(arguments.begin()), arguments.end());
     p.members.push_back(c.name);
   }
   return out;
 }
+
+namespace {
+
+// The file's contracts, checked before anything starts (only when it declares one: a file
+// without any starts as before).
+void check_contracts(const SystemFile& file, const LaunchOptions& options) {
+  const bool declared = !file.chains.empty() || std::any_of(file.components.begin(), file.components.end(),
+                                                            [](const auto& c) { return !c.contract.empty(); });
+  if (!declared) return;
+  const TimingCheck check = check_timing(file);
+  std::string refusals;
+  for (const auto& f : check.analysis.findings) {
+    if (f.severity != TimingFinding::Severity::refusal) continue;
+    refusals += fmt::format("\n  {}: {}", f.subject, f.text);
+  }
+  if (refusals.empty()) {
+    if (options.progress) options.progress("timing contracts: the analysis says they hold (rtm check explains)");
+    return;
+  }
+  if (!options.force)
+    throw SystemFileError(fmt::format("{}: the system cannot keep its timing contracts:{}\n`rtm check {}` explains "
+                                      "each bound; `rtm up --force` starts it anyway",
+                                      file.path.string(), refusals, file.path.string()));
+  if (options.progress)
+    options.progress(fmt::format("WARNING: starting despite timing contracts it cannot keep (--force):{}", refusals));
+}
+
+}  // namespace
 
 SystemState system_up(const SystemFile& file, const Browser& browser, const NamingAddress& naming,
                       const LaunchOptions& options) {
@@ -278,6 +309,7 @@ SystemState system_up(const SystemFile& file, const Browser& browser, const Nami
                                         options.parameter_set, known.empty() ? "none" : known));
     }
   }
+  check_contracts(file, options);
   SystemState state;
   state.system = file.name;
   state.naming = naming.to_string();

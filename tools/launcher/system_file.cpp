@@ -2,6 +2,7 @@
 #include "launcher/system_file.h"
 
 #include "rtm/naming.h"
+#include "rt/schedule.h"
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -9,6 +10,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <set>
@@ -66,14 +69,107 @@ SystemFile::Component::Parameters parse_parameters(const SystemFile& f, const YA
   return out;
 }
 
+// A component's 'contract': each key and its text, checked here so that a typo is refused with
+// its line before anything starts (the program checks the whole contract again).
+std::vector<std::pair<std::string, std::string>> parse_contract(const SystemFile& f, const YAML::Node& node,
+                                                                const std::string& owner) {
+  static const char* const kKeys = "period, phase, deadline, budget, await, cpu, priority, sched_deadline, on_miss";
+  if (!node.IsMap()) fail(f, node, fmt::format("{}: 'contract' must be a mapping ({})", owner, kKeys));
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& kv : node) {
+    const std::string key = scalar(f, kv.first, "a contract's key");
+    const std::string text = scalar(f, kv.second, fmt::format("{}: contract '{}'", owner, key));
+    const auto bad = [&](const std::string& want) {
+      fail(f, kv.second, fmt::format("{}: contract {} '{}': want {}", owner, key, text, want));
+    };
+    const std::optional<double> ns = parse_duration_ns(text);
+    if (key == "period") {
+      if (!ns || *ns < 50e3 || *ns > 3600e9) bad("a duration from 50us to 1 h, e.g. 2ms");
+    } else if (key == "phase") {
+      if (!ns || *ns < 0) bad("a duration from 0 to less than the period, e.g. 0.1ms");
+    } else if (key == "deadline" || key == "budget" || key == "sched_deadline") {
+      if (!ns || *ns < 1) bad("a duration above 0, e.g. 0.5ms or 80us");
+    } else if (key == "await") {
+      const std::size_t colon = text.find(':');
+      if (colon == 0 || colon == std::string::npos || !parse_duration_ns(text.substr(colon + 1)))
+        bad("PORT:BOUND, e.g. wrench:0.15ms");
+    } else if (key == "cpu" || key == "priority") {
+      int value = -1;
+      const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+      if (ec != std::errc{} || end != text.data() + text.size() || value < (key == "cpu" ? 0 : 1) || value > (key == "cpu" ? 4095 : 99))
+        bad(key == "cpu" ? "a CPU's number, from 0" : "a SCHED_FIFO priority, 1..99");
+    } else if (key == "on_miss") {
+      if (text != "count" && text != "warn" && text != "brake") bad("count, warn or brake");
+    } else {
+      fail(f, kv.first, fmt::format("{}: unknown key '{}' in a contract (known: {})", owner, key, kKeys));
+    }
+    for (const auto& [seen, ignored] : out)
+      if (seen == key) fail(f, kv.first, fmt::format("{}: contract '{}' given twice", owner, key));
+    out.emplace_back(key, text);
+  }
+  const auto has = [&](const char* key) {
+    return std::any_of(out.begin(), out.end(), [&](const auto& kv) { return kv.first == key; });
+  };
+  if (has("sched_deadline") && (has("priority") || has("cpu")))
+    fail(f, node, fmt::format("{}: a contract with sched_deadline takes no priority and no cpu (the kernel refuses "
+                              "SCHED_DEADLINE for a thread pinned to one CPU)", owner));
+  return out;
+}
+
+// One entry of 'chains': a name, a path through components the file lists, its bounds.
+rtm::ChainContract parse_chain(const SystemFile& f, const YAML::Node& c, const std::set<std::string>& names) {
+  if (!c.IsMap()) fail(f, c, "each chain must be a mapping with 'name' and 'path'");
+  for (const auto& kv : c) {
+    const auto key = kv.first.as<std::string>();
+    if (key != "name" && key != "path" && key != "deadline" && key != "max_age")
+      fail(f, kv.first, fmt::format("unknown key '{}' in a chain (known: name, path, deadline, max_age)", key));
+  }
+  rtm::ChainContract chain;
+  chain.name = scalar_field(f, c, "name", "a chain's 'name'");
+  try {
+    rtm::check_name(chain.name, "chain name");
+  } catch (const std::invalid_argument& e) {
+    fail(f, c["name"], e.what());
+  }
+  const YAML::Node path = c["path"];
+  if (!path || !path.IsSequence() || path.size() < 2)
+    fail(f, path ? path : c,
+         fmt::format("chain '{}': 'path' must list the head's OutPort and then each component the data pass, e.g. "
+                     "[sensor0.wrench, controller0, actuator0]", chain.name));
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const std::string step = scalar(f, path[i], fmt::format("chain '{}': a step of 'path'", chain.name));
+    const std::size_t dot = step.find('.');
+    const std::string component = step.substr(0, dot);
+    if (i == 0 && (dot == std::string::npos || dot + 1 == step.size()))
+      fail(f, path[i], fmt::format("chain '{}': its path starts at an OutPort, component.port, not '{}'", chain.name, step));
+    if (i > 0 && dot != std::string::npos && (dot + 1 == step.size() || step.find('.', dot + 1) != std::string::npos))
+      fail(f, path[i], fmt::format("chain '{}': after its head the path names components, or component.inport, not '{}'",
+                                   chain.name, step));
+    if (!names.count(component))
+      fail(f, path[i], fmt::format("chain '{}' names component '{}', which 'components' does not list", chain.name, component));
+    chain.path.push_back(step);
+  }
+  for (const auto& [key, field] : {std::pair{"deadline", &chain.deadline_ns}, std::pair{"max_age", &chain.max_age_ns}}) {
+    const YAML::Node n = c[key];
+    if (!n) continue;
+    const std::string text = scalar(f, n, fmt::format("chain '{}': '{}'", chain.name, key));
+    const std::optional<double> ns = parse_duration_ns(text);
+    if (!ns || *ns < 1) fail(f, n, fmt::format("chain '{}': {} '{}': want a duration above 0, e.g. 1ms", chain.name, key, text));
+    *field = std::llround(*ns);
+  }
+  return chain;
+}
+
 // One entry of 'components': its name (the one name rule), its command and its parameters.
 SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) {
   SystemFile::Component comp;
   for (const auto& kv : c) {
     const auto key = kv.first.as<std::string>();
-    if (key != "name" && key != "command" && key != "host" && key != "parameters" && key != "parameter_sets")
+    if (key != "name" && key != "command" && key != "host" && key != "parameters" && key != "parameter_sets" &&
+        key != "contract")
       fail(f, kv.first,
-           fmt::format("unknown key '{}' in a component (known: name, command, host, parameters, parameter_sets)",
+           fmt::format("unknown key '{}' in a component (known: name, command, host, parameters, parameter_sets, "
+                       "contract)",
                        key));
   }
   comp.name = scalar_field(f, c, "name", "a component's 'name'");
@@ -109,6 +205,7 @@ SystemFile::Component parse_component(const SystemFile& f, const YAML::Node& c) 
     }
   }
   if (const YAML::Node params = c["parameters"]) comp.parameters = parse_parameters(f, params, owner);
+  if (const YAML::Node contract = c["contract"]) comp.contract = parse_contract(f, contract, owner);
   if (const YAML::Node sets = c["parameter_sets"]) {
     if (!sets.IsMap())
       fail(f, sets, fmt::format("{}: 'parameter_sets' must map set names to parameters", owner));
@@ -183,9 +280,9 @@ SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem
   for (const auto& kv : root) {
     const auto key = kv.first.as<std::string>();
     if (key != "name" && key != "naming" && key != "components" && key != "connections" &&
-        key != "activate") {
+        key != "activate" && key != "chains") {
       fail(f, kv.first, fmt::format("unknown key '{}' (known: name, naming, components, "
-                                    "connections, activate)", key));
+                                    "connections, activate, chains)", key));
     }
   }
   f.name = root["name"] ? scalar(f, root["name"], "'name'") : path.stem().string();
@@ -231,6 +328,15 @@ SystemFile SystemFile::parse(const std::string& yaml_text, const std::filesystem
       f.activate.push_back(std::move(n));
     }
   }
+  if (const YAML::Node chains = root["chains"]) {
+    if (!chains.IsSequence()) fail(f, chains, "'chains' must be a list");
+    for (const auto& c : chains) {
+      f.chains.push_back(parse_chain(f, c, names));
+      for (std::size_t i = 0; i + 1 < f.chains.size(); ++i)
+        if (f.chains[i].name == f.chains.back().name)
+          fail(f, c, fmt::format("chain '{}' listed twice", f.chains.back().name));
+    }
+  }
   // What the file's wiring is as a diagram: an InPort written twice, a connection listed twice.
   if (auto problems = f.diagram().problems(); !problems.empty()) {
     std::string text = fmt::format("{}: the wiring does not hold:", path.string());
@@ -251,6 +357,19 @@ SystemFile::Component::Parameters SystemFile::Component::parameters_with(const s
       else
         out.emplace_back(parameter, value);
     }
+  }
+  return out;
+}
+
+std::vector<std::string> SystemFile::Component::arguments() const {
+  static const std::pair<const char*, const char*> kOptions[] = {
+      {"period", "--period"}, {"phase", "--phase"},       {"deadline", "--deadline"},
+      {"budget", "--budget"}, {"await", "--await"},       {"cpu", "--cpu"},
+      {"priority", "--rt-priority"}, {"sched_deadline", "--sched-deadline"}, {"on_miss", "--on-miss"}};
+  std::vector<std::string> out = command;
+  for (const auto& [key, text] : contract) {
+    for (const auto& [name, option] : kOptions)
+      if (key == name) out.insert(out.end(), {option, text});
   }
   return out;
 }
@@ -314,6 +433,11 @@ std::string SystemFile::to_yaml() const {
       out << YAML::Key << "parameters" << YAML::Value;
       write(c.parameters);
     }
+    if (!c.contract.empty()) {
+      out << YAML::Key << "contract" << YAML::Value << YAML::Flow << YAML::BeginMap;
+      for (const auto& [key, text] : c.contract) out << YAML::Key << key << YAML::Value << text;
+      out << YAML::EndMap;
+    }
     if (!c.parameter_sets.empty()) {
       out << YAML::Key << "parameter_sets" << YAML::Value << YAML::BeginMap;
       for (const auto& [set, parameters] : c.parameter_sets) {
@@ -343,6 +467,17 @@ std::string SystemFile::to_yaml() const {
     out << YAML::EndSeq;
   }
   if (!activate.empty()) out << YAML::Key << "activate" << YAML::Value << YAML::Flow << activate;
+  if (!chains.empty()) {
+    out << YAML::Key << "chains" << YAML::Value << YAML::BeginSeq;
+    for (const auto& c : chains) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << c.name << YAML::Key << "path"
+          << YAML::Value << YAML::Flow << c.path;
+      if (c.deadline_ns > 0) out << YAML::Key << "deadline" << YAML::Value << std::to_string(c.deadline_ns) + "ns";
+      if (c.max_age_ns > 0) out << YAML::Key << "max_age" << YAML::Value << std::to_string(c.max_age_ns) + "ns";
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }

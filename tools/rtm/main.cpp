@@ -29,6 +29,7 @@
 // --json; exit code 0 ok, 1 failed, 2 usage.
 #include "browser/browser.h"
 #include "launcher/launcher.h"
+#include "launcher/timing_check.h"
 #include "launcher/private_naming.h"
 #include "report.h"
 #include "launcher/system_file.h"
@@ -94,7 +95,7 @@ struct Cli {
   int timeout_ms = 5000;  // on() of a composite makes several remote calls of its own
   CLI::App *ls = nullptr, *cat = nullptr, *set = nullptr, *connect = nullptr, *disconnect = nullptr, *on = nullptr,
            *off = nullptr, *reset = nullptr, *get = nullptr, *put = nullptr, *watch = nullptr, *up = nullptr,
-           *down = nullptr, *serve = nullptr, *names = nullptr, *demo = nullptr;
+           *down = nullptr, *serve = nullptr, *names = nullptr, *demo = nullptr, *check = nullptr;
   bool names_stop = false;
   std::string ls_path;
   bool ls_long = false, ls_clean = false, ls_names = false;
@@ -111,6 +112,8 @@ struct Cli {
   double put_rate_hz = 0, put_for_s = 0;
   std::string up_file, down_what, up_set;
   int up_timeout_ms = 10000;
+  bool up_force = false;
+  std::string check_file;
   TlsCommand tls_command;
   NewCommand new_command;
   RecordCommand record_command;
@@ -179,6 +182,11 @@ void add_system_commands(CLI::App& app, Cli& c) {
   c.up->add_option("file", c.up_file, "system file (YAML)")->required();
   c.up->add_option("--bind-timeout", c.up_timeout_ms, "ms to wait for each component to bind");
   c.up->add_option("--set", c.up_set, "a parameter set of the file: its values over the components' parameters");
+  c.up->add_flag("--force", c.up_force, "start a system whose timing contracts the analysis says it cannot keep "
+                                         "(each refusal is printed first)");
+  c.check = app.add_subcommand("check", "check a system file's timing contracts before it starts: per CPU, per "
+                                        "component and each chain hop by hop (exit 1: it cannot keep them)");
+  c.check->add_option("file", c.check_file, "system file (YAML)")->required();
   c.down = app.add_subcommand("down", "stop a system started by `rtm up`");
   c.serve = app.add_subcommand("serve", "the component editor in a browser: prints its URL, serves until Ctrl-C");
   c.serve->add_option("--listen", c.listen, "HOST:PORT to listen on (port 0: any free one)")->capture_default_str();
@@ -193,6 +201,24 @@ void add_system_commands(CLI::App& app, Cli& c) {
 }
 
 // ------------------------------------------------------------------ commands
+
+// `rtm check FILE`: exit 0 when the analysis finds the contracts kept (warnings say what it
+// cannot bound), 1 when it refuses them, 2 for a malformed file.
+int run_check(const Cli& c) {
+  TimingCheck check;
+  try {
+    check = check_timing(SystemFile::load(c.check_file));
+  } catch (const SystemFileError& e) {
+    throw Failure(e.what(), kUsage);
+  }
+  if (c.json)
+    fmt::print("{}\n", timing_check_json(check));
+  else {
+    for (const auto& name : check.without_loop) fmt::print("{}: runs no loop of its own (a composite): no contract\n", name);
+    fmt::print("{}", check.analysis.explain());
+  }
+  return check.analysis.refused() ? kFailed : kOk;
+}
 
 int run_ls(const Browser& browser, const Cli& c) {
   if (c.ls_clean) {
@@ -519,6 +545,7 @@ int run(const Cli& c) {
     return kOk;
   }
   if (c.names->parsed()) return run_names(c);
+  if (c.check->parsed()) return run_check(c);
   if (c.record_command.recovers()) return c.record_command.run_recover(c.json);
   if (c.replay_command.parsed()) return c.replay_command.run(c.json);
   if (!c.tls.empty()) {
@@ -540,6 +567,7 @@ int run(const Cli& c) {
   LaunchOptions launch;
   launch.bind_timeout = std::chrono::milliseconds(c.up_timeout_ms);
   launch.parameter_set = c.up_set;
+  launch.force = c.up_force;
   if (!c.json) {
     launch.progress = [](const std::string& line) {
       fmt::print("{}\n", line);

@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "report.h"
 
+#include <fmt/chrono.h>
 #include <fmt/format.h>
 
 #include <cmath>
+#include <ctime>
 
 namespace rtm::cli {
 
@@ -18,6 +20,39 @@ std::string short_type(const std::string& type) {
 std::string period_text(const ComponentInfo& c) {
   if (!c.timing || c.timing->period_ns == 0) return "-";
   return fmt::format("{:g} ms", c.timing->period_ns / 1e6);
+}
+
+// A duration as the contract states it: "2 ms", "80 us".
+std::string duration_text(unsigned long long ns) {
+  return ns >= 1'000'000 ? fmt::format("{:g} ms", ns / 1e6) : fmt::format("{:g} us", ns / 1e3);
+}
+
+// The local time of a CLOCK_REALTIME stamp, "16:41:02"; "" for none.
+std::string when_text(long long realtime_ns) {
+  if (realtime_ns <= 0) return "";
+  return fmt::format(" at {:%H:%M:%S}", fmt::localtime(static_cast<std::time_t>(realtime_ns / 1'000'000'000)));
+}
+
+// "contract: deadline 2 ms met (response p99 85.0 us, max 310.0 us at 16:41:02); budget 80 us:
+// 3 over (cycle p99 40.0 us, max 95.0 us at 16:40:58); fifo 80 on CPU 1, on miss: warn", or ""
+// for a component that is not watched.
+std::string contract_text(const RTM::ContractStatus& s) {
+  if (!s.watched) return "";
+  const RTM::TimingContract& c = s.contract;
+  std::string text = fmt::format("contract: deadline {} {} (response p99 {} us, max {} us{})", duration_text(c.deadline_ns),
+                                 s.missed_deadline == 0 ? std::string("met") : fmt::format("MISSED {}×", s.missed_deadline),
+                                 us(s.response_p99_ns), us(s.response_max_ns), when_text(s.response_max_at_ns));
+  const std::string cycle =
+      fmt::format("cycle p99 {} us, max {} us{}", us(s.cycle_p99_ns), us(s.cycle_max_ns), when_text(s.cycle_max_at_ns));
+  text += c.budget_ns == 0 ? fmt::format("; no budget ({})", cycle)
+                           : fmt::format("; budget {} {} ({})", duration_text(c.budget_ns),
+                                         s.over_budget == 0 ? std::string("met") : fmt::format("EXCEEDED {}×", s.over_budget), cycle);
+  const std::string sched = c.sched == RTM::SCHED_CLASS_FIFO       ? fmt::format("fifo {}", c.fifo_priority)
+                            : c.sched == RTM::SCHED_CLASS_DEADLINE ? fmt::format("deadline {} reserved", duration_text(c.runtime_ns))
+                                                                   : std::string("other");
+  const char* on_miss = c.on_miss == RTM::MISS_BRAKE ? "brake" : c.on_miss == RTM::MISS_WARN ? "warn" : "count";
+  text += fmt::format("; {}{}, on miss: {}", sched, c.cpu >= 0 ? fmt::format(" on CPU {}", c.cpu) : std::string(), on_miss);
+  return text;
 }
 
 // "fx fy fz tx ty tz [N N N N·m N·m N·m]", or "" when the port does not say.
@@ -155,6 +190,7 @@ void print_ls(const std::vector<ComponentInfo>& comps, bool detailed) {
       fmt::print("  {:<16} lateness p50 {} us  p99 {} us  max {} us  overruns {} of {} cycles\n", "",
                  us(t.lateness_p50_ns), us(t.lateness_p99_ns), us(t.lateness_max_ns), t.overruns, t.cycles);
     }
+    if (detailed && c.contract && c.contract->watched) fmt::print("  {:<16} {}\n", "", contract_text(*c.contract));
     if (!detailed) continue;
     // Its wiring: each subscription of its OutPorts, with its kind and connection policy.
     for (const auto& p : c.ports)
@@ -183,6 +219,7 @@ void print_cat(const ComponentInfo& c) {
     fmt::print("  lateness p50 {} us  p99 {} us  max {} us  overruns {} of {} cycles\n", us(t.lateness_p50_ns),
                us(t.lateness_p99_ns), us(t.lateness_max_ns), t.overruns, t.cycles);
   }
+  if (c.contract && c.contract->watched) fmt::print("  {}\n", contract_text(*c.contract));
   for (const auto& p : c.ports) print_port(p);
   print_statistics_and_parameters(c);
 }

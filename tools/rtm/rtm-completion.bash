@@ -14,7 +14,7 @@ _rtm_ports() {
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat set connect disconnect on off reset get put watch record play replay up down names serve tls new demo"
+  local commands="ls cat set connect disconnect on off reset get put watch record play replay up down check names serve tls new demo"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
@@ -81,9 +81,9 @@ _rtm() {
         COMPREPLY=($(compgen -f -X '!*.mcap' -- "$cur"))
       fi
       ;;
-    up|down)
+    up|down|check)
       if [[ $cmd == up && $cur == -* ]]; then
-        COMPREPLY=($(compgen -W "--bind-timeout --set" -- "$cur"))
+        COMPREPLY=($(compgen -W "--bind-timeout --set --force" -- "$cur"))
       else
         COMPREPLY=($(compgen -f -X '!*.@(yaml|yml)' -- "$cur"))
       fi

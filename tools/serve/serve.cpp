@@ -447,6 +447,7 @@ struct WebServer::Impl {
       // false: the page shows the name as text with a mark, and offers nothing to do to it.
       j["name_ok"] = follows_naming_rule(c.path.name) && follows_naming_rule(c.path.host);
       if (c.timing) j["timing"] = timing_json(*c.timing);
+      if (c.contract) j["contract"] = contract_json(*c.contract);
       list.push_back(std::move(j));
     }
     return list;

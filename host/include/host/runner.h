@@ -18,6 +18,12 @@
 //   --phase 0.5ms        cycles at k * period + phase on CLOCK_MONOTONIC: one grid for every
 //                        component of the host with that period (default: from the first on())
 //   --rt-priority N      SCHED_FIFO priority of the activity thread (1..99)
+//   --deadline D         each cycle ends within D of its release (default: the period)
+//   --budget B           the longest one cycle may run (default: ComponentMain::budget_ns)
+//   --on-miss count|warn|brake
+//                        what a cycle past its budget or deadline does besides being counted
+//   --sched-deadline R   SCHED_DEADLINE: R reserved every period, due at --deadline
+//   --print-contract     print the timing contract as JSON and exit (`rtm check` reads it)
 //   --cpu N              pin the process (and so its activity) to CPU N
 //   --mlock              lock the process's memory
 //   --endpoint EP        omniORB endpoint, repeatable (default giop:tcp:127.0.0.1: and a
@@ -96,6 +102,16 @@ struct RunSettings {
   // --log-cycles FILE: every read and write of every cycle, into an MCAP file a replay steps
   // the component through again (host/cycle_log.h). Empty: none.
   std::string cycle_log;
+  // The timing contract beside the schedule above (rt/contract.h, docs/timing.md):
+  std::int64_t deadline_ns = 0;       // --deadline: each cycle ends within it of its release; 0: the period
+  std::int64_t budget_ns = 0;         // --budget: the longest one cycle runs; default ComponentMain::budget_ns
+  MissAction on_miss = MissAction::count;  // --on-miss
+  std::int64_t sched_runtime_ns = 0;  // --sched-deadline RUNTIME: SCHED_DEADLINE instead of --rt-priority
+  bool watch_contract = true;         // --watch-contract off: cycles are not watched against it
+  bool print_contract = false;        // --print-contract: print it as JSON and exit (`rtm check`)
+
+  // The contract these settings describe, for the component called name.
+  TimingContract contract() const;
 
   // The periodic activity these settings describe (thread named after the component).
   PeriodicOptions periodic_options() const;
@@ -133,6 +149,12 @@ struct ComponentMain {
   // After the servant is activated, before its name is bound: e.g. a composite hands out a
   // member's port (ComponentServant::expose_in_port). Returns names to bind beside its own.
   std::function<std::vector<ExtraName>(ComponentServant&, const RunContext&)> on_activated = {};
+  // The longest one of its cycles takes, start to end, on the machines it was measured on: the
+  // budget of its timing contract unless --budget says otherwise (docs/timing.md). 0: none declared.
+  std::int64_t budget_ns = 0;
+  // false for a component that runs no periodic loop of its own (a composite whose members run
+  // theirs, or its tick): it has no contract, and --print-contract says so.
+  bool has_contract = true;
   // --cpu pins the whole process before any thread starts (true), or is left to the component,
   // which pins the threads it runs from RunSettings::cpu (false).
   bool pin_process_to_cpu = true;
@@ -192,6 +214,9 @@ std::int64_t parse_phase_ns(std::string_view text, std::int64_t period_ns);
 // "--await PORT[:BOUND]": the port's name and the bound (above 0, below the period; a tenth
 // of the period when left out). Throws std::invalid_argument naming what is wrong.
 std::pair<std::string, std::int64_t> parse_await(std::string_view text, std::int64_t period_ns);
+
+// A contract as one line of JSON: what `--print-contract` prints and `rtm check` reads.
+std::string contract_json(const TimingContract& contract);
 
 // Splits -ORB<option> <value> pairs (omniORB's syntax) out of argv. The rest, argv[0] first,
 // stays in order for the command-line parser.

@@ -58,7 +58,16 @@ function timingText(c) {
     return `${c.kind || ""} · ${c.state} · ${c.members ? "no loop of its own: its members run on theirs" : "no periodic loop"}`;
   if (!t.cycles) return `${c.kind || ""} · ${c.state} · ${c.period_ns / 1e6} ms · no cycle run yet`;
   const p99 = t.lateness_p99_ns !== undefined ? (t.lateness_p99_ns / 1000).toFixed(0) + " µs" : "–";
-  return `${c.kind || ""} · ${c.state} · ${(c.period_ns / 1e6) || "?"} ms · p99 ${p99} · overruns ${t.overruns ?? "–"}`;
+  return `${c.kind || ""} · ${c.state} · ${(c.period_ns / 1e6) || "?"} ms · p99 ${p99} · overruns ${t.overruns ?? "–"}` +
+    contractText(c.contract);
+}
+// " · contract met", or what was missed and how often; "" for a component not watched.
+function contractText(k) {
+  if (!k || !k.watched) return "";
+  const missed = [];
+  if (k.missed_deadline > 0) missed.push(`deadline ${(k.deadline_ns / 1000).toFixed(0)} µs missed ${k.missed_deadline}×`);
+  if (k.over_budget > 0) missed.push(`budget ${(k.budget_ns / 1000).toFixed(0)} µs exceeded ${k.over_budget}×`);
+  return missed.length ? " · " + missed.join(", ") : " · contract met";
 }
 // What the drawing depends on: not the timing and counters, which change every update and are
 // written into the drawing in place, so that a drag or a click is never cut by a redraw.
@@ -768,6 +777,18 @@ function showDetails(name) {
     box.replaceChildren();
     node("h3", box, name);
     if (c.description) node("p", box, c.description);
+    const k = c.contract;
+    if (k && k.watched) {
+      // Numbers and words of our own: node() sets text, never markup.
+      const worst = ns => `${(ns.max / 1000).toFixed(1)} µs` + (ns.max_at_ns > 0 ? ` at ${new Date(ns.max_at_ns / 1e6).toLocaleTimeString()}` : "");
+      const line = node("p", box,
+        `contract: deadline ${(k.deadline_ns / 1000).toFixed(0)} µs ${k.deadline_met ? "met" : `missed ${k.missed_deadline}×`}` +
+        ` (response p99 ${(k.response_ns.p99 / 1000).toFixed(1)} µs, worst ${worst(k.response_ns)})` +
+        (k.budget_ns > 0 ? `; budget ${(k.budget_ns / 1000).toFixed(0)} µs ${k.budget_met ? "met" : `exceeded ${k.over_budget}×`}` : "; no budget") +
+        ` (cycle p99 ${(k.cycle_ns.p99 / 1000).toFixed(1)} µs, worst ${worst(k.cycle_ns)})`);
+      line.id = "contract";
+      line.className = k.deadline_met && k.budget_met !== false ? "met" : "missed";
+    }
     const stats = node("table", box), params = node("table", box);
     stats.id = "stats"; params.id = "params";
     for (const [k, s] of Object.entries(c.statistics || {})) {

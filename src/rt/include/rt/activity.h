@@ -54,7 +54,18 @@ struct PeriodicOptions {
   // first_deadline()); 0: the first cycle runs at once.
   std::int64_t first_deadline_ns = 0;
 
-  ThreadSettings thread_settings() const { return {thread_name, fifo_priority, cpu, lock_memory}; }
+  // SCHED_DEADLINE instead of fifo_priority: a reservation of this runtime every period_ns, due
+  // deadline_ns after each release (0: the period). 0: not SCHED_DEADLINE. See ThreadSettings.
+  std::int64_t deadline_runtime_ns = 0;
+  std::int64_t deadline_ns = 0;
+
+  ThreadSettings thread_settings() const {
+    ThreadSettings settings{thread_name, fifo_priority, cpu, lock_memory};
+    settings.deadline_runtime_ns = deadline_runtime_ns;
+    settings.deadline_ns = deadline_ns;
+    settings.deadline_period_ns = period_ns;
+    return settings;
+  }
 };
 
 // Runs cycle on a PeriodicSchedule: clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME) to the deadline, next

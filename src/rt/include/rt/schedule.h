@@ -6,6 +6,8 @@
 
 #include <atomic>
 #include <cstdint>
+#include <optional>
+#include <string_view>
 
 #include "rt/histogram.h"
 
@@ -34,6 +36,10 @@ std::int64_t grid_point_at_or_after(std::int64_t origin_ns, std::int64_t period_
 // requested_ns when it is still ahead, otherwise the first point at or after now_ns on the grid
 // requested_ns + k * period_ns (a start that came too late keeps the requested phase).
 std::int64_t first_deadline(std::int64_t requested_ns, std::int64_t period_ns, std::int64_t now_ns);
+
+// A duration as "2ms", "500us", "250000ns", "0.002s" or "0.002" (seconds), in ns; nullopt when
+// the text is none or not finite. Callers check the range they take.
+std::optional<double> parse_duration_ns(std::string_view text);
 
 // ============================ cycle context ===========================
 

@@ -6,6 +6,7 @@
 
 #include <pthread.h>
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -21,6 +22,12 @@ struct ThreadSettings {
   // A loop with a short slice that wakes preempts the thread running its CPU instead of
   // waiting for that thread's slice to end. 0: the kernel's default slice.
   long slice_ns = 100'000;
+  // SCHED_DEADLINE (instead of fifo_priority): a reservation of deadline_runtime_ns every
+  // deadline_period_ns, due deadline_ns after each period's start (0: the period). The kernel
+  // refuses it for a thread pinned to one CPU (cpu must be -1) and without CAP_SYS_NICE.
+  std::int64_t deadline_runtime_ns = 0;  // 0: not SCHED_DEADLINE
+  std::int64_t deadline_ns = 0;
+  std::int64_t deadline_period_ns = 0;
 };
 
 // Applies settings to the calling thread, and a timer slack of 1 ns (the default 50 us makes

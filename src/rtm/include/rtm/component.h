@@ -5,6 +5,8 @@
 
 #include "RTMExt.hh"
 #include "rt/activity.h"
+#include "rt/contract.h"
+#include "rt/cycle_watch.h"
 #include "rt/histogram.h"
 #include "rt/live_value.h"
 #include "rtm/describe.h"
@@ -219,6 +221,17 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   // with what the port holds). Before on(); bound_ns > 0.
   void await_before_cycle(InPortBase& port, std::int64_t bound_ns);
 
+  // Watches each cycle against contract (rt/contract.h, docs/timing.md): how long it ran
+  // (from its start, after any await, to its end) against the budget, and when it ended against
+  // the deadline after its release; the figures are statistics (cycle_time_p50/_p99/_max,
+  // response_p50/_p99/_max, over_budget, missed_deadline) and contract(). MissAction::brake puts
+  // the component in COMPONENT_ERROR at the first miss (its on_stop() runs); warn is the host's
+  // to log. Before on(); a second call changes the contract, the statistics stay.
+  void watch_contract(const TimingContract& contract);
+  // The contract watched; nullptr when none is.
+  const TimingContract* timing_contract() const { return watched_ ? &contract_ : nullptr; }
+  CycleWatchStats contract_stats() const { return watch_.stats(); }
+
   // Re-simulation (rtm/cycle_tap.h): `observer` is told when the component starts, before each
   // cycle and when it stops. Before on(); null to stop. The observer outlives its use.
   void observe_cycles(CycleObserver* observer) { observer_ = observer; }
@@ -252,6 +265,7 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   void hold(const char* holder, CORBA::ULong lease_ms) override;
   void release(const char* holder) override;
   RTM::NameList* members() override;
+  RTM::ContractStatus contract() override;
 
  private:
   bool run_cycle(const CycleContext& ctx);
@@ -269,6 +283,9 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
     Counter arrived{*this, "await.arrived", "cycles whose awaited datum came while they waited for it"};
     Counter missed{*this, "await.missed", "cycles whose awaited datum did not come within the bound"};
   } await_counters_;
+  TimingContract contract_;  // watch_contract()
+  bool watched_ = false;
+  CycleWatch watch_;
   std::mutex control_mu_;  // serialises on/off/reset
   std::atomic<RTM::ComponentState> state_{RTM::COMPONENT_OFF};
   mutable std::mutex error_mu_;

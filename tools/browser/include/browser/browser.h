@@ -101,6 +101,7 @@ struct ComponentInfo {
   std::string state;             // "on", "off", "error", "?" for a seed component
   std::string last_error;
   std::optional<RTM::TimingStats> timing;
+  std::optional<RTM::ContractStatus> contract;  // wiring and full; none from a component of before contracts
   std::vector<std::string> members;  // a composite's, in its diagram's order (RTMExt members())
   std::vector<PortInfo> ports;   // InPorts then OutPorts, each in declaration order
   std::vector<StatisticInfo> statistics;  // detailed only

@@ -18,6 +18,8 @@ std::string failure_text(const CORBA::Exception& e);
 
 nlohmann::json port_json(const PortInfo& port);
 nlohmann::json timing_json(const RTM::TimingStats& timing);
+// A contract and how it is kept: "contract" of `rtm ls -l --json` and `rtm cat --json`.
+nlohmann::json contract_json(const RTM::ContractStatus& contract);
 // detailed: timing, statistics and parameters too (`rtm cat`, `rtm ls -l`).
 nlohmann::json component_json(const ComponentInfo& component, bool detailed);
 

@@ -55,6 +55,10 @@ struct LaunchOptions {
   // A parameter set of the file (`rtm up --set NAME`): its values over each component's
   // parameters. "" for the parameters alone.
   std::string parameter_set;
+  // A file with a contract or a chain is checked first (launcher/timing_check.h): one that
+  // cannot keep them is refused, naming the component, the CPU and the numbers, unless force,
+  // which starts it anyway after saying each refusal (progress).
+  bool force = false;
   std::function<void(const std::string&)> progress;  // one line per step
   // Polled between the steps of system_up and while it waits: true (Ctrl-C) stops what was
   // started and throws LaunchInterrupted.

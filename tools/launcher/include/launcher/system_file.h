@@ -15,6 +15,11 @@
 //         stale_periods: 3           # a number, a list of numbers, or their text
 //       parameter_sets:              # optional: `rtm up FILE --set soft` sets these over them
 //         soft: {gain: [0.0002, 0.0002, 0.0002, 0, 0, 0]}
+//       contract: {phase: 0.1ms, deadline: 0.5ms, budget: 80us, cpu: 1, priority: 80, on_miss: warn}
+//                                    # optional: its timing contract (docs/timing.md), given to the
+//                                    # program as options after its command's own: --phase ...
+//   chains:                          # optional: end-to-end contracts (docs/timing.md)
+//     - {name: wrist_to_twist, path: [sensor0.wrench, controller0, actuator0], deadline: 1ms, max_age: 2ms}
 //   connections:
 //     - {from: sensor0.out0, to: controller0.in0}              # type: repeated (default)|once
 //     - {from: joystick0.out0, to: controller0.in1, policy: "reader=latest depth=4"}
@@ -31,6 +36,7 @@
 
 #include "rtm/conn_policy.h"
 #include "rtm/diagram.h"
+#include "rt/contract.h"
 
 #include <filesystem>
 #include <optional>
@@ -60,9 +66,15 @@ struct SystemFile {
     // The process it runs in with the other components of that host (rtm-container); "" for a
     // process of its own.
     std::string host{};
+    // Its timing contract as written, in the file's order: a key ("period", "phase",
+    // "deadline", "budget", "await", "cpu", "priority", "sched_deadline", "on_miss") and its text.
+    std::vector<std::pair<std::string, std::string>> contract{};
 
     // parameters, with the set's values over them ("" or a set it lacks: parameters alone).
     Parameters parameters_with(const std::string& set) const;
+    // The command, then the contract as the runner's options (--phase 0.1ms ...): given last,
+    // they win over the same options in the command.
+    std::vector<std::string> arguments() const;
   };
   struct Connection {
     std::string from, to;  // "<component>.<port>"
@@ -75,6 +87,7 @@ struct SystemFile {
   std::vector<Component> components;
   std::vector<Connection> connections;
   std::vector<std::string> activate;
+  std::vector<rtm::ChainContract> chains;  // 'chains': each path names components the file lists
 
   // Throws SystemFileError for an unreadable file, bad YAML, a missing or mistyped key, a
   // duplicate component, a host named like a component, a '--' in a hosted component's command,
