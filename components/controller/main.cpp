@@ -22,6 +22,8 @@ rtm::ComponentMain controller() {
       .create = [params](const rtm::RunSettings& settings) {
         return std::make_unique<rtm::comp::Controller>(settings.name, *params);
       },
+      // Its cycle: p99 21 us in the demo on these machines (docs/performance.md, "Timing contracts").
+      .budget_ns = 30'000,
   };
 }
 

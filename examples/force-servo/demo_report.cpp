@@ -448,6 +448,17 @@ std::vector<ComponentTiming> parse_timing_json(const std::string& text, const st
         t.lateness_p99_ns = timing.at("lateness_p99_ns").get<std::int64_t>();
         t.lateness_max_ns = timing.at("lateness_max_ns").get<std::int64_t>();
       }
+      if (c.contains("contract") && c.at("contract").value("watched", false)) {
+        const auto& k = c.at("contract");
+        t.contract = ComponentTiming::Contract{k.at("deadline_ns").get<std::int64_t>(),
+                                               k.at("budget_ns").get<std::int64_t>(),
+                                               k.at("missed_deadline").get<std::uint64_t>(),
+                                               k.at("over_budget").get<std::uint64_t>(),
+                                               k.at("response_ns").at("p99").get<std::int64_t>(),
+                                               k.at("response_ns").at("max").get<std::int64_t>(),
+                                               k.at("cycle_ns").at("p99").get<std::int64_t>(),
+                                               k.at("cycle_ns").at("max").get<std::int64_t>()};
+      }
       if (c.contains("statistics")) {
         for (const auto& [name, s] : c.at("statistics").items())
           t.statistics.push_back({name, s.at("value").get<double>(), s.value("unit", "")});
@@ -643,6 +654,21 @@ std::string format_report(const Report& report, const PhaseOptions& options, con
   for (const auto& t : report.timing) {
     if (!t.last_error.empty()) out += fmt::format("  ! {} ({}): {}\n", t.name, t.state, t.last_error);
   }
+  out += "\nTiming contracts (docs/timing.md; response: release to the cycle's end; cycle: its start to its end)\n";
+  bool any_contract = false;
+  for (const auto& t : report.timing) {
+    if (!t.contract) continue;
+    any_contract = true;
+    const auto& k = *t.contract;
+    const std::string deadline = k.missed_deadline == 0 ? "met" : fmt::format("MISSED {}x", k.missed_deadline);
+    const std::string budget = k.budget_ns == 0 ? std::string("none declared")
+                               : k.over_budget == 0 ? fmt::format("{:g} us met", k.budget_ns / 1e3)
+                                                    : fmt::format("{:g} us EXCEEDED {}x", k.budget_ns / 1e3, k.over_budget);
+    out += fmt::format("  {:<14} deadline {:g} us {} (response p99 {:.1f} us, max {:.1f} us); budget {} (cycle p99 {:.1f} us, max {:.1f} us)\n",
+                       t.name, k.deadline_ns / 1e3, deadline, k.response_p99_ns / 1e3, k.response_max_ns / 1e3, budget,
+                       k.cycle_p99_ns / 1e3, k.cycle_max_ns / 1e3);
+  }
+  if (!any_contract) out += "  (no component watched)\n";
   out += "\nStatistics the components publish (rtm cat)\n";
   for (const auto& t : report.timing) {
     if (t.statistics.empty()) continue;

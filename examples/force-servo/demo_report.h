@@ -210,6 +210,13 @@ struct ComponentTiming {
   std::int64_t lateness_max_ns = 0;
   std::string last_error;  // why it is in error ("" when not)
   std::vector<NamedStatistic> statistics;  // as the component reports them
+  // Its timing contract and how it kept it (docs/timing.md); none when it is not watched.
+  struct Contract {
+    std::int64_t deadline_ns = 0, budget_ns = 0;
+    std::uint64_t missed_deadline = 0, over_budget = 0;
+    std::int64_t response_p99_ns = 0, response_max_ns = 0, cycle_p99_ns = 0, cycle_max_ns = 0;
+  };
+  std::optional<Contract> contract;
 };
 
 // Parses `rtm --json ls -l` output: timing and each component's statistics. Components without

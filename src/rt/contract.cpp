@@ -192,15 +192,43 @@ struct Term {
   // response) overlaps k's [0, R) count, instead of ceil((R + J) / T).
   std::optional<std::int64_t> offset_ns;
   std::int64_t response_ns = 0;
+  bool queued_behind = false;  // j's jobs released after k's are queued behind k: equal priority, k never sleeps
 };
 
-// Jobs of j released at offset + m * period (m any integer) whose window of response_j overlaps
-// [0, r): those released before r (m >= 0), and the one before k's release still running at it
-// (m = -1; responses are at most a period, so no earlier one).
-std::int64_t overlapping_jobs(std::int64_t offset, std::int64_t response_j, std::int64_t period, std::int64_t r) {
-  std::int64_t jobs = r > offset ? ceil_div(r - offset, period) : 0;
-  if (response_j > period - offset) ++jobs;
+// Jobs of j released at offset + m * period (m any integer) whose window [release, release +
+// response_j) overlaps [from, to): responses are at most a period, so no job before m = -1.
+// Only jobs released at or before latest_release count: an equal-priority job released after k
+// is queued behind it (SCHED_FIFO), unless k sleeps meanwhile.
+std::int64_t overlapping_jobs(std::int64_t offset, std::int64_t response_j, std::int64_t period, std::int64_t from,
+                              std::int64_t to, std::int64_t latest_release = std::numeric_limits<std::int64_t>::max()) {
+  std::int64_t jobs = 0;
+  for (std::int64_t release = offset - period; release < to && release <= latest_release;
+       release = add_sat(release, period)) {
+    if (add_sat(release, response_j) > from) ++jobs;
+    if (jobs > 1'000'000) break;  // a bound this far past its periods is refused anyway
+  }
   return jobs;
+}
+
+// Whether j may preempt k: on a CPU k may run on, SCHED_DEADLINE, or SCHED_FIFO at k's priority
+// or above (an equal-priority job already running runs to its end).
+bool may_preempt(const TimingContract& j, const TimingContract& k) {
+  if (!(j.cpu == k.cpu || j.cpu < 0 || k.cpu < 0)) return false;
+  return j.sched == SchedClass::deadline || (j.sched == SchedClass::fifo && j.fifo_priority >= k.fifo_priority);
+}
+
+// j at k's own SCHED_FIFO priority while k never sleeps in its cycle: a job of j released after
+// k's is queued behind it.
+bool same_queue(const TimingContract& j, const TimingContract& k) {
+  return j.sched == SchedClass::fifo && k.sched == SchedClass::fifo && j.fifo_priority == k.fifo_priority &&
+         k.await_ns == 0;
+}
+
+// On one grid with k: j's releases after k's, (phase_j - phase_k) mod T; none otherwise.
+std::optional<std::int64_t> grid_offset(const TimingContract& j, const TimingContract& k) {
+  if (j.sched != SchedClass::fifo || !j.phase_ns || !k.phase_ns || j.period_ns != k.period_ns) return std::nullopt;
+  std::int64_t offset = (*j.phase_ns - *k.phase_ns) % k.period_ns;
+  return offset < 0 ? offset + k.period_ns : offset;
 }
 
 struct Iteration {
@@ -216,7 +244,8 @@ Iteration iterate(std::int64_t await_ns, std::int64_t budget_ns, std::int64_t de
   for (;;) {
     std::int64_t next = own;
     for (auto& t : hp) {
-      t.count = t.offset_ns ? overlapping_jobs(*t.offset_ns, t.response_ns, t.period_ns, r)
+      t.count = t.offset_ns ? overlapping_jobs(*t.offset_ns, t.response_ns, t.period_ns, 0, r,
+                                               t.queued_behind ? 0 : std::numeric_limits<std::int64_t>::max())
                             : ceil_div(add_sat(r, t.jitter_ns), t.period_ns);
       next = add_sat(next, mul_sat(t.count, t.cost_ns));
     }
@@ -298,13 +327,8 @@ class ResponseAnalysis {
   // priority or above (an equal-priority job already running runs to its end).
   std::vector<std::size_t> higher_priority(std::size_t k) const {
     std::vector<std::size_t> hp;
-    const TimingContract& ck = c_[k];
     for (std::size_t j = 0; j < c_.size(); ++j) {
-      if (j == k || !valid_[j]) continue;
-      const TimingContract& cj = c_[j];
-      if (!(cj.cpu == ck.cpu || cj.cpu < 0 || ck.cpu < 0)) continue;
-      if (cj.sched == SchedClass::deadline || (cj.sched == SchedClass::fifo && cj.fifo_priority >= ck.fifo_priority))
-        hp.push_back(j);
+      if (j != k && valid_[j] && may_preempt(c_[j], c_[k])) hp.push_back(j);
     }
     return hp;
   }
@@ -354,14 +378,7 @@ class ResponseAnalysis {
             break;
           }
           const std::int64_t cost = cj.sched == SchedClass::deadline ? cj.effective_runtime_ns() : cj.budget_ns;
-          Term term{j, 0, cost, jitter(j, k, r[j]), cj.period_ns, std::nullopt, 0};
-          const TimingContract& ck = c_[k];
-          if (cj.sched == SchedClass::fifo && cj.phase_ns && ck.phase_ns && cj.period_ns == ck.period_ns) {
-            std::int64_t offset = (*cj.phase_ns - *ck.phase_ns) % ck.period_ns;
-            if (offset < 0) offset += ck.period_ns;
-            term.offset_ns = offset;
-            term.response_ns = r[j];
-          }
+          Term term{j, 0, cost, jitter(j, k, r[j]), cj.period_ns, grid_offset(cj, c_[k]), r[j], same_queue(cj, c_[k])};
           terms.push_back(term);
         }
         if (state[k] == State::none) {
@@ -486,11 +503,10 @@ std::vector<std::string> chain_problems(const ChainContract& chain, const ChainC
   return p;
 }
 
-// reader_ends_ns: the reader's response bound on entry, and on return what this hop makes of it:
-// a reader that awaits the port the chain enters by waits no longer than its writer is late
-// past its release, so the await's bound leaves its response for that much.
+// reader_wait_ns: set when the reader awaits the port the chain enters by, on one grid with its
+// writer: it waits no longer than the writer can be late past the reader's release.
 HopBound hop(const TimingContract& w, const TimingContract& r, std::int64_t writer_response_ns,
-             const std::string& entry_port, std::int64_t& reader_ends_ns) {
+             const std::string& entry_port, std::optional<std::int64_t>& reader_wait_ns) {
   HopBound h;
   h.writer = w.component;
   h.reader = r.component;
@@ -506,12 +522,8 @@ HopBound hop(const TimingContract& w, const TimingContract& r, std::int64_t writ
     h.age_ns = h.latency_ns;
     h.how = "same " + fd(T) + " grid, phases " + fd(*w.phase_ns) + " -> " + fd(*r.phase_ns) + ", writer ends within " +
             fd(R) + (r.await_ns > 0 ? ", reader awaits " + fd(r.await_ns) : std::string()) + ": " + fd(h.latency_ns);
-    if (r.await_ns > 0 && !entry_port.empty() && entry_port == r.await_port && R <= ready_by) {
-      const std::int64_t wait = std::clamp<std::int64_t>(R - delta, 0, r.await_ns);
-      reader_ends_ns = reader_ends_ns - r.await_ns + wait;
-      h.how += "; it awaits " + r.component + "." + entry_port + ", so waits at most " + fd(wait) + " and ends within " +
-               fd(reader_ends_ns);
-    }
+    if (r.await_ns > 0 && !entry_port.empty() && entry_port == r.await_port && R <= ready_by)
+      reader_wait_ns = std::clamp<std::int64_t>(R - delta, 0, r.await_ns);
     return h;
   }
   // No grid: the reader's next release is at most one reader period after the datum; the datum
@@ -521,6 +533,38 @@ HopBound hop(const TimingContract& w, const TimingContract& r, std::int64_t writ
   h.how = "no common grid: writer ends within " + fd(R) + ", reader released every " + fd(r.period_ns) + ": latency " +
           fd(h.latency_ns) + ", age " + fd(h.age_ns);
   return h;
+}
+
+// The response of k on a chain where it waits at most wait for its datum: suspended until then,
+// it runs its budget from there with the jobs whose windows overlap what is left, R' = wait + C +
+// sum of those, from wait + C up. Never above its own bound with the await cut to wait.
+std::int64_t response_after_wait(const ChainContext& ctx, std::size_t k, std::int64_t wait) {
+  const TimingContract& ck = ctx.contracts[k];
+  const std::int64_t standalone = *ctx.responses[k].response_ns - ck.await_ns + wait;
+  if (ck.sched != SchedClass::fifo) return standalone;
+  const std::int64_t own = add_sat(wait, ck.budget_ns);
+  std::int64_t r = own;
+  for (int round = 0; round < 1000; ++round) {
+    std::int64_t next = own;
+    for (std::size_t j = 0; j < ctx.contracts.size(); ++j) {
+      const TimingContract& cj = ctx.contracts[j];
+      if (j == k || !may_preempt(cj, ck)) continue;
+      if (!ctx.responses[j].response_ns) return standalone;  // an interferer without a bound
+      const std::int64_t rj = *ctx.responses[j].response_ns;
+      const std::int64_t cost = cj.sched == SchedClass::deadline ? cj.effective_runtime_ns() : cj.budget_ns;
+      const auto offset = grid_offset(cj, ck);
+      // Woken at the end of its wait, k is queued behind the equal-priority jobs released by then.
+      const bool equal = cj.sched == SchedClass::fifo && cj.fifo_priority == ck.fifo_priority;
+      const std::int64_t jobs =
+          offset ? overlapping_jobs(*offset, rj, cj.period_ns, wait, r, equal ? wait : std::numeric_limits<std::int64_t>::max())
+                 : ceil_div(add_sat(r, std::max<std::int64_t>(rj - cost, 0)), cj.period_ns);
+      next = add_sat(next, mul_sat(jobs, cost));
+    }
+    if (next >= standalone) return standalone;
+    if (next == r) break;
+    r = next;
+  }
+  return r;
 }
 
 ChainBound bound_chain(const ChainContract& chain, const ChainContext& ctx, std::vector<TimingFinding>& findings) {
@@ -546,9 +590,15 @@ ChainBound bound_chain(const ChainContract& chain, const ChainContext& ctx, std:
   std::int64_t latency = 0, age = 0;
   std::int64_t writer_ends = *ctx.responses[nodes.front().contract].response_ns;
   for (std::size_t i = 0; i + 1 < nodes.size(); ++i) {
-    std::int64_t reader_ends = *ctx.responses[nodes[i + 1].contract].response_ns;
-    b.hops.push_back(hop(ctx.contracts[nodes[i].contract], ctx.contracts[nodes[i + 1].contract], writer_ends,
-                         nodes[i + 1].entry_port, reader_ends));
+    const std::size_t reader = nodes[i + 1].contract;
+    std::optional<std::int64_t> wait;
+    b.hops.push_back(hop(ctx.contracts[nodes[i].contract], ctx.contracts[reader], writer_ends, nodes[i + 1].entry_port, wait));
+    std::int64_t reader_ends = *ctx.responses[reader].response_ns;
+    if (wait) {
+      reader_ends = response_after_wait(ctx, reader, *wait);
+      b.hops.back().how += "; it awaits " + ctx.contracts[reader].component + "." + nodes[i + 1].entry_port +
+                           ", so waits at most " + fd(*wait) + " and ends within " + fd(reader_ends);
+    }
     latency = add_sat(latency, b.hops.back().latency_ns);
     age = add_sat(age, b.hops.back().age_ns);
     writer_ends = reader_ends;

@@ -500,6 +500,46 @@ TEST(TimingChains, AComponentAwaitingThePortTheChainEntersByWaitsOnlyAsLongAsIts
   EXPECT_EQ(b.chains[0].latency_ns, 400 * kUs);
 }
 
+// The demo as it runs: every loop inherits SCHED_FIFO 20 from chrt, the sensor and the joystick
+// share phase 0, and the budgets are what one cycle takes on these machines.
+TEST(TimingChains, AtOnePriorityOnlyJobsQueuedBeforeAComponentDelayItAndAnAwaitEndsWhenItsWriterEnds) {
+  TimingContract sensor = fifo("sensor0", 20, 2 * kMs, 100 * kUs, 1);
+  sensor.phase_ns = 0;
+  TimingContract joystick = fifo("joystick0", 20, 2 * kMs, 60 * kUs, 1);
+  joystick.phase_ns = 0;
+  TimingContract controller = fifo("controller0", 20, 2 * kMs, 30 * kUs, 1);
+  controller.phase_ns = 100 * kUs;
+  controller.await_ns = 150 * kUs;
+  controller.await_port = "wrench";
+  TimingContract actuator = fifo("actuator0", 20, 2 * kMs, 50 * kUs, 1);
+  actuator.phase_ns = 200 * kUs;
+  actuator.await_ns = 100 * kUs;
+  actuator.await_port = "twist";
+  const ChainContract chain{"wrist_to_drive", {"sensor0.wrench", "controller0.wrench", "actuator0.twist"}, 350 * kUs, 0};
+  const auto a = rtm::analyse_timing({sensor, joystick, controller, actuator}, {chain}, machine(2));
+  // sensor0 never sleeps: of its equals only the joystick, released with it, may go first; the
+  // controller and the actuator, released after it, queue behind it: 100 + 60 = 160.
+  EXPECT_EQ(response(a, "sensor0").response_ns, 160 * kUs);
+  EXPECT_EQ(response(a, "joystick0").response_ns, 160 * kUs);
+  // controller0 sleeps in its await, so every equal whose window overlaps counts: own 150 + 30,
+  // the sensor's [-100, 60) and the joystick's, and the actuator's from 100: 180 + 100 + 60 + 50.
+  EXPECT_EQ(response(a, "controller0").response_ns, 390 * kUs);
+  // actuator0: own 150, and the controller's window [-100, 290): 180.
+  EXPECT_EQ(response(a, "actuator0").response_ns, 180 * kUs);
+  ASSERT_EQ(a.chains[0].hops.size(), 2u);
+  // On the chain the controller waits at most 160 - 100 = 60, then runs its 30 with no window
+  // left open after 60 (the sensor's and joystick's end there, the actuator starts at 100): 90.
+  // The actuator, released 100 after it, then waits 0 and runs 50 beside the controller's
+  // (standalone) window that covers its release: 80. Chain 100 + 100 + 80.
+  EXPECT_EQ(a.chains[0].hops[0].latency_ns, 100 * kUs);
+  EXPECT_EQ(a.chains[0].hops[1].latency_ns, 100 * kUs);
+  EXPECT_NE(a.chains[0].hops[0].how.find("so waits at most 60 us and ends within 90 us"), std::string::npos)
+      << a.chains[0].hops[0].how;
+  EXPECT_EQ(a.chains[0].last_response_ns, 80 * kUs);
+  EXPECT_EQ(a.chains[0].latency_ns, 280 * kUs);
+  EXPECT_FALSE(a.refused()) << all_findings(a);
+}
+
 TEST(TimingChains, AReaderPhasedAfterTheWritersBoundReadsInTheSameCycle) {
   auto contracts = demo(250 * kUs);
   contracts[1].await_ns = 300 * kUs;  // controller0 own 350, window [100, 450)
