@@ -74,9 +74,9 @@ PeriodicOptions RunSettings::periodic_options() const {
   // at every start, and so does every component of the host with the same period and a phase.
   if (phase_ns) options.first_deadline_ns = period_ns + *phase_ns;
   if (sched_runtime_ns > 0) {
+    // Due at the end of the period: a shorter deadline is throttled off this grid (docs/timing.md).
     options.fifo_priority = 0;
     options.deadline_runtime_ns = sched_runtime_ns;
-    options.deadline_ns = deadline_ns;
   }
   return options;
 }
@@ -229,8 +229,8 @@ void add_contract_options(CLI::App& app, ContractTexts& texts, std::int64_t defa
       ->check(CLI::IsMember({"count", "warn", "brake"}))
       ->capture_default_str();
   app.add_option("--sched-deadline", texts.sched_deadline,
-                 "run the activity under SCHED_DEADLINE, this runtime reserved every period and due at "
-                 "--deadline (needs CAP_SYS_NICE; not with --rt-priority or --cpu)");
+                 "run the activity under SCHED_DEADLINE, this runtime reserved every period and due at its "
+                 "end (needs CAP_SYS_NICE; not with --rt-priority, --cpu or a --deadline below the period)");
   app.add_option("--watch-contract", texts.watch, "watch each cycle against the contract (on) or not (off)")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
@@ -263,6 +263,11 @@ void apply_contract_texts(const ContractTexts& texts, std::int64_t default_budge
   if (settings.sched_runtime_ns > settings.deadline_ns)
     throw std::invalid_argument(fmt::format("--sched-deadline {}: a runtime above the deadline ({})", texts.sched_deadline,
                                             format_duration(settings.deadline_ns)));
+  if (settings.deadline_ns < settings.period_ns)
+    throw std::invalid_argument(fmt::format(
+        "--sched-deadline with --deadline {}: the reservation is due at the end of the period ({}); Linux throttles "
+        "a shorter one off the activity's grid, so a deadline below the period needs --rt-priority",
+        format_duration(settings.deadline_ns), format_duration(settings.period_ns)));
   if (settings.budget_ns > settings.sched_runtime_ns)
     throw std::invalid_argument(fmt::format("--sched-deadline {}: below the budget ({}); the reservation must hold a cycle",
                                             texts.sched_deadline, format_duration(settings.budget_ns)));

@@ -9,8 +9,9 @@
 //
 //   rtm_bench_contract sched [--seconds S] [--rounds R] [--load "CMD"]
 //     One 2 ms loop under each scheduling class at once, unpinned, 0.67 ms apart on one grid:
-//     SCHED_OTHER, SCHED_FIFO 50, SCHED_DEADLINE 200 us every 2 ms. Lateness p50 / p99 / max
-//     and overruns of each. SCHED_FIFO and SCHED_DEADLINE need root.
+//     SCHED_OTHER, SCHED_FIFO 50, SCHED_DEADLINE 200 us every 2 ms due at its end (or
+//     --dl-runtime-us, --dl-deadline-us). Lateness p50 / p99 / max and overruns of each.
+//     SCHED_FIFO and SCHED_DEADLINE need root.
 //
 // --load "CMD" runs CMD (sh -c, its own process group, normal priority) for the whole run and
 // stops it after: e.g. --load "cmake --build --preset asan -j2 --clean-first". Each cycle spins
@@ -42,6 +43,8 @@ struct Settings {
   int rounds = 6;
   int fifo = 0;
   std::string load;
+  std::int64_t dl_runtime_ns = 200'000;
+  std::int64_t dl_deadline_ns = 2'000'000;
 };
 
 std::int64_t thread_cpu_ns() {
@@ -169,11 +172,13 @@ int watch_cost(const Settings& s) {
 
 int sched_classes(const Settings& s) {
   struct Class {
-    const char* name;
+    std::string name;
     int fifo;
     std::int64_t runtime_ns;
   };
-  const Class classes[] = {{"SCHED_OTHER", 0, 0}, {"SCHED_FIFO 50", 50, 0}, {"SCHED_DEADLINE 200us/2ms", 0, 200'000}};
+  const std::string dl_name = "SCHED_DEADLINE " + std::to_string(s.dl_runtime_ns / 1000) + "us/" +
+                              std::to_string(s.dl_deadline_ns / 1000) + "us/2ms";
+  const Class classes[] = {{"SCHED_OTHER", 0, 0}, {"SCHED_FIFO 50", 50, 0}, {dl_name.c_str(), 0, s.dl_runtime_ns}};
   std::printf("round  class                       late p50 us  late p99 us  late max us  overruns  cycles\n");
   for (int round = 0; round < s.rounds; ++round) {
     std::vector<std::unique_ptr<rtm::PeriodicActivity>> loops;
@@ -182,7 +187,7 @@ int sched_classes(const Settings& s) {
       rtm::PeriodicOptions o;
       o.fifo_priority = classes[k].fifo;
       o.deadline_runtime_ns = classes[k].runtime_ns;
-      o.deadline_ns = 1'000'000;
+      o.deadline_ns = s.dl_deadline_ns;
       o.first_deadline_ns = grid + k * 666'667;
       o.thread_name = std::string("class") + std::to_string(k);
       loops.push_back(std::make_unique<rtm::PeriodicActivity>(
@@ -197,7 +202,7 @@ int sched_classes(const Settings& s) {
     for (auto& loop : loops) loop->stop();
     for (int k = 0; k < 3; ++k) {
       const rtm::ActivityStats t = loops[k]->stats();
-      std::printf("%5d  %-26s  %11.1f  %11.1f  %11.1f  %8llu  %6llu\n", round + 1, classes[k].name, t.lateness_p50_ns / 1e3,
+      std::printf("%5d  %-26s  %11.1f  %11.1f  %11.1f  %8llu  %6llu\n", round + 1, classes[k].name.c_str(), t.lateness_p50_ns / 1e3,
                   t.lateness_p99_ns / 1e3, t.lateness_max_ns / 1e3, static_cast<unsigned long long>(t.overruns),
                   static_cast<unsigned long long>(t.cycles));
     }
@@ -216,6 +221,8 @@ int main(int argc, char** argv) {
     else if (key == "--rounds") s.rounds = std::atoi(argv[i + 1]);
     else if (key == "--fifo") s.fifo = std::atoi(argv[i + 1]);
     else if (key == "--load") s.load = argv[i + 1];
+    else if (key == "--dl-runtime-us") s.dl_runtime_ns = std::atoll(argv[i + 1]) * 1000;
+    else if (key == "--dl-deadline-us") s.dl_deadline_ns = std::atoll(argv[i + 1]) * 1000;
     else {
       std::fprintf(stderr, "unknown option %s\n", key.c_str());
       return 2;

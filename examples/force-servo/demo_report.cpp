@@ -608,6 +608,30 @@ std::vector<std::string> missed_figures(const Report& report, const PhaseOptions
   return missed;
 }
 
+namespace {
+
+// Each watched component's contract as it kept it over the run (rtm ls -l's "contract").
+std::string format_contracts(const std::vector<ComponentTiming>& timing) {
+  std::string out = "\nTiming contracts (docs/timing.md; response: release to the cycle's end; cycle: its start to its end)\n";
+  bool any_contract = false;
+  for (const auto& t : timing) {
+    if (!t.contract) continue;
+    any_contract = true;
+    const auto& k = *t.contract;
+    const std::string deadline = k.missed_deadline == 0 ? "met" : fmt::format("MISSED {}x", k.missed_deadline);
+    const std::string budget = k.budget_ns == 0 ? std::string("none declared")
+                               : k.over_budget == 0 ? fmt::format("{:g} us met", k.budget_ns / 1e3)
+                                                    : fmt::format("{:g} us EXCEEDED {}x", k.budget_ns / 1e3, k.over_budget);
+    out += fmt::format("  {:<14} deadline {:g} us {} (response p99 {:.1f} us, max {:.1f} us); budget {} (cycle p99 {:.1f} us, max {:.1f} us)\n",
+                       t.name, k.deadline_ns / 1e3, deadline, k.response_p99_ns / 1e3, k.response_max_ns / 1e3, budget,
+                       k.cycle_p99_ns / 1e3, k.cycle_max_ns / 1e3);
+  }
+  if (!any_contract) out += "  (no component watched)\n";
+  return out;
+}
+
+}  // namespace
+
 std::string format_report(const Report& report, const PhaseOptions& options, const FigureLimits& limits) {
   std::string out = fmt::format("Force servo: {} samples over {:.1f} s\n\n", report.samples, report.duration_s);
   out += fmt::format(
@@ -654,21 +678,7 @@ std::string format_report(const Report& report, const PhaseOptions& options, con
   for (const auto& t : report.timing) {
     if (!t.last_error.empty()) out += fmt::format("  ! {} ({}): {}\n", t.name, t.state, t.last_error);
   }
-  out += "\nTiming contracts (docs/timing.md; response: release to the cycle's end; cycle: its start to its end)\n";
-  bool any_contract = false;
-  for (const auto& t : report.timing) {
-    if (!t.contract) continue;
-    any_contract = true;
-    const auto& k = *t.contract;
-    const std::string deadline = k.missed_deadline == 0 ? "met" : fmt::format("MISSED {}x", k.missed_deadline);
-    const std::string budget = k.budget_ns == 0 ? std::string("none declared")
-                               : k.over_budget == 0 ? fmt::format("{:g} us met", k.budget_ns / 1e3)
-                                                    : fmt::format("{:g} us EXCEEDED {}x", k.budget_ns / 1e3, k.over_budget);
-    out += fmt::format("  {:<14} deadline {:g} us {} (response p99 {:.1f} us, max {:.1f} us); budget {} (cycle p99 {:.1f} us, max {:.1f} us)\n",
-                       t.name, k.deadline_ns / 1e3, deadline, k.response_p99_ns / 1e3, k.response_max_ns / 1e3, budget,
-                       k.cycle_p99_ns / 1e3, k.cycle_max_ns / 1e3);
-  }
-  if (!any_contract) out += "  (no component watched)\n";
+  out += format_contracts(report.timing);
   out += "\nStatistics the components publish (rtm cat)\n";
   for (const auto& t : report.timing) {
     if (t.statistics.empty()) continue;

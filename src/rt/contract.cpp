@@ -177,6 +177,13 @@ std::vector<std::string> contract_problems(const TimingContract& c, const Machin
       p.push_back("runtime " + fd(runtime) + " above the deadline " + fd(D) + ": the kernel refuses the reservation");
     else if (c.budget_ns > runtime)
       p.push_back("budget " + fd(c.budget_ns) + " above its reservation " + fd(runtime));
+    // The activity gives the kernel its period as the reservation's deadline: a constrained one
+    // (below the period) is throttled at a wake-up on the activity's own grid until the kernel's
+    // next period, which drifts from that grid (docs/performance.md: p50 lateness 150-450 us).
+    if (D < T)
+      p.push_back("deadline " + fd(D) + " below the period " + fd(T) +
+                  " with SCHED_DEADLINE: its reservation is due at the end of the period (a shorter one is "
+                  "throttled off the activity's grid); use SCHED_FIFO for a deadline below the period");
   }
   return p;
 }
@@ -288,39 +295,24 @@ class ResponseAnalysis {
   }
 
  private:
-  // Admitted, a reservation gets its runtime before its deadline. An await changes that: the
-  // kernel judges the wake-up after it as a new arrival (update_dl_entity). With the deadline at
-  // the period it starts a new period then (deadline = wake + D); below the period it keeps the
-  // deadline and cuts the runtime to runtime * (D - a) / D (the revised wake-up rule).
+  // Admitted, a reservation gets its runtime before its deadline, which the activity sets at the
+  // end of the period (validation refuses a shorter one). An await breaks that: the kernel judges
+  // the wake-up after it as a new arrival and starts a new period then (deadline = wake + T).
   void bound_deadline(std::size_t k) {
     const TimingContract& ck = c_[k];
     const std::int64_t T = ck.period_ns, D = ck.effective_deadline_ns(), Q = ck.effective_runtime_ns();
-    const std::int64_t a = ck.await_ns, C = ck.budget_ns;
-    const std::string how = "SCHED_DEADLINE reservation of " + fd(Q) + " every " + fd(T) + " within " + fd(D);
+    const std::int64_t a = ck.await_ns;
     Response& r = out_[k];
     if (a == 0) {
       r.response_ns = D;
-      r.how = how;
+      r.how = "SCHED_DEADLINE reservation of " + fd(Q) + " every " + fd(T) + " within " + fd(D);
       return;
     }
-    if (D == T) {
-      const std::string text =
-          "response bound " + fd(add_sat(a, D)) + " > deadline " + fd(D) + ": waking after its await of " + fd(a) +
-          " starts a new reservation period when the deadline is the period; a deadline below the period keeps it";
-      r.how = text;
-      r.finding = TimingFinding{TimingFinding::Severity::refusal, ck.component, text};
-      return;
-    }
-    const auto left = static_cast<std::int64_t>(static_cast<__int128>(Q) * (D - a) / D);
-    if (C > left) {
-      const std::string text = "after its await of " + fd(a) + " the kernel leaves its reservation " + fd(left) +
-                               " before the deadline " + fd(D) + ", below its budget " + fd(C);
-      r.how = text;
-      r.finding = TimingFinding{TimingFinding::Severity::refusal, ck.component, text};
-      return;
-    }
-    r.response_ns = D;
-    r.how = how + ", " + fd(left) + " of it left after its await of " + fd(a);
+    const std::string text = "response bound " + fd(add_sat(a, D)) + " > deadline " + fd(D) +
+                             ": waking after its await of " + fd(a) +
+                             " starts a new reservation period; a component that awaits needs SCHED_FIFO";
+    r.how = text;
+    r.finding = TimingFinding{TimingFinding::Severity::refusal, ck.component, text};
   }
 
   // Components that may preempt k: on a CPU k may run on, SCHED_DEADLINE, or SCHED_FIFO at k's
@@ -616,33 +608,12 @@ ChainBound bound_chain(const ChainContract& chain, const ChainContext& ctx, std:
   return b;
 }
 
-}  // namespace
-
-// ============================ the analysis ============================
-
-TimingAnalysis analyse_timing(const std::vector<TimingContract>& components, const std::vector<ChainContract>& chains,
-                              const MachineLimits& machine) {
-  TimingAnalysis a;
+// Utilisation, per CPU and in all: a refusal for each limit it passes.
+void analyse_load(const std::vector<TimingContract>& components, const std::vector<bool>& valid,
+                  const std::map<std::string, std::size_t>& index, const MachineLimits& machine, TimingAnalysis& a) {
   const auto refuse = [&](std::string subject, std::string text) {
     a.findings.push_back({TimingFinding::Severity::refusal, std::move(subject), std::move(text)});
   };
-
-  // Malformed contracts are refused and left out of the rest.
-  std::vector<bool> valid(components.size(), false);
-  std::vector<std::string> invalid_how(components.size());
-  std::map<std::string, std::size_t> index;
-  for (std::size_t k = 0; k < components.size(); ++k) {
-    const TimingContract& c = components[k];
-    std::vector<std::string> problems = contract_problems(c, machine);
-    if (c.component.empty()) problems.insert(problems.begin(), "a component without a name");
-    if (!index.emplace(c.component, k).second) problems.insert(problems.begin(), "a component name given twice");
-    const std::string subject = c.component.empty() ? "component " + std::to_string(k) : c.component;
-    for (const auto& p : problems) refuse(subject, p);
-    valid[k] = problems.empty();
-    if (!valid[k]) invalid_how[k] = "not analysed: " + join(problems, "; ");
-  }
-
-  // Utilisation, per CPU and in all.
   std::map<int, CpuLoad> loads;
   double total = 0, total_rt = 0, total_deadline = 0;
   for (std::size_t k = 0; k < components.size(); ++k) {
@@ -691,6 +662,35 @@ TimingAnalysis analyse_timing(const std::vector<TimingContract>& components, con
   if (total_deadline > rt_capacity + kShareSlack)
     refuse("all CPUs", "SCHED_DEADLINE reservations take " + two_decimals(total_deadline) + ", above the " +
                            capacity_text + " the kernel admits: it would refuse them");
+}
+
+}  // namespace
+
+// ============================ the analysis ============================
+
+TimingAnalysis analyse_timing(const std::vector<TimingContract>& components, const std::vector<ChainContract>& chains,
+                              const MachineLimits& machine) {
+  TimingAnalysis a;
+  const auto refuse = [&](std::string subject, std::string text) {
+    a.findings.push_back({TimingFinding::Severity::refusal, std::move(subject), std::move(text)});
+  };
+
+  // Malformed contracts are refused and left out of the rest.
+  std::vector<bool> valid(components.size(), false);
+  std::vector<std::string> invalid_how(components.size());
+  std::map<std::string, std::size_t> index;
+  for (std::size_t k = 0; k < components.size(); ++k) {
+    const TimingContract& c = components[k];
+    std::vector<std::string> problems = contract_problems(c, machine);
+    if (c.component.empty()) problems.insert(problems.begin(), "a component without a name");
+    if (!index.emplace(c.component, k).second) problems.insert(problems.begin(), "a component name given twice");
+    const std::string subject = c.component.empty() ? "component " + std::to_string(k) : c.component;
+    for (const auto& p : problems) refuse(subject, p);
+    valid[k] = problems.empty();
+    if (!valid[k]) invalid_how[k] = "not analysed: " + join(problems, "; ");
+  }
+
+  analyse_load(components, valid, index, machine, a);
 
   // Response bounds.
   std::vector<Response> responses = ResponseAnalysis(components, valid).run();

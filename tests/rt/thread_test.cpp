@@ -86,6 +86,47 @@ TEST(ThreadSettings, FifoPriorityIsGrantedOrRefusedWithAWarningNeverSilently) {
   }
 }
 
+TEST(ThreadSettings, ASchedDeadlineReservationReachesTheThreadOrIsRefusedWithAWarningNeverSilently) {
+  CapturedWarnings captured;
+  int policy = -1;
+  std::thread([&] {
+    rtm::ThreadSettings settings{"reserved"};
+    settings.deadline_runtime_ns = 100'000;
+    settings.deadline_period_ns = 2'000'000;
+    rtm::apply_thread_settings(settings);
+    policy = sched_getscheduler(0);
+  }).join();
+  const auto taken = captured.taken();
+  constexpr int kSchedDeadline = 6;
+  if (policy == kSchedDeadline) {
+    EXPECT_TRUE(taken.empty());
+  } else {
+    EXPECT_EQ(policy, SCHED_OTHER) << "refused, it runs as before";
+    ASSERT_EQ(taken.size(), 1u) << "running without the reservation asked for must be reported";
+    EXPECT_NE(taken[0].find("SCHED_DEADLINE reservation of 100 us every 2000 us refused"), std::string::npos)
+        << taken[0];
+  }
+}
+
+TEST(ThreadSettings, ASchedDeadlineReservationOnAPinnedThreadIsRefusedByTheKernelWithAWarning) {
+  if (sysconf(_SC_NPROCESSORS_ONLN) < 2) GTEST_SKIP() << "one CPU: pinning spans the whole machine";
+  CapturedWarnings captured;
+  int policy = -1;
+  std::thread([&] {
+    rtm::ThreadSettings settings{"pinned"};
+    settings.cpu = 0;
+    settings.deadline_runtime_ns = 100'000;
+    settings.deadline_period_ns = 2'000'000;
+    rtm::apply_thread_settings(settings);
+    policy = sched_getscheduler(0);
+  }).join();
+  EXPECT_EQ(policy, SCHED_OTHER);
+  const auto taken = captured.taken();
+  ASSERT_FALSE(taken.empty());
+  EXPECT_NE(taken.back().find("SCHED_DEADLINE reservation of 100 us every 2000 us refused"), std::string::npos)
+      << taken.back();
+}
+
 // Linux 6.12 and later keep a fair task's own slice; older kernels take the request and
 // ignore it (the loops then wait out other threads' slices, as before).
 bool kernel_keeps_fair_slices(std::string& release) {

@@ -202,11 +202,12 @@ activate: [a]
   EXPECT_GE(cat_json["statistics"]["over_budget"]["value"].get<double>(), 20);
 }
 
+// A 100 ms period: no host stall makes a cycle miss its deadline before the spin starts.
 TEST_F(RtmTiming, AContractThatSaysBrakeStopsTheComponentAtItsFirstMissAndSaysWhy) {
   const auto file = write_system(R"(
 name: timed
 components:
-  - {name: a, command: rtm-test-talker, contract: {budget: 300us, on_miss: brake}}
+  - {name: a, command: rtm-test-talker, contract: {period: 100ms, budget: 300us, on_miss: brake}}
 activate: [a]
 )");
   const auto up = rtm({"up", file.string()});

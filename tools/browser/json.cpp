@@ -110,7 +110,7 @@ json component_json(const ComponentInfo& c, bool detailed) {
     j["period_ns"] = c.timing->period_ns;
     if (detailed) j["timing"] = timing_json(*c.timing);
   }
-  if (detailed && c.contract) j["contract"] = contract_json(*c.contract);
+  if (c.contract) j["contract"] = contract_json(*c.contract);  // asked for beyond Detail::brief
   j["ports"] = json::array();
   for (const auto& p : c.ports) j["ports"].push_back(port_json(p));
   if (detailed && c.extended) {

@@ -429,7 +429,7 @@ struct WebServer::Impl {
     return httplib::Server::HandlerResponse::Unhandled;
   }
 
-  // What the page draws: states, timing, ports and subscriptions (not statistics and
+  // What the page draws: states, timing, contracts, ports and subscriptions (not statistics and
   // parameters: those come with /api/components/<name>, when the page asks). The streams'
   // look, twice a second, asks the components in turn (Browser::Asking).
   json system(Browser::Asking asking = Browser::Asking::parallel) const {
@@ -447,7 +447,6 @@ struct WebServer::Impl {
       // false: the page shows the name as text with a mark, and offers nothing to do to it.
       j["name_ok"] = follows_naming_rule(c.path.name) && follows_naming_rule(c.path.host);
       if (c.timing) j["timing"] = timing_json(*c.timing);
-      if (c.contract) j["contract"] = contract_json(*c.contract);
       list.push_back(std::move(j));
     }
     return list;

@@ -22,7 +22,7 @@
 //   --budget B           the longest one cycle may run (default: ComponentMain::budget_ns)
 //   --on-miss count|warn|brake
 //                        what a cycle past its budget or deadline does besides being counted
-//   --sched-deadline R   SCHED_DEADLINE: R reserved every period, due at --deadline
+//   --sched-deadline R   SCHED_DEADLINE: R reserved every period, due at its end
 //   --print-contract     print the timing contract as JSON and exit (`rtm check` reads it)
 //   --cpu N              pin the process (and so its activity) to CPU N
 //   --mlock              lock the process's memory
