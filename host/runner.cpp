@@ -206,6 +206,7 @@ void apply_schedule_texts(const ScheduleTexts& texts, RunSettings& settings) {
 
 // The contract's options as given, checked once the command line is parsed.
 struct ContractTexts {
+  std::vector<std::string> chain_ends;
   std::string deadline;
   std::string budget;
   std::string on_miss = "count";
@@ -234,8 +235,46 @@ void add_contract_options(CLI::App& app, ContractTexts& texts, std::int64_t defa
   app.add_option("--watch-contract", texts.watch, "watch each cycle against the contract (on) or not (off)")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
+  app.add_option("--watch-chain", texts.chain_ends,
+                 "NAME:PORT[:DEADLINE[:MAX_AGE[:ON_MISS]]]: this component ends chain NAME, whose data enter it "
+                 "by InPort PORT: how old they are at each cycle's end (statistics chain.NAME.*), held to DEADLINE "
+                 "at their first cycle and MAX_AGE at every cycle, a miss counted, warned or braked on; repeatable "
+                 "(rtm up gives it from a system file's chains)")
+      ->take_all();
   app.add_flag("--print-contract", settings.print_contract,
                "print the timing contract these options give, as JSON, and exit (what `rtm check` reads)");
+}
+
+MissAction miss_action(const std::string& text) {
+  return text == "brake" ? MissAction::brake : text == "warn" ? MissAction::warn : MissAction::count;
+}
+
+// "NAME:PORT[:DEADLINE[:MAX_AGE[:ON_MISS]]]"; std::invalid_argument saying what is wanted.
+RunSettings::ChainEnd parse_chain_end(const std::string& text) {
+  const auto bad = [&] {
+    return std::invalid_argument(fmt::format("--watch-chain '{}': want NAME:PORT[:DEADLINE[:MAX_AGE[:ON_MISS]]], "
+                                             "e.g. wrist_to_drive:twist:0.35ms:0:warn", text));
+  };
+  std::vector<std::string> parts;
+  for (std::size_t from = 0;;) {
+    const std::size_t colon = text.find(':', from);
+    parts.push_back(text.substr(from, colon == std::string::npos ? std::string::npos : colon - from));
+    if (colon == std::string::npos) break;
+    from = colon + 1;
+  }
+  if (parts.size() < 2 || parts.size() > 5 || parts[0].empty() || parts[1].empty()) throw bad();
+  RunSettings::ChainEnd end{parts[0], parts[1]};
+  if (parts.size() == 5) {
+    if (parts[4] != "count" && parts[4] != "warn" && parts[4] != "brake") throw bad();
+    end.on_miss = miss_action(parts[4]);
+    parts.pop_back();
+  }
+  for (std::size_t i = 2; i < parts.size(); ++i) {
+    const std::optional<double> ns = parse_duration_ns(parts[i]);
+    if (!ns || *ns < 0) throw bad();
+    (i == 2 ? end.deadline_ns : end.max_age_ns) = std::llround(*ns);
+  }
+  return end;
 }
 
 // Throws std::invalid_argument naming a bad value; after apply_schedule_texts().
@@ -254,10 +293,9 @@ void apply_contract_texts(const ContractTexts& texts, std::int64_t default_budge
   if (settings.budget_ns > settings.deadline_ns)
     throw std::invalid_argument(fmt::format("--budget {}: above the deadline ({})", format_duration(settings.budget_ns),
                                             format_duration(settings.deadline_ns)));
-  settings.on_miss = texts.on_miss == "brake" ? MissAction::brake
-                     : texts.on_miss == "warn" ? MissAction::warn
-                                               : MissAction::count;
+  settings.on_miss = miss_action(texts.on_miss);
   settings.watch_contract = texts.watch == "on";
+  for (const auto& text : texts.chain_ends) settings.chain_ends.push_back(parse_chain_end(text));
   if (texts.sched_deadline.empty()) return;
   settings.sched_runtime_ns = duration("--sched-deadline", texts.sched_deadline);
   if (settings.sched_runtime_ns > settings.deadline_ns)
@@ -412,14 +450,14 @@ std::optional<int> check_endpoints(const char* program, RunSettings& settings) {
 }
 
 // An InPort of the component by name or as in<k>; std::invalid_argument listing them if none.
-InPortBase& find_in_port(Component& component, const std::string& which) {
+InPortBase& find_in_port(Component& component, const std::string& which, const std::string& option) {
   const auto& ins = component.in_ports();
   std::string names;
   for (std::size_t i = 0; i < ins.size(); ++i) {
     if (ins[i]->port_name() == which || "in" + std::to_string(i) == which) return *ins[i];
     names += (names.empty() ? "" : ", ") + ins[i]->port_name();
   }
-  throw std::invalid_argument("--await " + which + ": " + component.name() + " has no such InPort (" +
+  throw std::invalid_argument(option + ": " + component.name() + " has no InPort " + which + " (" +
                               (names.empty() ? std::string("it has none") : "it has " + names) + ")");
 }
 
@@ -457,8 +495,13 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
     }
   }));
   if (!settings.await_port.empty())  // refused there for a cycle that is not periodic
-    servant->await_before_cycle(find_in_port(servant->component(), settings.await_port), settings.await_bound_ns);
+    servant->await_before_cycle(find_in_port(servant->component(), settings.await_port, "--await"),
+                                settings.await_bound_ns);
   if (settings.watch_contract && main.has_contract) servant->watch_contract(settings.contract());
+  for (const auto& end : settings.chain_ends) {
+    InPortBase& port = find_in_port(servant->component(), end.port, "--watch-chain " + end.name);
+    servant->watch_chain({end.name, &port, end.deadline_ns, end.max_age_ns, end.on_miss});
+  }
   if (!settings.cycle_log.empty()) cycle_log = std::make_unique<CycleLog>(*servant, settings.cycle_log);
   RTM::RtComponentEx_var reference = servant->activate(context.orb);
   std::vector<ExtraName> extra_names;
@@ -488,13 +531,25 @@ void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vect
   if (servant) servant->deactivate();
 }
 
+namespace {
+
+bool warns(const ComponentServant& servant) {
+  const TimingContract* contract = servant.timing_contract();
+  if (contract != nullptr && contract->on_miss == MissAction::warn) return true;
+  const auto chains = servant.chain_status();
+  return std::any_of(chains.begin(), chains.end(), [](const auto& c) { return c.on_miss == MissAction::warn; });
+}
+
+}  // namespace
+
 ContractWarner::ContractWarner(std::vector<const ComponentServant*> servants) {
-  for (const ComponentServant* servant : servants) {
-    const TimingContract* contract = servant != nullptr ? servant->timing_contract() : nullptr;
-    if (contract != nullptr && contract->on_miss == MissAction::warn) servants_.push_back(servant);
-  }
+  for (const ComponentServant* servant : servants)
+    if (servant != nullptr && warns(*servant)) servants_.push_back(servant);
   if (servants_.empty()) return;
-  for (const ComponentServant* servant : servants_) seen_.push_back(servant->contract_stats());
+  for (const ComponentServant* servant : servants_) {
+    seen_.push_back(servant->contract_stats());
+    seen_chains_.push_back(servant->chain_status());
+  }
   thread_ = std::thread([this] { loop(); });
 }
 
@@ -516,8 +571,9 @@ void ContractWarner::loop() {
       CycleWatchStats& before = seen_[i];
       const std::uint64_t over = now.over_budget - before.over_budget;
       const std::uint64_t missed = now.missed_deadline - before.missed_deadline;
-      if (over > 0 || missed > 0) {
-        const TimingContract& c = *servants_[i]->timing_contract();
+      const TimingContract* contract = servants_[i]->timing_contract();
+      if (contract != nullptr && contract->on_miss == MissAction::warn && (over > 0 || missed > 0)) {
+        const TimingContract& c = *contract;
         log().warn("{}: contract missed in {} of {} cycles: {} past the deadline of {} (worst response {}), {} over the "
                    "budget of {} (longest cycle {})",
                    c.component, std::max(over, missed), now.cycles - before.cycles, missed,
@@ -525,8 +581,24 @@ void ContractWarner::loop() {
                    c.budget_ns > 0 ? format_duration(c.budget_ns) : std::string("none"), format_duration(now.cycle_max_ns));
       }
       before = now;
+      warn_chains(i);
     }
   }
+}
+
+void ContractWarner::warn_chains(std::size_t i) {
+  auto now = servants_[i]->chain_status();
+  auto& before = seen_chains_[i];
+  for (std::size_t k = 0; k < now.size() && k < before.size(); ++k) {
+    const auto& c = now[k];
+    const std::uint64_t late = c.late - before[k].late, stale = c.stale - before[k].stale;
+    if (c.on_miss == MissAction::warn && (late > 0 || stale > 0))
+      log().warn("{}: chain {} missed: {} data past its deadline (latency max {}), {} cycles on data past its max "
+                 "age (age max {})",
+                 servants_[i]->component().name(), c.name, late, format_duration(c.latency_max_ns), stale,
+                 format_duration(c.age_max_ns));
+  }
+  before = std::move(now);
 }
 
 // The access screen, the certificates and the ORB of the process; nullopt (and one error line)

@@ -67,7 +67,7 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
 void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vector<std::unique_ptr<NameBinding>>& bindings,
                std::unique_ptr<CycleLog>& cycle_log, const std::string& name);
 
-// Logs the misses of each component whose contract says MissAction::warn: from a thread of its
+// Logs the misses of each component whose contract (or a chain it ends) says MissAction::warn: from a thread of its
 // own at SCHED_OTHER, at most one line a second per component, with the counts since the last
 // line and the worst case. The cycles only count (rt/cycle_watch.h). Without such a component
 // it starts no thread.
@@ -80,8 +80,10 @@ class ContractWarner {
 
  private:
   void loop();
+  void warn_chains(std::size_t i);
   std::vector<const ComponentServant*> servants_;
   std::vector<CycleWatchStats> seen_;
+  std::vector<std::vector<ComponentServant::ChainStatus>> seen_chains_;
   std::mutex mu_;
   std::condition_variable cv_;
   bool stop_ = false;

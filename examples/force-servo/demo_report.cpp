@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <map>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -627,6 +628,23 @@ std::string format_contracts(const std::vector<ComponentTiming>& timing) {
                        k.cycle_p99_ns / 1e3, k.cycle_max_ns / 1e3);
   }
   if (!any_contract) out += "  (no component watched)\n";
+  // Each chain as its end measured it while running (statistics chain.<name>.*).
+  for (const auto& t : timing) {
+    std::map<std::string, std::map<std::string, double>> chains;  // chain -> figure -> value
+    for (const auto& s : t.statistics) {
+      if (!s.name.starts_with("chain.")) continue;
+      const std::size_t dot = s.name.find('.', 6);
+      if (dot == std::string::npos) continue;
+      chains[s.name.substr(6, dot - 6)][s.name.substr(dot + 1)] = s.value;
+    }
+    for (const auto& [name, f] : chains) {
+      const auto v = [&f](const char* key) { return f.contains(key) ? f.at(key) : 0.0; };
+      out += fmt::format("  chain {} at {}: latency p50 {:g} us, p99 {:g} us, max {:g} us; age p99 {:g} us, max {:g} us; "
+                         "late {:g}, stale {:g}\n",
+                         name, t.name, v("latency_p50"), v("latency_p99"), v("latency_max"), v("age_p99"), v("age_max"),
+                         v("late"), v("stale"));
+    }
+  }
   return out;
 }
 

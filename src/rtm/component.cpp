@@ -202,17 +202,11 @@ bool ComponentServant::run_cycle(const CycleContext& ctx) {
   const std::int64_t start_ns = watched_ && await_port_ != nullptr ? monotonic_ns() : ctx.wake_ns;
   try {
     component_->on_cycle(ctx);
-    if (!watched_) return true;
-    const std::int64_t end_ns = monotonic_ns();
-    const CycleVerdict verdict = watch_.record(ctx.deadline_ns, start_ns, end_ns);
-    if (contract_.on_miss != MissAction::brake || (!verdict.over_budget && !verdict.missed_deadline)) return true;
-    std::string why = "cycle " + std::to_string(ctx.cycle);
-    if (verdict.over_budget)
-      why += " ran " + format_duration(end_ns - start_ns) + ", over its budget of " + format_duration(contract_.budget_ns);
-    if (verdict.missed_deadline)
-      why += std::string(verdict.over_budget ? " and" : "") + " ended " + format_duration(end_ns - ctx.deadline_ns) +
-             " after its release, past its deadline of " + format_duration(contract_.effective_deadline_ns());
-    fail(why + " (on miss: brake)");
+    // Why a contract that says brake stops the component now; empty when none does.
+    std::string brake = chains_.empty() ? std::string() : record_chains(ctx.cycle);
+    if (watched_ && brake.empty()) brake = record_contract(ctx, start_ns);
+    if (brake.empty()) return true;
+    fail(brake + " (on miss: brake)");
   } catch (const std::exception& e) {
     fail(std::string("cycle ") + std::to_string(ctx.cycle) + " threw: " + e.what());
   } catch (const CORBA::Exception& e) {
@@ -242,6 +236,77 @@ void ComponentServant::watch_contract(const TimingContract& contract) {
                             [this] { return static_cast<double>(watch_.stats().over_budget); });
   component_->add_statistic("missed_deadline", "", "cycles that ended after the contract's deadline",
                             [this] { return static_cast<double>(watch_.stats().missed_deadline); });
+}
+
+void ComponentServant::watch_chain(ChainWatch watch) {
+  if (watch.port == nullptr || !watch.port->stamped())
+    throw std::invalid_argument(component_->name() + ": chain " + watch.name + ": " +
+                                (watch.port ? watch.port->port_name() + "'s datum carries no stamp (tm)"
+                                            : std::string("no InPort")));
+  for (const auto& c : chains_)
+    if (c->watch.name == watch.name)
+      throw std::invalid_argument(component_->name() + ": chain " + watch.name + " watched twice");
+  auto& c = *chains_.emplace_back(std::make_unique<WatchedChain>());
+  c.watch = std::move(watch);
+  const std::string stat = "chain." + c.watch.name;
+  component_->add_percentile_statistics(stat + ".latency", "from a sample to the end of the first cycle using it",
+                                        c.latency);
+  component_->add_statistic(stat + ".age_p99", "us", "age of the data a cycle acted on, p99",
+                            [&c] { return static_cast<double>(c.age.percentile_ns(0.99)) / 1e3; });
+  component_->add_statistic(stat + ".age_max", "us", "age of the data a cycle acted on, max",
+                            [&c] { return static_cast<double>(c.age.max_ns()) / 1e3; });
+  component_->add_statistic(stat + ".late", "", "data that reached the chain's end after its deadline",
+                            [&c] { return static_cast<double>(c.late.load(std::memory_order_relaxed)); });
+  component_->add_statistic(stat + ".stale", "", "cycles that acted on data older than the chain's max age",
+                            [&c] { return static_cast<double>(c.stale.load(std::memory_order_relaxed)); });
+}
+
+// One clock read for all the chains; nothing allocated, no lock (but the words of a brake).
+std::string ComponentServant::record_chains(std::uint64_t cycle) {
+  const std::int64_t now = realtime_ns();
+  std::string brake;
+  for (auto& chain : chains_) {
+    WatchedChain& c = *chain;
+    const InPortBase& port = *c.watch.port;
+    if (port.stamps_taken() == 0) continue;
+    const std::int64_t age = now - port.last_stamp_ns();
+    bool late = false;
+    if (port.stamps_taken() != c.seen) {
+      c.seen = port.stamps_taken();
+      c.latency.record(age);
+      late = c.watch.deadline_ns > 0 && age > c.watch.deadline_ns;
+      if (late) c.late.fetch_add(1, std::memory_order_relaxed);
+    }
+    c.age.record(age);
+    const bool stale = c.watch.max_age_ns > 0 && age > c.watch.max_age_ns;
+    if (stale) c.stale.fetch_add(1, std::memory_order_relaxed);
+    if ((late || stale) && c.watch.on_miss == MissAction::brake && brake.empty())
+      brake = "cycle " + std::to_string(cycle) + " acted on chain " + c.watch.name + "'s data " + format_duration(age) +
+              " after their sample, past its " + (late ? "deadline of " + format_duration(c.watch.deadline_ns)
+                                                        : "max age of " + format_duration(c.watch.max_age_ns));
+  }
+  return brake;
+}
+
+std::string ComponentServant::record_contract(const CycleContext& ctx, std::int64_t start_ns) {
+  const std::int64_t end_ns = monotonic_ns();
+  const CycleVerdict verdict = watch_.record(ctx.deadline_ns, start_ns, end_ns);
+  if (contract_.on_miss != MissAction::brake || (!verdict.over_budget && !verdict.missed_deadline)) return {};
+  std::string why = "cycle " + std::to_string(ctx.cycle);
+  if (verdict.over_budget)
+    why += " ran " + format_duration(end_ns - start_ns) + ", over its budget of " + format_duration(contract_.budget_ns);
+  if (verdict.missed_deadline)
+    why += std::string(verdict.over_budget ? " and" : "") + " ended " + format_duration(end_ns - ctx.deadline_ns) +
+           " after its release, past its deadline of " + format_duration(contract_.effective_deadline_ns());
+  return why;
+}
+
+std::vector<ComponentServant::ChainStatus> ComponentServant::chain_status() const {
+  std::vector<ChainStatus> out;
+  for (const auto& c : chains_)
+    out.push_back({c->watch.name, c->watch.on_miss, c->late.load(std::memory_order_relaxed),
+                   c->stale.load(std::memory_order_relaxed), c->latency.max_ns(), c->age.max_ns()});
+  return out;
 }
 
 void ComponentServant::fail(const std::string& why) {

@@ -268,6 +268,15 @@ try:
     retrying(lambda: driver.find_element(By.CSS_SELECTOR, 'text[data-component="controller0"]').click())
     wait_for(lambda: driver.find_elements(By.CSS_SELECTOR, '#params input[data-parameter="gain"]'), 10,
              "controller0's parameters are shown with the gain editable")
+    # Its timing contract (the system file's phase and await, its own 50 us budget) and how it
+    # keeps it: met or missed, with the worst case and when.
+    contract = driver.find_element(By.ID, "contract").text
+    check(contract.startswith("contract: deadline 2000 µs ") and "budget 50 µs" in contract and " at " in contract,
+          "controller0's contract is shown with its deadline, budget and worst case: " + repr(contract))
+    controller_line = driver.execute_script(
+        "return document.querySelector('g[data-box=\"controller0\"] text.timing').textContent")
+    check(("contract met" in controller_line) or ("missed" in controller_line) or ("exceeded" in controller_line),
+          "controller0's line says whether it keeps its contract: " + repr(controller_line))
     gain = driver.find_element(By.CSS_SELECTOR, '#params input[data-parameter="gain"]')
     gain.clear()
     gain.send_keys("0.002 0.002 0.002 0 0 0\n")

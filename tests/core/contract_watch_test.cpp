@@ -6,6 +6,11 @@
 
 #include "rt/clock.h"
 #include "rt/cycle_watch.h"
+#include "rtm/data.h"
+
+#include "test_types.hh"
+
+RTM_DATA_TYPE(RtmTest, Plain);  // no stamp: a chain cannot end on it
 
 #include <gtest/gtest.h>
 
@@ -141,6 +146,74 @@ TEST_F(ContractWatch, AComponentNotWatchedSaysSoAndCountsNothing) {
   EXPECT_EQ(status.over_budget, 0u);
   EXPECT_EQ(status.contract.period_ns, static_cast<unsigned long long>(fast().period_ns));
   EXPECT_EQ(statistic(servant, "over_budget"), -1) << "no such statistic";
+}
+
+// Reads its one InPort each cycle, as the end of a chain does.
+class ChainEnd final : public rtm::Component {
+ public:
+  ChainEnd() : Component("end0", "test") {}
+  void on_cycle(const rtm::CycleContext&) override {
+    RTM::TimedFloat6 datum{};
+    in.read(datum);
+    cycles.fetch_add(1);
+  }
+  rtm::InPort<RTM::TimedFloat6>& in = add_in_port<RTM::TimedFloat6>("in");
+  std::atomic<int> cycles{0};
+};
+
+TEST_F(ContractWatch, AChainsEndMeasuresFromTheStampOfTheSampleItsDataDeriveFrom) {
+  auto logic = std::make_unique<ChainEnd>();
+  ChainEnd& end = *logic;
+  rtm::ComponentServant servant(std::move(logic), fast());
+  servant.watch_chain({"sample_to_end", &end.in, 10'000'000, 20'000'000});
+  // A datum whose sample is 30 ms old when it is delivered: older than both limits.
+  RTM::TimedFloat6 datum{};
+  datum.tm = rtm::from_ns(rtm::to_ns(rtm::now()) - 30'000'000);
+  end.in.deliver(datum);
+  servant.on();
+  ASSERT_TRUE(eventually([&] { return end.cycles.load() >= 5; }));
+  servant.off();
+  EXPECT_GE(statistic(servant, "chain.sample_to_end.latency_max"), 30'000.0) << "us";
+  EXPECT_EQ(statistic(servant, "chain.sample_to_end.late"), 1.0) << "one datum, read once, late once";
+  EXPECT_EQ(statistic(servant, "chain.sample_to_end.stale"), end.cycles.load())
+      << "every cycle acted on the 30 ms old datum the port kept";
+  EXPECT_GE(statistic(servant, "chain.sample_to_end.age_max"), 30'000.0);
+  EXPECT_EQ(end.in.stamps_taken(), 1u);
+}
+
+TEST_F(ContractWatch, AChainThatSaysBrakeStopsItsEndAtTheFirstLateDatumAndSaysWhich) {
+  auto logic = std::make_unique<ChainEnd>();
+  ChainEnd& end = *logic;
+  rtm::ComponentServant servant(std::move(logic), fast());
+  servant.watch_chain({"sample_to_end", &end.in, 10'000'000, 0, rtm::MissAction::brake});
+  RTM::TimedFloat6 datum{};
+  datum.tm = rtm::from_ns(rtm::to_ns(rtm::now()) - 30'000'000);
+  end.in.deliver(datum);
+  servant.on();
+  ASSERT_TRUE(eventually([&] { return servant.current_state() == RTM::COMPONENT_ERROR; }));
+  EXPECT_EQ(end.cycles.load(), 1) << "the first cycle read it, and was the last";
+  EXPECT_NE(servant.error_text().find("chain sample_to_end's data"), std::string::npos) << servant.error_text();
+  EXPECT_NE(servant.error_text().find("past its deadline of 10 ms"), std::string::npos) << servant.error_text();
+  const auto chains = servant.chain_status();
+  ASSERT_EQ(chains.size(), 1u);
+  EXPECT_EQ(chains[0].late, 1u);
+  servant.off();
+}
+
+TEST_F(ContractWatch, AChainWatchIsRefusedOnAPortWhoseDatumCarriesNoStampAndTwiceUnderOneName) {
+  class Plain final : public rtm::Component {
+   public:
+    Plain() : Component("plain0", "test") {}
+    void on_cycle(const rtm::CycleContext&) override {}
+    rtm::InPort<RTM::TimedFloat6>& stamped = add_in_port<RTM::TimedFloat6>("stamped");
+    rtm::InPort<RtmTest::Plain>& plain = add_in_port<RtmTest::Plain>("plain");
+  };
+  auto logic = std::make_unique<Plain>();
+  Plain& p = *logic;
+  rtm::ComponentServant servant(std::move(logic), fast());
+  EXPECT_THROW(servant.watch_chain({"c", &p.plain, 0, 0}), std::invalid_argument);
+  servant.watch_chain({"c", &p.stamped, 0, 0});
+  EXPECT_THROW(servant.watch_chain({"c", &p.stamped, 0, 0}), std::invalid_argument);
 }
 
 }  // namespace

@@ -133,6 +133,16 @@ TEST_F(RtmRecord, RecordsEveryDatumOfEachPortWithItsTypeUnitsAndTheSystem) {
   ASSERT_TRUE(metadata.contains("rtm.drops"));
   EXPECT_EQ(metadata["rtm.drops"].at("t.force.recorded"), std::to_string(data.size()));
   EXPECT_EQ(metadata["rtm.drops"].at("t.force.dropped_by_publisher"), "0");
+  // The system's timing, at the start and at the end: the talker's contract and how it kept it.
+  ASSERT_TRUE(metadata.contains("rtm.timing"));
+  ASSERT_TRUE(metadata.contains("rtm.timing.end"));
+  const json before = json::parse(metadata["rtm.timing"].at("t"));
+  const json after = json::parse(metadata["rtm.timing.end"].at("t"));
+  EXPECT_EQ(after["period_ns"], 2'000'000);
+  EXPECT_EQ(after["deadline_ns"], 2'000'000) << "the period, as no deadline was given";
+  EXPECT_TRUE(after["watched"].get<bool>());
+  EXPECT_GT(after["cycles"].get<std::uint64_t>(), before["cycles"].get<std::uint64_t>() + 100)
+      << "the talker cycled while 300 data were recorded";
 
   // The format's reference reader decodes every datum with the schema the recorder wrote.
   const auto reference = rtm_test::run_command({"node", MCAP_READER, out});

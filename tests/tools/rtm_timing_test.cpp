@@ -46,6 +46,14 @@ class RtmTiming : public ::testing::Test {
                                         "XDG_RUNTIME_DIR=" + dir_.string()},
                                  std::chrono::seconds(30));
   }
+  // A statistic of component (`rtm cat --json`), -1 when it has none or cannot be asked.
+  double statistic(const std::string& component, const std::string& name) {
+    const auto r = rtm({"--json", "cat", component});
+    if (r.exit_code != 0) return -1;
+    const json j = json::parse(r.out, nullptr, false);
+    if (j.is_discarded() || !j["statistics"].contains(name)) return -1;
+    return j["statistics"][name]["value"].get<double>();
+  }
   json contract_of(const std::string& component) {
     const auto r = rtm({"--json", "cat", component});
     if (r.exit_code != 0) return json();
@@ -221,6 +229,62 @@ activate: [a]
   const std::string why = a["last_error"].get<std::string>();
   EXPECT_NE(why.find("over its budget of 300 us"), std::string::npos) << why;
   EXPECT_EQ(a["contract"]["over_budget"], 1) << "it stopped at the first";
+}
+
+// a stamps its samples 50 ms in the past; b and c pass the stamp of what they read on: the
+// chain's end, c, must see data at least 50 ms old however fast the three processes are.
+TEST_F(RtmTiming, AChainsEndMeasuresTheAgeOfTheSampleItsDataDeriveFromAcrossThreeProcesses) {
+  const auto file = write_system(R"(
+name: timed
+components:
+  - {name: a, command: [rtm-test-talker, --stamp-age-ms, "50"]}
+  - {name: b, command: [rtm-test-talker, --pass-stamp]}
+  - {name: c, command: [rtm-test-talker, --pass-stamp]}
+connections:
+  - {from: a.force, to: b.in0}
+  - {from: b.force, to: c.in0}
+activate: [a, b, c]
+chains:
+  - {name: a_to_c, path: [a.force, b.in0, c.in0], deadline: 20ms, max_age: 30ms}
+)");
+  const auto up = rtm({"up", file.string()});
+  ASSERT_EQ(up.exit_code, 0) << up.out << up.err;
+  ASSERT_TRUE(eventually([&] { return statistic("c", "chain.a_to_c.late") >= 20; }, 10s))
+      << "c ends the chain; its data come 50 ms after their sample, past the 20 ms deadline";
+  EXPECT_GE(statistic("c", "chain.a_to_c.latency_p50"), 50'000) << "us: the stamp a set, carried by b and c";
+  EXPECT_GE(statistic("c", "chain.a_to_c.age_p99"), 50'000);
+  EXPECT_GE(statistic("c", "chain.a_to_c.stale"), 20) << "every cycle acts on data older than 30 ms";
+  EXPECT_EQ(statistic("b", "chain.a_to_c.late"), -1) << "only the chain's end watches it";
+  const auto cat = rtm({"cat", "c"});
+  EXPECT_NE(cat.out.find("chain.a_to_c.latency_p99"), std::string::npos) << cat.out;
+}
+
+// b, in the middle of the chain, slowed past its budget: its spin (5 ms between reading its
+// input and writing, a lower bound on its cycle) makes every datum it passes on more than 5 ms
+// old, so the chain's end, c, reports each one past the chain's 5 ms deadline, while b counts
+// its cycles over budget.
+TEST_F(RtmTiming, AComponentSlowedPastItsBudgetMakesTheChainThroughItMissItsDeadline) {
+  const auto file = write_system(R"(
+name: timed
+components:
+  - {name: a, command: rtm-test-talker}
+  - {name: b, command: [rtm-test-talker, --pass-stamp], contract: {budget: 1ms}}
+  - {name: c, command: [rtm-test-talker, --pass-stamp]}
+connections:
+  - {from: a.force, to: b.in0}
+  - {from: b.force, to: c.in0}
+activate: [a, b, c]
+chains:
+  - {name: a_to_c, path: [a.force, b.in0, c.in0], deadline: 5ms}
+)");
+  const auto up = rtm({"up", file.string()});
+  ASSERT_EQ(up.exit_code, 0) << up.out << up.err;
+  ASSERT_EQ(rtm({"set", "b", "spin_us", "5000"}).exit_code, 0);
+  ASSERT_TRUE(eventually([&] {
+    return statistic("c", "chain.a_to_c.late") >= 10 && statistic("b", "over_budget") >= 10;
+  }, 15s)) << "c: " << statistic("c", "chain.a_to_c.late") << " late; b: " << statistic("b", "over_budget")
+           << " over budget (it ran 5 ms against its 1 ms)";
+  EXPECT_GT(statistic("c", "chain.a_to_c.latency_max"), 5'000) << "us: more than b's spin";
 }
 
 }  // namespace

@@ -529,7 +529,7 @@ components:
   - {name: actuator0, command: rtm-actuator}
 chains:
   - {name: wrist_to_twist, path: [sensor0.wrench, controller0, actuator0], deadline: 1ms, max_age: 2.5ms}
-  - {name: short, path: [sensor0.wrench, controller0]}
+  - {name: short, path: [sensor0.wrench, controller0.wrench], on_miss: brake}
 )",
                              kFile);
   ASSERT_EQ(f.chains.size(), 2u);
@@ -544,6 +544,13 @@ chains:
   EXPECT_EQ(again.chains[0].deadline_ns, 1'000'000);
   EXPECT_EQ(again.chains[0].max_age_ns, 2'500'000);
   EXPECT_EQ(again.components[0].contract, f.components[0].contract);
+  EXPECT_EQ(again.chains[1].on_miss, rtm::MissAction::brake);
+  // The chain's end measures it while it runs: the component its last step names by an InPort.
+  const auto controller = f.arguments(f.components[1]);
+  ASSERT_GE(controller.size(), 2u);
+  EXPECT_EQ(controller[controller.size() - 2], "--watch-chain");
+  EXPECT_EQ(controller.back(), "short:wrench:0ns:0ns:brake");
+  EXPECT_EQ(f.arguments(f.components[2]), f.components[2].command) << "wrist_to_twist names no InPort at its end";
 }
 
 TEST(RtmSystemFile, AMalformedContractOrChainIsRefusedWithTheLineAndWhatIsWanted) {
@@ -578,6 +585,8 @@ TEST(RtmSystemFile, AMalformedContractOrChainIsRefusedWithTheLineAndWhatIsWanted
   EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a.out, b]}\n  - {name: c, path: [a.out, b]}\n").find("listed twice"),
             std::string::npos);
   EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a.out, b], latency: 1ms}\n").find("unknown key 'latency' in a chain"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + "chains:\n  - {name: c, path: [a.out, b.in], on_miss: panic}\n").find("on_miss 'panic'"),
             std::string::npos);
 }
 

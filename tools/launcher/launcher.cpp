@@ -234,7 +234,7 @@ std::vector<ProcessToStart> processes_to_start(const SystemFile& file, const std
   std::map<std::string, std::size_t> hosts;  // a host's process in out
   for (const auto& c : file.components) {
     if (c.host.empty()) {
-      ProcessToStart p{c.name, c.arguments(), {c.name}};
+      ProcessToStart p{c.name, file.arguments(c), {c.name}};
       p.command[0] = find(p.command[0], base).string();
       p.command.insert(p.command.end(), {"--name", c.name, "--naming", naming});
       out.push_back(std::move(p));
@@ -255,7 +255,7 @@ std::vector<ProcessToStart> processes_to_start(const SystemFile& file, const std
       if (program.find('/') != std::string::npos) throw;
     }
     p.command.insert(p.command.end(), {"--", c.name, resolved});
-    const std::vector<std::string> arguments = c.arguments();
+    const std::vector<std::string> arguments = file.arguments(c);
     p.command.insert(p.command.end(), std::next(arguments.begin()), arguments.end());
     p.members.push_back(c.name);
   }

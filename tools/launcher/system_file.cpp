@@ -121,8 +121,8 @@ rtm::ChainContract parse_chain(const SystemFile& f, const YAML::Node& c, const s
   if (!c.IsMap()) fail(f, c, "each chain must be a mapping with 'name' and 'path'");
   for (const auto& kv : c) {
     const auto key = kv.first.as<std::string>();
-    if (key != "name" && key != "path" && key != "deadline" && key != "max_age")
-      fail(f, kv.first, fmt::format("unknown key '{}' in a chain (known: name, path, deadline, max_age)", key));
+    if (key != "name" && key != "path" && key != "deadline" && key != "max_age" && key != "on_miss")
+      fail(f, kv.first, fmt::format("unknown key '{}' in a chain (known: name, path, deadline, max_age, on_miss)", key));
   }
   rtm::ChainContract chain;
   chain.name = scalar_field(f, c, "name", "a chain's 'name'");
@@ -156,6 +156,12 @@ rtm::ChainContract parse_chain(const SystemFile& f, const YAML::Node& c, const s
     const std::optional<double> ns = parse_duration_ns(text);
     if (!ns || *ns < 1) fail(f, n, fmt::format("chain '{}': {} '{}': want a duration above 0, e.g. 1ms", chain.name, key, text));
     *field = std::llround(*ns);
+  }
+  if (const YAML::Node n = c["on_miss"]) {
+    const std::string text = scalar(f, n, fmt::format("chain '{}': 'on_miss'", chain.name));
+    if (text != "count" && text != "warn" && text != "brake")
+      fail(f, n, fmt::format("chain '{}': on_miss '{}': want count, warn or brake", chain.name, text));
+    chain.on_miss = text == "brake" ? rtm::MissAction::brake : text == "warn" ? rtm::MissAction::warn : rtm::MissAction::count;
   }
   return chain;
 }
@@ -374,6 +380,19 @@ std::vector<std::string> SystemFile::Component::arguments() const {
   return out;
 }
 
+std::vector<std::string> SystemFile::arguments(const Component& component) const {
+  std::vector<std::string> out = component.arguments();
+  for (const auto& chain : chains) {
+    const std::string& last = chain.path.back();
+    const std::size_t dot = last.find('.');
+    if (chain.path.size() < 2 || dot == std::string::npos || last.substr(0, dot) != component.name) continue;
+    out.insert(out.end(), {"--watch-chain", fmt::format("{}:{}:{}ns:{}ns:{}", chain.name, last.substr(dot + 1),
+                                                        chain.deadline_ns, chain.max_age_ns,
+                                                        rtm::miss_action_name(chain.on_miss))});
+  }
+  return out;
+}
+
 std::vector<std::string> SystemFile::parameter_set_names() const {
   std::set<std::string> names;
   for (const auto& c : components)
@@ -474,6 +493,7 @@ std::string SystemFile::to_yaml() const {
           << YAML::Value << YAML::Flow << c.path;
       if (c.deadline_ns > 0) out << YAML::Key << "deadline" << YAML::Value << std::to_string(c.deadline_ns) + "ns";
       if (c.max_age_ns > 0) out << YAML::Key << "max_age" << YAML::Value << std::to_string(c.max_age_ns) + "ns";
+      if (c.on_miss != rtm::MissAction::count) out << YAML::Key << "on_miss" << YAML::Value << rtm::miss_action_name(c.on_miss);
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;

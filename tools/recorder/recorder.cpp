@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 
+#include "browser/json.h"
 #include "browser/watch_port.h"
 #include "browser/values.h"
 #include "launcher/running_system.h"
@@ -88,6 +89,18 @@ void write_system(mcap::Writer& writer, const Browser& browser, RecordResult& re
     values["left_out." + l.name] = l.why;
   }
   writer.add_metadata("rtm.system", values);
+}
+
+// The running system's timing (docs/timing.md): each component's contract and how it has kept
+// it so far, one JSON value per component, as `rtm ls -l --json` gives its "contract". Written at
+// the start (name "rtm.timing") and again at the end ("rtm.timing.end"): the run's own part is
+// the difference. A component that cannot be asked is left out.
+void write_timing(mcap::Writer& writer, const Browser& browser, const std::string& name) {
+  mcap::KeyValues values;
+  for (const auto& c : browser.list("", Browser::Detail::wiring)) {
+    if (c.contract) values[c.path.name] = contract_json(*c.contract).dump();
+  }
+  writer.add_metadata(name, values);
 }
 
 void add_channels(mcap::Writer& writer, std::vector<Channel>& channels,
@@ -195,6 +208,7 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
   mcap::Writer writer(options.output, writer_options);
   RecordResult result;
   write_system(writer, browser, result);
+  write_timing(writer, browser, "rtm.timing");
   add_channels(writer, channels, idl);
   const auto owner = fmt::format("rtm-record-{}", ::getpid());
   for (std::size_t i = 0; i < channels.size(); ++i) {
@@ -208,6 +222,7 @@ RecordResult record(const Browser& browser, rtm::Orb& orb, const RecordOptions& 
   record_until(writer, channels, options, stop);
   result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   count_and_unsubscribe(writer, channels, result, progress);
+  write_timing(writer, browser, "rtm.timing.end");
   writer.close();
   result.bytes = writer.bytes_written();
   return result;

@@ -24,6 +24,8 @@
 //                        what a cycle past its budget or deadline does besides being counted
 //   --sched-deadline R   SCHED_DEADLINE: R reserved every period, due at its end
 //   --print-contract     print the timing contract as JSON and exit (`rtm check` reads it)
+//   --watch-chain NAME:PORT[:DEADLINE[:MAX_AGE[:ON_MISS]]]
+//                        the end of a chain: how old PORT's data are at each cycle's end
 //   --cpu N              pin the process (and so its activity) to CPU N
 //   --mlock              lock the process's memory
 //   --endpoint EP        omniORB endpoint, repeatable (default giop:tcp:127.0.0.1: and a
@@ -108,6 +110,14 @@ struct RunSettings {
   MissAction on_miss = MissAction::count;  // --on-miss
   std::int64_t sched_runtime_ns = 0;  // --sched-deadline RUNTIME: SCHED_DEADLINE instead of --rt-priority
   bool watch_contract = true;         // --watch-contract off: cycles are not watched against it
+  // --watch-chain NAME:PORT[:DEADLINE[:MAX_AGE[:ON_MISS]]]: this component ends a chain entering by PORT
+  // (ComponentServant::watch_chain); rtm up gives it from a system file's chains.
+  struct ChainEnd {
+    std::string name, port;
+    std::int64_t deadline_ns = 0, max_age_ns = 0;
+    MissAction on_miss = MissAction::count;
+  };
+  std::vector<ChainEnd> chain_ends;
   bool print_contract = false;        // --print-contract: print it as JSON and exit (`rtm check`)
 
   // The contract these settings describe, for the component called name.

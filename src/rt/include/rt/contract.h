@@ -71,6 +71,7 @@ struct ChainContract {
   std::vector<std::string> path;
   std::int64_t deadline_ns = 0;  // latency: sample -> end of the last component's first cycle using it; 0: none
   std::int64_t max_age_ns = 0;   // age: sample -> end of any cycle of the last component acting on it; 0: none
+  MissAction on_miss = MissAction::count;  // what the chain's end does when it measures a miss
 };
 
 // ============================ the machine =============================

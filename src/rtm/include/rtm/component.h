@@ -204,6 +204,7 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   RTM::RtComponentEx_ptr reference() const;  // nil before activate(); caller owns it
 
   Component& component() { return *component_; }
+  const Component& component() const { return *component_; }
   RTM::ComponentState current_state() const { return state_.load(); }
   std::string error_text() const;
 
@@ -231,6 +232,30 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   // The contract watched; nullptr when none is.
   const TimingContract* timing_contract() const { return watched_ ? &contract_ : nullptr; }
   CycleWatchStats contract_stats() const { return watch_.stats(); }
+
+  // The end of a chain (docs/timing.md): after each cycle, how old the data of port (a Stamped
+  // type's: the stamp of the sample it derives from, which each component on the way passes on)
+  // are at the cycle's end, on CLOCK_REALTIME. The first cycle that reads a datum gives its
+  // latency, held to deadline_ns; every cycle gives the age of what the port last gave, held to
+  // max_age_ns (0: not held). Statistics chain.<name>.latency_p50/_p99/_max and .age_p99/_max
+  // (us), .late and .stale (counts). Before on(); std::invalid_argument for a port whose datum
+  // carries no stamp, or a name watched twice.
+  struct ChainWatch {
+    std::string name;
+    InPortBase* port = nullptr;
+    std::int64_t deadline_ns = 0;
+    std::int64_t max_age_ns = 0;
+    MissAction on_miss = MissAction::count;  // brake: COMPONENT_ERROR at the first late or stale cycle
+  };
+  void watch_chain(ChainWatch watch);
+  // Each watched chain's misses so far (a host's warner reads them).
+  struct ChainStatus {
+    std::string name;
+    MissAction on_miss;
+    std::uint64_t late, stale;
+    std::int64_t latency_max_ns, age_max_ns;
+  };
+  std::vector<ChainStatus> chain_status() const;
 
   // Re-simulation (rtm/cycle_tap.h): `observer` is told when the component starts, before each
   // cycle and when it stops. Before on(); null to stop. The observer outlives its use.
@@ -283,6 +308,18 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
     Counter arrived{*this, "await.arrived", "cycles whose awaited datum came while they waited for it"};
     Counter missed{*this, "await.missed", "cycles whose awaited datum did not come within the bound"};
   } await_counters_;
+  struct WatchedChain {
+    ChainWatch watch;
+    LatencyHistogram latency;
+    LatencyHistogram age;
+    std::atomic<std::uint64_t> late{0};
+    std::atomic<std::uint64_t> stale{0};
+    std::uint64_t seen = 0;  // the port's stamps_taken() at the last cycle
+  };
+  // After a cycle: the chains' and the contract's figures; why a brake stops it ("": none does).
+  std::string record_chains(std::uint64_t cycle);
+  std::string record_contract(const CycleContext& ctx, std::int64_t start_ns);
+  std::vector<std::unique_ptr<WatchedChain>> chains_;  // watch_chain(); fixed once on()
   TimingContract contract_;  // watch_contract()
   bool watched_ = false;
   CycleWatch watch_;

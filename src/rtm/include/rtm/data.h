@@ -63,6 +63,16 @@ concept PortData = requires(CORBA::Any& any, const CORBA::Any& in, const T& valu
   { DataTraits<T>::extract(in, out) } -> std::same_as<bool>;
 };
 
+// A datum that carries the stamp of the sample it derives from (RTM::Time tm, as the paper's
+// TimedFloat6 does): a component passes its input's stamp on to what it writes from it (the
+// controller gives its command the sensor sample's), so the end of a chain knows how old its
+// data are (ComponentServant::watch_chain, docs/timing.md).
+template <class T>
+concept Stamped = requires(const T& value) {
+  { value.tm.sec } -> std::convertible_to<long long>;
+  { value.tm.nsec } -> std::convertible_to<long long>;
+};
+
 #define RTM_DATA_TRAITS(Type, Shape, Member, Elements, ElementType)                  \
   template <>                                                                     \
   struct DataTraits<RTM::Type> {                                                  \

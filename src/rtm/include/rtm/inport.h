@@ -159,6 +159,13 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   Awaited wait_new_until(std::int64_t deadline_ns);
   std::size_t awaiting() const;  // threads in wait_new_until() now
 
+  // Of a Stamped datum (rtm/data.h): the stamp (CLOCK_REALTIME ns) of the newest datum read()
+  // or read_many() gave, and how many new data they gave so far; 0 for other types. The
+  // reading cycle's own figures: read on the thread that reads.
+  std::int64_t last_stamp_ns() const { return last_stamp_ns_; }
+  std::uint64_t stamps_taken() const { return stamps_taken_; }
+  virtual bool stamped() const = 0;  // its datum is Stamped
+
   // Re-simulation (rtm/cycle_tap.h): a tap logging into `sink` as port `key`, or (sink null)
   // answering reads from a replay. The port keeps a pointer to it until untap(); only while
   // the component does not cycle.
@@ -257,6 +264,9 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   // guarded by mu_; shared: wait_new_until() keeps the ring it waits on without the lock
   std::vector<std::shared_ptr<AttachedRing>> rings_;
   std::atomic<std::uint64_t> shared_memory_{0};
+  // The reading thread's (last_stamp_ns()).
+  std::int64_t last_stamp_ns_ = 0;
+  std::uint64_t stamps_taken_ = 0;
 
   const std::string name_;
   const std::string owner_;
@@ -310,6 +320,7 @@ class InPort final : public InPortBase {
   CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
   const std::type_info& data_type() const override { return typeid(T); }
   std::size_t element_count() const override { return data_elements<T>(); }
+  bool stamped() const override { return Stamped<T>; }
 
   // IDL: extracts T; any other type raises BAD_PARAM(kMinorWrongDataType, COMPLETED_NO) and
   // stores nothing (see last_error for the reason).

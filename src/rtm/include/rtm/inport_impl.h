@@ -183,21 +183,41 @@ bool InPort<T>::has_unread_locked() {
 
 template <PortData T>
 ReadResult InPort<T>::read(T& out) {
-  if (tap_ == nullptr) [[likely]]
-    return read_port(out);
-  if (tap_->replaying()) return tap_->replay_read(out);
-  const ReadResult result = read_port(out);
-  tap_->logged_read(result, out);
+  ReadResult result;
+  if (tap_ == nullptr) [[likely]] {
+    result = read_port(out);
+  } else if (tap_->replaying()) {
+    result = tap_->replay_read(out);
+  } else {
+    result = read_port(out);
+    tap_->logged_read(result, out);
+  }
+  if constexpr (Stamped<T>) {
+    if (result == ReadResult::NewData) {
+      last_stamp_ns_ = to_ns(out.tm);
+      ++stamps_taken_;
+    }
+  }
   return result;
 }
 
 template <PortData T>
 std::size_t InPort<T>::read_many(std::span<T> out) {
-  if (tap_ == nullptr) [[likely]]
-    return read_many_port(out);
-  if (tap_->replaying()) return tap_->replay_read_many(out);
-  const std::size_t n = read_many_port(out);
-  tap_->logged_read_many(std::span<const T>(out.data(), n));  // a read of none too: the order of calls
+  std::size_t n = 0;
+  if (tap_ == nullptr) [[likely]] {
+    n = read_many_port(out);
+  } else if (tap_->replaying()) {
+    n = tap_->replay_read_many(out);
+  } else {
+    n = read_many_port(out);
+    tap_->logged_read_many(std::span<const T>(out.data(), n));  // a read of none too: the order of calls
+  }
+  if constexpr (Stamped<T>) {
+    if (n > 0) {
+      last_stamp_ns_ = to_ns(out[n - 1].tm);  // oldest first: the newest is the last
+      stamps_taken_ += n;
+    }
+  }
   return n;
 }
 

@@ -96,6 +96,10 @@ struct SystemFile {
   static SystemFile load(const std::filesystem::path& file);
   static SystemFile parse(const std::string& yaml_text, const std::filesystem::path& path);
 
+  // What rtm up runs a component with: its arguments(), then --watch-chain for each chain that
+  // ends at it by a named InPort ("actuator0.twist"), which measures the chain while it runs.
+  std::vector<std::string> arguments(const Component& component) const;
+
   // The names of the parameter sets its components declare, sorted, each once.
   std::vector<std::string> parameter_set_names() const;
 
