@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "rtm_test/allocation_counter.h"
 
+#include "rt/clock.h"
+#include "rtm/component.h"
+#include "rtm/data.h"
 #include "rtm/inport.h"
 #include "rtm/outport.h"
 
@@ -41,6 +44,55 @@ TEST(Allocation, TheCounterSeesAnAllocation) {
   auto* p = new int(4);
   EXPECT_EQ(rtm_test::allocations_total(), before + 1);
   delete p;
+}
+
+}  // namespace
+
+namespace {
+
+// A component that reads a stamped datum and writes one, as a chain's middle does.
+class PassOn final : public rtm::Component {
+ public:
+  PassOn() : Component("pass0", "test") {}
+  void on_cycle(const rtm::CycleContext&) override {
+    if (in.read(datum) == rtm::ReadResult::NewData) out.write(datum);
+  }
+  rtm::InPort<RTM::TimedFloat6>& in = add_in_port<RTM::TimedFloat6>("in");
+  rtm::OutPort<RTM::TimedFloat6>& out = add_out_port<RTM::TimedFloat6>("out");
+  RTM::TimedFloat6 datum{};
+};
+
+TEST(Allocation, ACycleWatchedAgainstItsContractAndEndingAChainAllocatesNothing) {
+  auto logic = std::make_unique<PassOn>();
+  PassOn& pass = *logic;
+  PortableServer::Servant_var<rtm::ComponentServant> servant =
+      new rtm::ComponentServant(std::move(logic), rtm::ExternalTick{});
+  rtm::TimingContract contract;
+  contract.component = "pass0";
+  contract.budget_ns = 1;  // every cycle over it: the counting path too
+  contract.deadline_ns = 1;
+  servant->watch_contract(contract);
+  servant->watch_chain({"sample_to_pass", &pass.in, 1, 1});  // late and stale at every cycle
+  servant->on();
+  const rtm::CycleFunction cycle = servant->cycle_function();
+  RTM::TimedFloat6 datum{};
+  datum.tm = rtm::now();
+  rtm::CycleContext ctx{0, rtm::monotonic_ns(), rtm::monotonic_ns(), 2'000'000};
+  pass.in.deliver(datum);
+  ASSERT_TRUE(cycle(ctx));  // first use of everything outside the measured loop
+
+  const std::uint64_t before = rtm_test::allocations_total();
+  for (std::uint64_t i = 1; i <= 1000; ++i) {
+    pass.in.deliver(datum);
+    ctx = {i, rtm::monotonic_ns(), rtm::monotonic_ns(), 2'000'000};
+    EXPECT_TRUE(cycle(ctx));
+  }
+  const std::uint64_t during = rtm_test::allocations_total() - before;
+  EXPECT_EQ(during, 0u);
+  const RTM::ContractStatus status = servant->contract();
+  EXPECT_EQ(status.over_budget, 1001u) << "the watch ran in every cycle";
+  EXPECT_EQ(servant->chain_status().at(0).late, 1001u) << "and so did the chain's";
+  servant->off();
 }
 
 }  // namespace
