@@ -245,10 +245,6 @@ void add_contract_options(CLI::App& app, ContractTexts& texts, std::int64_t defa
                "print the timing contract these options give, as JSON, and exit (what `rtm check` reads)");
 }
 
-MissAction miss_action(const std::string& text) {
-  return text == "brake" ? MissAction::brake : text == "warn" ? MissAction::warn : MissAction::count;
-}
-
 // "NAME:PORT[:DEADLINE[:MAX_AGE[:ON_MISS]]]"; std::invalid_argument saying what is wanted.
 RunSettings::ChainEnd parse_chain_end(const std::string& text) {
   const auto bad = [&] {
@@ -265,8 +261,9 @@ RunSettings::ChainEnd parse_chain_end(const std::string& text) {
   if (parts.size() < 2 || parts.size() > 5 || parts[0].empty() || parts[1].empty()) throw bad();
   RunSettings::ChainEnd end{parts[0], parts[1]};
   if (parts.size() == 5) {
-    if (parts[4] != "count" && parts[4] != "warn" && parts[4] != "brake") throw bad();
-    end.on_miss = miss_action(parts[4]);
+    const std::optional<MissAction> on_miss = parse_miss_action(parts[4]);
+    if (!on_miss) throw bad();
+    end.on_miss = *on_miss;
     parts.pop_back();
   }
   for (std::size_t i = 2; i < parts.size(); ++i) {
@@ -293,7 +290,7 @@ void apply_contract_texts(const ContractTexts& texts, std::int64_t default_budge
   if (settings.budget_ns > settings.deadline_ns)
     throw std::invalid_argument(fmt::format("--budget {}: above the deadline ({})", format_duration(settings.budget_ns),
                                             format_duration(settings.deadline_ns)));
-  settings.on_miss = miss_action(texts.on_miss);
+  settings.on_miss = parse_miss_action(texts.on_miss).value_or(MissAction::count);  // CLI11 checked it
   settings.watch_contract = texts.watch == "on";
   for (const auto& text : texts.chain_ends) settings.chain_ends.push_back(parse_chain_end(text));
   if (texts.sched_deadline.empty()) return;

@@ -233,9 +233,9 @@ void ComponentServant::watch_contract(const TimingContract& contract) {
   component_->add_percentile_statistics("cycle_time", "one cycle, from its start to its end", watch_.cycle_histogram());
   component_->add_percentile_statistics("response", "from a cycle's release to its end", watch_.response_histogram());
   component_->add_statistic("over_budget", "", "cycles that ran longer than the contract's budget",
-                            [this] { return static_cast<double>(watch_.stats().over_budget); });
+                            [this] { return static_cast<double>(watch_.over_budget()); });
   component_->add_statistic("missed_deadline", "", "cycles that ended after the contract's deadline",
-                            [this] { return static_cast<double>(watch_.stats().missed_deadline); });
+                            [this] { return static_cast<double>(watch_.missed_deadline()); });
 }
 
 void ComponentServant::watch_chain(ChainWatch watch) {
@@ -399,11 +399,14 @@ void ComponentServant::reset() {
   log().info("{}: reset to COMPONENT_OFF", component_->name());
 }
 
-RTM::TimingStats ComponentServant::timing() {
+ActivityStats ComponentServant::activity_stats() const {
   const Activity* source = activity_ ? activity_.get() : timing_source_.load();
+  return source != nullptr ? source->stats() : ActivityStats{};
+}
+
+RTM::TimingStats ComponentServant::timing() {
   RTM::TimingStats out{};
-  if (!source) return out;
-  const ActivityStats s = source->stats();
+  const ActivityStats s = activity_stats();
   out.period_ns = static_cast<CORBA::ULongLong>(s.period_ns);
   out.cycles = s.cycles;
   out.overruns = s.overruns;
@@ -417,8 +420,7 @@ RTM::TimingStats ComponentServant::timing() {
 RTM::ContractStatus ComponentServant::contract() {
   RTM::ContractStatus out{};
   const TimingContract& c = contract_;
-  const Activity* source = activity_ ? activity_.get() : timing_source_.load();
-  const ActivityStats timing = source != nullptr ? source->stats() : ActivityStats{};
+  const ActivityStats timing = activity_stats();
   // Unwatched, the contract is what the activity runs: its period and nothing promised.
   out.contract.period_ns = static_cast<CORBA::ULongLong>(watched_ ? c.period_ns : timing.period_ns);
   out.contract.phased = watched_ && c.phase_ns.has_value();

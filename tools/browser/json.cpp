@@ -34,10 +34,13 @@ json timing_json(const RTM::TimingStats& t) {
           {"mean_period_error_ns", t.mean_period_error_ns}};
 }
 
+const char* miss_action_text(RTM::MissAction action) {
+  return action == RTM::MISS_BRAKE ? "brake" : action == RTM::MISS_WARN ? "warn" : "count";
+}
+
 json contract_json(const RTM::ContractStatus& s) {
   const RTM::TimingContract& c = s.contract;
   const char* sched = c.sched == RTM::SCHED_CLASS_FIFO ? "fifo" : c.sched == RTM::SCHED_CLASS_DEADLINE ? "deadline" : "other";
-  const char* on_miss = c.on_miss == RTM::MISS_BRAKE ? "brake" : c.on_miss == RTM::MISS_WARN ? "warn" : "count";
   json j{{"period_ns", c.period_ns},
          {"phase_ns", c.phased ? json(c.phase_ns) : json(nullptr)},
          {"deadline_ns", c.deadline_ns},
@@ -47,7 +50,7 @@ json contract_json(const RTM::ContractStatus& s) {
          {"sched", sched},
          {"fifo_priority", c.fifo_priority},
          {"runtime_ns", c.runtime_ns},
-         {"on_miss", on_miss},
+         {"on_miss", miss_action_text(c.on_miss)},
          {"watched", s.watched}};
   if (!s.watched) return j;
   j["cycles"] = s.cycles;

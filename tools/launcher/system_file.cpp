@@ -99,7 +99,7 @@ std::vector<std::pair<std::string, std::string>> parse_contract(const SystemFile
       if (ec != std::errc{} || end != text.data() + text.size() || value < (key == "cpu" ? 0 : 1) || value > (key == "cpu" ? 4095 : 99))
         bad(key == "cpu" ? "a CPU's number, from 0" : "a SCHED_FIFO priority, 1..99");
     } else if (key == "on_miss") {
-      if (text != "count" && text != "warn" && text != "brake") bad("count, warn or brake");
+      if (!rtm::parse_miss_action(text)) bad("count, warn or brake");
     } else {
       fail(f, kv.first, fmt::format("{}: unknown key '{}' in a contract (known: {})", owner, key, kKeys));
     }
@@ -159,9 +159,9 @@ rtm::ChainContract parse_chain(const SystemFile& f, const YAML::Node& c, const s
   }
   if (const YAML::Node n = c["on_miss"]) {
     const std::string text = scalar(f, n, fmt::format("chain '{}': 'on_miss'", chain.name));
-    if (text != "count" && text != "warn" && text != "brake")
-      fail(f, n, fmt::format("chain '{}': on_miss '{}': want count, warn or brake", chain.name, text));
-    chain.on_miss = text == "brake" ? rtm::MissAction::brake : text == "warn" ? rtm::MissAction::warn : rtm::MissAction::count;
+    const std::optional<rtm::MissAction> on_miss = rtm::parse_miss_action(text);
+    if (!on_miss) fail(f, n, fmt::format("chain '{}': on_miss '{}': want count, warn or brake", chain.name, text));
+    chain.on_miss = *on_miss;
   }
   return chain;
 }

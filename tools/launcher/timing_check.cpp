@@ -73,7 +73,7 @@ std::string first_line(const std::string& text) {
 
 }  // namespace
 
-TimingContract parse_contract_json(const std::string& line, const std::string& component) {
+std::optional<TimingContract> parse_contract_json(const std::string& line, const std::string& component) {
   const auto bad = [&](const std::string& what) {
     return SystemFileError(fmt::format("{}: its program's --print-contract is not a contract: {}", component, what));
   };
@@ -84,6 +84,7 @@ TimingContract parse_contract_json(const std::string& line, const std::string& c
     throw bad(e.what());
   }
   if (!j.is_object()) throw bad("not a JSON object");
+  if (j.contains("contract") && j["contract"].is_null()) return std::nullopt;
   TimingContract c;
   c.component = component;
   try {
@@ -105,8 +106,9 @@ TimingContract parse_contract_json(const std::string& line, const std::string& c
       c.sched = SchedClass::other;
     else
       throw bad("sched '" + sched + "' is none of other, fifo, deadline");
-    const auto on_miss = j.at("on_miss").get<std::string>();
-    c.on_miss = on_miss == "brake" ? MissAction::brake : on_miss == "warn" ? MissAction::warn : MissAction::count;
+    const auto on_miss = parse_miss_action(j.at("on_miss").get<std::string>());
+    if (!on_miss) throw bad("on_miss '" + j.at("on_miss").get<std::string>() + "' is none of count, warn, brake");
+    c.on_miss = *on_miss;
   } catch (const nlohmann::json::exception& e) {
     throw bad(e.what());
   }
@@ -134,13 +136,10 @@ TimingCheck check_timing(const SystemFile& file, const MachineLimits& machine, c
     while (!output.empty() && output.back() == '\n') output.pop_back();
     const std::size_t last = output.rfind('\n');
     const std::string line = last == std::string::npos ? output : output.substr(last + 1);
-    // A component without a loop of its own (a composite of the paper's kind) has none.
-    const nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
-    if (j.is_object() && j.contains("contract") && j["contract"].is_null()) {
-      check.without_loop.push_back(component.name);
-      continue;
-    }
-    check.contracts.push_back(parse_contract_json(line, component.name));
+    if (auto contract = parse_contract_json(line, component.name))
+      check.contracts.push_back(std::move(*contract));
+    else
+      check.without_loop.push_back(component.name);  // a composite of the paper's kind: no loop of its own
   }
   check.analysis = analyse_timing(check.contracts, file.chains, machine);
   check.analysis.findings.insert(check.analysis.findings.begin(), unanswered.begin(), unanswered.end());

@@ -50,8 +50,8 @@ std::string contract_text(const RTM::ContractStatus& s) {
   const std::string sched = c.sched == RTM::SCHED_CLASS_FIFO       ? fmt::format("fifo {}", c.fifo_priority)
                             : c.sched == RTM::SCHED_CLASS_DEADLINE ? fmt::format("deadline {} reserved", duration_text(c.runtime_ns))
                                                                    : std::string("other");
-  const char* on_miss = c.on_miss == RTM::MISS_BRAKE ? "brake" : c.on_miss == RTM::MISS_WARN ? "warn" : "count";
-  text += fmt::format("; {}{}, on miss: {}", sched, c.cpu >= 0 ? fmt::format(" on CPU {}", c.cpu) : std::string(), on_miss);
+  text += fmt::format("; {}{}, on miss: {}", sched, c.cpu >= 0 ? fmt::format(" on CPU {}", c.cpu) : std::string(),
+                      miss_action_text(c.on_miss));
   return text;
 }
 

@@ -40,6 +40,12 @@ inline const char* miss_action_name(MissAction action) {
   }
   return "count";
 }
+// miss_action_name() read back; nullopt for any other text.
+inline std::optional<MissAction> parse_miss_action(std::string_view text) {
+  for (MissAction action : {MissAction::count, MissAction::warn, MissAction::brake})
+    if (text == miss_action_name(action)) return action;
+  return std::nullopt;
+}
 
 // What one component promises about its periodic cycle. All times in ns, CLOCK_MONOTONIC.
 struct TimingContract {

@@ -294,6 +294,8 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
 
  private:
   bool run_cycle(const CycleContext& ctx);
+  // The timing of the activity that runs it (its own, or set_timing_source()'s); zero without one.
+  ActivityStats activity_stats() const;
   void fail(const std::string& why);
 
   std::unique_ptr<Component> component_;

@@ -18,6 +18,8 @@ std::string failure_text(const CORBA::Exception& e);
 
 nlohmann::json port_json(const PortInfo& port);
 nlohmann::json timing_json(const RTM::TimingStats& timing);
+// "count", "warn" or "brake": a contract's on_miss as the system file and --on-miss write it.
+const char* miss_action_text(RTM::MissAction action);
 // A contract and how it is kept: "contract" of `rtm ls -l --json` and `rtm cat --json`.
 nlohmann::json contract_json(const RTM::ContractStatus& contract);
 // detailed: timing, statistics and parameters too (`rtm cat`, `rtm ls -l`).

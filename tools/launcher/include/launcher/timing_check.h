@@ -9,6 +9,7 @@
 #include "launcher/system_file.h"
 #include "rt/contract.h"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,9 +26,10 @@ struct TimingCheck {
 TimingCheck check_timing(const SystemFile& file, const MachineLimits& machine = machine_limits(),
                          const ProgramFinder& find = find_program);
 
-// One line of --print-contract's output as a contract; SystemFileError naming the component and
-// what is wrong when it is not one.
-TimingContract parse_contract_json(const std::string& line, const std::string& component);
+// One line of --print-contract's output as a contract; nullopt for a component that runs no loop
+// of its own ("contract": null); SystemFileError naming the component and what is wrong when it
+// is neither.
+std::optional<TimingContract> parse_contract_json(const std::string& line, const std::string& component);
 
 // The analysis as JSON (`rtm check --json`, and the profile of a running system): the
 // contracts, the CPUs, the responses, the chains hop by hop and the findings.
