@@ -7,6 +7,9 @@
 // Rows:
 //   direct, write+read       latest-policy InPort filled by write() itself; one write and one
 //                            read per message in the same thread (throughput and latency)
+//   direct, stamp derived    the same, the OutPort deriving its stamp from an InPort the
+//                            thread read (OutPortBase::derive_stamp_from: one more copy of
+//                            the datum per write), as inside a chain
 //   via subscribe(ref)       the same, but connected through subscribe() with the InPort's
 //                            CORBA reference, as a remote tool would connect two components
 //                            of one process
@@ -108,6 +111,19 @@ int main(int argc, char** argv) {
     PortableServer::Servant_var<Float6Out> out(new Float6Out("out", "bench"));
     out->connect(*in);
     write_read_run("direct (connect), write+read", *out, *in, count);
+    out->close();
+  }
+  {
+    PortableServer::Servant_var<Float6In> source(new Float6In("source", "bench"));
+    PortableServer::Servant_var<Float6In> in(new Float6In("in", "bench"));
+    PortableServer::Servant_var<Float6Out> out(new Float6Out("out", "bench"));
+    RTM::TimedFloat6 sample{};
+    sample.tm.sec = 1;
+    source->deliver(sample);
+    source->read(sample);
+    out->derive_stamp_from({source.in()});
+    out->connect(*in);
+    write_read_run("direct, stamp derived, write+read", *out, *in, count);
     out->close();
   }
   {

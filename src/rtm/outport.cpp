@@ -53,6 +53,37 @@ std::string OutPortBase::last_error_text() const {
   return last_error_;
 }
 
+void OutPortBase::derive_stamp_from(const std::vector<const InPortBase*>& inputs) {
+  const std::string who = full_name() + ": deriving its stamp";
+  if (!inputs.empty() && !stamped()) throw std::invalid_argument(who + ": its datum carries no stamp (tm)");
+  if (inputs.size() > kMaxStampSources)
+    throw std::invalid_argument(who + " from " + std::to_string(inputs.size()) + " InPorts: at most " +
+                                std::to_string(kMaxStampSources));
+  for (const InPortBase* in : inputs) {
+    if (in == nullptr) throw std::invalid_argument(who + ": no InPort");
+    if (!in->stamped())
+      throw std::invalid_argument(who + " from " + in->port_name() + ": that port's datum carries no stamp (tm)");
+  }
+  std::copy(inputs.begin(), inputs.end(), stamp_sources_.begin());
+  stamp_source_count_ = inputs.size();
+}
+
+std::string OutPortBase::stamp_sources_text() const {
+  std::string out;
+  for (std::size_t i = 0; i < stamp_source_count_; ++i) out += (i ? "+" : "") + stamp_sources_[i]->port_name();
+  return out;
+}
+
+std::int64_t OutPortBase::derived_stamp_ns() const {
+  std::int64_t oldest = 0;
+  for (std::size_t i = 0; i < stamp_source_count_; ++i) {
+    const InPortBase& in = *stamp_sources_[i];
+    if (in.stamps_taken() == 0 || in.last_stamp_ns() <= 0) continue;  // none read yet, or unstamped (0)
+    if (oldest == 0 || in.last_stamp_ns() < oldest) oldest = in.last_stamp_ns();
+  }
+  return oldest;
+}
+
 std::string OutPortBase::full_port_text() const {
   return "already " + std::to_string(options_.max_subscriptions) +
          " subscriptions, the most it takes (OutPortOptions::max_subscriptions)";

@@ -50,19 +50,22 @@ TEST(Allocation, TheCounterSeesAnAllocation) {
 
 namespace {
 
-// A component that reads a stamped datum and writes one, as a chain's middle does.
+// A component that reads a stamped datum and writes one, as a chain's middle does; it leaves
+// the stamp to its OutPort (derive_stamp_from).
 class PassOn final : public rtm::Component {
  public:
   PassOn() : Component("pass0", "test") {}
   void on_cycle(const rtm::CycleContext&) override {
-    if (in.read(datum) == rtm::ReadResult::NewData) out.write(datum);
+    if (in.read(datum) != rtm::ReadResult::NewData) return;
+    datum.tm = {};
+    out.write(datum);
   }
   rtm::InPort<RTM::TimedFloat6>& in = add_in_port<RTM::TimedFloat6>("in");
   rtm::OutPort<RTM::TimedFloat6>& out = add_out_port<RTM::TimedFloat6>("out");
   RTM::TimedFloat6 datum{};
 };
 
-TEST(Allocation, ACycleWatchedAgainstItsContractAndEndingAChainAllocatesNothing) {
+TEST(Allocation, ACycleWatchedAgainstItsContractEndingAChainAndDerivingAStampAllocatesNothing) {
   auto logic = std::make_unique<PassOn>();
   PassOn& pass = *logic;
   PortableServer::Servant_var<rtm::ComponentServant> servant =
@@ -73,6 +76,7 @@ TEST(Allocation, ACycleWatchedAgainstItsContractAndEndingAChainAllocatesNothing)
   contract.deadline_ns = 1;
   servant->watch_contract(contract);
   servant->watch_chain({"sample_to_pass", &pass.in, 1, 1});  // late and stale at every cycle
+  pass.out.derive_stamp_from({&pass.in});
   servant->on();
   const rtm::CycleFunction cycle = servant->cycle_function();
   RTM::TimedFloat6 datum{};
@@ -92,6 +96,9 @@ TEST(Allocation, ACycleWatchedAgainstItsContractAndEndingAChainAllocatesNothing)
   const RTM::ContractStatus status = servant->contract();
   EXPECT_EQ(status.over_budget, 1001u) << "the watch ran in every cycle";
   EXPECT_EQ(servant->chain_status().at(0).late, 1001u) << "and so did the chain's";
+  RTM::TimedFloat6 written{};
+  ASSERT_TRUE(pass.out.latest(written));
+  EXPECT_EQ(rtm::to_ns(written.tm), rtm::to_ns(datum.tm)) << "and the OutPort's stamp derivation";
   servant->off();
 }
 

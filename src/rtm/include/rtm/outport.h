@@ -9,6 +9,7 @@
 #include "rt/histogram.h"
 #include "rtm/inport.h"
 
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -136,6 +137,24 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   std::string last_error_text() const;
   std::size_t subscription_count() const;
 
+  // Its datum is Stamped (rtm/data.h): it carries the stamp of the sample it derives from.
+  virtual bool stamped() const = 0;
+  // Declares what this port's data derive from: from now on write() gives each datum the stamp
+  // of the oldest of the newest data read from inputs (InPortBase::last_stamp_ns()), so the end
+  // of a chain sees the age of the sample the chain started from without the component copying
+  // tm itself. The oldest: a datum is as old as the oldest input it was computed from (list
+  // only the inputs a chain runs through; a reference held on purpose would make every datum
+  // look stale). Before any of inputs has given a stamped datum (one stamped 0 counts as none),
+  // a datum keeps its own stamp. An
+  // empty list ends the derivation. Only while the component does not cycle: the inputs are
+  // read on the writing thread, which must be the one that reads them (the cycle). Throws
+  // std::invalid_argument for a port or an input that is not Stamped, a null input, or more
+  // than kMaxStampSources inputs.
+  static constexpr std::size_t kMaxStampSources = 8;
+  void derive_stamp_from(const std::vector<const InPortBase*>& inputs);
+  // The ports' names, "" when none ("wrench" or "wrench+reference").
+  std::string stamp_sources_text() const;
+
   // Re-simulation: as InPortBase::tap(). A replay's tap keeps what write() wrote instead of
   // publishing it.
   virtual std::unique_ptr<PortTap> tap(TapSink* sink, std::uint16_t key, std::uint32_t capacity) = 0;
@@ -198,6 +217,9 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   // "owner.name" of a subscriber, each call bounded by call_timeout_ms (RTM::InPort without owner: its name).
   static std::string peer_name(RTM::InPort_ptr port, std::uint32_t call_timeout_ms);
   std::string full_port_text() const;  // why a subscribe to a full port is refused
+  // derive_stamp_from(): the oldest newest stamp of its inputs; 0 when none gave one yet.
+  std::int64_t derived_stamp_ns() const;
+  bool derives_stamp() const { return stamp_source_count_ != 0; }
 
   const std::string name_;
   const std::string owner_;
@@ -218,6 +240,8 @@ class OutPortBase : public virtual POA_RTM::OutPortEx {
   LatencyHistogram write_cost_;
   bool closed_ = false;
   std::atomic<bool> get_before_data_logged_{false};
+  std::array<const InPortBase*, kMaxStampSources> stamp_sources_{};  // the writing thread's
+  std::size_t stamp_source_count_ = 0;
 
  private:
   mutable std::mutex ref_mu_;  // guards orb_, ref_ (not mu_: deactivate waits for upcalls)
@@ -251,6 +275,7 @@ class OutPort final : public OutPortBase {
 
   CORBA::TypeCode_ptr type_code() const override { return DataTraits<T>::type_code(); }
   std::size_t element_count() const override { return data_elements<T>(); }
+  bool stamped() const override { return Stamped<T>; }
 
   // IDL: the last written value; before the first write raises
   // BAD_INV_ORDER(kMinorNoDataYet, COMPLETED_NO) and logs why.
@@ -279,7 +304,10 @@ class OutPort final : public OutPortBase {
   std::optional<ShmSegment> ring_segment_;
   std::optional<ShmRingWriter> ring_writer_;  // guarded by mu_
   std::uint32_t ring_slots_ = 0;              // guarded by ring_mu_
+  // write() with the datum as given, or as restamped by derive_stamp_from().
+  void publish(const T& value);
   T latest_{};
+  T restamped_{};  // the writing thread's: a derived datum, copied into storage kept for it
   bool has_latest_ = false;
   TypedTap<T>* tap_ = nullptr;  // re-simulation; the cycle thread's
 };

@@ -30,6 +30,21 @@ std::unique_ptr<PortTap> OutPort<T>::tap(TapSink* sink, std::uint16_t key, std::
 
 template <PortData T>
 void OutPort<T>::write(const T& value) {
+  if constexpr (Stamped<T>) {
+    if (derives_stamp()) {
+      if (const std::int64_t stamp = derived_stamp_ns(); stamp != 0) {
+        restamped_ = value;
+        restamped_.tm = from_ns(stamp);
+        publish(restamped_);
+        return;
+      }
+    }
+  }
+  publish(value);
+}
+
+template <PortData T>
+void OutPort<T>::publish(const T& value) {
   if (tap_ != nullptr) [[unlikely]] {
     if (tap_->replaying()) {
       tap_->replay_write(value);
