@@ -260,7 +260,8 @@ int run_container(int argc, char** argv) {
     for (const Member& m : members) listed.append(listed.empty() ? "" : ", ").append(m.settings.name);
     log().info("{}: {} members up: {}", line.name, members.size(), listed);
     std::vector<const ComponentServant*> servants;
-    for (const Member& m : members) servants.push_back(m.servant.in());
+    for (const Member& m : members)
+      for (const ComponentServant* s : ContractWarner::watched(m.main, m.servant.in())) servants.push_back(s);
     const ContractWarner warner(std::move(servants));
     const int received = signals.wait();
     log().info("stopping {} ({})", line.name, received == SIGINT ? "SIGINT" : "SIGTERM");

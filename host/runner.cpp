@@ -207,6 +207,7 @@ void apply_schedule_texts(const ScheduleTexts& texts, RunSettings& settings) {
 // The contract's options as given, checked once the command line is parsed.
 struct ContractTexts {
   std::vector<std::string> chain_ends;
+  std::vector<std::string> stamp_from;
   std::string deadline;
   std::string budget;
   std::string on_miss = "count";
@@ -241,6 +242,11 @@ void add_contract_options(CLI::App& app, ContractTexts& texts, std::int64_t defa
                  "at their first cycle and MAX_AGE at every cycle, a miss counted, warned or braked on; repeatable "
                  "(rtm up gives it from a system file's chains)")
       ->take_all();
+  app.add_option("--stamp-from", texts.stamp_from,
+                 "OUT=IN[+IN...]: each datum OutPort OUT writes carries the stamp of the newest datum InPort IN "
+                 "gave (the oldest of several), so a chain's end sees how old its sample is without the component "
+                 "copying tm; repeatable (rtm up gives it for each component inside a system file's chain)")
+      ->take_all();
   app.add_flag("--print-contract", settings.print_contract,
                "print the timing contract these options give, as JSON, and exit (what `rtm check` reads)");
 }
@@ -274,6 +280,26 @@ RunSettings::ChainEnd parse_chain_end(const std::string& text) {
   return end;
 }
 
+// "OUT=IN[+IN...]"; std::invalid_argument saying what is wanted.
+RunSettings::StampFrom parse_stamp_from(const std::string& text) {
+  const std::size_t eq = text.find('=');
+  RunSettings::StampFrom out;
+  if (eq != std::string::npos) {
+    out.out = text.substr(0, eq);
+    for (std::size_t from = eq + 1;;) {
+      const std::size_t plus = text.find('+', from);
+      out.ins.push_back(text.substr(from, plus == std::string::npos ? std::string::npos : plus - from));
+      if (plus == std::string::npos) break;
+      from = plus + 1;
+    }
+  }
+  const bool empty_in = std::any_of(out.ins.begin(), out.ins.end(), [](const auto& s) { return s.empty(); });
+  if (out.out.empty() || out.ins.empty() || empty_in || out.ins.size() > OutPortBase::kMaxStampSources)
+    throw std::invalid_argument(fmt::format("--stamp-from '{}': want OUT=IN[+IN...] (at most {} InPorts), e.g. twist=wrench",
+                                            text, OutPortBase::kMaxStampSources));
+  return out;
+}
+
 // Throws std::invalid_argument naming a bad value; after apply_schedule_texts().
 void apply_contract_texts(const ContractTexts& texts, std::int64_t default_budget_ns, RunSettings& settings) {
   const auto duration = [](const char* option, const std::string& text) {
@@ -293,6 +319,7 @@ void apply_contract_texts(const ContractTexts& texts, std::int64_t default_budge
   settings.on_miss = parse_miss_action(texts.on_miss).value_or(MissAction::count);  // CLI11 checked it
   settings.watch_contract = texts.watch == "on";
   for (const auto& text : texts.chain_ends) settings.chain_ends.push_back(parse_chain_end(text));
+  for (const auto& text : texts.stamp_from) settings.stamp_from.push_back(parse_stamp_from(text));
   if (texts.sched_deadline.empty()) return;
   settings.sched_runtime_ns = duration("--sched-deadline", texts.sched_deadline);
   if (settings.sched_runtime_ns > settings.deadline_ns)
@@ -446,16 +473,59 @@ std::optional<int> check_endpoints(const char* program, RunSettings& settings) {
   return std::nullopt;
 }
 
-// An InPort of the component by name or as in<k>; std::invalid_argument listing them if none.
-InPortBase& find_in_port(Component& component, const std::string& which, const std::string& option) {
-  const auto& ins = component.in_ports();
+// A port of the component by name or as <index_prefix><k> (in0, out1); std::invalid_argument
+// listing them if none.
+template <class Port>
+Port& find_port(const std::vector<Port*>& ports, const char* index_prefix, const char* kind, const Component& component,
+                const std::string& which, const std::string& option) {
   std::string names;
-  for (std::size_t i = 0; i < ins.size(); ++i) {
-    if (ins[i]->port_name() == which || "in" + std::to_string(i) == which) return *ins[i];
-    names += (names.empty() ? "" : ", ") + ins[i]->port_name();
+  for (std::size_t i = 0; i < ports.size(); ++i) {
+    if (ports[i]->port_name() == which || index_prefix + std::to_string(i) == which) return *ports[i];
+    names += (names.empty() ? "" : ", ") + ports[i]->port_name();
   }
-  throw std::invalid_argument(option + ": " + component.name() + " has no InPort " + which + " (" +
+  throw std::invalid_argument(option + ": " + component.name() + " has no " + kind + " " + which + " (" +
                               (names.empty() ? std::string("it has none") : "it has " + names) + ")");
+}
+
+InPortBase& find_in_port(Component& component, const std::string& which, const std::string& option) {
+  return find_port(component.in_ports(), "in", "InPort", component, which, option);
+}
+
+OutPortBase& find_out_port(Component& component, const std::string& which, const std::string& option) {
+  return find_port(component.out_ports(), "out", "OutPort", component, which, option);
+}
+
+// Whose port `which` is: the component's own, or for MEMBER.PORT a composite's member's; and
+// the port's name there.
+std::pair<ComponentServant*, std::string> port_owner(const ComponentMain& main, ComponentServant& servant,
+                                                     const std::string& which, const std::string& option) {
+  const std::size_t dot = which.find('.');
+  if (dot == std::string::npos) return {&servant, which};
+  const std::string member = which.substr(0, dot);
+  const std::vector<ComponentServant*> members = main.members ? main.members() : std::vector<ComponentServant*>{};
+  for (ComponentServant* m : members)
+    if (m->component().name() == member) return {m, which.substr(dot + 1)};
+  throw std::invalid_argument(option + ": " + servant.component().name() +
+                              (members.empty() ? " has no members in this process: no member " : " has no member ") + member);
+}
+
+// --watch-chain and --stamp-from, on the component or its members. Before on().
+void declare_chains(const ComponentMain& main, const RunSettings& settings, ComponentServant& servant) {
+  for (const auto& from : settings.stamp_from) {
+    const std::string option = "--stamp-from " + from.out;
+    auto [owner, name] = port_owner(main, servant, from.out, option);
+    OutPortBase& out = find_out_port(owner->component(), name, option);
+    std::vector<const InPortBase*> ins;
+    for (const auto& in : from.ins) ins.push_back(&find_in_port(owner->component(), in, option));
+    out.derive_stamp_from(ins);
+    log().info("{}: {} carries the stamp of {}", owner->component().name(), out.port_name(), out.stamp_sources_text());
+  }
+  for (const auto& end : settings.chain_ends) {
+    const std::string option = "--watch-chain " + end.name;
+    auto [owner, name] = port_owner(main, servant, end.port, option);
+    InPortBase& port = find_in_port(owner->component(), name, option);
+    owner->watch_chain({end.name, &port, end.deadline_ns, end.max_age_ns, end.on_miss});
+  }
 }
 
 // Builds the component and its servant, activates it and binds its names; turns it on when
@@ -495,10 +565,7 @@ void bring_up(const ComponentMain& main, const RunContext& context, PortableServ
     servant->await_before_cycle(find_in_port(servant->component(), settings.await_port, "--await"),
                                 settings.await_bound_ns);
   if (settings.watch_contract && main.has_contract) servant->watch_contract(settings.contract());
-  for (const auto& end : settings.chain_ends) {
-    InPortBase& port = find_in_port(servant->component(), end.port, "--watch-chain " + end.name);
-    servant->watch_chain({end.name, &port, end.deadline_ns, end.max_age_ns, end.on_miss});
-  }
+  declare_chains(main, settings, *servant);
   if (!settings.cycle_log.empty()) cycle_log = std::make_unique<CycleLog>(*servant, settings.cycle_log);
   RTM::RtComponentEx_var reference = servant->activate(context.orb);
   std::vector<ExtraName> extra_names;
@@ -548,6 +615,13 @@ ContractWarner::ContractWarner(std::vector<const ComponentServant*> servants) {
     seen_chains_.push_back(servant->chain_status());
   }
   thread_ = std::thread([this] { loop(); });
+}
+
+std::vector<const ComponentServant*> ContractWarner::watched(const ComponentMain& main, const ComponentServant* servant) {
+  std::vector<const ComponentServant*> out{servant};
+  if (servant != nullptr && main.members)
+    for (const ComponentServant* m : main.members()) out.push_back(m);
+  return out;
 }
 
 ContractWarner::~ContractWarner() {
@@ -677,7 +751,7 @@ int run_component(int argc, char** argv, const ComponentMain& main) {
     }
 
     if (status == 0) {
-      const ContractWarner warner({servant.in()});
+      const ContractWarner warner(ContractWarner::watched(main, servant.in()));
       const int received = signals.wait();
       log().info("stopping {} ({})", settings.name, received == SIGINT ? "SIGINT" : "SIGTERM");
     }

@@ -74,6 +74,8 @@ void shut_down(PortableServer::Servant_var<ComponentServant>& servant, std::vect
 class ContractWarner {
  public:
   explicit ContractWarner(std::vector<const ComponentServant*> servants);
+  // servant and the members main makes in this process (ComponentMain::members).
+  static std::vector<const ComponentServant*> watched(const ComponentMain& main, const ComponentServant* servant);
   ~ContractWarner();  // stops and joins the thread
   ContractWarner(const ContractWarner&) = delete;
   ContractWarner& operator=(const ContractWarner&) = delete;

@@ -46,8 +46,7 @@ rtm::ComponentMain actuator() {
             return std::make_unique<rtm::comp::Actuator>(
                 settings.name, std::make_unique<rtm::pa10::ArmHardware>(hardware), params);
           },
-      // Its cycle: p99 47 us beside pa10-sim on these machines (docs/performance.md, "Timing contracts").
-      .budget_ns = 50'000,
+      .budget_ns = rtm::comp::kActuatorBudgetNs,
   };
 }
 

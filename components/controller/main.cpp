@@ -22,9 +22,7 @@ rtm::ComponentMain controller() {
       .create = [params](const rtm::RunSettings& settings) {
         return std::make_unique<rtm::comp::Controller>(settings.name, *params);
       },
-      // Its cycle: p99 21 us in the demo on these machines, 34 us beside a -j2 build
-      // (docs/performance.md, "Timing contracts").
-      .budget_ns = 50'000,
+      .budget_ns = rtm::comp::kControllerBudgetNs,
   };
 }
 

@@ -68,9 +68,7 @@ rtm::ComponentMain sensor() {
                 std::make_unique<rtm::comp::BusForceSource>(buses.sensors(), pc::ForceSensor::wrist, buses.bus),
                 rtm::pa10::Kinematics::pa10(urdf), params);
           },
-      // Its cycle (the wrist's turns the wrench into the base frame): p99 87 us for the wrist,
-      // 58 us for the joystick in the demo on these machines (docs/performance.md, "Timing contracts").
-      .budget_ns = kJoystickOnly ? 60'000 : 100'000,
+      .budget_ns = kJoystickOnly ? rtm::comp::kJoystickBudgetNs : rtm::comp::kWristSensorBudgetNs,
   };
 }
 

@@ -11,6 +11,9 @@
 // servo_diagram(), checked against the members' ports before anything is connected, and the
 // host runs it: rtm::RemoteComposite in paper mode, rtm::TickedComposite with --shared-tick.
 // --cpu pins the tick and the bus master's thread, not the whole process.
+// Timing contracts (docs/timing.md): with --shared-tick each member's cycle is watched against
+// its own budget and the tick's deadline; --watch-chain NAME:MEMBER.PORT makes a member a
+// chain's end, and --stamp-from MEMBER.OUT=IN a member's OutPort pass its input's stamp on.
 #include "components/actuator/actuator.h"
 #include "components/controller/controller.h"
 #include "components/sensor/sensor.h"
@@ -135,6 +138,18 @@ std::unique_ptr<rtm::TickedComposite> make_shared_tick_servo(ServoOptions& o, co
       settings.name, "servo", rtm::comp::servo_diagram(settings.name, o.sensor, o.controller, o.actuator, true),
       std::move(members), settings.periodic_options(), std::move(phase), bus);
   servo->activate_members(context.orb);
+  if (settings.watch_contract) {
+    // Each member's cycle against its own budget and the tick's deadline (rtm ls -l on the
+    // member's name); the tick is the members' activity, so they share its class and CPU.
+    for (const auto& [name, budget_ns] : {std::pair{o.sensor, rtm::comp::kWristSensorBudgetNs},
+                                          std::pair{o.controller, rtm::comp::kControllerBudgetNs},
+                                          std::pair{o.actuator, rtm::comp::kActuatorBudgetNs}}) {
+      rtm::TimingContract contract = settings.contract();
+      contract.component = name;
+      contract.budget_ns = budget_ns;
+      servo->member(name).watch_contract(contract);
+    }
+  }
   return servo;
 }
 
@@ -177,6 +192,12 @@ rtm::ComponentMain servo() {
             servant.set_timing_source(&shared->tick());
             shared->add_to_tick(servant.cycle_function());
             for (auto* member : shared->members()) members.push_back({member->component().name(), member->reference()});
+            return members;
+          },
+      .members =
+          [state] {
+            std::vector<rtm::ComponentServant*> members;
+            if (state->shared != nullptr) members = state->shared->members();
             return members;
           },
       .has_contract = false,  // its members' loops, or its tick, keep theirs

@@ -198,8 +198,10 @@ bool ComponentServant::run_cycle(const CycleContext& ctx) {
       case InPortBase::Awaited::none: await_counters_.missed.add(); break;
     }
   }
-  // The cycle starts once its datum is there: the budget is the component's own time.
-  const std::int64_t start_ns = watched_ && await_port_ != nullptr ? monotonic_ns() : ctx.wake_ns;
+  // The cycle starts once its datum is there, or (a member of a shared tick) once the members
+  // before it on the tick are done: the budget is the component's own time.
+  const bool own_start = await_port_ != nullptr || std::holds_alternative<ExternalTick>(spec_);
+  const std::int64_t start_ns = watched_ && own_start ? monotonic_ns() : ctx.wake_ns;
   try {
     component_->on_cycle(ctx);
     // Why a contract that says brake stops the component now; empty when none does.

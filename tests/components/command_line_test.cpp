@@ -123,6 +123,26 @@ TEST(ComponentCommandLine, TheServoRefusesATickLeadWithoutTheMasterRunningTheBus
   EXPECT_NE(r.output.find("--tick-lead-us: applies to --bus-cycle master only"), std::string::npos) << r.output;
 }
 
+// --stamp-from and --watch-chain name ports: a malformed one is a bad command line (2), a port
+// or member the component lacks stops it before it binds a name (1), each saying what it has.
+TEST(ComponentCommandLine, AStampDerivationOrChainNamingAPortOrMemberTheComponentLacksIsRefusedSayingWhatItHas) {
+  const auto malformed = run({RTM_CONTROLLER_EXE, "--stamp-from", "twist"});
+  EXPECT_EQ(malformed.code, 2) << malformed.output;
+  EXPECT_NE(malformed.output.find("--stamp-from 'twist': want OUT=IN[+IN...]"), std::string::npos) << malformed.output;
+  const auto no_out = run({RTM_CONTROLLER_EXE, "--stamp-from", "nosuch=wrench"});
+  EXPECT_EQ(no_out.code, 1) << no_out.output;
+  EXPECT_NE(no_out.output.find("controller0 has no OutPort nosuch (it has twist)"), std::string::npos) << no_out.output;
+  const auto no_in = run({RTM_CONTROLLER_EXE, "--stamp-from", "twist=wrench+nosuch"});
+  EXPECT_EQ(no_in.code, 1) << no_in.output;
+  EXPECT_NE(no_in.output.find("controller0 has no InPort nosuch (it has wrench, reference)"), std::string::npos)
+      << no_in.output;
+  const auto no_member = run({RTM_CONTROLLER_EXE, "--watch-chain", "c:sensor0.wrench"});
+  EXPECT_EQ(no_member.code, 1) << no_member.output;
+  EXPECT_NE(no_member.output.find("--watch-chain c: controller0 has no members in this process: no member sensor0"),
+            std::string::npos)
+      << no_member.output;
+}
+
 TEST(ComponentCommandLine, TheSensorsNodeIsOneOfTheTwoAndTheJoystickIsTheSensorOnItsNode) {
   const auto bad = run({RTM_SENSOR_EXE, "--node", "elbow", "--bus", "local:/nonexistent/dir/bus"});
   EXPECT_EQ(bad.code, 2) << bad.output;

@@ -6,6 +6,8 @@
 #include "core_test_support.h"
 #include "host/lease.h"
 #include "host/ticked_composite.h"
+#include "rtm/data.h"
+#include "rtm/diagram.h"
 
 #include <gtest/gtest.h>
 
@@ -217,6 +219,94 @@ TEST(TickedComposite, AConnectionAgainstTheOrderIsRefusedBeforeAnythingRuns) {
   } catch (const rtm::DiagramError& e) {
     EXPECT_NE(std::string(e.what()).find("x2a.out -> x2b.in"), std::string::npos) << e.what();
   }
+}
+
+// ---- a chain's stamps across the members ---------------------------------------------------
+
+// Writes a datum whose sample is 50 ms old, a new stamp each cycle; keeps the last it wrote.
+class OldSampleSource final : public rtm::Component {
+ public:
+  OldSampleSource() : Component("src", "source") {}
+  void on_cycle(const rtm::CycleContext&) override {
+    RTM::TimedFloat6 d{};
+    const std::int64_t stamp = rtm::to_ns(rtm::now()) - 50'000'000;
+    d.tm = rtm::from_ns(stamp);
+    out_.write(d);
+    last_stamp_ns.store(stamp);
+  }
+  std::atomic<std::int64_t> last_stamp_ns{0};
+
+ private:
+  rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("out");
+};
+
+// Writes what it read stamped now: a component that does not pass the stamp on itself.
+class Restamp final : public rtm::Component {
+ public:
+  explicit Restamp(std::string name) : Component(std::move(name), "filter") {}
+  void on_cycle(const rtm::CycleContext&) override {
+    RTM::TimedFloat6 d{};
+    if (in_.read(d) != rtm::ReadResult::NewData) return;
+    d.tm = rtm::now();
+    out_.write(d);
+  }
+
+ private:
+  rtm::InPort<RTM::TimedFloat6>& in_ = add_in_port<RTM::TimedFloat6>("in");
+  rtm::OutPort<RTM::TimedFloat6>& out_ = add_out_port<RTM::TimedFloat6>("out");
+};
+
+class ChainEnd final : public rtm::Component {
+ public:
+  ChainEnd() : Component("end", "sink") {}
+  void on_cycle(const rtm::CycleContext&) override {
+    RTM::TimedFloat6 d{};
+    in.read(d);
+    cycles.fetch_add(1);
+  }
+  rtm::InPort<RTM::TimedFloat6>& in = add_in_port<RTM::TimedFloat6>("in");
+  std::atomic<int> cycles{0};
+};
+
+double statistic(rtm::ComponentServant& servant, const std::string& name) {
+  RTM::StatisticList_var stats = servant.statistics();
+  for (CORBA::ULong i = 0; i < stats->length(); ++i)
+    if (name == stats[i].name.in()) return stats[i].value;
+  return -1;
+}
+
+TEST(TickedComposite, AChainsEndSeesTheSourcesStampThroughMembersWhosePortsDeriveIt) {
+  const rtm::Diagram diagram{.name = "stamps",
+                             .members = {{"src"}, {"mid_a"}, {"mid_b"}, {"end"}},
+                             .ticked = true,
+                             .connections = {{{"src", "out"}, {"mid_a", "in"}},
+                                             {{"mid_a", "out"}, {"mid_b", "in"}},
+                                             {{"mid_b", "out"}, {"end", "in"}}}};
+  std::vector<std::unique_ptr<rtm::Component>> members;
+  auto source = std::make_unique<OldSampleSource>();
+  auto end = std::make_unique<ChainEnd>();
+  OldSampleSource& src = *source;
+  ChainEnd& sink = *end;
+  members.push_back(std::move(source));
+  members.push_back(std::make_unique<Restamp>("mid_a"));
+  members.push_back(std::make_unique<Restamp>("mid_b"));
+  members.push_back(std::move(end));
+  rtm::TickedComposite composite("stamps0", "chain", diagram, std::move(members), fast());
+  for (const char* mid : {"mid_a", "mid_b"}) {
+    const rtm::Component& c = composite.member(mid).component();
+    rtm::out_port_of(c, "out")->derive_stamp_from({rtm::in_port_of(c, "in")});
+  }
+  rtm::ComponentServant& end_servant = composite.member("end");
+  end_servant.watch_chain({"src_to_end", &sink.in, 0, 0});
+  composite.on_start();
+  ASSERT_TRUE(eventually([&] { return sink.cycles.load() >= 10; }));
+  composite.on_stop();
+
+  // The source, both members and the end ran in one cycle of the tick: the end's last datum
+  // derives from the source's last sample, whose stamp it carries exactly.
+  EXPECT_EQ(sink.in.last_stamp_ns(), src.last_stamp_ns.load());
+  EXPECT_GE(statistic(end_servant, "chain.src_to_end.age_max"), 50'000.0) << "us: the sample was 50 ms old";
+  EXPECT_GE(statistic(end_servant, "chain.src_to_end.latency_p50"), 50'000.0);
 }
 
 // ---- holds --------------------------------------------------------------------------------

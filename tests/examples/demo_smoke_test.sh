@@ -75,6 +75,12 @@ for reference in -10.0 -20.0; do
 $(cat "$tmp/out/summary.txt")"
 done
 
+# The paper's chain is watched at its end, the actuator (a process of its own, or the shared
+# tick's member), and the summary reports it.
+grep -q "^  chain wrist_to_drive at actuator0: latency p50" "$tmp/out/summary.txt" ||
+  fail "the chain wrist_to_drive is not reported as measured at actuator0 in summary.txt:
+$(cat "$tmp/out/summary.txt")"
+
 # A sanitizer build: no process of the run may have reported an error (they keep running).
 if grep -l -E "ERROR: (Address|Leak|Thread|UndefinedBehavior)Sanitizer|runtime error:" "$tmp/out/raw/"* >/dev/null 2>&1; then
   fail "a sanitizer report in the run's logs: $(grep -l -E "Sanitizer|runtime error:" "$tmp/out/raw/"*)"

@@ -238,8 +238,8 @@ TEST_F(RtmTiming, AChainsEndMeasuresTheAgeOfTheSampleItsDataDeriveFromAcrossThre
 name: timed
 components:
   - {name: a, command: [rtm-test-talker, --stamp-age-ms, "50"]}
-  - {name: b, command: [rtm-test-talker, --pass-stamp]}
-  - {name: c, command: [rtm-test-talker, --pass-stamp]}
+  - {name: b, command: rtm-test-talker}
+  - {name: c, command: rtm-test-talker}
 connections:
   - {from: a.force, to: b.in0}
   - {from: b.force, to: c.in0}
@@ -251,7 +251,8 @@ chains:
   ASSERT_EQ(up.exit_code, 0) << up.out << up.err;
   ASSERT_TRUE(eventually([&] { return statistic("c", "chain.a_to_c.late") >= 20; }, 10s))
       << "c ends the chain; its data come 50 ms after their sample, past the 20 ms deadline";
-  EXPECT_GE(statistic("c", "chain.a_to_c.latency_p50"), 50'000) << "us: the stamp a set, carried by b and c";
+  EXPECT_GE(statistic("c", "chain.a_to_c.latency_p50"), 50'000)
+      << "us: the stamp a set, carried by b's force, which rtm up declared to derive from b.in0 (b never copies it)";
   EXPECT_GE(statistic("c", "chain.a_to_c.age_p99"), 50'000);
   EXPECT_GE(statistic("c", "chain.a_to_c.stale"), 20) << "every cycle acts on data older than 30 ms";
   EXPECT_EQ(statistic("b", "chain.a_to_c.late"), -1) << "only the chain's end watches it";
@@ -268,8 +269,8 @@ TEST_F(RtmTiming, AComponentSlowedPastItsBudgetMakesTheChainThroughItMissItsDead
 name: timed
 components:
   - {name: a, command: rtm-test-talker}
-  - {name: b, command: [rtm-test-talker, --pass-stamp], contract: {budget: 1ms}}
-  - {name: c, command: [rtm-test-talker, --pass-stamp]}
+  - {name: b, command: rtm-test-talker, contract: {budget: 1ms}}
+  - {name: c, command: rtm-test-talker}
 connections:
   - {from: a.force, to: b.in0}
   - {from: b.force, to: c.in0}

@@ -553,6 +553,49 @@ chains:
   EXPECT_EQ(f.arguments(f.components[2]), f.components[2].command) << "wrist_to_twist names no InPort at its end";
 }
 
+TEST(RtmSystemFile, EachComponentInsideAChainDerivesTheStampOfTheOutPortTheChainLeavesByFromWhereItEnters) {
+  auto f = SystemFile::parse(R"(
+name: chained
+components:
+  - {name: a, command: rtm-a}
+  - {name: b, command: rtm-b}
+  - {name: c, command: rtm-c}
+  - {name: d, command: rtm-d}
+connections:
+  - {from: a.force, to: b.in0}
+  - {from: a.other, to: b.in1}
+  - {from: b.force, to: c.in0}
+  - {from: b.side, to: d.in0}
+  - {from: c.out0, to: d.in1}
+chains:
+  - {name: through_c, path: [a.force, b, c.in0, d]}
+  - {name: other, path: [a.other, b.in1, c]}
+  - {name: sideways, path: [a.force, b, d.in0]}
+)",
+                             kFile);
+  using Derivations = std::vector<std::pair<std::string, std::vector<std::string>>>;
+  // b: entered by the port a.force feeds (in0) or, named, in1; left by force (to c) or side (to d).
+  EXPECT_EQ(f.stamp_derivations(f.components[1]),
+            (Derivations{{"force", {"in0", "in1"}}, {"side", {"in0"}}}));
+  EXPECT_EQ(f.stamp_derivations(f.components[2]), (Derivations{{"out0", {"in0"}}})) << "indices as the file gives them";
+  EXPECT_TRUE(f.stamp_derivations(f.components[0]).empty()) << "a chain's head writes its own stamp";
+  EXPECT_TRUE(f.stamp_derivations(f.components[3]).empty()) << "a chain's end writes nothing on";
+  const auto b = f.arguments(f.components[1]);
+  EXPECT_EQ(b, (std::vector<std::string>{"rtm-b", "--stamp-from", "force=in0+in1", "--stamp-from", "side=in0"}));
+  // A hop no connection of the file shows (a composite wires it inside) derives nothing.
+  auto unwired = SystemFile::parse(R"(
+name: unwired
+components:
+  - {name: a, command: rtm-a}
+  - {name: b, command: rtm-b}
+  - {name: c, command: rtm-c}
+chains:
+  - {name: ac, path: [a.force, b.in0, c.in0]}
+)",
+                                   kFile);
+  EXPECT_TRUE(unwired.stamp_derivations(unwired.components[1]).empty());
+}
+
 TEST(RtmSystemFile, AMalformedContractOrChainIsRefusedWithTheLineAndWhatIsWanted) {
   const std::string head = "components:\n  - {name: a, command: rtm-a}\n  - {name: b, command: rtm-b}\n";
   const auto contract_error = [](const std::string& contract) {

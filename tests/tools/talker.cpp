@@ -5,7 +5,8 @@
 //        out3 (TimedFloat3)
 // Statistic "cycles"; parameters "offset" (live), "fail_after" (while off), "name" (fixed) and
 // "spin_us" (live: each cycle first spins that long). --stamp-age-ms N stamps its samples N ms
-// ago; --pass-stamp gives force the stamp of in0's datum (the middle of a chain).
+// ago. It never copies in0's stamp to force: in a chain's middle, the runner's --stamp-from
+// (which rtm up gives from the system file's chains) does.
 // --fail-after N makes its N-th cycle throw (the component goes to COMPONENT_ERROR);
 // --in0-delay-ms N makes in0 a reader slow to take its data: each put waits N ms (its writer's
 // calls time out, while the component answers everything else).
@@ -24,12 +25,11 @@ namespace {
 
 class Talker final : public rtm::Component {
  public:
-  Talker(const std::string& name, long fail_after, int in0_delay_ms, int stamp_age_ms = 0, bool pass_stamp = false)
+  Talker(const std::string& name, long fail_after, int in0_delay_ms, int stamp_age_ms = 0)
       : Component(name, "talker"),
         in0_(add_in_port<RTM::TimedFloat6>("in0", in0_policy(in0_delay_ms))),
         fail_after_(fail_after),
-        stamp_age_ns_(static_cast<std::int64_t>(stamp_age_ms) * 1'000'000),
-        pass_stamp_(pass_stamp) {
+        stamp_age_ns_(static_cast<std::int64_t>(stamp_age_ms) * 1'000'000) {
     add_statistic("cycles", "", "cycles run", [this] { return static_cast<double>(cycles_.load()); });
     add_parameter({.name = "offset",
                    .unit = "N",
@@ -60,7 +60,7 @@ class Talker final : public rtm::Component {
   }
 
   void on_cycle(const rtm::CycleContext&) override {
-    const bool got_in0 = in0_.read(last_in_) != rtm::ReadResult::NoData;
+    in0_.read(last_in_);
     // Busy, not asleep: the cycle takes at least this long whatever the machine does, between
     // reading its input and writing what derives from it.
     const std::int64_t spin_until = rtm::monotonic_ns() + spin_us_.load() * 1000;
@@ -72,8 +72,7 @@ class Talker final : public rtm::Component {
       throw std::runtime_error("talker failed on purpose at cycle " + std::to_string(cycle_));
     }
     offset_live_.take(offset_);
-    // --pass-stamp: what it writes derives from in0's sample, as the controller's command does.
-    force_sample_.tm = pass_stamp_ && got_in0 ? last_in_.tm : rtm::from_ns(rtm::to_ns(rtm::now()) - stamp_age_ns_);
+    force_sample_.tm = rtm::from_ns(rtm::to_ns(rtm::now()) - stamp_age_ns_);
     for (int i = 0; i < 6; ++i) force_sample_.val[i] = static_cast<float>(cycle_ + i) + offset_;
     force_.write(force_sample_);
   }
@@ -98,7 +97,6 @@ class Talker final : public rtm::Component {
   std::atomic<long> spin_us_{0};
   long fail_after_;  // changes only while off
   std::int64_t stamp_age_ns_;  // its own samples are stamped this long ago
-  bool pass_stamp_;
   float offset_ = 0;        // the cycle's
   float offset_shown_ = 0;  // the last set (set_parameter calls are serialised)
   rtm::LiveValue<float> offset_live_{0.0f};
@@ -110,7 +108,6 @@ rtm::ComponentMain talker() {
     long fail_after = 0;
     int in0_delay_ms = 0;
     int stamp_age_ms = 0;
-    bool pass_stamp = false;
   };
   auto options = std::make_shared<Options>();
   return {
@@ -120,11 +117,9 @@ rtm::ComponentMain talker() {
         app.add_option("--fail-after", options->fail_after, "throw in every N-th cycle (0: never)");
         app.add_option("--in0-delay-ms", options->in0_delay_ms, "each put into in0 waits this long (a slow reader)");
         app.add_option("--stamp-age-ms", options->stamp_age_ms, "stamp its own force samples this long ago");
-        app.add_flag("--pass-stamp", options->pass_stamp, "stamp force with the stamp of in0's datum (a chain's middle)");
       },
       .create = [options](const rtm::RunSettings& s) {
-        return std::make_unique<Talker>(s.name, options->fail_after, options->in0_delay_ms, options->stamp_age_ms,
-                                        options->pass_stamp);
+        return std::make_unique<Talker>(s.name, options->fail_after, options->in0_delay_ms, options->stamp_age_ms);
       },
       .activity = {},
   };

@@ -380,8 +380,54 @@ std::vector<std::string> SystemFile::Component::arguments() const {
   return out;
 }
 
+namespace {
+
+std::string component_of(const std::string& step) { return step.substr(0, step.find('.')); }
+std::string port_of(const std::string& step) {
+  const std::size_t dot = step.find('.');
+  return dot == std::string::npos ? std::string() : step.substr(dot + 1);
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::vector<std::string>>> SystemFile::stamp_derivations(
+    const Component& component) const {
+  std::vector<std::pair<std::string, std::vector<std::string>>> out;  // OutPort -> its InPorts
+  const auto add = [&out](const std::string& out_port, const std::string& in_port) {
+    auto it = std::find_if(out.begin(), out.end(), [&](const auto& d) { return d.first == out_port; });
+    if (it == out.end()) it = out.insert(out.end(), {out_port, {}});
+    if (std::find(it->second.begin(), it->second.end(), in_port) == it->second.end()) it->second.push_back(in_port);
+  };
+  for (const auto& chain : chains) {
+    for (std::size_t i = 1; i + 1 < chain.path.size(); ++i) {
+      if (component_of(chain.path[i]) != component.name) continue;
+      // Where the chain enters: the step's InPort, or the port a connection from the step before feeds.
+      std::string in = port_of(chain.path[i]);
+      for (const auto& c : connections) {
+        if (!in.empty()) break;
+        const bool from_before = i == 1 ? c.from == chain.path[0] : component_of(c.from) == component_of(chain.path[i - 1]);
+        if (from_before && component_of(c.to) == component.name) in = port_of(c.to);
+      }
+      // Where it leaves: the OutPort a connection takes to the next step (to its InPort, if named).
+      std::string leaves;
+      for (const auto& c : connections) {
+        const std::string& next = chain.path[i + 1];
+        const bool to_next = port_of(next).empty() ? component_of(c.to) == component_of(next) : c.to == next;
+        if (leaves.empty() && component_of(c.from) == component.name && to_next) leaves = port_of(c.from);
+      }
+      if (!in.empty() && !leaves.empty()) add(leaves, in);
+    }
+  }
+  return out;
+}
+
 std::vector<std::string> SystemFile::arguments(const Component& component) const {
   std::vector<std::string> out = component.arguments();
+  for (const auto& [port, ins] : stamp_derivations(component)) {
+    std::string text = port + "=";
+    for (std::size_t i = 0; i < ins.size(); ++i) text += (i ? "+" : "") + ins[i];
+    out.insert(out.end(), {"--stamp-from", text});
+  }
   for (const auto& chain : chains) {
     const std::string& last = chain.path.back();
     const std::size_t dot = last.find('.');

@@ -26,6 +26,10 @@
 //   --print-contract     print the timing contract as JSON and exit (`rtm check` reads it)
 //   --watch-chain NAME:PORT[:DEADLINE[:MAX_AGE[:ON_MISS]]]
 //                        the end of a chain: how old PORT's data are at each cycle's end
+//   --stamp-from OUT=IN[+IN...]
+//                        OutPort OUT's data carry the stamp of what InPort IN gave (the
+//                        oldest of several): a chain passes through without the component
+//                        copying tm. A composite's member's ports are MEMBER.PORT.
 //   --cpu N              pin the process (and so its activity) to CPU N
 //   --mlock              lock the process's memory
 //   --endpoint EP        omniORB endpoint, repeatable (default giop:tcp:127.0.0.1: and a
@@ -118,6 +122,13 @@ struct RunSettings {
     MissAction on_miss = MissAction::count;
   };
   std::vector<ChainEnd> chain_ends;
+  // --stamp-from OUT=IN[+IN...]: OutPort OUT's data derive their stamp from these InPorts
+  // (OutPortBase::derive_stamp_from); rtm up gives it for each component inside a chain.
+  struct StampFrom {
+    std::string out;
+    std::vector<std::string> ins;
+  };
+  std::vector<StampFrom> stamp_from;
   bool print_contract = false;        // --print-contract: print it as JSON and exit (`rtm check`)
 
   // The contract these settings describe, for the component called name.
@@ -159,6 +170,9 @@ struct ComponentMain {
   // After the servant is activated, before its name is bound: e.g. a composite hands out a
   // member's port (ComponentServant::expose_in_port). Returns names to bind beside its own.
   std::function<std::vector<ExtraName>(ComponentServant&, const RunContext&)> on_activated = {};
+  // A composite's members made in this process (after create_with_orb): their ports are named
+  // MEMBER.PORT by --watch-chain and --stamp-from, and the host warns of their misses too.
+  std::function<std::vector<ComponentServant*>()> members = {};
   // The longest one of its cycles takes, start to end, on the machines it was measured on: the
   // budget of its timing contract unless --budget says otherwise (docs/timing.md). 0: none declared.
   std::int64_t budget_ns = 0;

@@ -223,7 +223,8 @@ class ComponentServant : public virtual POA_RTM::RtComponentEx {
   void await_before_cycle(InPortBase& port, std::int64_t bound_ns);
 
   // Watches each cycle against contract (rt/contract.h, docs/timing.md): how long it ran
-  // (from its start, after any await, to its end) against the budget, and when it ended against
+  // (from its start, after any await or, on a shared tick, after the members before it, to its
+  // end) against the budget, and when it ended against
   // the deadline after its release; the figures are statistics (cycle_time_p50/_p99/_max,
   // response_p50/_p99/_max, over_budget, missed_deadline) and contract(). MissAction::brake puts
   // the component in COMPONENT_ERROR at the first miss (its on_stop() runs); warn is the host's

@@ -96,9 +96,16 @@ struct SystemFile {
   static SystemFile load(const std::filesystem::path& file);
   static SystemFile parse(const std::string& yaml_text, const std::filesystem::path& path);
 
-  // What rtm up runs a component with: its arguments(), then --watch-chain for each chain that
-  // ends at it by a named InPort ("actuator0.twist"), which measures the chain while it runs.
+  // What rtm up runs a component with: its arguments(), then --stamp-from for each chain that
+  // passes through it (stamp_derivations()), then --watch-chain for each chain that ends at it
+  // by a named InPort ("actuator0.twist"), which measures the chain while it runs.
   std::vector<std::string> arguments(const Component& component) const;
+  // For each chain that passes through component (neither its head nor its end) along the
+  // file's connections: the OutPort it leaves by and the InPorts it enters by. The component's
+  // data on that OutPort then carry the stamp of what came in (--stamp-from OUT=IN[+IN]), so
+  // the chain's age is kept through it whether or not it copies the stamp itself. A hop the
+  // file's connections do not show (a composite wires it) gives none.
+  std::vector<std::pair<std::string, std::vector<std::string>>> stamp_derivations(const Component& component) const;
 
   // The names of the parameter sets its components declare, sorted, each once.
   std::vector<std::string> parameter_set_names() const;

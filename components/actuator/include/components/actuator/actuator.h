@@ -46,6 +46,10 @@
 
 namespace rtm::comp {
 
+// The longest one cycle takes, the budget of its timing contract (docs/timing.md): p99 47 us
+// beside pa10-sim on these machines (docs/performance.md, "Timing contracts").
+inline constexpr std::int64_t kActuatorBudgetNs = 50'000;
+
 using rtm::pa10::FaultKind;
 using rtm::pa10::VelocityArm;
 

@@ -40,6 +40,10 @@
 
 namespace rtm::comp {
 
+// The longest one cycle takes, the budget of its timing contract (docs/timing.md): p99 21 us in
+// the demo on these machines, 34 us beside a -j2 build (docs/performance.md, "Timing contracts").
+inline constexpr std::int64_t kControllerBudgetNs = 50'000;
+
 struct ControllerParams {
   // The contact gain. On pa10-sim's default steel surface (10^5 N/m, 400 rad/s drives) the
   // largest stable gain is 0.00066 with the paper's five processes and 0.0012 on the shared

@@ -50,6 +50,12 @@
 
 namespace rtm::comp {
 
+// The longest one cycle takes, the budget of its timing contract (docs/timing.md): the wrist's
+// (which turns the wrench into the base frame) p99 87 us, the joystick's 58 us, in the demo on
+// these machines (docs/performance.md, "Timing contracts").
+inline constexpr std::int64_t kWristSensorBudgetNs = 100'000;
+inline constexpr std::int64_t kJoystickBudgetNs = 60'000;
+
 struct SensorParams {
   // 30000 cycles are a minute at 2 ms: a sensor silent that long is not coming back by itself.
   static constexpr std::uint32_t kMaxRecoveryTimeoutPeriods = 30000;
