@@ -17,11 +17,12 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   liblz4-dev libzstd-dev zlib1g-dev
   gnuplot-nox procps iproute2 ccache
+  python3-dev pybind11-dev python3-numpy
 )
 case "${1:-}" in
   "") ;;
   test)
-    packages+=(qemu-system-x86 busybox-static kmod xz-utils util-linux can-utils dpkg-dev lintian chromium chromium-driver python3-selenium nodejs)
+    packages+=(qemu-system-x86 busybox-static kmod xz-utils util-linux can-utils dpkg-dev lintian chromium chromium-driver python3-selenium nodejs python3-pytest)
     # npm for the MCAP reference readers (tests/mcap/reference); a Node.js from elsewhere
     # that brings its own npm is kept.
     command -v npm >/dev/null || packages+=(npm) ;;

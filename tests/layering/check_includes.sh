@@ -18,6 +18,7 @@
 #                serve/ (rtm serve): the browser, the launcher and the recorder, not the scaffold
 #                scaffold/ (rtm new): writes files, asks nothing of a running system
 #                rtm/ (the command line) is on no other room's include path
+#   python/      the Python package (rtm._rtm over the browser and the launcher): no robot code
 #   components/  included only by components (a composite's executable makes its members)
 #                and tests;
 #                a component's logic (all but its main.cpp) stands on the core: no host/
@@ -53,8 +54,9 @@ forbid arm "sim/|components/" "the arm/CAN library includes no simulator or comp
 forbid sim "$corba" "the simulator knows nothing of CORBA"
 forbid sim "components/" "the simulator includes no component"
 forbid tools "$robot" "tools include no robot code"
+forbid python "$robot" "the Python package includes no robot code"
 forbid bench '\.\./|tests/' "benchmarks take tests' code only from the test-support libraries (rtm_test/)"
-for folder in bench examples scripts src host arm sim tools; do
+for folder in bench examples scripts src host arm sim tools python; do
   forbid "$folder" "components/" "nothing outside components/ and tests/ includes a component"
 done
 
