@@ -1,0 +1,98 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
+"""What `import rtm` costs against the same C++ (docs/performance.md, "Python"):
+
+  get/put   calls a second of Port.get() and Port.put() from a Python loop, beside the same
+            calls made from C++ in the same process (Port._repeat_get/_repeat_put: each still
+            releases and takes the GIL, as a call from Python does), alternating, per round;
+  watch     a watch of a 2 ms OutPort (rtm-test-talker, C++) for --seconds: data received,
+            dropped, and gaps in the ramp (one datum a cycle, in order).
+
+  PYTHONPATH=build/default/python python3 bench/python/python_bench.py \\
+      --bin build/default/tests/bin [--calls 20000] [--rounds 5] [--seconds 60]
+
+It starts its own omniNames on a free loopback port and one talker, and stops both.
+"""
+
+import argparse
+import os
+import statistics
+import sys
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "tests", "python"))
+
+import rtm  # noqa: E402
+from rtm_processes import NamingService, start_component, stop, wait_for  # noqa: E402
+
+
+def rate(calls, seconds):
+    return calls / seconds if seconds > 0 else float("inf")
+
+
+def get_put(system, calls, rounds):
+    out, inp = system.port("talk0.force"), system.port("talk0.pos3")
+    values = [0.1, 0.2, 0.3]
+    rows = {"get": ([], []), "put": ([], [])}
+    for _ in range(rounds):
+        start = time.perf_counter()
+        for _ in range(calls):
+            out.get()
+        rows["get"][0].append(rate(calls, time.perf_counter() - start))
+        rows["get"][1].append(rate(calls, out._repeat_get(calls)))
+        start = time.perf_counter()
+        for _ in range(calls):
+            inp.put(values)
+        rows["put"][0].append(rate(calls, time.perf_counter() - start))
+        rows["put"][1].append(rate(calls, inp._repeat_put(values, calls)))
+    print(f"get/put: {calls} calls a round, {rounds} rounds, median (range)")
+    for name, (py, cpp) in rows.items():
+        p, c = statistics.median(py), statistics.median(cpp)
+        print(f"  {name}: Python {p:8.0f} calls/s ({min(py):.0f}-{max(py):.0f}), "
+              f"C++ {c:8.0f} calls/s ({min(cpp):.0f}-{max(cpp):.0f}), Python/C++ time {c / p:.2f}x")
+
+
+def watch(system, seconds):
+    with system.watch("talk0.force", capacity=1024, timeout=5) as data:
+        first = previous = None
+        gaps = taken = 0
+        end = time.monotonic() + seconds
+        for datum in data:
+            n = datum.values[0]
+            if previous is not None and n != previous + 1:
+                gaps += 1
+            first = n if first is None else first
+            previous = n
+            taken += 1
+            if time.monotonic() >= end:
+                break
+        print(f"watch of a 2 ms port for {seconds} s: {taken} data taken, received {data.received}, "
+              f"dropped {data.dropped}, late {data.late}, gaps in the ramp {gaps}, "
+              f"shared memory {data.shared_memory}")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--bin", required=True, help="the folder of rtm-test-talker (build/default/tests/bin)")
+    parser.add_argument("--calls", type=int, default=20000)
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--seconds", type=float, default=60)
+    args = parser.parse_args()
+    names = NamingService()
+    talker = None
+    try:
+        talker = start_component(os.path.join(args.bin, "rtm-test-talker"), "talk0", names.address, "--on")
+        system = rtm.System(naming=names.address)
+        if not wait_for(lambda: "talk0" in system.components()):
+            sys.exit("talk0 did not come up")
+        wait_for(lambda: system.describe("talk0")["timing"]["cycles"] > 0)
+        get_put(system, args.calls, args.rounds)
+        watch(system, args.seconds)
+    finally:
+        if talker is not None:
+            stop(talker)
+        names.stop()
+
+
+if __name__ == "__main__":
+    main()
