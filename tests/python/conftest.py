@@ -39,12 +39,12 @@ def system(naming):
 
 @pytest.fixture
 def components(naming, system):
-    """start(name, *args): starts rtm-test-talker (or program=...) as NAME and returns once it
+    """start(name, *args): starts rtm-test-talker (or command=[...]) as NAME and returns once it
     is bound; every process started is stopped at the end of the test."""
     started = []
 
-    def start(name, *args, program=None):
-        process = start_component(program or os.path.join(TEST_BIN_DIR, "rtm-test-talker"), name, naming, *args)
+    def start(name, *args, command=None):
+        process = start_component(command or os.path.join(TEST_BIN_DIR, "rtm-test-talker"), name, naming, *args)
         started.append(process)
         until(lambda: name in system.components() or process.poll() is not None, what=f"{name} bound")
         if process.poll() is not None:

@@ -71,7 +71,9 @@ class NamingService:
         shutil.rmtree(self.log_dir, ignore_errors=True)
 
 
-def start_component(program, name, naming, *args) -> subprocess.Popen:
-    """Starts a component program as NAME bound in naming; the caller waits for it and stops it."""
-    return subprocess.Popen([program, "--name", name, "--naming", naming, *args],
+def start_component(command, name, naming, *args) -> subprocess.Popen:
+    """Starts a component (command: a program, or a list such as [python3, script.py]) as NAME
+    bound in naming; the caller waits for it and stops it."""
+    command = [command] if isinstance(command, str) else list(command)
+    return subprocess.Popen([*command, "--name", name, "--naming", naming, *args],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
