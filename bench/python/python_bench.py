@@ -6,12 +6,16 @@
             calls made from C++ in the same process (Port._repeat_get/_repeat_put: each still
             releases and takes the GIL, as a call from Python does), alternating, per round;
   watch     a watch of a 2 ms OutPort (rtm-test-talker, C++) for --seconds: data received,
-            dropped, and gaps in the ramp (one datum a cycle, in order).
+            dropped, and gaps in the ramp (one datum a cycle, in order);
+  component a 2 ms component in Python (tests/python/doubler.py: read a wrench, write it times
+            a factor) beside one in C++ doing the same (rtm-test-talker: read a wrench, write
+            one), both fed by a third, in one run of --seconds: lateness, overruns, and the
+            Python one's wait for the GIL and step() holding it.
 
   PYTHONPATH=build/default/python python3 bench/python/python_bench.py \\
-      --bin build/default/tests/bin [--calls 20000] [--rounds 5] [--seconds 60]
+      --bin build/default/tests/bin [--calls 20000] [--rounds 5] [--seconds 60] [--parts get_put,watch,component]
 
-It starts its own omniNames on a free loopback port and one talker, and stops both.
+It starts its own omniNames on a free loopback port and the components, and stops them all.
 """
 
 import argparse
@@ -71,13 +75,43 @@ def watch(system, seconds):
               f"shared memory {data.shared_memory}")
 
 
+def component(system, names, test_bin, seconds):
+    doubler = os.path.join(os.path.dirname(__file__), "..", "..", "tests", "python", "doubler.py")
+    started = [start_component([sys.executable, doubler], "py0", names.address, "--on"),
+               start_component(os.path.join(test_bin, "rtm-test-talker"), "cpp0", names.address, "--on")]
+    try:
+        if not wait_for(lambda: {"py0", "cpp0"} <= set(system.components())):
+            sys.exit("py0 or cpp0 did not come up")
+        system.connect("talk0.force", "py0.in0")
+        system.connect("talk0.force", "cpp0.in0")
+        time.sleep(seconds)
+        rows = {name: system.describe(name) for name in ("py0", "cpp0")}
+    finally:
+        for process in started:
+            stop(process)
+    print(f"component at 2 ms, {seconds} s, beside each other (lateness: wake-up after the cycle was due)")
+    for name, d in rows.items():
+        t = d["timing"]
+        print(f"  {name}: {t['cycles']} cycles, overruns {t['overruns']}, lateness p50 {t['lateness_p50_ns'] / 1e3:.1f} us, "
+              f"p99 {t['lateness_p99_ns'] / 1e3:.1f} us, max {t['lateness_max_ns'] / 1e3:.1f} us")
+    st = rows["py0"]["statistics"]
+    v = lambda k: st[k]["value"]
+    print(f"  py0 GIL: wait p50 {v('python.gil_wait_p50'):.1f} us, p99 {v('python.gil_wait_p99'):.1f} us, "
+          f"max {v('python.gil_wait_max'):.1f} us; step() holding it p50 {v('python.step_p50'):.1f} us, "
+          f"p99 {v('python.step_p99'):.1f} us, max {v('python.step_max'):.1f} us")
+    ratio = rows["py0"]["timing"]["lateness_p99_ns"] / max(1, rows["cpp0"]["timing"]["lateness_p99_ns"])
+    print(f"  lateness p99, Python / C++: {ratio:.2f}x")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--bin", required=True, help="the folder of rtm-test-talker (build/default/tests/bin)")
     parser.add_argument("--calls", type=int, default=20000)
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--seconds", type=float, default=60)
+    parser.add_argument("--parts", default="get_put,watch,component")
     args = parser.parse_args()
+    parts = args.parts.split(",")
     names = NamingService()
     talker = None
     try:
@@ -86,8 +120,12 @@ def main():
         if not wait_for(lambda: "talk0" in system.components()):
             sys.exit("talk0 did not come up")
         wait_for(lambda: system.describe("talk0")["timing"]["cycles"] > 0)
-        get_put(system, args.calls, args.rounds)
-        watch(system, args.seconds)
+        if "get_put" in parts:
+            get_put(system, args.calls, args.rounds)
+        if "watch" in parts:
+            watch(system, args.seconds)
+        if "component" in parts:
+            component(system, names, args.bin, args.seconds)
     finally:
         if talker is not None:
             stop(talker)
