@@ -153,8 +153,13 @@ function(rtm_debian_package)
   set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS ON)
   set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS_POLICY "=")
   set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA ${PROJECT_SOURCE_DIR}/cmake/debian/triggers)
-  # python3: the demo's stall witness (share/rtm/tools/wakeup_witness.py).
-  set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "omniorb-nameserver, python3")
+  # python3: the demo's stall witness (share/rtm/tools/wakeup_witness.py) and the package rtm
+  # (import rtm), whose data come as numpy arrays.
+  if(RTM_PYTHON_DEB_DEPENDS)
+    set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "omniorb-nameserver, ${RTM_PYTHON_DEB_DEPENDS}")
+  else()
+    set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "omniorb-nameserver, python3")
+  endif()
   set(CPACK_DEBIAN_RUNTIME_PACKAGE_SUGGESTS "can-utils, gnuplot")
   set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS
       "rtm (= ${PROJECT_VERSION}), omniidl, libomniorb4-dev, libssl-dev, libcli11-dev, libspdlog-dev, libfmt-dev, cmake (>= 3.25), g++, pkg-config")

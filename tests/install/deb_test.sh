@@ -64,6 +64,13 @@ depends=$(dpkg-deb -f "$deb" Depends)
 for p in omniorb-nameserver libmujoco libssl3; do
   [[ $depends == *"$p"* ]] || fail "rtm's Depends lacks $p: $depends"
 done
+python=$(sed -n 's/^RTM_WITH_PYTHON:BOOL=//p' "$build/CMakeCache.txt")
+if [[ $python =~ ^(ON|TRUE|YES|Y|1)$ ]]; then
+  grep -qxF ./usr/lib/python3/dist-packages/rtm/__init__.py <<<"$listing" || fail "rtm lacks the Python package"
+  grep -qE '^\./usr/lib/python3/dist-packages/rtm/_rtm\.cpython-[0-9]+-x86_64-linux-gnu\.so$' <<<"$listing" ||
+    fail "rtm lacks the Python module rtm._rtm"
+  [[ $depends == *python3-numpy* ]] || fail "rtm's Depends lacks python3-numpy (import rtm): $depends"
+fi
 for p in libomniorb4-dev liborocos-kdl-dev cmake; do
   [[ $depends != *"$p"* ]] || fail "rtm depends on $p, which only building needs: $depends"
 done
@@ -90,6 +97,12 @@ dpkg-deb -x "$deb" "$work/root" || fail "dpkg-deb -x rtm"
 dpkg-deb -x "$dev" "$work/root" || fail "dpkg-deb -x rtm-dev"
 "$work/root/usr/bin/rtm" --help >"$work/help" 2>&1 || fail "rtm --help: $(cat "$work/help")"
 "$work/root/usr/bin/pa10-sim" --help >"$work/help" 2>&1 || fail "pa10-sim --help"
+if [[ $python =~ ^(ON|TRUE|YES|Y|1)$ ]]; then
+  # The unpacked module finds the unpacked libraries beside it, and Debian's omniORB and numpy.
+  PYTHONPATH="$work/root/usr/lib/python3/dist-packages" /usr/bin/python3 -c \
+    'import rtm, sys; sys.exit(0 if rtm.System and rtm.Component else 1)' >"$work/python" 2>&1 ||
+    fail "import rtm from the unpacked package: $(cat "$work/python")"
+fi
 grep -qF "$work/root/usr/share/rtm/models/pa10_scene.xml" "$work/help" || fail "pa10-sim does not look beside itself"
 # What rtm needs, itself or through RTM's shared libraries.
 needed=$(for f in "$work/root/usr/bin/rtm" "$work"/root/usr/lib/librtm_*.so.*.*.*; do

@@ -205,6 +205,41 @@ TEST_F(Installed, TheInstalledContainerMovedElsewhereRunsTheInstalledModulesWire
   fs::remove_all(moved);
 }
 
+// The installed Python package, moved elsewhere with the tree, imports with PYTHONPATH alone
+// (its module finds RTM's libraries beside it) and reaches an installed component.
+TEST_F(Installed, TheInstalledPythonPackageMovedElsewhereImportsAndDescribesAnInstalledComponent) {
+  const fs::path package = "lib/python3/dist-packages/rtm/__init__.py";
+  if (!fs::exists(kBuild / "python/rtm/__init__.py")) GTEST_SKIP() << "built without RTM_WITH_PYTHON";
+  ASSERT_TRUE(fs::exists(prefix() / package)) << package;
+  const fs::path moved = root_ / "moved-python";
+  fs::create_directories(moved);
+  const CommandResult copy = rtm_test::run_command({"/bin/cp", "-a", prefix().string(), moved.string()});
+  ASSERT_EQ(copy.exit_code, 0) << copy.err;
+  ChildProcess::Options options;
+  options.echo_output = false;
+  options.extra_env = {"RTM_TLS="};
+  ChildProcess controller({(moved / "usr/bin/rtm-controller").string(), "--name", "pyc0", "--naming", names_.address()},
+                          options);
+  const std::string script =
+      "import rtm, sys, time\n"
+      "s = rtm.System(naming=sys.argv[1])\n"
+      "end = time.monotonic() + 10\n"
+      "while 'pyc0' not in s.components() and time.monotonic() < end:\n"
+      "    time.sleep(0.05)\n"
+      "d = s.describe('pyc0')\n"
+      "print(d['kind'], [(p['name'], p['type']) for p in d['ports']])\n";
+  const CommandResult r = rtm_test::run_command(
+      {"/usr/bin/python3", "-c", script, names_.address()},
+      {"PYTHONPATH=" + (moved / "usr/lib/python3/dist-packages").string(), "RTM_TLS="}, 30s);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "controller [('wrench', 'RTM::TimedFloat6'), ('reference', 'RTM::TimedFloat6'), "
+                   "('twist', 'RTM::TimedFloat6')]\n")
+      << r.err;
+  controller.send_signal(SIGTERM);
+  EXPECT_TRUE(controller.wait_for_exit(10s).has_value());
+  fs::remove_all(moved);
+}
+
 TEST_F(Installed, TheSourceSinkExampleBuildsAgainstThePrefixAloneAndRunsWiredByTheInstalledRtm) {
   const fs::path build = build_project(kSource / "examples/source_sink", "source_sink");
   const std::string commands = read_file(build / "compile_commands.json");
