@@ -419,6 +419,53 @@ TEST_F(RtmScaffold, ABadPeriodIsRefusedNamingIt) {
   EXPECT_TRUE(parent_is_empty());
 }
 
+TEST_F(RtmScaffold, APythonComponentIsItsClassATestOfItsLogicAndASystemFileThatRunsIt) {
+  auto o = options("gripper_ctl");
+  o.python = true;
+  o.in = {{"wrench", "RTM::TimedFloat6"}, {"level", "RTM::TimedDouble"}};
+  o.out = {{"grip", "RTM::TimedFloat6"}, {"flags", "RTM::TimedLong"}};
+  o.params = {{"cutoff_hz", "Hz", 10, "the filter's cut-off"}};
+  o.description = R"(grips "gently")";
+  const auto written = rtm::cli::scaffold_component(o);
+  const fs::path folder = parent_ / "gripper_ctl";
+  EXPECT_EQ(written, (std::vector<fs::path>{folder / "gripper_ctl.py", folder / "test_gripper_ctl.py",
+                                            folder / "gripper_ctl.yaml", folder / "README.md", folder / ".gitignore"}));
+  EXPECT_NE(fs::status(folder / "gripper_ctl.py").permissions() & fs::perms::owner_exec, fs::perms::none)
+      << "the system file runs it as a program";
+  const std::string code = read_text(folder / "gripper_ctl.py");
+  EXPECT_EQ(code.rfind("#!/usr/bin/python3\n", 0), 0u) << "Debian's python3, whose numpy rtm uses";
+  for (const char* line : {"class GripperCtl(rtm.Component):", "    kind = \"gripper_ctl\"",
+                           R"(    description = "grips \"gently\"")",
+                           R"(        "wrench": rtm.In("TimedFloat6", "the RTM::TimedFloat6 it reads"),)",
+                           R"(        "flags": rtm.Out("TimedLong", "the RTM::TimedLong it writes"),)",
+                           R"(        "cutoff_hz": rtm.Parameter(10.0, unit="Hz", description="the filter's cut-off"),)",
+                           R"(        outputs["grip"] = inputs["wrench"]  # passed on as it came: the logic goes here)",
+                           R"(    # outputs["flags"] = ...  (RTM::TimedLong: one value))", "def compute(inputs, params):",
+                           "        for name, values in compute(inputs, params).items():", "    rtm.run(GripperCtl)"})
+    EXPECT_NE(code.find(line), std::string::npos) << line << "\n" << code;
+  const std::string test = read_text(folder / "test_gripper_ctl.py");
+  EXPECT_NE(test.find(R"(PARAMS = {"cutoff_hz": 10.0})"), std::string::npos) << test;
+  EXPECT_NE(test.find(R"(compute({"wrench": None, "level": None}, PARAMS) == {})"), std::string::npos) << test;
+  EXPECT_NE(test.find(R"(np.testing.assert_array_equal(outputs["grip"], inputs["wrench"]))"), std::string::npos) << test;
+  const auto system = rtm::cli::SystemFile::load(folder / "gripper_ctl.yaml");
+  ASSERT_EQ(system.components.size(), 1u);
+  EXPECT_EQ(system.components[0].command, (std::vector<std::string>{"./gripper_ctl.py", "--period", "2ms"}));
+}
+
+TEST_F(RtmScaffold, APythonComponentTakesTheBuiltInTypesOnly) {
+  auto o = options("posed");
+  o.python = true;
+  o.in = {{"pose", "My::TimedPose"}};
+  EXPECT_NE(refusal(o).find("port 'pose': a component in Python takes the built-in types only (TimedFloat6"),
+            std::string::npos)
+      << refusal(o);
+  o.in = {};
+  o.type_packages = {"my_types"};
+  EXPECT_NE(refusal(o).find("--idl and --types: a component in Python takes the built-in types only"), std::string::npos)
+      << refusal(o);
+  EXPECT_TRUE(parent_is_empty());
+}
+
 TEST(RtmScaffoldPortSpec, TakesTheTypeWithOrWithoutTheRtmModule) {
   const PortSpec bare = rtm::cli::parse_port_spec("wrench:TimedFloat6");
   EXPECT_EQ(bare.name, "wrench");

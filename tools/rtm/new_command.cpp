@@ -29,6 +29,9 @@ void NewCommand::add_to(CLI::App& app) {
                         "a package of port types installed by rtm_add_idl(<package> ... TYPES ... EXPORT) "
                         "(repeatable)");
   component->add_option("--dir", parent, "the folder to make the project in")->capture_default_str();
+  component->add_flag("--python", python,
+                      "a component in Python (import rtm, docs/python.md): its class, a test of its logic, a "
+                      "system file; built-in port types only");
 }
 
 bool NewCommand::parsed() const { return component->parsed(); }
@@ -44,6 +47,7 @@ void NewCommand::run(bool json) const {
   for (const auto& spec : params) options.params.push_back(parse_param_spec(spec));
   options.idl.assign(idl.begin(), idl.end());
   options.type_packages = type_packages;
+  options.python = python;
   const auto files = scaffold_component(options);
   const std::filesystem::path project = options.parent / options.name;
   if (json) {
@@ -53,6 +57,12 @@ void NewCommand::run(bool json) const {
     return;
   }
   for (const auto& f : files) fmt::print("made {}\n", f.string());
+  if (python) {
+    fmt::print("next: cd {} && python3 -m pytest   (with PYTHONPATH=<RTM's prefix>/lib/python3/dist-packages unless "
+               "RTM came from its .deb), then rtm up {}.yaml\n",
+               project.string(), options.name);
+    return;
+  }
   fmt::print("next: cd {} && cmake -B build -DCMAKE_PREFIX_PATH=<RTM's prefix> && cmake --build build -j && "
              "ctest --test-dir build\n",
              project.string());

@@ -20,6 +20,7 @@ struct NewCommand {
   std::string description;
   std::vector<std::string> idl;            // IDL files of the ports' own types
   std::vector<std::string> type_packages;  // packages of such types
+  bool python = false;                      // --python: a component in Python
   std::string parent = ".";
 
   // Adds `new` and its subcommand `component` to app.

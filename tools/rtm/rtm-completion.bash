@@ -96,7 +96,7 @@ _rtm() {
       elif [[ $prev == --idl ]]; then
         COMPREPLY=($(compgen -f -X '!*.idl' -- "$cur"))
       elif [[ $cur == -* ]]; then
-        COMPREPLY=($(compgen -W "--in --out --param --idl --types --period --description --dir" -- "$cur"))
+        COMPREPLY=($(compgen -W "--in --out --param --idl --types --period --description --dir --python" -- "$cur"))
       fi
       ;;
     tls)

@@ -449,6 +449,15 @@ Plan make_plan(const ScaffoldOptions& options) {
     plan.in = checked_ports(options.in, true, seen);
     plan.out = checked_ports(options.out, false, seen);
   }
+  if (options.python) {
+    for (const auto* ports : {&plan.in, &plan.out})
+      for (const auto& port : *ports)
+        if (!port.type)
+          throw std::invalid_argument(fmt::format("port '{}': a component in Python takes the built-in types only ({})",
+                                                  port.name, known_types_text()));
+    if (!options.idl.empty() || !options.type_packages.empty())
+      throw std::invalid_argument("--idl and --types: a component in Python takes the built-in types only");
+  }
   plan_own_types(options, plan);
   plan.source_of = pass_through_sources(plan.in, plan.out);
   return plan;
@@ -876,6 +885,7 @@ std::string render_readme(const Plan& p) {
 struct ProjectFile {
   fs::path relative;
   std::string text;
+  bool executable = false;
 };
 
 std::vector<ProjectFile> render(const Plan& p) {
@@ -892,6 +902,121 @@ std::vector<ProjectFile> render(const Plan& p) {
   };
   for (const auto& idl : p.idl) files.insert(files.end() - 2, {fs::path("idl") / idl.file_name, idl.text});
   return files;
+}
+
+// ========================= a component in Python ======================
+
+// Text inside a Python string literal: its quotes and backslashes escaped.
+std::string python_text(std::string_view text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out;
+}
+
+// A float as Python writes one: "10.0", "0.01", "1e+06".
+std::string python_float(double value) {
+  std::string text = fmt::format("{}", value);
+  if (text.find_first_of(".en") == std::string::npos) text += ".0";
+  return text;
+}
+
+std::string python_port_specs(const std::vector<Port>& ports, const char* kind, const char* verb) {
+  std::string text;
+  for (const auto& port : ports)
+    text += fmt::format("        \"{}\": rtm.{}(\"{}\", \"the {} it {}\"),\n", port.name, kind, port.type->name,
+                        full_name(*port.type), verb);
+  return text;
+}
+
+std::string python_param_specs(const Plan& p) {
+  std::string text;
+  for (const auto& param : p.params)
+    text += fmt::format("        \"{}\": rtm.Parameter({}, unit=\"{}\", description=\"{}\"),\n", param.name,
+                        python_float(param.default_value), param.unit, param.description);
+  return text;
+}
+
+std::string python_compute_lines(const Plan& p) {
+  std::string text;
+  for (std::size_t k = 0; k < p.out.size(); ++k) {
+    const Port& out = p.out[k];
+    if (p.source_of[k] >= 0) {
+      const Port& in = p.in[static_cast<std::size_t>(p.source_of[k])];
+      text += fmt::format("    if inputs[\"{0}\"] is not None:\n"
+                          "        outputs[\"{1}\"] = inputs[\"{0}\"]  # passed on as it came: the logic goes here\n",
+                          in.name, out.name);
+    } else {
+      const TypeInfo& t = *out.type;
+      text += fmt::format("    # outputs[\"{}\"] = ...  ({}: {})\n", out.name, full_name(t),
+                          t.shape == Shape::sequence ? std::string("any number of values")
+                          : t.elements == 1          ? std::string("one value")
+                                                     : fmt::format("{} values", t.elements));
+    }
+  }
+  if (p.out.empty()) text += "    # a sink: act on the inputs here\n";
+  return text;
+}
+
+// The values of a sample datum of port k, as a numpy array literal.
+std::string python_sample(const Port& port, std::size_t k) {
+  const int count = port.type->shape == Shape::sequence ? 3 : port.type->elements;
+  std::string values;
+  for (int i = 0; i < count; ++i)
+    values += fmt::format("{}{}", i ? ", " : "", port.type->element == "CORBA::Boolean" ? (i + k) % 2 : 10 * k + i + 1);
+  return fmt::format("np.array([{}], dtype=float)", values);
+}
+
+std::string python_pass_test(const Plan& p) {
+  if (std::none_of(p.source_of.begin(), p.source_of.end(), [](int s) { return s >= 0; })) return "";
+  std::string inputs, checks;
+  for (std::size_t i = 0; i < p.in.size(); ++i)
+    inputs += fmt::format("{}\"{}\": {}", i ? ", " : "", p.in[i].name, python_sample(p.in[i], i + 1));
+  for (std::size_t k = 0; k < p.out.size(); ++k) {
+    if (p.source_of[k] < 0) continue;
+    checks += fmt::format("    np.testing.assert_array_equal(outputs[\"{}\"], inputs[\"{}\"])\n", p.out[k].name,
+                          p.in[static_cast<std::size_t>(p.source_of[k])].name);
+  }
+  return fmt::format("\n\ndef test_each_input_passes_on_to_the_output_of_its_type():\n"
+                     "    inputs = {{{}}}\n"
+                     "    outputs = compute(inputs, PARAMS)\n{}",
+                     inputs, checks);
+}
+
+std::vector<ProjectFile> render_python(const Plan& p) {
+  std::string defaults, none;
+  for (const auto& param : p.params)
+    defaults += fmt::format("{}\"{}\": {}", defaults.empty() ? "" : ", ", param.name, python_float(param.default_value));
+  for (const auto& port : p.in) none += fmt::format("{}\"{}\": None", none.empty() ? "" : ", ", port.name);
+  std::string ports = "| port | direction | type |\n| --- | --- | --- |\n";
+  for (const auto& port : p.in) ports += fmt::format("| `{}` | in | `{}` |\n", port.name, type_of(port));
+  for (const auto& port : p.out) ports += fmt::format("| `{}` | out | `{}` |\n", port.name, type_of(port));
+  const std::string example = render_system_file(p);  // its example lines are the C++ project's
+  const std::size_t from = example.find("# More components"), to = example.find("activate:");
+  return {
+      {p.name + ".py",
+       substitute(kPyComponent, {{"NAME", p.name},
+                                 {"CLASS", p.class_name},
+                                 {"DESCRIPTION", python_text(p.description)},
+                                 {"INPUT_SPECS", python_port_specs(p.in, "In", "reads")},
+                                 {"OUTPUT_SPECS", python_port_specs(p.out, "Out", "writes")},
+                                 {"PARAM_SPECS", python_param_specs(p)},
+                                 {"COMPUTE_LINES", python_compute_lines(p)}}),
+       true},
+      {"test_" + p.name + ".py",
+       substitute(kPyTest, {{"NAME", p.name},
+                            {"CLASS", p.class_name},
+                            {"PARAM_DEFAULTS", defaults},
+                            {"NONE_INPUTS", none},
+                            {"PASS_TEST", python_pass_test(p)}})},
+      {p.name + ".yaml", substitute(kPySystemFile, {{"NAME", p.name},
+                                                    {"PERIOD", p.period},
+                                                    {"EXAMPLE", example.substr(from, to - from)}})},
+      {"README.md", substitute(kPyReadme, {{"NAME", p.name}, {"PERIOD", p.period}, {"PORT_LIST", ports}})},
+      {".gitignore", "__pycache__/\n"},
+  };
 }
 
 // ============================== writing ===============================
@@ -1040,7 +1165,7 @@ std::vector<std::filesystem::path> scaffold_component(const ScaffoldOptions& opt
   const Plan plan = make_plan(options);  // every check on the input, before anything is written
   const fs::path folder = (options.parent / options.name).lexically_normal();
   check_target(folder);
-  const auto files = render(plan);
+  const auto files = options.python ? render_python(plan) : render(plan);
   Writer writer;
   writer.make_folder(folder);
   std::vector<fs::path> written;
@@ -1048,6 +1173,12 @@ std::vector<std::filesystem::path> scaffold_component(const ScaffoldOptions& opt
     const fs::path path = folder / file.relative;
     writer.make_folder(path.parent_path());
     writer.write_new(path, file.text);
+    if (file.executable) {
+      std::error_code ec;
+      fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                      fs::perm_options::add, ec);
+      if (ec) throw std::runtime_error(fmt::format("cannot make {} executable: {}", path.string(), ec.message()));
+    }
     written.push_back(path);
   }
   writer.commit();

@@ -17,6 +17,15 @@
 //   idl/<file>.idl                    copies of the --idl files, compiled by rtm_add_idl
 //   README.md, .gitignore
 //
+// With --python (ScaffoldOptions::python), a component in Python (docs/python.md) instead:
+//   gripper_ctl.py                    its logic, compute(inputs, params) -> outputs, and class
+//                                     GripperCtl(rtm.Component): its ports and parameters; run by
+//                                     RTM's runner (rtm.run), executable
+//   test_gripper_ctl.py               tests of compute() (pytest), no running system needed
+//   gripper_ctl.yaml                  system file: `rtm up gripper_ctl.yaml` runs ./gripper_ctl.py
+//   README.md, .gitignore
+// Its ports take the built-in types only.
+//
 // Names: the component name is lower-case words of a-z 0-9 joined by single '_', 1 to 32
 // characters, starting with a letter ("gripper_ctl"). The class is the words capitalised
 // ("GripperCtl", at global scope: no namespace named after the component, which could clash
@@ -66,6 +75,7 @@ struct ScaffoldOptions {
   std::vector<std::filesystem::path> idl;
   std::vector<std::string> type_packages;
   std::filesystem::path parent = ".";  // the project is written to parent / name
+  bool python = false;  // a component in Python (built-in port types only), not in C++
 };
 
 // The types a port may carry, as "RTM::<type>": the timed types of idl/RTM.idl and
