@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import rtm
-from conftest import free_port, until
+from conftest import TEST_BIN_DIR, free_port, until
 
 
 def port_of(description, name):
@@ -75,6 +75,31 @@ def test_put_takes_a_sequence_a_numpy_array_or_the_ports_element_names(system, c
     with pytest.raises(rtm.Error, match="talk0.pos3: .*nan"):
         system.put("talk0.pos3", [1, 2, float("nan")])
     assert accepted() == 3, "nothing refused reached the port"
+
+
+def test_a_type_of_a_projects_own_idl_is_got_and_put_by_its_fields(system, components):
+    components("pose0", "--on", command=os.path.join(TEST_BIN_DIR, "rtm-test-pose-relay"))
+    put = system.put("pose0.pose_in", {"x": 0.5, "y": -1.5, "z": 2, "qw": 1, "qx": 0, "qy": 0, "qz": 0})
+    assert put.type == "RtmTest::TimedPose"
+    until(lambda: _has_data(system), what="the pose passed on")
+    pose = system.get("pose0.pose_out")
+    assert pose.type == "RtmTest::TimedPose"
+    assert pose.fields == {"p": {"x": 0.5, "y": -1.5, "z": 2.0}, "q": [1.0, 0.0, 0.0, 0.0]}
+    assert pose.labels == ["x", "y", "z", "qw", "qx", "qy", "qz"]
+    assert list(pose.values) == [0.5, -1.5, 2.0, 1.0, 0.0, 0.0, 0.0]
+    assert pose["y"] == -1.5 and pose.units[:3] == ["m", "m", "m"]
+    assert pose.time_ns == put.time_ns, "the stamp put is the stamp passed on"
+    with pytest.raises(rtm.Error, match="pose0.pose_in: .*7"):
+        system.put("pose0.pose_in", [1, 2, 3])
+
+
+def _has_data(system):
+    try:
+        system.get("pose0.pose_out")
+        return True
+    except rtm.Error as e:
+        assert "no data yet" in str(e), e
+        return False
 
 
 def test_a_datum_of_another_type_is_refused_with_the_inports_own_words(system, components):
