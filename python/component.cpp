@@ -20,6 +20,7 @@
 #include "rtm/describe.h"
 #include "rtm/inport.h"
 #include "rtm/outport.h"
+#include "rtm/log.h"
 #include "rtm/parameters.h"
 
 #include <CLI/CLI.hpp>
@@ -405,6 +406,8 @@ int run(const py::object& cls, const std::vector<std::string>& argv) {
       throw std::runtime_error(std::string("making the component raised ") + e.what());
     }
   };
+  // `import rtm` quiets the log to warnings for scripts; a component logs as a C++ one does.
+  log().set_level(spdlog::level::info);
   std::vector<std::string> args = argv;
   std::vector<char*> pointers;
   for (auto& a : args) pointers.push_back(a.data());
