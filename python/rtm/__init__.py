@@ -32,6 +32,7 @@ A component in Python runs on the same C++ runner as every RTM component::
         rtm.run(Doubler)                              # --name, --naming, --period, --on, ...
 """
 
+import os
 import sys
 
 from ._rtm import Cycle, Datum, Error, InPort, OutPort, Port
@@ -117,6 +118,9 @@ class System(_System):
     (``rtm tls init``) to reach components serving giop:ssl:; ``timeout``: the bound on each
     remote call, in seconds.
     """
+
+    def __init__(self, naming=None, tls=None, timeout: float = 5.0):
+        super().__init__(naming, None if tls is None else os.path.expanduser(str(tls)), timeout)
 
     def watch(self, address: str, capacity: int = 1024, timeout=None) -> Watch:
         """Subscribes to an OutPort and returns its data as they come (a Watch)."""

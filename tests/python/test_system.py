@@ -204,3 +204,16 @@ def test_another_users_process_reads_but_is_refused_a_change_with_the_access_scr
     assert lines[1].startswith("refused: "), other.stdout
     assert "not allowed: only the user who started it may change it (this process runs as nobody" in lines[1], lines[1]
     assert system.describe("talk0")["parameters"]["offset"]["value"] == "0", "nothing changed"
+
+
+def test_a_tls_folder_is_checked_and_one_process_keeps_the_tls_of_its_first_system(system, tmp_path):
+    script = ("import rtm\n"
+              "try:\n"
+              "    rtm.System(naming='127.0.0.1:1', tls='~/rtm-no-such-tls')\n"
+              "except rtm.Error as e:\n"
+              "    print(e)\n")
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60,
+                         env={**os.environ, "HOME": str(tmp_path)})
+    assert run.stdout.strip() == f"{tmp_path}/rtm-no-such-tls: no such TLS folder (`rtm tls init` makes one)", run
+    with pytest.raises(rtm.Error, match="already talks to components without TLS; a System with tls=.* needs a process"):
+        rtm.System(naming=system.naming, tls=str(tmp_path))
