@@ -44,30 +44,27 @@ namespace {
 
 // What a port of a Python component is, as its class declares it (rtm.In / rtm.Out).
 struct PortSpec {
-  std::string name, type, description, names, units;
+  std::string name, type;  // type without "RTM::"
+  PortInfo info;
 
   static PortSpec of(const std::string& name, py::handle spec) {
     PortSpec s;
     s.name = name;
     s.type = py::str(spec.attr("type")).cast<std::string>();
-    s.description = py::str(spec.attr("description")).cast<std::string>();
-    s.names = py::str(spec.attr("elements")).cast<std::string>();
-    s.units = py::str(spec.attr("units")).cast<std::string>();
     if (s.type.rfind("RTM::", 0) == 0) s.type = s.type.substr(5);
+    const auto text = [&spec](const char* attribute) { return py::str(spec.attr(attribute)).cast<std::string>(); };
+    const std::string names = text("elements");
+    s.info = {text("description"), names.empty() ? std::vector<Element>{} : elements(names, text("units"))};
     return s;
   }
-  PortInfo info() const { return {description, names.empty() ? std::vector<Element>{} : elements(names, units)}; }
-  std::vector<std::string> element_names() const {
-    std::vector<std::string> out;
-    for (const auto& e : info().elements) out.push_back(e.name);
-    return out;
-  }
-  std::vector<std::string> element_units() const {
-    std::vector<std::string> out;
-    for (const auto& e : info().elements) out.push_back(e.unit);
-    return out;
-  }
 };
+
+// The element names (units: false) or units (true) a port describes.
+std::vector<std::string> element_texts(const PortInfo& info, bool units) {
+  std::vector<std::string> out;
+  for (const auto& e : info.elements) out.push_back(units ? e.unit : e.name);
+  return out;
+}
 
 std::string builtin_type_names() {
   std::string out;
@@ -94,9 +91,9 @@ class OutSlot {
 template <class T>
 class TypedIn final : public InSlot {
  public:
-  TypedIn(InPort<T>& port, const PortSpec& spec)
-      : port_(port), address_(port.owner_name() + "." + spec.name), names_(spec.element_names()),
-        units_(spec.element_units()) {}
+  explicit TypedIn(InPort<T>& port)
+      : port_(port), address_(port.full_name()), names_(element_texts(port.info(), false)),
+        units_(element_texts(port.info(), true)) {}
   py::object read() override {
     if (port_.read(datum_) != ReadResult::NewData) return py::none();
     CORBA::Any any;
@@ -115,8 +112,8 @@ class TypedIn final : public InSlot {
 template <class T>
 class TypedOut final : public OutSlot {
  public:
-  TypedOut(OutPort<T>& port, const PortSpec& spec)
-      : port_(port), address_(port.owner_name() + "." + spec.name), names_(spec.element_names()) {}
+  explicit TypedOut(OutPort<T>& port)
+      : port_(port), address_(port.full_name()), names_(element_texts(port.info(), false)) {}
 
   void write(py::handle values) override {
     bool stamped = false;
@@ -287,7 +284,7 @@ class PyComponent final : public Component {
     InSlot* slot = nullptr;
     for_each_builtin_type([&]<class T>() {
       if (slot == nullptr && DataTraits<T>::name.substr(5) == spec.type)
-        slot = ins_.emplace_back(std::make_unique<TypedIn<T>>(add_in_port<T>(spec.name, spec.info()), spec)).get();
+        slot = ins_.emplace_back(std::make_unique<TypedIn<T>>(add_in_port<T>(spec.name, spec.info))).get();
     });
     if (slot == nullptr) throw unknown_type(spec);
     return slot;
@@ -296,7 +293,7 @@ class PyComponent final : public Component {
     OutSlot* slot = nullptr;
     for_each_builtin_type([&]<class T>() {
       if (slot == nullptr && DataTraits<T>::name.substr(5) == spec.type)
-        slot = outs_.emplace_back(std::make_unique<TypedOut<T>>(add_out_port<T>(spec.name, spec.info()), spec)).get();
+        slot = outs_.emplace_back(std::make_unique<TypedOut<T>>(add_out_port<T>(spec.name, spec.info))).get();
     });
     if (slot == nullptr) throw unknown_type(spec);
     return slot;

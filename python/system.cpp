@@ -260,15 +260,7 @@ class System {
       throw Error(e.what());
     }
     const int timeout_ms = static_cast<int>(timeout_s * 1000);
-    OrbSettings settings;
-    const std::string& host = session_->naming.host;
-    if (host != "127.0.0.1" && host != "localhost" && host != "::1") {
-      settings.args = {"-ORBendPoint", "giop:tcp::", "-ORBendPoint", "giop:unix:"};
-      if (tls) settings.args.insert(settings.args.end(), {"-ORBendPoint", "giop:ssl::"});
-    }
-    settings.args.insert(settings.args.end(), {"-ORBclientCallTimeOutPeriod", std::to_string(timeout_ms),
-                                               "-ORBclientConnectTimeOutPeriod", std::to_string(timeout_ms)});
-    settings.tls = tls.value_or("");
+    OrbSettings settings{cli::client_orb_arguments(session_->naming, tls.has_value(), timeout_ms), tls.value_or("")};
     session_->orb = released([&] { return process_orb(settings); });
     session_->browser =
         std::make_unique<cli::Browser>(session_->orb->orb(), session_->naming, std::chrono::milliseconds(timeout_ms));

@@ -479,4 +479,15 @@ void Browser::disconnect(const PortAddress& out, const PortAddress& in, RTM::Req
   }
 }
 
+std::vector<std::string> client_orb_arguments(const NamingAddress& naming, bool tls, int timeout_ms) {
+  std::vector<std::string> args;
+  if (naming.host != "127.0.0.1" && naming.host != "localhost" && naming.host != "::1") {
+    args = {"-ORBendPoint", "giop:tcp::", "-ORBendPoint", "giop:unix:"};
+    if (tls) args.insert(args.end(), {"-ORBendPoint", "giop:ssl::"});
+  }
+  args.insert(args.end(), {"-ORBclientCallTimeOutPeriod", std::to_string(timeout_ms), "-ORBclientConnectTimeOutPeriod",
+                           std::to_string(timeout_ms)});
+  return args;
+}
+
 }  // namespace rtm::cli

@@ -430,9 +430,8 @@ std::vector<std::string> SystemFile::arguments(const Component& component) const
   }
   for (const auto& chain : chains) {
     const std::string& last = chain.path.back();
-    const std::size_t dot = last.find('.');
-    if (chain.path.size() < 2 || dot == std::string::npos || last.substr(0, dot) != component.name) continue;
-    out.insert(out.end(), {"--watch-chain", fmt::format("{}:{}:{}ns:{}ns:{}", chain.name, last.substr(dot + 1),
+    if (chain.path.size() < 2 || port_of(last).empty() || component_of(last) != component.name) continue;
+    out.insert(out.end(), {"--watch-chain", fmt::format("{}:{}:{}ns:{}ns:{}", chain.name, port_of(last),
                                                         chain.deadline_ns, chain.max_age_ns,
                                                         rtm::miss_action_name(chain.on_miss))});
   }

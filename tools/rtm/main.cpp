@@ -498,20 +498,6 @@ rtm::NamingAddress naming_address(const Cli& c, const std::optional<SystemFile>&
   }
 }
 
-std::vector<std::string> orb_arguments(const Cli& c, const rtm::NamingAddress& naming) {
-  // rtm's own servants (rtm watch's InPort) take data over giop:unix: from this host's
-  // components (host/access.h); with a naming service elsewhere also from other hosts: over TCP
-  // (a component opened with --access open), or over giop:ssl: with --tls.
-  std::vector<std::string> args;
-  if (naming.host != "127.0.0.1" && naming.host != "localhost" && naming.host != "::1") {
-    args = {"-ORBendPoint", "giop:tcp::", "-ORBendPoint", "giop:unix:"};
-    if (!c.tls.empty()) args.insert(args.end(), {"-ORBendPoint", "giop:ssl::"});
-  }
-  args.insert(args.end(), {"-ORBclientCallTimeOutPeriod", std::to_string(c.timeout_ms),
-                           "-ORBclientConnectTimeOutPeriod", std::to_string(c.timeout_ms)});
-  return args;
-}
-
 // Runs the force-servo demo installed beside this rtm (<prefix>/share/rtm/examples/force-servo/demo,
 // copied there in a build tree too) with this rtm's folder as the programs' one. Returns only
 // when it cannot be run.
@@ -560,7 +546,7 @@ int run(const Cli& c) {
   if (c.up->parsed()) system = SystemFile::load(c.up_file);
   const rtm::NamingAddress naming = naming_address(c, system);
   rtm::configure_access(rtm::AccessPolicy::owner);  // rtm watch's InPorts: this user's data only
-  rtm::Orb orb(orb_arguments(c, naming));
+  rtm::Orb orb(client_orb_arguments(naming, !c.tls.empty(), c.timeout_ms));
   const Browser browser(orb.orb(), naming, std::chrono::milliseconds(c.timeout_ms));
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);

@@ -175,4 +175,11 @@ class Browser {
 
 std::string to_string(Direction d);
 
+// The ORB options of a process that browses (rtm, import rtm) through the naming service at
+// naming: its own servants (a watch's InPort) take data over giop:unix: from this host's
+// components (host/access.h); with a naming service elsewhere also from other hosts, over TCP
+// (a component opened with --access open) or, with tls, over giop:ssl:. Every remote call and
+// connect is bounded by timeout_ms.
+std::vector<std::string> client_orb_arguments(const NamingAddress& naming, bool tls, int timeout_ms);
+
 }  // namespace rtm::cli
