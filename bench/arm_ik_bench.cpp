@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Time per call of the PA10 kinematics on the 2 ms control path: the velocity IK in its three
-// regimes (free, near a singularity, a joint held at its limit), and FK / Jacobian alone.
+// regimes (free, near a singularity, a joint held at its limit), and FK / Jacobian alone, and FK
+// with the rotation-vector conversion the actuator's pose port takes.
 // Target: a velocity IK solve well under 20 us, so it fits a 2 ms cycle with room to spare.
 #include "arm/pa10/kinematics.h"
 
@@ -67,6 +68,15 @@ void BM_ToolPose(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(kinematics.tool_pose(q));
 }
 BENCHMARK(BM_ToolPose);
+
+// What the actuator adds to its cycle for its "pose" port (ArmHardware::measured_tool_pose, less
+// the read of the master's joint state): FK, then the rotation as a rotation vector.
+void BM_ToolPoseVector(benchmark::State& state) {
+  Kinematics kinematics = Kinematics::pa10();
+  const JointVector q = general_pose();
+  for (auto _ : state) benchmark::DoNotOptimize(rtm::pa10::pose_vector(kinematics.tool_pose(q)));
+}
+BENCHMARK(BM_ToolPoseVector);
 
 void BM_Jacobian(benchmark::State& state) {
   Kinematics kinematics = Kinematics::pa10();

@@ -109,6 +109,15 @@ JointVector Pa10Arm::joint_velocities() const {
 
 Eigen::Isometry3d Pa10Arm::tool_pose() { return kinematics_.tool_pose(joint_positions()); }
 
+bool Pa10Arm::measured_tool_pose(Eigen::Isometry3d& pose) {
+  const rtm::can::JointState state = master_.joint_state();
+  if (state.cycle == 0) return false;
+  JointVector q_rad;
+  for (int j = 0; j < kJointCount; ++j) q_rad[j] = state.position_rad[j];
+  pose = kinematics_.tool_pose(q_rad);
+  return true;
+}
+
 std::string Pa10Arm::fault_reason() const {
   std::lock_guard lock(reason_mutex_);
   return std::string(fault_reason_.data());

@@ -168,6 +168,15 @@ Eigen::Isometry3d Kinematics::tool_pose(const JointVector& q_rad) {
   return pose;
 }
 
+std::array<double, 6> pose_vector(const Eigen::Isometry3d& pose) {
+  // Through the unit quaternion (Eigen's AngleAxis from a rotation matrix): the angle comes
+  // from atan2 of the vector part's norm and |w|, exact near 0 and pi alike.
+  const Eigen::AngleAxisd rotation(pose.linear());
+  const Eigen::Vector3d r = rotation.axis() * rotation.angle();
+  const Eigen::Vector3d& p = pose.translation();
+  return {p.x(), p.y(), p.z(), r.x(), r.y(), r.z()};
+}
+
 Jacobian Kinematics::jacobian(const JointVector& q_rad) {
   q_scratch_->data = q_rad;
   jac_solver_->JntToJac(*q_scratch_, *jac_scratch_);

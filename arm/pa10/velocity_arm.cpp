@@ -90,6 +90,13 @@ ArmFault ArmHardware::fault() const {
   return {kind, master.node, master.code, arm_->fault_reason()};
 }
 
+bool ArmHardware::measured_tool_pose(std::array<double, 6>& pose) {
+  Eigen::Isometry3d tool;
+  if (!arm_->measured_tool_pose(tool)) return false;
+  pose = pose_vector(tool);
+  return true;
+}
+
 ArmDiagnostics::BusPosition ArmHardware::Diagnostics::bus_position() const {
   const pc::JointState state = arm_.master_->joint_state();
   return {state.cycle, state.sync_counter};

@@ -224,6 +224,15 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
   }
   const bool moving = status == FaultKind::none && !brake;
   for (std::size_t i = 0; i < 6; ++i) last_twist_[i].store(moving ? twist_[i] : 0.0f, std::memory_order_relaxed);
+  // After the command has gone to the arm, so the forward kinematics delay nothing on its way.
+  write_pose();
+}
+
+void Actuator::write_pose() {
+  if (!arm_->measured_tool_pose(measured_pose_)) return;
+  for (CORBA::ULong i = 0; i < 6; ++i) pose_.val[i] = static_cast<float>(measured_pose_[i]);
+  pose_.tm = rtm::now();  // a measurement of this cycle: no command's stamp
+  pose_out_.write(pose_);
 }
 
 void Actuator::on_stop() {

@@ -48,6 +48,7 @@ std::vector<Element> elements(std::string_view names, std::string_view units) {
 
 std::vector<Element> wrench_elements() { return elements("fx fy fz tx ty tz", "N N N N·m N·m N·m"); }
 std::vector<Element> twist_elements() { return elements("vx vy vz wx wy wz", "m/s m/s m/s rad/s rad/s rad/s"); }
+std::vector<Element> pose_elements() { return elements("x y z rx ry rz", "m m m rad rad rad"); }
 
 std::vector<double> parse_numbers(std::string_view text, std::size_t count) {
   std::vector<double> out;

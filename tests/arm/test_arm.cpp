@@ -240,6 +240,20 @@ TEST(Pa10Arm, ReportsNotEnabledBeforeTheMasterHasStarted) {
   EXPECT_EQ(rig.arm.fault_reason(), "");
 }
 
+TEST(Pa10Arm, TheMeasuredToolPoseIsUnknownBeforeTheFirstFeedbackThenTheFkOfTheDrivesPositions) {
+  Rig rig;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() << 7, 7, 7;
+  EXPECT_FALSE(rig.arm.measured_tool_pose(pose)) << "no feedback yet";
+  EXPECT_EQ(pose.translation(), Eigen::Vector3d(7, 7, 7)) << "left untouched";
+  rig.start_master();
+  ASSERT_TRUE(rig.arm.measured_tool_pose(pose));
+  Kinematics model = Kinematics::pa10();
+  const Eigen::Isometry3d expected = model.tool_pose(rig.drives.positions());
+  EXPECT_LT((pose.translation() - expected.translation()).norm(), 1e-5);  // 1 urad in the TPDOs
+  EXPECT_LT((pose.linear() - expected.linear()).norm(), 1e-5);
+}
+
 TEST(Pa10Arm, OrderVelocityMovesTheToolAlongTheCommandedTwist) {
   Rig rig;
   rig.start_master();
@@ -430,16 +444,21 @@ TEST(Pa10Arm, WorksWithTheMastersOwnPeriodicThread) {
   rig.master.stop();
 }
 
-TEST(Pa10Arm, OrderVelocityAllocatesNothing) {
+TEST(Pa10Arm, OrderVelocityAndTheMeasuredToolPoseAllocateNothing) {
   Rig rig;
   rig.start_master();
   ASSERT_EQ(rig.arm.order_velocity(small_twist()), FaultKind::none);
   rig.master.step();
   std::uint64_t allocations = 0;
+  Eigen::Isometry3d pose;
   for (int i = 0; i < 50; ++i) {
     const auto before = rtm_test::allocations_on_this_thread();
     const FaultKind state = rig.arm.order_velocity(small_twist());
+    const bool measured = rig.arm.measured_tool_pose(pose);
+    const std::array<double, 6> vector = pose_vector(pose);
     allocations += rtm_test::allocations_on_this_thread() - before;
+    ASSERT_TRUE(measured);
+    ASSERT_TRUE(std::isfinite(vector[5]));
     ASSERT_EQ(state, FaultKind::none) << rig.arm.fault_reason();
     rig.master.step();
   }

@@ -139,6 +139,44 @@ TEST(Pa10Model, ForwardKinematicsMatchesAnIndependentDhProduct) {
   }
 }
 
+// ---- the pose as six numbers ------------------------------------------------------------------
+
+TEST(PoseVector, IsThePositionThenTheRotationsAxisTimesItsAngle) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() << 0.5, -0.25, 1.125;
+  EXPECT_EQ(pose_vector(pose), (std::array<double, 6>{0.5, -0.25, 1.125, 0, 0, 0})) << "no rotation: zero";
+  pose.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  std::array<double, 6> v = pose_vector(pose);
+  EXPECT_NEAR(v[3], 0, 1e-12);
+  EXPECT_NEAR(v[4], 0, 1e-12);
+  EXPECT_NEAR(v[5], 0.7, 1e-12);
+  pose.linear() = Eigen::AngleAxisd(-1.2, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  v = pose_vector(pose);
+  EXPECT_NEAR(v[4], -1.2, 1e-12) << "the angle in [0, pi], the axis turned instead";
+  // A half turn: the axis up to its sign, the angle pi.
+  pose.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+  v = pose_vector(pose);
+  EXPECT_NEAR(Eigen::Vector3d(v[3], v[4], v[5]).norm(), kPi, 1e-12);
+  EXPECT_NEAR(std::abs(v[3]), kPi / std::sqrt(2.0), 1e-7);
+  EXPECT_NEAR(std::abs(v[4]), kPi / std::sqrt(2.0), 1e-7);
+}
+
+TEST(PoseVector, TurnedBackIntoAMatrixItIsThePosesRotationForTheArmsPoses) {
+  Kinematics kinematics = load_model();
+  std::mt19937 rng(2004);
+  for (int sample = 0; sample < 500; ++sample) {
+    const JointVector q = random_joints(rng, kinematics.limits());
+    const Eigen::Isometry3d pose = kinematics.tool_pose(q);
+    const std::array<double, 6> v = pose_vector(pose);
+    const Eigen::Vector3d r(v[3], v[4], v[5]);
+    ASSERT_LE(r.norm(), kPi + 1e-12);
+    const Eigen::Matrix3d back =
+        r.norm() == 0 ? Eigen::Matrix3d::Identity() : Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
+    ASSERT_LE((back - pose.linear()).norm(), 1e-12) << q.transpose();
+    ASSERT_EQ(Eigen::Vector3d(v[0], v[1], v[2]), pose.translation());
+  }
+}
+
 TEST(Pa10Model, JacobianMatchesFiniteDifferencesOfTheToolPose) {
   Kinematics kinematics = load_model();
   const JointVector q = general_pose();

@@ -309,6 +309,101 @@ TEST(ActuatorLatency, AnArmThatCannotTellRecordsNoBusLatency) {
   EXPECT_EQ(t.actuator->latency().latency_samples, 0u);
 }
 
+// ---------------------------------------------------------------- the measured pose
+
+std::array<float, 6> as_floats(const std::array<double, 6>& v) {
+  std::array<float, 6> out{};
+  for (std::size_t i = 0; i < 6; ++i) out[i] = static_cast<float>(v[i]);
+  return out;
+}
+
+TEST(ActuatorPose, ThePortIsOutPort0PoseWithPositionAndRotationVectorInMAndRad) {
+  ActuatorUnderTest t;
+  ASSERT_EQ(t.actuator->out_ports().size(), 1u);
+  const rtm::OutPortBase& port = *t.actuator->out_ports()[0];
+  EXPECT_EQ(port.port_name(), "pose");
+  EXPECT_EQ(port.full_name(), "actuator0.pose");
+  const std::vector<std::string> names{"x", "y", "z", "rx", "ry", "rz"}, units{"m", "m", "m", "rad", "rad", "rad"};
+  ASSERT_EQ(port.info().elements.size(), 6u);
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(port.info().elements[i].name, names[i]);
+    EXPECT_EQ(port.info().elements[i].unit, units[i]);
+  }
+  ASSERT_EQ(t.actuator->in_ports().size(), 1u) << "the pose is an OutPort beside the one InPort";
+}
+
+TEST(ActuatorPose, EachCycleAfterTheOrderThePoseTheArmMeasuresIsWrittenStampedNowNotWithTheCommandsStamp) {
+  ActuatorUnderTest t;
+  const std::array<double, 6> measured{0.45, -0.125, 0.9, 0.25, -1.5, 3.0};
+  t.arm->pose = measured;
+  const std::int64_t command_stamp_ns = rtm::to_ns(rtm::now()) - 5'000'000'000;  // a command 5 s old
+  t.actuator->command_in().deliver(float6({0.01f, 0, 0, 0, 0, 0}, command_stamp_ns));
+  const std::int64_t before_ns = rtm::to_ns(rtm::now());
+  t.step();
+  const std::int64_t after_ns = rtm::to_ns(rtm::now());
+  RTM::TimedFloat6 pose{};
+  ASSERT_TRUE(t.actuator->pose_out().latest(pose)) << "no pose written";
+  EXPECT_EQ(comp_test::values(pose), as_floats(measured));
+  EXPECT_GE(rtm::to_ns(pose.tm), before_ns) << "stamped when measured, not " << command_stamp_ns;
+  EXPECT_LE(rtm::to_ns(pose.tm), after_ns);
+  EXPECT_EQ(t.arm->pose_reads, 1);
+  EXPECT_EQ(t.arm->orders_before_pose_read, 1u) << "read after the command was handed to the arm";
+  EXPECT_EQ(t.actuator->pose_out().counters_snapshot().written, 1u);
+}
+
+TEST(ActuatorPose, ThePoseIsWrittenOnCyclesWithoutACommandAndOnCyclesThatBrake) {
+  ActuatorUnderTest t;
+  t.arm->pose = std::array<double, 6>{0.1, 0.2, 0.3, 0, 0, 0};
+  t.step();  // no command yet: zero velocity
+  EXPECT_EQ(t.actuator->pose_out().counters_snapshot().written, 1u);
+  t.step({0.01f, 0, 0, 0, 0, 0});
+  for (int i = 0; i < 3; ++i) t.step();  // the watchdog fires: quick stop
+  ASSERT_TRUE(t.arm->braked.back());
+  ASSERT_EQ(t.actuator->counters().watchdog_events, 1u);
+  t.arm->pose = std::array<double, 6>{0.1, 0.2, 0.25, 0, 0, 0};
+  t.step();  // braked
+  ASSERT_TRUE(t.arm->braked.back());
+  EXPECT_EQ(t.actuator->pose_out().counters_snapshot().written, 6u) << "one pose per cycle";
+  RTM::TimedFloat6 pose{};
+  ASSERT_TRUE(t.actuator->pose_out().latest(pose));
+  EXPECT_EQ(pose.val[2], 0.25f) << "the pose of the braked cycle";
+  t.arm->status = rtm::comp::FaultKind::not_enabled;  // drives not enabled: zero, yet measured
+  t.step({0.01f, 0, 0, 0, 0, 0});
+  EXPECT_EQ(t.actuator->pose_out().counters_snapshot().written, 7u);
+}
+
+TEST(ActuatorPose, NothingIsWrittenWhileTheArmCannotTellItsPose) {
+  ActuatorUnderTest t;  // the fake answers no pose until one is set
+  for (int i = 0; i < 3; ++i) t.step({0.01f, 0, 0, 0, 0, 0});
+  EXPECT_EQ(t.arm->pose_reads, 3) << "asked every cycle";
+  EXPECT_EQ(t.actuator->pose_out().counters_snapshot().written, 0u);
+  RTM::TimedFloat6 pose{};
+  EXPECT_FALSE(t.actuator->pose_out().latest(pose));
+  t.arm->pose = std::array<double, 6>{};
+  t.step();
+  EXPECT_EQ(t.actuator->pose_out().counters_snapshot().written, 1u) << "from the first cycle it can";
+}
+
+TEST(ActuatorPose, AnArmWithoutPoseFeedbackSaysItCannotTell) {
+  // The seam's default: an arm that does not override measured_tool_pose.
+  class Blind final : public rtm::pa10::VelocityArm {
+   public:
+    Blind() : VelocityArm(diagnostics_) {}
+    rtm::pa10::FaultKind order_velocity(const std::array<float, 6>&) override { return rtm::pa10::FaultKind::none; }
+    rtm::pa10::FaultKind quick_stop() override { return rtm::pa10::FaultKind::none; }
+    void stop() override {}
+    rtm::pa10::ArmFault fault() const override { return {}; }
+    void reset() override {}
+
+   private:
+    rtm::pa10::ArmDiagnostics diagnostics_;
+  };
+  Blind blind;
+  std::array<double, 6> pose{1, 2, 3, 4, 5, 6};
+  EXPECT_FALSE(blind.measured_tool_pose(pose));
+  EXPECT_EQ(pose, (std::array<double, 6>{1, 2, 3, 4, 5, 6})) << "left untouched";
+}
+
 TEST(LatencyHistogram, BucketsAre1usBelow1ms100usTo10msThen1ms) {
   using H = rtm::LatencyHistogram;
   EXPECT_EQ(H::upper_edge_ns(H::bucket_of(0)), 1'000);

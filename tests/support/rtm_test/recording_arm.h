@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The one fake of the arm seam (arm/pa10/velocity_arm.h) that tests and benchmarks put behind an
-// actuator: it records what it was told and answers what the test set.
+// actuator: it records what it was told and answers what the test set (its fault, its pose).
 #pragma once
 
 #include "arm/pa10/velocity_arm.h"
@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,11 @@ class RecordingArm final : public rtm::pa10::VelocityArm {
   // bus "sent" which one.
   std::uint64_t sequence = 0;
   SentCommand sent{};
+  // What measured_tool_pose() answers: none (the arm cannot tell) until the test sets one. Each
+  // read is counted, with the number of orders (and quick stops) made before it.
+  std::optional<std::array<double, 6>> pose;
+  int pose_reads = 0;
+  std::size_t orders_before_pose_read = 0;
 
   rtm::pa10::FaultKind order_velocity(const std::array<float, 6>& twist) override {
     if (on_order) on_order();
@@ -56,6 +62,13 @@ class RecordingArm final : public rtm::pa10::VelocityArm {
   void reset() override {
     ++resets;
     status = rtm::pa10::FaultKind::none;
+  }
+  bool measured_tool_pose(std::array<double, 6>& out) override {
+    ++pose_reads;
+    orders_before_pose_read = ordered.size();
+    if (!pose) return false;
+    out = *pose;
+    return true;
   }
 
  private:

@@ -42,6 +42,7 @@ std::vector<Element> elements(std::string_view names, std::string_view units);
 // The elements of the six-vectors most force-control ports carry, in SI units.
 std::vector<Element> wrench_elements();  // fx fy fz [N], tx ty tz [N·m]
 std::vector<Element> twist_elements();   // vx vy vz [m/s], wx wy wz [rad/s]
+std::vector<Element> pose_elements();    // x y z [m], rx ry rz [rad]: position, rotation vector
 
 // What a port carries.
 struct PortInfo {

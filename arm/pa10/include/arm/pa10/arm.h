@@ -68,6 +68,10 @@ class Pa10Arm {
   // Tool pose in the base frame from the measured joint positions. Same thread as
   // order_velocity() (uses the kinematics' scratch).
   Eigen::Isometry3d tool_pose();
+  // The same from one reading of the joint state, false (pose untouched) while the drives have
+  // not answered a SYNC yet (joint_state().cycle == 0: the positions are not known). Allocates
+  // nothing; same thread as order_velocity().
+  bool measured_tool_pose(Eigen::Isometry3d& pose);
 
   // Re-reads the master's state; latches a fault if it finds one and returns the arm's state
   // (none when ready to move). order_velocity() does this every call.

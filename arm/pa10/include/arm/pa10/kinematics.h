@@ -105,6 +105,11 @@ class Kinematics {
   std::unique_ptr<KDL::Jacobian> jac_scratch_;
 };
 
+// A pose as six numbers: the position x y z (m), then the orientation as a rotation vector
+// rx ry rz (the rotation's axis times its angle, rad, the angle in [0, pi]), both in the frame
+// the pose is given in (for tool_pose(): the base frame). Allocates nothing.
+std::array<double, 6> pose_vector(const Eigen::Isometry3d& pose);
+
 // ---------------------------------------------------------------- velocity IK
 
 struct VelocityIkOptions {

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // The arm as a component sees it: a seam of five calls (command a twist, brake, stop, say its
-// fault, reset) and a read-only diagnostics view beside it, which the arm hands its base. ArmHardware is the real one
-// (Pa10Master + Pa10Arm, on pa10-sim or the PA10 alike); tests put the one recording fake of
-// tests/support (rtm_test/recording_arm.h) behind the same seam.
+// fault, reset), the tool pose it measures, and a read-only diagnostics view beside it, which
+// the arm hands its base. ArmHardware is the real one (Pa10Master + Pa10Arm, on pa10-sim or the
+// PA10 alike); tests put the one recording fake of tests/support (rtm_test/recording_arm.h)
+// behind the same seam.
 #pragma once
 
 #include "arm/can/bus_options.h"
@@ -61,8 +62,9 @@ class ArmDiagnostics {
   virtual BusHealth bus_health() const { return {}; }
 };
 
-// The arm the actuator commands each cycle: five calls, made by one thread at a time (the
-// actuator's cycle and its on_start/on_stop), and the diagnostics view, read from any thread.
+// The arm the actuator commands each cycle: five calls and the measured pose, made by one thread
+// at a time (the actuator's cycle and its on_start/on_stop), and the diagnostics view, read from
+// any thread.
 class VelocityArm {
  public:
   virtual ~VelocityArm() = default;
@@ -86,6 +88,12 @@ class VelocityArm {
   // the fault path and at on() only.
   virtual ArmFault fault() const = 0;
   virtual void reset() = 0;
+  // The tool's pose in the BASE frame from the drives' latest measured joint positions: x y z
+  // (m), then the orientation as a rotation vector rx ry rz (axis * angle, rad; pose_vector(),
+  // arm/pa10/kinematics.h). false, pose untouched, when the arm cannot tell (no feedback from
+  // the drives yet; an arm without joint feedback). Same thread as order_velocity();
+  // allocates nothing.
+  virtual bool measured_tool_pose(std::array<double, 6>& /*pose*/) { return false; }
   // The read-only view of the arm's bus.
   const ArmDiagnostics& diagnostics() const { return diagnostics_; }
 
@@ -133,6 +141,9 @@ class ArmHardware final : public VelocityArm {
   void stop() override;
   ArmFault fault() const override;
   void reset() override { arm_->reset(); }
+  // Pa10Arm::measured_tool_pose (forward kinematics of the joint positions the drives last
+  // reported), as pose_vector(): false until the drives have answered a SYNC.
+  bool measured_tool_pose(std::array<double, 6>& pose) override;
 
   rtm::can::Pa10Master& master() { return *master_; }
   Pa10Arm& arm() { return *arm_; }

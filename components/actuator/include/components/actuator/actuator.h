@@ -2,12 +2,19 @@
 // Actuator: the manipulator driven by Cartesian velocity commands (paper Fig. 7).
 //
 //   InPort 0 "twist" (alias in0)  velocity command (TimedFloat6, BASE frame: vx vy vz m/s, wx wy wz rad/s)
+//   OutPort 0 "pose" (alias out0) the tool's pose the drives measure (TimedFloat6, BASE frame:
+//                                 x y z m, rx ry rz rad: the orientation as a rotation vector,
+//                                 axis * angle), forward kinematics of the joint positions of
+//                                 the drives' latest feedback; stamped when the cycle reads it
+//                                 (CLOCK_REALTIME), not with the command's stamp
 //
 // Parameters: limit (live: the next cycle uses it), watchdog_periods (while off). Statistics:
 // the ActuatorCounters and ActuatorLatency, by name (latencies in µs).
 //
 // Each cycle: take the newest command, clamp each component to ±limit[i] (Fig. 7), hand it to
-// the arm (order_velocity). Safety beyond the paper:
+// the arm (order_velocity), then write the measured pose to "pose" (every cycle the arm can
+// tell it, braking or without a command too; none before the drives' first feedback). Safety
+// beyond the paper:
 //   - watchdog: after watchdog_periods cycles without a new command the drives brake (CiA 402
 //     quick stop: they stop where they are, not merely ramp down to a zero command); the
 //     cycles before repeat the last command (one late datum must not jerk the arm). The
@@ -139,6 +146,7 @@ class Actuator final : public rtm::Component {
   void on_stop() override;
 
   rtm::InPort<RTM::TimedFloat6>& command_in() { return command_in_; }
+  rtm::OutPort<RTM::TimedFloat6>& pose_out() { return pose_out_; }
   VelocityArm& arm() { return *arm_; }
   // The parameters now (limit as last set, which the next cycle uses).
   ActuatorParams params() const;
@@ -149,6 +157,8 @@ class Actuator final : public rtm::Component {
 
  private:
   void describe_self();
+  // The measured pose to "pose", freshly stamped, when the arm can tell it.
+  void write_pose();
 
   std::unique_ptr<VelocityArm> arm_;
   ActuatorParams params_;  // as on_start() took them: the periods change only while off
@@ -156,6 +166,8 @@ class Actuator final : public rtm::Component {
   ActuatorParams cycle_params_ = params_;  // the cycle's copy: limit is live
   RTM::TimedFloat6 command_{};
   std::array<float, 6> twist_{};
+  std::array<double, 6> measured_pose_{};
+  RTM::TimedFloat6 pose_{};
   rtm::Freshness command_freshness_{params_.watchdog_periods};  // the watchdog; seen(): a command since on()
   bool command_bad_ = false;
   rtm::pa10::ArmDiagnostics::BusPosition last_command_bus_{};  // when the newest command was handed over
@@ -189,6 +201,9 @@ class Actuator final : public rtm::Component {
   rtm::InPort<RTM::TimedFloat6>& command_in_ = add_in_port<RTM::TimedFloat6>(
       "twist", {"velocity command for the tool, base frame; clamped to ±limit",
                 rtm::twist_elements()});
+  rtm::OutPort<RTM::TimedFloat6>& pose_out_ = add_out_port<RTM::TimedFloat6>(
+      "pose", {"tool pose the drives measure, base frame: position, rotation vector (axis * angle)",
+               rtm::pose_elements()});
 };
 
 }  // namespace rtm::comp
