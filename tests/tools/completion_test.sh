@@ -25,7 +25,7 @@ expect() {  # expect "<words>" "<expected completions>"
   fi
 }
 expect "rtm c" "cat connect check"
-expect "rtm s" "set serve"
+expect "rtm s" "set serve script"
 expect "rtm d" "disconnect down demo"
 expect "rtm r" "reset record replay"
 expect "rtm replay rtm-controller x.mcap --s" "--set --show"
@@ -50,6 +50,9 @@ expect "rtm new component x --de" "--description"
 expect "rtm new component x --t" "--types"
 expect "rtm new component x --py" "--python"
 expect "rtm demo --no" "--no-realtime"
+expect "rtm script --help-" "--help-script"
+expect "rtm script slide.py --p" "--pose"
+expect "rtm script slide.py --name s0 --r" "--reference"
 expect "rtm tls i" "init issue"
 expect "rtm --tls /nonexistent-folder g" "get"
 if ((fails)); then echo "$fails failed"; exit 1; fi

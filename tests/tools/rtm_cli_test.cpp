@@ -18,6 +18,7 @@
 #include <fstream>
 #include <functional>
 #include <memory>
+#include <sstream>
 #include <thread>
 
 namespace {
@@ -541,6 +542,137 @@ TEST(RtmDemo, RunsTheDemoBesideItAndNamesTheFileWhenThereIsNone) {
   EXPECT_NE(missing.err.find(alone.parent_path().string() + "/share/rtm/examples/force-servo/demo is missing"),
             std::string::npos)
       << missing.err;
+}
+
+// ------------------------------------------------------------------ script
+
+// rtm script exec's the interpreter $RTM_SCRIPT_PYTHON names: here a shell script that prints
+// its arguments, one per line in brackets, then PYTHONPATH and the naming and TLS variables.
+class RtmScript : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / ("rtm-script-test-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+    fake_python_ = dir_ / "fake-python";
+    std::ofstream(fake_python_) << "#!/bin/sh\n"
+                                   "for a in \"$@\"; do printf '[%s]\\n' \"$a\"; done\n"
+                                   "printf 'PYTHONPATH=%s\\n' \"${PYTHONPATH-unset}\"\n"
+                                   "printf 'RTM_NAMING=%s\\n' \"${RTM_NAMING-unset}\"\n"
+                                   "printf 'RTM_TLS=%s\\n' \"${RTM_TLS-unset}\"\n";
+    std::filesystem::permissions(fake_python_, std::filesystem::perms::owner_all);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  // rtm (or another copy of it) with the fake interpreter and a PYTHONPATH that helps nobody.
+  CommandResult script(std::vector<std::string> args, const std::string& rtm = RTM_CLI_PATH,
+                       const std::string& python = "") {
+    args.insert(args.begin(), rtm);
+    return rtm_test::run_command(args, {"RTM_SCRIPT_PYTHON=" + (python.empty() ? fake_python_.string() : python),
+                                        "PYTHONPATH=/nowhere", "RTM_NAMING=", "RTM_TLS="});
+  }
+  static std::vector<std::string> lines(const std::string& text) {
+    std::vector<std::string> out;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) out.push_back(line);
+    return out;
+  }
+
+  std::filesystem::path dir_;
+  std::filesystem::path fake_python_;
+};
+
+TEST_F(RtmScript, RunsPythonOnRtmScriptWithTheFileAndEveryWordAfterItUnchanged) {
+  const auto r = script({"script", "slide.py", "--name", "s0", "--pose", "", "--reference", "servo0.reference",
+                         "--help", "--json", "-x", "--naming=elsewhere"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<std::string> expected{"[-m]",     "[rtm.script]", "[slide.py]",         "[--name]", "[s0]",
+                                          "[--pose]", "[]",           "[--reference]",      "[servo0.reference]",
+                                          "[--help]", "[--json]",     "[-x]", "[--naming=elsewhere]"};
+  const auto out = lines(r.out);
+  ASSERT_GE(out.size(), expected.size()) << r.out;
+  EXPECT_EQ(std::vector<std::string>(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(expected.size())),
+            expected)
+      << r.out;
+}
+
+TEST_F(RtmScript, PutsTheBuildTreesPackageFirstOnPythonPath) {
+  const std::filesystem::path build_python = std::filesystem::path(RTM_BIN_DIR).parent_path() / "python";
+  ASSERT_TRUE(std::filesystem::exists(build_python / "rtm" / "__init__.py")) << build_python;
+  const auto r = script({"script", "slide.py"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("\nPYTHONPATH=" + std::filesystem::canonical(build_python).string() + ":/nowhere\n"),
+            std::string::npos)
+      << r.out;
+}
+
+TEST_F(RtmScript, PutsAnInstalledTreesPackageFirstOnPythonPathAndNoneWhenThereIsNeither) {
+  const std::filesystem::path bin = dir_ / "prefix" / "bin";
+  std::filesystem::create_directories(bin);
+  std::filesystem::copy_file(RTM_CLI_PATH, bin / "rtm");
+  auto r = script({"script", "slide.py"}, (bin / "rtm").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("\nPYTHONPATH=/nowhere\n"), std::string::npos) << "no package beside it: unchanged\n" << r.out;
+  const std::filesystem::path installed = dir_ / "prefix" / "lib" / "python3" / "dist-packages";
+  std::filesystem::create_directories(installed);
+  // rtm knows its folder by /proc/self/exe: without symbolic links.
+  const std::filesystem::path real = std::filesystem::canonical(installed);
+  r = script({"script", "slide.py"}, (bin / "rtm").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("\nPYTHONPATH=" + real.string() + ":/nowhere\n"), std::string::npos) << r.out;
+}
+
+TEST_F(RtmScript, PassesRtmsOwnNamingTlsAndTimeoutOnFirstOnlyWhenGivenSoTheScriptsOwnWin) {
+  auto r = script({"--naming", "127.0.0.1:4321", "--tls", "/some/tls", "--timeout", "700", "script", "slide.py",
+                   "--naming", "127.0.0.1:9999", "--", "--period", "2ms"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("[-m]\n[rtm.script]\n[--naming]\n[127.0.0.1:4321]\n[--tls]\n[/some/tls]\n[--timeout]\n[0.7]\n"
+                        "[slide.py]\n[--naming]\n[127.0.0.1:9999]\n[--]\n[--period]\n[2ms]\nPYTHONPATH=",
+                        0),
+            0u)
+      << "rtm's before the file (rtm.script's --timeout is in s), the script's after\n"
+      << r.out;
+  EXPECT_NE(r.out.find("\nRTM_NAMING=\n"), std::string::npos) << "the environment left as it was\n" << r.out;
+  r = script({"script", "slide.py"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("[-m]\n[rtm.script]\n[slide.py]\nPYTHONPATH=", 0), 0u) << "none given: none passed\n" << r.out;
+}
+
+TEST_F(RtmScript, HelpScriptAsksTheScriptRunnerForItsHelpAndHelpIsRtms) {
+  auto r = script({"script", "--help-script"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("[-m]\n[rtm.script]\n[--help]\nPYTHONPATH=", 0), 0u) << r.out;
+  r = script({"script", "--help"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("run a motion script"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--help-script"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("[rtm.script]"), std::string::npos) << "rtm's own help, not the script's\n" << r.out;
+}
+
+TEST_F(RtmScript, NoFileIsAUsageError) {
+  const auto r = script({"script"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("rtm script FILE"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("[rtm.script]"), std::string::npos) << r.out;
+}
+
+TEST_F(RtmScript, AMissingPythonIsAClearErrorWithExitStatus2) {
+  const auto r = script({"script", "slide.py"}, RTM_CLI_PATH, (dir_ / "no-python3").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("rtm script needs " + (dir_ / "no-python3").string() +
+                       " and RTM's Python package (python3-numpy): scripts/deps.sh installs them"),
+            std::string::npos)
+      << r.err;
+}
+
+// With the real interpreter: a script that is not there is named. Only once the Python side
+// (python/rtm/script.py, docs/python.md "Motion scripts") is in the build tree.
+TEST_F(RtmScript, AScriptThatIsNotThereIsNamed) {
+  const std::filesystem::path runner = std::filesystem::path(RTM_BIN_DIR).parent_path() / "python/rtm/script.py";
+  if (!std::filesystem::exists(runner)) GTEST_SKIP() << "no " << runner << " in the build tree yet";
+  if (::access("/usr/bin/python3", X_OK) != 0) GTEST_SKIP() << "no /usr/bin/python3";
+  const auto r = script({"script", "/nonexistent.py"}, RTM_CLI_PATH, "/usr/bin/python3");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("/nonexistent.py"), std::string::npos) << r.err;
 }
 
 // ------------------------------------------------------------------ up / down

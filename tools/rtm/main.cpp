@@ -24,6 +24,10 @@
 //   rtm new component <name> [--in n:Type]... [--out n:Type]...  a project of your own
 //   rtm serve [--listen 127.0.0.1:PORT]   the component editor in a browser (serve.h)
 //   rtm demo [demo options]               the force-servo demo on the simulator (installed examples)
+//   rtm script FILE [ARGS...]             a motion script (Python) as the servo's reference
+//                                         generator: exec's $RTM_SCRIPT_PYTHON (/usr/bin/python3)
+//                                         -m rtm.script [--naming, --tls, --timeout as given to
+//                                         rtm] FILE ARGS..., `import rtm` found beside rtm
 //
 // Every command takes --naming host:port (or $RTM_NAMING), --tls folder (or $RTM_TLS) and
 // --json; exit code 0 ok, 1 failed, 2 usage.
@@ -60,6 +64,7 @@
 #include <limits>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <cerrno>
 #include <cstring>
@@ -95,7 +100,9 @@ struct Cli {
   int timeout_ms = 5000;  // on() of a composite makes several remote calls of its own
   CLI::App *ls = nullptr, *cat = nullptr, *set = nullptr, *connect = nullptr, *disconnect = nullptr, *on = nullptr,
            *off = nullptr, *reset = nullptr, *get = nullptr, *put = nullptr, *watch = nullptr, *up = nullptr,
-           *down = nullptr, *serve = nullptr, *names = nullptr, *demo = nullptr, *check = nullptr;
+           *down = nullptr, *serve = nullptr, *names = nullptr, *demo = nullptr, *check = nullptr,
+           *script = nullptr;
+  CLI::Option* timeout_option = nullptr;  // given or not: rtm script passes it on only when given
   bool names_stop = false;
   std::string ls_path;
   bool ls_long = false, ls_clean = false, ls_names = false;
@@ -198,6 +205,13 @@ void add_system_commands(CLI::App& app, Cli& c) {
                                       "(`rtm demo --help` lists its options)");
   c.demo->prefix_command();  // every word after it, --help too, is the demo's
   c.demo->set_help_flag();
+  c.script = app.add_subcommand(
+      "script",
+      "run a motion script (docs/python.md, \"Motion scripts\") as the servo's reference generator: rtm script FILE "
+      "[--name NAME] [--reference PORT] [--wrench PORT] [--pose PORT] [--controller NAME]; rtm script --help-script "
+      "lists the script's options");
+  // FILE and every word after it, options too, are the script's; --help before FILE is rtm's.
+  c.script->prefix_command();
 }
 
 // ------------------------------------------------------------------ commands
@@ -520,8 +534,69 @@ int run_demo(const Cli& c) {
   throw Failure(fmt::format("rtm demo: cannot run {}: {}", script.string(), std::strerror(errno)), kFailed);
 }
 
+// ------------------------------------------------------------------ script
+
+// The Python interpreter rtm script runs: $RTM_SCRIPT_PYTHON, else Debian's python3 (the one
+// RTM's Python module is built for).
+constexpr const char* kScriptPythonVariable = "RTM_SCRIPT_PYTHON";
+constexpr const char* kScriptPython = "/usr/bin/python3";
+
+// Where `import rtm` is found for the rtm in folder bin: an installed tree's
+// <prefix>/lib/python3/dist-packages when it exists, else a build tree's <build>/python when it
+// holds the package (build/default/bin/rtm -> build/default/python); empty when neither.
+fs::path python_package_dir(const fs::path& bin) {
+  std::error_code ec;
+  const fs::path installed = bin.parent_path() / RTM_PYTHON_INSTALL_DIR;
+  if (fs::is_directory(installed, ec)) return installed;
+  const fs::path build = bin.parent_path() / "python";
+  if (fs::is_regular_file(build / "rtm" / "__init__.py", ec)) return build;
+  return {};
+}
+
+// `rtm script FILE [ARGS...]`: exec's python3 -m rtm.script FILE ARGS... with the package found
+// beside this rtm first on PYTHONPATH. rtm's own --naming, --tls and --timeout, when given, go
+// first on its command line, as `rtm up` gives a component --naming (rtm.script's --timeout is
+// in seconds); the same options among ARGS come later and win. Returns only when it cannot be
+// run.
+int run_script(const Cli& c) {
+  std::vector<std::string> words = c.script->remaining();
+  if (words.empty())
+    throw Failure("rtm script: which script? rtm script FILE [ARGS...] (rtm script --help-script lists the script's "
+                  "options)",
+                  kUsage);
+  if (words.front() == "--help-script") words.front() = "--help";  // rtm.script's own help
+  const char* chosen = std::getenv(kScriptPythonVariable);
+  const std::string python = chosen != nullptr && *chosen != '\0' ? chosen : kScriptPython;
+  const std::string needs = fmt::format(
+      "rtm script needs {} and RTM's Python package (python3-numpy): scripts/deps.sh installs them", python);
+  if (::access(python.c_str(), X_OK) != 0) throw Failure(needs, kUsage);
+
+  std::error_code ec;
+  const fs::path bin = fs::read_symlink("/proc/self/exe", ec).parent_path();
+  if (!ec) {
+    if (const fs::path package = python_package_dir(bin); !package.empty()) {
+      const char* before = std::getenv("PYTHONPATH");
+      const std::string path =
+          package.string() + (before != nullptr && *before != '\0' ? ":" + std::string(before) : std::string());
+      ::setenv("PYTHONPATH", path.c_str(), 1);
+    }
+  }
+  std::vector<std::string> args{python, "-m", "rtm.script"};
+  if (!c.naming.empty()) args.insert(args.end(), {"--naming", c.naming});
+  if (!c.tls.empty()) args.insert(args.end(), {"--tls", c.tls});
+  if (c.timeout_option->count() > 0) args.insert(args.end(), {"--timeout", fmt::format("{:g}", c.timeout_ms / 1000.0)});
+  args.insert(args.end(), words.begin(), words.end());
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::fflush(stdout);
+  ::execv(python.c_str(), argv.data());
+  throw Failure(fmt::format("{} (running it failed: {})", needs, std::strerror(errno)), kUsage);
+}
+
 int run(const Cli& c) {
   if (c.demo->parsed()) return run_demo(c);
+  if (c.script->parsed()) return run_script(c);
   if (c.tls_command.parsed()) {
     c.tls_command.run(c.json);
     return kOk;
@@ -588,7 +663,8 @@ int main(int argc, char** argv) {
   app.add_flag("--json", c.json, "machine-readable output");
   app.add_option("--tls", c.tls, "TLS folder (`rtm tls init`): reach giop:ssl: endpoints with its certificate")
       ->envname(rtm::kTlsFolderVariable);
-  app.add_option("--timeout", c.timeout_ms, "bound on each remote call, ms")->check(CLI::PositiveNumber);
+  c.timeout_option =
+      app.add_option("--timeout", c.timeout_ms, "bound on each remote call, ms")->check(CLI::PositiveNumber);
   add_browse_commands(app, c);
   add_wiring_commands(app, c);
   add_data_commands(app, c);

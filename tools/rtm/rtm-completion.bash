@@ -14,7 +14,7 @@ _rtm_ports() {
 _rtm() {
   local cur prev words cword
   _init_completion 2>/dev/null || { cur=${COMP_WORDS[COMP_CWORD]}; prev=${COMP_WORDS[COMP_CWORD-1]}; cword=$COMP_CWORD; words=("${COMP_WORDS[@]}"); }
-  local commands="ls cat set connect disconnect on off reset get put watch record play replay up down check names serve tls new demo"
+  local commands="ls cat set connect disconnect on off reset get put watch record play replay up down check names serve tls new demo script"
   local cmd="" i
   for ((i = 1; i < cword; i++)); do
     case ${words[i]} in
@@ -90,6 +90,22 @@ _rtm() {
       ;;
     names) COMPREPLY=($(compgen -W "--stop" -- "$cur")) ;;
     demo) COMPREPLY=($(compgen -W "--bus --out --profile --system --duration --bin --check --realtime --no-realtime --help" -- "$cur")) ;;
+    script)
+      if [[ $cur == -* ]]; then
+        COMPREPLY=($(compgen -W "--name --reference --wrench --pose --controller --help-script" -- "$cur"))
+      elif [[ $prev == --reference || $prev == --wrench || $prev == --pose ]]; then
+        if [[ $cur == *.* ]]; then
+          COMPREPLY=($(compgen -W "$(_rtm_ports "$cur")" -- "$cur"))
+        else
+          compopt -o nospace 2>/dev/null
+          COMPREPLY=($(compgen -S . -W "$(_rtm_components)" -- "$cur"))
+        fi
+      elif [[ $prev == --controller ]]; then
+        COMPREPLY=($(compgen -W "$(_rtm_components)" -- "$cur"))
+      else
+        COMPREPLY=($(compgen -f -X '!*.py' -- "$cur"))
+      fi
+      ;;
     new)
       if [[ $prev == new ]]; then
         COMPREPLY=($(compgen -W "component" -- "$cur"))
