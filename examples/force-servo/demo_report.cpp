@@ -519,9 +519,11 @@ std::string percent(double fraction) { return fmt::format("{:.1f} %", fraction *
 
 }  // namespace
 
-std::vector<FigureVerdict> evaluate_figures(const Report& report, const PhaseOptions& options,
-                                            const FigureLimits& limits) {
-  std::vector<FigureVerdict> verdicts;
+namespace {
+
+// Figures 1-4: the touch-downs, the steps in contact and the release.
+void evaluate_operator_figures(const Report& report, const PhaseOptions& options, const FigureLimits& limits,
+                               std::vector<FigureVerdict>& verdicts) {
   const DemoFigures& f = report.figures;
   const std::string band = fmt::format("+-{:g} N", options.settle_band_N);
 
@@ -569,7 +571,14 @@ std::vector<FigureVerdict> evaluate_figures(const Report& report, const PhaseOpt
                                     r.lifted ? "" : "; still in contact at the end"),
                         release_limit, r.lifted && r.transitions <= limits.max_release_transitions});
   }
+}
 
+}  // namespace
+
+std::vector<FigureVerdict> evaluate_figures(const Report& report, const PhaseOptions& options,
+                                            const FigureLimits& limits) {
+  std::vector<FigureVerdict> verdicts;
+  if (report.operator_figures) evaluate_operator_figures(report, options, limits, verdicts);
   const std::string watchdog_limit = fmt::format("<= {:g}", limits.max_watchdog_events);
   if (const auto w = find_statistic(report.timing, "watchdog_events")) {
     const double explained = limits.explained_watchdog_events;
@@ -592,7 +601,7 @@ std::vector<FigureVerdict> evaluate_figures(const Report& report, const PhaseOpt
 std::vector<std::string> missed_figures(const Report& report, const PhaseOptions& options,
                                         const FigureLimits& limits) {
   std::vector<std::string> missed;
-  for (std::size_t i = 0; i < report.phases.size(); ++i) {
+  for (std::size_t i = 0; report.operator_figures && i < report.phases.size(); ++i) {
     const auto& p = report.phases[i];
     if (!p.contact) continue;
     if (p.steady_error_N > options.settle_band_N) {

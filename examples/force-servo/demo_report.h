@@ -241,6 +241,10 @@ struct Report {
                                         // sample-to-drive latency, command-loss recoveries
   std::size_t samples = 0;
   double duration_s = 0;
+  // false for a motion script's run (script_report.h): its reference is partly a velocity
+  // asked for through the controller's gain, not an operator's push, so figures 1-4 and the
+  // phases' steady-state errors do not apply; the script's own figures do.
+  bool operator_figures = true;
 };
 
 // One figure of the demo against its limit, as the summary prints it.
@@ -251,7 +255,8 @@ struct FigureVerdict {
   bool ok = false;
 };
 
-// Figures 1-5 above against limits, in that order (one line per touch-down and per step).
+// Figures 1-5 above against limits, in that order (one line per touch-down and per step);
+// figure 5 alone when !report.operator_figures.
 std::vector<FigureVerdict> evaluate_figures(const Report& report, const PhaseOptions& options,
                                             const FigureLimits& limits = {});
 

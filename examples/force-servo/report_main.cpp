@@ -3,20 +3,21 @@
 // script out.
 //
 //   rtm-demo-report --reference joystick.csv --sensor sensor.csv --command controller.csv
-//                   [--timing timing.json] --out DIR
+//                   [--timing timing.json] [--script-phases phases.csv --pose pose.csv] --out DIR
 //   rtm-demo-report live --seconds N --reference ... --sensor ... --command ...
 //
 // Writes DIR/force_servo.csv, DIR/force_servo.gp (draws DIR/force_servo.png) and
 // DIR/summary.txt, and prints the summary. Exit 0 on success, 1 for unusable input,
 // 2 for a bad command line, 3 with --check when a figure the demo promises (demo_report.h:
 // touch-down overshoot, settling, release transitions, watchdog events; steady-state error,
-// overruns) is missed or cannot be measured.
+// overruns; a motion script's slides: script_report.h) is missed or cannot be measured.
 //
 // live: the demo's display while it runs, one line a second for N seconds on one
 // CLOCK_MONOTONIC grid, from the newest complete row of each recording (demo_report.h). One
 // process reading three file tails a second, where the demo's shell loop once started a dozen
 // commands a second for it.
 #include "demo_report.h"
+#include "script_report.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -107,6 +108,18 @@ int main(int argc, char** argv) {
   rtm::demo::FigureLimits limits;
   double max_overshoot_percent = limits.max_overshoot * 100;
   add_figure_options(app, options, limits, max_overshoot_percent);
+  std::string phases_csv, pose_csv;
+  rtm::demo::ScriptLimits script_limits;
+  app.add_option("--script-phases", phases_csv, "a motion script's phase log (rtm script --phases): its motions and "
+                 "each slide's force error and path")->check(CLI::ExistingFile);
+  app.add_option("--pose", pose_csv, "rtm watch --csv of the actuator's pose (the path of a slide)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--max-slide-force-error", script_limits.max_force_error_p99_N,
+                 "limit on a slide's force error along the normal, p99, N")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  double max_deviation_mm = script_limits.max_deviation_m * 1000;
+  app.add_option("--max-path-deviation", max_deviation_mm, "limit on a slide's distance from its straight line, mm")
+      ->capture_default_str()->check(CLI::PositiveNumber);
   app.add_flag("--check", check,
                "exit 3 when a figure is missed or not measured (see the summary's demo figures), a contact "
                "phase's steady-state error exceeds the band, or a component overran");
@@ -116,6 +129,7 @@ int main(int argc, char** argv) {
     return app.exit(error) == 0 ? 0 : 2;  // CLI11's own codes (105, 106, ...) are all "bad command line"
   }
   limits.max_overshoot = max_overshoot_percent / 100;
+  script_limits.max_deviation_m = max_deviation_mm / 1000;
 
   try {
     const auto samples = rtm::demo::align(rtm::demo::read_watch_csv(reference_csv),
@@ -128,6 +142,7 @@ int main(int argc, char** argv) {
     const auto phases = rtm::demo::detect_phases(samples, options);
     for (const auto& phase : phases) report.phases.push_back(rtm::demo::summarize(samples, phase, options));
     report.figures = rtm::demo::compute_figures(samples, phases, options, limits);
+    report.operator_figures = phases_csv.empty();
     if (!timing_json.empty()) {
       std::ifstream in(timing_json);
       const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -142,14 +157,25 @@ int main(int argc, char** argv) {
       gp << rtm::demo::gnuplot_script(dir / "force_servo.csv", dir / "force_servo.png", report.phases);
       if (!gp.flush()) throw rtm::demo::ReportError((dir / "force_servo.gp").string() + ": write failed");
     }
-    const std::string summary = rtm::demo::format_report(report, options, limits);
+    std::string summary = rtm::demo::format_report(report, options, limits);
+    std::vector<std::string> script_missed;
+    if (!phases_csv.empty()) {
+      const auto script_phases = rtm::demo::read_script_phases(phases_csv);
+      const auto sensor = rtm::demo::read_watch_csv(sensor_csv);
+      const auto pose = pose_csv.empty() ? rtm::demo::Series{} : rtm::demo::read_watch_csv(pose_csv);
+      std::vector<rtm::demo::SlideFigures> slides;
+      for (const auto& p : script_phases)
+        if (p.motion == "slide") slides.push_back(rtm::demo::slide_figures(p, sensor, pose));
+      summary += rtm::demo::format_script_report(script_phases, slides, script_limits, script_missed);
+    }
     {
       std::ofstream txt(dir / "summary.txt");
       txt << summary;
     }
     fmt::print("{}", summary);
     if (check) {
-      const auto missed = rtm::demo::missed_figures(report, options, limits);
+      auto missed = rtm::demo::missed_figures(report, options, limits);
+      missed.insert(missed.end(), script_missed.begin(), script_missed.end());
       for (const auto& m : missed) fmt::print(stderr, "rtm-demo-report: missed: {}\n", m);
       if (!missed.empty()) return 3;
     }

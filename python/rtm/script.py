@@ -212,12 +212,30 @@ def _run(args, system, child, read_fd, wired, stop):
             return fail(f"the script component exited with {child.returncode} before the script ended", 1)
     text = line.decode(errors="replace").strip()
     code, _, outcome = text.partition(" ")
+    _print_timing(system, args.name)
     print(f"rtm script: {os.path.basename(args.file)}: {outcome}", file=sys.stderr if code != "0" else sys.stdout,
           flush=True)
     try:
         return int(code)
     except ValueError:
         return 1
+
+
+def _print_timing(system, name):
+    """One line of the script component's loop, as it ran (rtm ls -l's figures)."""
+    try:
+        d = system.describe(name)
+    except rtm.Error:
+        return
+    t = d.get("timing") or {}
+    stats = d.get("statistics", {})
+    step = stats.get("python.step_p99", {}).get("value")
+    gil = stats.get("python.gil_wait_p99", {}).get("value")
+    if not t:
+        return
+    print(f"rtm script: {name} ran {t['cycles']} cycles: lateness p99 {t['lateness_p99_ns'] / 1000:.1f} us, max "
+          f"{t['lateness_max_ns'] / 1000:.1f} us, {t['overruns']} overruns; step p99 {step} us, GIL wait p99 {gil} us",
+          flush=True)
 
 
 if __name__ == "__main__":

@@ -5,14 +5,22 @@
 # summary and the CSV written, both press phases found in contact, no sanitizer report in the
 # processes' logs, and nothing the demo started still running. Figures are not checked (no --check): that is for quiet machines.
 #
-# Usage: demo_smoke_test.sh DEMO BIN_DIR [SYSTEM_FILE]   (default: the demo's own, the paper's
-# five processes; examples/force-servo/system-shared.yaml runs the servo's shared tick)
+# With a motion script instead of a system file (SCRIPT.py), the demo runs that script in the
+# joystick's place: exit code 0, every motion of the script done, the slide's figures reported
+# (the path within its limit), and the same checks of the chain, sanitizers and leftovers.
+#
+# Usage: demo_smoke_test.sh DEMO BIN_DIR [SYSTEM_FILE | SCRIPT.py]   (default: the demo's own,
+# the paper's five processes; examples/force-servo/system-shared.yaml runs the servo's shared tick)
 set -euo pipefail
 
 demo=$1
 bin_dir=$2
-system_args=()
-[[ -n "${3:-}" ]] && system_args=(--system "$3")
+system_args=() script=""
+if [[ "${3:-}" == *.py ]]; then
+  script=$3
+elif [[ -n "${3:-}" ]]; then
+  system_args=(--system "$3")
+fi
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/rtm-demo-smoke.XXXXXX")
 
 # Every process the demo starts inherits TMPDIR=$tmp/run (its private runtime folder is made
@@ -60,20 +68,39 @@ segments:
 YAML
 
 status=0
-TMPDIR="$tmp/run" "$demo" --bin "$bin_dir" "${system_args[@]}" --profile "$tmp/profile.yaml" --duration 13 --out "$tmp/out" \
-  >"$tmp/demo.log" 2>&1 || status=$?
+if [[ -n "$script" ]]; then
+  TMPDIR="$tmp/run" "$demo" --bin "$bin_dir" --script "$script" --duration 90 --out "$tmp/out" \
+    >"$tmp/demo.log" 2>&1 || status=$?
+else
+  TMPDIR="$tmp/run" "$demo" --bin "$bin_dir" "${system_args[@]}" --profile "$tmp/profile.yaml" --duration 13 \
+    --out "$tmp/out" >"$tmp/demo.log" 2>&1 || status=$?
+fi
 ((status == 0)) || fail "exit code $status, want 0"
 
 for file in summary.txt force_servo.csv; do
   [[ -s "$tmp/out/$file" ]] || fail "$file missing or empty in the output folder"
 done
 [[ $(wc -l <"$tmp/out/force_servo.csv") -gt 1000 ]] || fail "force_servo.csv holds fewer than 1000 rows"
-# A phase row: "#  start - end  reference x y z  measured x y z ... contact" (z is field 7).
-for reference in -10.0 -20.0; do
-  awk -v ref="$reference" '$NF == "contact" && $7 == ref { found = 1 } END { exit !found }' \
-    "$tmp/out/summary.txt" || fail "no press phase at $reference N in contact in summary.txt:
+if [[ -n "$script" ]]; then
+  # Each motion row of "Motion script": "  T s  D s  OUTCOME  description".
+  motions=$(awk '/^Motion script, each motion/ { on = 1; next } on && /^  / { print $5; next } { on = 0 }' \
+    "$tmp/out/summary.txt")
+  [[ -n "$motions" && -z $(grep -vx done <<<"$motions") ]] || fail "not every motion of the script is done:
 $(cat "$tmp/out/summary.txt")"
-done
+  grep -q "figure: force error along the normal while sliding, p99" "$tmp/out/summary.txt" ||
+    fail "no slide force figure in summary.txt"
+  grep -q "figure: path deviation, max .*: ok$" "$tmp/out/summary.txt" ||
+    fail "the slide's path is not within its limit in summary.txt:
+$(cat "$tmp/out/summary.txt")"
+  grep -q "rtm script exited 0" "$tmp/out/summary.txt" || fail "rtm script did not exit 0"
+else
+  # A phase row: "#  start - end  reference x y z  measured x y z ... contact" (z is field 7).
+  for reference in -10.0 -20.0; do
+    awk -v ref="$reference" '$NF == "contact" && $7 == ref { found = 1 } END { exit !found }' \
+      "$tmp/out/summary.txt" || fail "no press phase at $reference N in contact in summary.txt:
+$(cat "$tmp/out/summary.txt")"
+  done
+fi
 
 # The paper's chain is watched at its end, the actuator (a process of its own, or the shared
 # tick's member), and the summary reports it.
@@ -87,7 +114,7 @@ if grep -l -E "ERROR: (Address|Leak|Thread|UndefinedBehavior)Sanitizer|runtime e
 fi
 
 # The bus and naming port of this run, from the demo's own lines.
-bus=$(sed -n 's/^demo: pa10-sim on local:\([^ ]*\) playing.*/\1/p' "$tmp/demo.log")
+bus=$(sed -n 's/^demo: pa10-sim on local:\([^ ]*\).*/\1/p' "$tmp/demo.log")
 naming=$(sed -n 's/^demo: omniNames on \(.*\)$/\1/p' "$tmp/demo.log")
 [[ -n "$bus" && -n "$naming" ]] || fail "the demo did not name its bus and naming service"
 left=$(leftovers)

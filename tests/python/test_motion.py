@@ -126,6 +126,8 @@ def test_a_script_runs_its_motions_in_order_and_brakes_at_its_end(servo, naming,
                                          "--log", str(tmp_path / "script0.log")))
     assert status == 0, out + err
     assert "short.py: done" in out
+    cycles = int(re.search(r"script0 ran (\d+) cycles: lateness p99 [0-9.]+ us", out).group(1))
+    assert cycles > 1000  # a few seconds on the 2 ms grid
     assert phases(tmp_path / "phases.csv") == [["approach", "done"], ["press", "done"], ["slide", "done"],
                                                ["unload", "done"], ["lift", "done"]]
     pressed = float(re.search(r"pressed ([0-9.]+) N", (tmp_path / "script0.log").read_text()).group(1))
