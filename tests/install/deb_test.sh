@@ -70,6 +70,10 @@ if [[ $python =~ ^(ON|TRUE|YES|Y|1)$ ]]; then
   grep -qE '^\./usr/lib/python3/dist-packages/rtm/_rtm\.cpython-[0-9]+-x86_64-linux-gnu\.so$' <<<"$listing" ||
     fail "rtm lacks the Python module rtm._rtm"
   [[ $depends == *python3-numpy* ]] || fail "rtm's Depends lacks python3-numpy (import rtm): $depends"
+  for file in rtm/motion.py rtm/script.py; do
+    grep -qxF "./usr/lib/python3/dist-packages/$file" <<<"$listing" || fail "rtm lacks the Python package's $file"
+  done
+  grep -qxF ./usr/share/rtm/examples/force-servo/slide.py <<<"$listing" || fail "rtm lacks the motion script example"
 fi
 for p in libomniorb4-dev liborocos-kdl-dev cmake; do
   [[ $depends != *"$p"* ]] || fail "rtm depends on $p, which only building needs: $depends"
@@ -102,6 +106,10 @@ if [[ $python =~ ^(ON|TRUE|YES|Y|1)$ ]]; then
   PYTHONPATH="$work/root/usr/lib/python3/dist-packages" /usr/bin/python3 -c \
     'import rtm, sys; sys.exit(0 if rtm.System and rtm.Component else 1)' >"$work/python" 2>&1 ||
     fail "import rtm from the unpacked package: $(cat "$work/python")"
+  # rtm script finds the package beside itself (<prefix>/lib/python3/dist-packages).
+  "$work/root/usr/bin/rtm" script --help-script >"$work/script" 2>&1 ||
+    fail "rtm script --help-script from the unpacked package: $(cat "$work/script")"
+  grep -q "^usage: rtm script" "$work/script" || fail "rtm script --help-script: $(cat "$work/script")"
 fi
 grep -qF "$work/root/usr/share/rtm/models/pa10_scene.xml" "$work/help" || fail "pa10-sim does not look beside itself"
 # What rtm needs, itself or through RTM's shared libraries.
