@@ -88,6 +88,43 @@ void add_figure_options(CLI::App& app, rtm::demo::PhaseOptions& options, rtm::de
 
 }  // namespace
 
+namespace {
+
+// A motion script's run: its phase log and the tool's pose (script_report.h).
+struct ScriptInputs {
+  std::string phases_csv, pose_csv;
+  rtm::demo::ScriptLimits limits;
+  double max_deviation_mm = rtm::demo::ScriptLimits{}.max_deviation_m * 1000;
+};
+
+void add_script_options(CLI::App& app, ScriptInputs& script) {
+  app.add_option("--script-phases", script.phases_csv,
+                 "a motion script's phase log (rtm script --phases): its motions and each slide's force error and path")
+      ->check(CLI::ExistingFile);
+  app.add_option("--pose", script.pose_csv, "rtm watch --csv of the actuator's pose (the path of a slide)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--max-slide-force-error", script.limits.max_force_error_p99_N,
+                 "limit on a slide's force error along the normal, p99, N")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-path-deviation", script.max_deviation_mm, "limit on a slide's distance from its straight line, mm")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+}
+
+// The summary's part on the script; what it misses goes to `missed`.
+std::string script_summary(const ScriptInputs& script, const std::string& sensor_csv, std::vector<std::string>& missed) {
+  const auto phases = rtm::demo::read_script_phases(script.phases_csv);
+  const auto sensor = rtm::demo::read_watch_csv(sensor_csv);
+  const auto pose = script.pose_csv.empty() ? rtm::demo::Series{} : rtm::demo::read_watch_csv(script.pose_csv);
+  std::vector<rtm::demo::SlideFigures> slides;
+  for (const auto& p : phases)
+    if (p.motion == "slide") slides.push_back(rtm::demo::slide_figures(p, sensor, pose));
+  return rtm::demo::format_script_report(phases, slides, script.limits, missed);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   if (argc > 1 && std::string_view(argv[1]) == "live") return run_live(argc - 1, argv + 1);
   CLI::App app{"rtm-demo-report: summary, CSV and plot of a force-servo demo recording"};
@@ -108,18 +145,8 @@ int main(int argc, char** argv) {
   rtm::demo::FigureLimits limits;
   double max_overshoot_percent = limits.max_overshoot * 100;
   add_figure_options(app, options, limits, max_overshoot_percent);
-  std::string phases_csv, pose_csv;
-  rtm::demo::ScriptLimits script_limits;
-  app.add_option("--script-phases", phases_csv, "a motion script's phase log (rtm script --phases): its motions and "
-                 "each slide's force error and path")->check(CLI::ExistingFile);
-  app.add_option("--pose", pose_csv, "rtm watch --csv of the actuator's pose (the path of a slide)")
-      ->check(CLI::ExistingFile);
-  app.add_option("--max-slide-force-error", script_limits.max_force_error_p99_N,
-                 "limit on a slide's force error along the normal, p99, N")
-      ->capture_default_str()->check(CLI::PositiveNumber);
-  double max_deviation_mm = script_limits.max_deviation_m * 1000;
-  app.add_option("--max-path-deviation", max_deviation_mm, "limit on a slide's distance from its straight line, mm")
-      ->capture_default_str()->check(CLI::PositiveNumber);
+  ScriptInputs script;
+  add_script_options(app, script);
   app.add_flag("--check", check,
                "exit 3 when a figure is missed or not measured (see the summary's demo figures), a contact "
                "phase's steady-state error exceeds the band, or a component overran");
@@ -129,7 +156,7 @@ int main(int argc, char** argv) {
     return app.exit(error) == 0 ? 0 : 2;  // CLI11's own codes (105, 106, ...) are all "bad command line"
   }
   limits.max_overshoot = max_overshoot_percent / 100;
-  script_limits.max_deviation_m = max_deviation_mm / 1000;
+  script.limits.max_deviation_m = script.max_deviation_mm / 1000;
 
   try {
     const auto samples = rtm::demo::align(rtm::demo::read_watch_csv(reference_csv),
@@ -142,7 +169,7 @@ int main(int argc, char** argv) {
     const auto phases = rtm::demo::detect_phases(samples, options);
     for (const auto& phase : phases) report.phases.push_back(rtm::demo::summarize(samples, phase, options));
     report.figures = rtm::demo::compute_figures(samples, phases, options, limits);
-    report.operator_figures = phases_csv.empty();
+    report.operator_figures = script.phases_csv.empty();
     if (!timing_json.empty()) {
       std::ifstream in(timing_json);
       const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -159,15 +186,7 @@ int main(int argc, char** argv) {
     }
     std::string summary = rtm::demo::format_report(report, options, limits);
     std::vector<std::string> script_missed;
-    if (!phases_csv.empty()) {
-      const auto script_phases = rtm::demo::read_script_phases(phases_csv);
-      const auto sensor = rtm::demo::read_watch_csv(sensor_csv);
-      const auto pose = pose_csv.empty() ? rtm::demo::Series{} : rtm::demo::read_watch_csv(pose_csv);
-      std::vector<rtm::demo::SlideFigures> slides;
-      for (const auto& p : script_phases)
-        if (p.motion == "slide") slides.push_back(rtm::demo::slide_figures(p, sensor, pose));
-      summary += rtm::demo::format_script_report(script_phases, slides, script_limits, script_missed);
-    }
+    if (!script.phases_csv.empty()) summary += script_summary(script, sensor_csv, script_missed);
     {
       std::ofstream txt(dir / "summary.txt");
       txt << summary;
