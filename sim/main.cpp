@@ -70,6 +70,10 @@ int main(int argc, char** argv) {
             }
           },
           "SURFACE"));
+  app.add_option("--friction", options.friction,
+                 "Coulomb friction coefficient of the tool tip on the surface (0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 2.0));
   app.add_flag("--quiet", options.quiet, "no status lines on stdout");
   try {
     app.parse(argc, argv);

@@ -63,6 +63,7 @@ Pa10Plant::Pa10Plant(const std::string& scene_path, ServoGains gains, const Surf
     joystick_site_ = require_id(model_, mjOBJ_SITE, "joystick_ft", scene_path);
     tool_site_ = require_id(model_, mjOBJ_SITE, "tool_tip", scene_path);
     tool_geom_ = mj_name2id(model_, mjOBJ_GEOM, "tool_tip");
+    tool_body_ = model_->site_bodyid[tool_site_];
     table_top_geom_ = mj_name2id(model_, mjOBJ_GEOM, "table_top");
     auto sensor_adr = [&](const char* name) {
       return model_->sensor_adr[require_id(model_, mjOBJ_SENSOR, name, scene_path)];
@@ -123,6 +124,7 @@ void Pa10Plant::reset_to_keyframe(const std::string& name) {
   const int key = mj_name2id(model_, mjOBJ_KEY, name.c_str());
   if (key < 0) throw SceneError("the scene has no keyframe '" + name + "'");
   mj_resetDataKeyframe(model_, data_, key);
+  normal_force_N_ = 0;
   std::array<double, kJointCount> q{};
   std::copy_n(data_->qpos, kJointCount, q.begin());
   set_joint_positions(q);
@@ -211,8 +213,46 @@ void Pa10Plant::step() {
   // Split step: step1 brings M(q) and the bias forces up to date for this state, the servo
   // uses them, step2 applies the torques and integrates.
   mj_step1(model_, data_);
+  apply_tool_friction();
   compute_servo_torques();
   mj_step2(model_, data_);
+  measure_tool_normal_force();
+}
+
+void Pa10Plant::measure_tool_normal_force() {
+  normal_force_N_ = 0;
+  for (int i = 0; i < data_->ncon; ++i) {
+    const mjContact& contact = data_->contact[i];
+    const bool tool_on_top = (contact.geom1 == tool_geom_ && contact.geom2 == table_top_geom_) ||
+                             (contact.geom2 == tool_geom_ && contact.geom1 == table_top_geom_);
+    if (!tool_on_top) continue;
+    mjtNum force[6];
+    mj_contactForce(model_, data_, i, force);  // contact frame: [0] along the normal
+    normal_force_N_ += std::max(0.0, static_cast<double>(force[0]));
+  }
+}
+
+void Pa10Plant::apply_tool_friction() {
+  mjtNum* applied = data_->xfrc_applied + 6 * tool_body_;
+  std::fill(applied, applied + 6, 0.0);
+  if (normal_force_N_ <= 0 || surface_.friction <= 0) return;
+  // The tip's linear velocity in the world frame; the top moves along z alone, so its velocity
+  // along the top (x, y) is the slip.
+  mjtNum velocity[6];
+  mj_objectVelocity(model_, data_, mjOBJ_SITE, tool_site_, velocity, 0);
+  const double vx = velocity[3], vy = velocity[4];
+  const double scale = surface_.friction * normal_force_N_ / std::max(std::hypot(vx, vy), kSlipSpeed_m_s);
+  const mjtNum force[3] = {-scale * vx, -scale * vy, 0};
+  // MuJoCo applies xfrc_applied at the body's centre of mass: move the moment there.
+  const mjtNum* tip = data_->site_xpos + 3 * tool_site_;
+  const mjtNum* com = data_->xipos + 3 * tool_body_;
+  const mjtNum lever[3] = {tip[0] - com[0], tip[1] - com[1], tip[2] - com[2]};
+  mjtNum moment[3];
+  mju_cross(moment, lever, force);
+  for (int i = 0; i < 3; ++i) {
+    applied[i] = force[i];
+    applied[3 + i] = moment[i];
+  }
 }
 
 double Pa10Plant::timestep_s() const { return model_->opt.timestep; }

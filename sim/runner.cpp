@@ -160,9 +160,11 @@ SimulatorConfig simulator_config(const RunOptions& options) {
   config.gains.velocity_bandwidth_rad_s = options.velocity_bandwidth_rad_s;
   try {
     config.surface = parse_surface(options.surface);
+    config.surface.friction = options.friction;
   } catch (const std::invalid_argument& error) {
     throw RunError(std::string("--surface: ") + error.what());
   }
+  if (!(options.friction >= 0 && options.friction <= 2)) throw RunError("--friction must be in [0, 2]");
   if (!options.profile_path.empty())
     config.operator_profile = OperatorProfile::from_file(options.profile_path);
   return config;

@@ -12,10 +12,10 @@ namespace {
 
 // docs/pa10-model.md, "Surfaces", gives the reasoning and sources for each figure.
 const std::array<Surface, 4> kPresets{{
-    {"sponge", 300, 1.0},
-    {"rubber", 5'000, 0.5},
-    {"wood", 30'000, 0.3},
-    {"steel", 100'000, 0.2},
+    {"sponge", 300, 1.0, kDefaultFriction},
+    {"rubber", 5'000, 0.5, kDefaultFriction},
+    {"wood", 30'000, 0.3, kDefaultFriction},
+    {"steel", 100'000, 0.2, kDefaultFriction},
 }};
 
 constexpr double kMinStiffness_N_m = 10;

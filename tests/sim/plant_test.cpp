@@ -162,3 +162,41 @@ TEST(Pa10Plant, TheWristSensorReadsTheWeightOfAToolOfKnownMassInItsOwnFrame) {
 }
 
 }  // namespace
+
+// The tip pressed on the table and dragged along it (S1 turning the whole arm): the friction
+// is the surface's Coulomb coefficient times the normal force, against the slip, and the
+// normal force stays steady while it slides. With MuJoCo's own friction cone on this contact
+// one sample in ten read almost no force and the next nearly twice it.
+TEST(Pa10Plant, TheTipSlidesOnTheTableWithCoulombFrictionAndASteadyNormalForce) {
+  for (const double mu : {0.3, 0.0}) {
+    rtm::sim::Surface surface = rtm::sim::default_surface();
+    surface.friction = mu;
+    Pa10Plant plant(RTM_PA10_SCENE, {}, surface);
+    plant.set_command(3, {JointCommand::Mode::velocity, 0.02});  // E1 presses the tip down
+    for (int i = 0; i < 20000 && plant.tool_normal_force_N() < 10.0; ++i) plant.step();
+    ASSERT_GE(plant.tool_normal_force_N(), 10.0);
+    plant.set_command(3, {JointCommand::Mode::velocity, 0.0});
+    for (int i = 0; i < 500; ++i) plant.step();
+    plant.set_command(0, {JointCommand::Mode::velocity, 0.02});  // S1: ~11 mm/s along the top
+    for (int i = 0; i < 500; ++i) plant.step();
+    double lowest_N = 1e9, highest_N = 0, ratio_sum = 0;
+    const int steps = 1000;
+    for (int i = 0; i < steps; ++i) {
+      plant.step();
+      // The wrist's force in the world frame (the sensor's axes are the tool's): its part
+      // along the top is the friction, the tool's tilt whatever it is.
+      const Wrench w = plant.wrist_wrench();
+      const auto r = plant.tool_rotation();  // row-major, tool -> world
+      const double fx = r[0] * w.force_N[0] + r[1] * w.force_N[1] + r[2] * w.force_N[2];
+      const double fy = r[3] * w.force_N[0] + r[4] * w.force_N[1] + r[5] * w.force_N[2];
+      const double normal_N = plant.tool_normal_force_N();
+      lowest_N = std::min(lowest_N, normal_N);
+      highest_N = std::max(highest_N, normal_N);
+      ratio_sum += std::hypot(fx, fy) / normal_N;
+    }
+    SCOPED_TRACE("friction " + std::to_string(mu));
+    EXPECT_GT(lowest_N, 5.0) << "the tip lost the table while sliding";
+    EXPECT_LT(highest_N - lowest_N, 0.2 * highest_N) << "the normal force chattered";
+    EXPECT_NEAR(ratio_sum / steps, mu, 0.03) << "tangential / normal force at the wrist";
+  }
+}

@@ -596,13 +596,22 @@ TEST_F(RtmScript, RunsPythonOnRtmScriptWithTheFileAndEveryWordAfterItUnchanged) 
 }
 
 TEST_F(RtmScript, PutsTheBuildTreesPackageFirstOnPythonPath) {
-  const std::filesystem::path build_python = std::filesystem::path(RTM_BIN_DIR).parent_path() / "python";
-  ASSERT_TRUE(std::filesystem::exists(build_python / "rtm" / "__init__.py")) << build_python;
-  const auto r = script({"script", "slide.py"});
+  // A build tree of its own (a sanitizer preset builds no Python package): bin/rtm and
+  // python/rtm/__init__.py beside it.
+  const std::filesystem::path bin = dir_ / "build" / "bin";
+  const std::filesystem::path package = dir_ / "build" / "python" / "rtm";
+  std::filesystem::create_directories(bin);
+  std::filesystem::create_directories(package);
+  std::filesystem::copy_file(RTM_CLI_PATH, bin / "rtm");
+  auto r = script({"script", "slide.py"}, (bin / "rtm").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("\nPYTHONPATH=" + std::filesystem::canonical(build_python).string() + ":/nowhere\n"),
-            std::string::npos)
-      << r.out;
+  EXPECT_NE(r.out.find("\nPYTHONPATH=/nowhere\n"), std::string::npos) << "python/ without the package: unchanged\n"
+                                                                        << r.out;
+  std::ofstream(package / "__init__.py") << "\n";
+  r = script({"script", "slide.py"}, (bin / "rtm").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto real = std::filesystem::canonical(dir_ / "build" / "python");
+  EXPECT_NE(r.out.find("\nPYTHONPATH=" + real.string() + ":/nowhere\n"), std::string::npos) << r.out;
 }
 
 TEST_F(RtmScript, PutsAnInstalledTreesPackageFirstOnPythonPathAndNoneWhenThereIsNeither) {

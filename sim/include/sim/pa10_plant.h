@@ -102,6 +102,13 @@ class Pa10Plant final : public Plant {
 
   // One physics step (timestep_s()).
   void step() override;
+  // The force the tool tip pushes on the table top with, along its normal, after the last step
+  // (N; 0 when not touching): what the plant's friction scales with.
+  double tool_normal_force_N() const { return normal_force_N_; }
+
+  // Below this tangential speed the tip's friction fades linearly (viscous): a Coulomb law
+  // with no static stick, so that neither the explicit step nor the drives' loops chatter on it.
+  static constexpr double kSlipSpeed_m_s = 0.002;
 
   double timestep_s() const override;
   double time_s() const;
@@ -144,6 +151,12 @@ class Pa10Plant final : public Plant {
   int joystick_site_ = -1;
   int tool_site_ = -1;
   int tool_geom_ = -1, table_top_geom_ = -1;  // -1: not in the scene
+  int tool_body_ = -1;
+  double normal_force_N_ = 0;  // the tip on the top, after the last step
+  // Friction of the tip on the top, applied at the tip: -mu N v_t / max(|v_t|, kSlipSpeed), v_t
+  // the tip's velocity along the top; none when not touching.
+  void apply_tool_friction();
+  void measure_tool_normal_force();
   int wrist_force_adr_ = -1, wrist_torque_adr_ = -1;
   int joystick_force_adr_ = -1, joystick_torque_adr_ = -1;
 };

@@ -30,6 +30,7 @@ struct RunOptions {
   double duration_s = 0;             // stop after this much sim time (0: until stopped)
   double velocity_bandwidth_rad_s = ServoGains{}.velocity_bandwidth_rad_s;  // drive PI loop, -3 dB
   std::string surface = default_surface().name;  // a preset or a stiffness in N/m
+  double friction = kDefaultFriction;  // Coulomb coefficient of the tool tip on the top
   bool quiet = false;
 };
 

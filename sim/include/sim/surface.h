@@ -9,6 +9,10 @@
 // height. MuJoCo's own contact between the tool and the plate is made far stiffer (solref and
 // solimp in the scene), so the stiffness the tool meets is the configured one
 // (tests/sim/identification_test.cpp measures it).
+//
+// Friction along the top is the plant's own (Pa10Plant::apply_tool_friction), not MuJoCo's:
+// MuJoCo's friction cone on this near-rigid contact made the tool chatter as it slid (one wrist
+// sample in ten read almost no force, the next nearly twice it; docs/pa10-model.md, "Friction").
 #pragma once
 
 #include <span>
@@ -18,10 +22,15 @@
 
 namespace rtm::sim {
 
+// The tool tip's Coulomb friction on every surface unless told otherwise (pa10-sim
+// --friction): a steel tip on a dry table lies between 0.2 and 0.6.
+inline constexpr double kDefaultFriction = 0.3;
+
 struct Surface {
   std::string name;         // a preset's name, or "custom"
   double stiffness_N_m = 0; // normal stiffness the tool tip meets
   double damping_ratio = 0; // of the plate on its spring
+  double friction = kDefaultFriction;  // Coulomb coefficient between the tool tip and the top
 };
 
 // sponge, rubber, wood, steel: softest to stiffest.
