@@ -673,16 +673,8 @@ TEST_F(RtmScript, AMissingPythonIsAClearErrorWithExitStatus2) {
       << r.err;
 }
 
-// With the real interpreter: a script that is not there is named. Only once the Python side
-// (python/rtm/script.py, docs/python.md "Motion scripts") is in the build tree.
-TEST_F(RtmScript, AScriptThatIsNotThereIsNamed) {
-  const std::filesystem::path runner = std::filesystem::path(RTM_BIN_DIR).parent_path() / "python/rtm/script.py";
-  if (!std::filesystem::exists(runner)) GTEST_SKIP() << "no " << runner << " in the build tree yet";
-  if (::access("/usr/bin/python3", X_OK) != 0) GTEST_SKIP() << "no /usr/bin/python3";
-  const auto r = script({"script", "/nonexistent.py"}, RTM_CLI_PATH, "/usr/bin/python3");
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("/nonexistent.py"), std::string::npos) << r.err;
-}
+// The real interpreter on a script that is not there: tests/python/test_motion.py
+// (test_rtm_script_refuses_what_it_cannot_run), where the Python package is built.
 
 // ------------------------------------------------------------------ up / down
 
