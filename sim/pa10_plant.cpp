@@ -106,14 +106,17 @@ double Pa10Plant::surface_deflection_m() const {
   return -data_->qpos[model_->jnt_qposadr[surface_joint_]];
 }
 
+bool Pa10Plant::tool_on_top(const mjContact_& contact) const {
+  return (contact.geom1 == tool_geom_ && contact.geom2 == table_top_geom_) ||
+         (contact.geom2 == tool_geom_ && contact.geom1 == table_top_geom_);
+}
+
 double Pa10Plant::tool_indentation_m() const {
   double penetration_m = 0;
   bool touching = false;
   for (int i = 0; i < data_->ncon; ++i) {
     const mjContact& contact = data_->contact[i];
-    const bool tool_on_top = (contact.geom1 == tool_geom_ && contact.geom2 == table_top_geom_) ||
-                             (contact.geom2 == tool_geom_ && contact.geom1 == table_top_geom_);
-    if (!tool_on_top || contact.dist > 0) continue;
+    if (!tool_on_top(contact) || contact.dist > 0) continue;
     touching = true;
     penetration_m = std::max(penetration_m, -contact.dist);
   }
@@ -222,10 +225,7 @@ void Pa10Plant::step() {
 void Pa10Plant::measure_tool_normal_force() {
   normal_force_N_ = 0;
   for (int i = 0; i < data_->ncon; ++i) {
-    const mjContact& contact = data_->contact[i];
-    const bool tool_on_top = (contact.geom1 == tool_geom_ && contact.geom2 == table_top_geom_) ||
-                             (contact.geom2 == tool_geom_ && contact.geom1 == table_top_geom_);
-    if (!tool_on_top) continue;
+    if (!tool_on_top(data_->contact[i])) continue;
     mjtNum force[6];
     mj_contactForce(model_, data_, i, force);  // contact frame: [0] along the normal
     normal_force_N_ += std::max(0.0, static_cast<double>(force[0]));

@@ -8,6 +8,17 @@
 namespace rtm::pa10 {
 using rtm::can::FaultKind;
 
+namespace {
+
+// The joint positions of a state the master published, s1..w2.
+JointVector positions(const rtm::can::JointState& state) {
+  JointVector q_rad;
+  for (int j = 0; j < kJointCount; ++j) q_rad[j] = state.position_rad[j];
+  return q_rad;
+}
+
+}  // namespace
+
 Pa10Arm::Pa10Arm(rtm::can::Pa10Master& master, ArmOptions options) : Pa10Arm(std::string(), master, options) {}
 
 Pa10Arm::Pa10Arm(const std::string& urdf_path, rtm::can::Pa10Master& master, ArmOptions options)
@@ -69,8 +80,7 @@ FaultKind Pa10Arm::order_velocity(const std::array<float, 6>& twist_base) {
     command_zero();
     return set_state(FaultKind::not_enabled, "no feedback from the drives yet");
   }
-  JointVector q_rad;
-  for (int j = 0; j < kJointCount; ++j) q_rad[j] = state.position_rad[j];
+  const JointVector q_rad = positions(state);
   Twist twist;
   for (int i = 0; i < 6; ++i) twist[i] = twist_base[i];
 
@@ -93,12 +103,7 @@ FaultKind Pa10Arm::quick_stop() {
   return FaultKind::none;
 }
 
-JointVector Pa10Arm::joint_positions() const {
-  const rtm::can::JointState state = master_.joint_state();
-  JointVector q_rad;
-  for (int j = 0; j < kJointCount; ++j) q_rad[j] = state.position_rad[j];
-  return q_rad;
-}
+JointVector Pa10Arm::joint_positions() const { return positions(master_.joint_state()); }
 
 JointVector Pa10Arm::joint_velocities() const {
   const rtm::can::JointState state = master_.joint_state();
@@ -112,9 +117,7 @@ Eigen::Isometry3d Pa10Arm::tool_pose() { return kinematics_.tool_pose(joint_posi
 bool Pa10Arm::measured_tool_pose(Eigen::Isometry3d& pose) {
   const rtm::can::JointState state = master_.joint_state();
   if (state.cycle == 0) return false;
-  JointVector q_rad;
-  for (int j = 0; j < kJointCount; ++j) q_rad[j] = state.position_rad[j];
-  pose = kinematics_.tool_pose(q_rad);
+  pose = kinematics_.tool_pose(positions(state));
   return true;
 }
 

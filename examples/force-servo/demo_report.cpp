@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "demo_report.h"
 
+#include "report_text.h"
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -41,23 +43,8 @@ std::vector<std::string_view> split_fields(std::string_view line) {
   return fields;
 }
 
-template <typename T>
-bool parse_number(std::string_view text, T& value) {
-  while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
-  while (!text.empty() && (text.back() == ' ' || text.back() == '\r')) text.remove_suffix(1);
-  if (text.empty()) return false;
-  // from_chars: locale-independent, unlike strtod.
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  return ec == std::errc() && end == text.data() + text.size();
-}
-
-std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ReportError(fmt::format("{}: cannot read", path.string()));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using text::parse_number;
+using text::read_file;
 
 // Stable sort by stamp: rtm watch writes in arrival order, which a reordering network path
 // could permute.
@@ -820,6 +807,14 @@ std::string live_line(int t_s, const Row& r, const Row& s, const Row& c) {
   }
   return fmt::format("  {:5d}  {:<16} {:7.1f} {:7.1f} {:7.1f}  {:7.1f} {:7.1f} {:7.1f}  {:7.1f} {:7.1f} {:7.1f}", t_s, phase,
                      r[1], r[2], r[3], -s[1], -s[2], -s[3], 1000 * c[1], 1000 * c[2], 1000 * c[3]);
+}
+
+std::string text::read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ReportError(fmt::format("{}: cannot read", path.string()));
+  std::ostringstream content;
+  content << in.rdbuf();
+  return content.str();
 }
 
 }  // namespace rtm::demo

@@ -1,13 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "script_report.h"
 
+#include "report_text.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
-#include <fstream>
-#include <iterator>
 #include <string_view>
 
 namespace rtm::demo {
@@ -17,20 +16,13 @@ constexpr std::string_view kHeader =
     "begin_ns,end_ns,motion,outcome,force_N,normal_x,normal_y,normal_z,along_x,along_y,along_z,description";
 constexpr std::size_t kCells = 11;  // before the description
 
-template <typename T>
-bool parse_cell(std::string_view text, T& out) {
-  if (text.empty()) return false;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), out);
-  return error == std::errc() && end == text.data() + text.size();
-}
-
 // Three cells: a finite vector, none (all three empty), or false (anything else).
 bool parse_vector(const std::vector<std::string_view>& cells, std::size_t first,
                   std::optional<std::array<double, 3>>& out) {
   if (cells[first].empty() && cells[first + 1].empty() && cells[first + 2].empty()) return true;
   std::array<double, 3> v{};
   for (std::size_t i = 0; i < 3; ++i)
-    if (!parse_cell(cells[first + i], v[i]) || !std::isfinite(v[i])) return false;
+    if (!text::parse_number(cells[first + i], v[i]) || !std::isfinite(v[i])) return false;
   out = v;
   return true;
 }
@@ -53,15 +45,15 @@ std::string vector_text(const std::array<double, 3>& v, double scale) {
 
 }  // namespace
 
-std::vector<ScriptPhase> parse_script_phases(const std::string& text, const std::string& source_name) {
+std::vector<ScriptPhase> parse_script_phases(const std::string& content, const std::string& source_name) {
   std::vector<ScriptPhase> phases;
   std::size_t start = 0;
   int line_number = 0;
   bool header_seen = false;
-  while (start < text.size()) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    std::string_view line(text.data() + start, end - start);
+  while (start < content.size()) {
+    std::size_t end = content.find('\n', start);
+    if (end == std::string::npos) end = content.size();
+    std::string_view line(content.data() + start, end - start);
     start = end + 1;
     ++line_number;
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
@@ -84,11 +76,11 @@ std::vector<ScriptPhase> parse_script_phases(const std::string& text, const std:
     const std::string_view rest = cells.size() == kCells ? line.substr(from) : std::string_view{};
     ScriptPhase p;
     double force = 0;
-    bool ok = cells.size() == kCells && parse_cell(cells[0], p.begin_ns) && parse_cell(cells[1], p.end_ns) &&
+    bool ok = cells.size() == kCells && text::parse_number(cells[0], p.begin_ns) && text::parse_number(cells[1], p.end_ns) &&
               p.end_ns >= p.begin_ns && !cells[2].empty() && !cells[3].empty() && rest.size() >= 2 &&
               rest.front() == '"' && rest.back() == '"';
     if (ok && !cells[4].empty()) {
-      ok = parse_cell(cells[4], force) && std::isfinite(force);
+      ok = text::parse_number(cells[4], force) && std::isfinite(force);
       p.force_N = force;
     }
     ok = ok && parse_vector(cells, 5, p.normal) && parse_vector(cells, 8, p.along);
@@ -106,10 +98,7 @@ std::vector<ScriptPhase> parse_script_phases(const std::string& text, const std:
 }
 
 std::vector<ScriptPhase> read_script_phases(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ReportError(fmt::format("{}: cannot open", path.string()));
-  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  return parse_script_phases(text, path.string());
+  return parse_script_phases(text::read_file(path), path.string());
 }
 
 SlideFigures slide_figures(const ScriptPhase& phase, const Series& sensor, const Series& pose) {

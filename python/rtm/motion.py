@@ -185,8 +185,7 @@ class Arm:
         self._ports = {}  # the newest datum of each port rtm script --watch wired in, by name
         self._filtered = None  # the wrench's force, low-passed (FRICTION_FILTER_S)
         self._last_s = None
-        self.phases = []  # (begin_ns, end_ns, name, description, outcome) of each call
-        self.started_ns = time.time_ns()
+        self.phases = []  # (begin_ns, end_ns, name, description, outcome, figures()) of each call
 
     # ------------------------------------------------------------ what the script reads
     @property
@@ -331,9 +330,7 @@ class Arm:
             motion = self._current
         self._lost = why
         if motion is not None and not motion.done.is_set():
-            motion.end_ns = time.time_ns()
-            motion.error = ScriptError(f"{motion.describe()}: {why}")
-            motion.done.set()
+            self._end(motion, ScriptError(f"{motion.describe()}: {why}"))
 
     def _contact(self, wrench) -> bool:
         """The controller's contact judgement (its ContactDetector), mirrored."""
@@ -405,10 +402,15 @@ class Arm:
         return self._reference(self._hold_force, self._hold_velocity())
 
     def _finish(self, motion, error=None):
+        """Ends the motion on the cycle; the reference of the hold it leaves."""
+        self._end(motion, error)
+        return self._reference(self._hold_force, self._hold_velocity())
+
+    @staticmethod
+    def _end(motion, error):
         motion.end_ns = time.time_ns()
         motion.error = error
-        motion.done.set()
-        return self._reference(self._hold_force, self._hold_velocity())
+        motion.done.set()  # the script's call returns (or raises error)
 
 
 # ---------------------------------------------------------------- the motions
@@ -581,7 +583,6 @@ class _Wait(_Motion):
     def __init__(self, limit, until):
         super().__init__()
         self.limit, self.until = limit, until
-        self.arm = None
 
     def describe(self):
         if self.until is None:
@@ -590,7 +591,6 @@ class _Wait(_Motion):
 
     def start(self, state, arm):
         self.name = "hold" if self.until is None else "wait"
-        self.arm = arm
 
     def command(self, state, t, arm):
         if self.until is not None:

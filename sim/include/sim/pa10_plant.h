@@ -26,6 +26,7 @@
 
 struct mjModel_;
 struct mjData_;
+struct mjContact_;
 
 namespace rtm::sim {
 
@@ -157,6 +158,7 @@ class Pa10Plant final : public Plant {
   // the tip's velocity along the top; none when not touching.
   void apply_tool_friction();
   void measure_tool_normal_force();
+  bool tool_on_top(const mjContact_& contact) const;  // between the tool tip and the table top
   int wrist_force_adr_ = -1, wrist_torque_adr_ = -1;
   int joystick_force_adr_ = -1, joystick_torque_adr_ = -1;
 };
