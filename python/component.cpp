@@ -417,7 +417,11 @@ int run(const py::object& cls, const std::vector<std::string>& argv) {
 
 void bind_component(py::module_& m) {
   py::class_<InSlot>(m, "InPort", "an InPort of a Python component")
-      .def("read", &InSlot::read, "the datum that came since the last read, or None");
+      .def("read", &InSlot::read, "the datum that came since the last read, or None")
+      .def(
+          "expire_last", [](InSlot& slot) { slot.port().expire_last(); },
+          "the component no longer acts on the last datum read() gave (it braked): a chain ending here counts no "
+          "age and no stale cycle until read() gives a new one");
   py::class_<OutSlot>(m, "OutPort", "an OutPort of a Python component")
       .def("write", &OutSlot::write, py::arg("values"),
            "writes one datum: a Datum (its stamp kept), a mapping of the element names, a sequence or numpy array "

@@ -194,6 +194,7 @@ void Actuator::on_cycle(const rtm::CycleContext&) {
   } else if (went_stale) {
     watchdog_fired = true;
     twist_ = {};
+    command_in_.expire_last();  // braked: the chain's age stops at the last command acted on
     counters_.watchdog_events.add();
   }
   // Otherwise the last command (or the brake after the watchdog) is repeated.

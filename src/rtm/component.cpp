@@ -270,7 +270,7 @@ std::string ComponentServant::record_chains(std::uint64_t cycle) {
   for (auto& chain : chains_) {
     WatchedChain& c = *chain;
     const InPortBase& port = *c.watch.port;
-    if (port.stamps_taken() == 0) continue;
+    if (port.stamps_taken() == 0 || port.last_expired()) continue;
     const std::int64_t age = now - port.last_stamp_ns();
     bool late = false;
     if (port.stamps_taken() != c.seen) {

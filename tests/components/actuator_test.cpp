@@ -90,6 +90,21 @@ TEST(Actuator, WatchdogZeroesTheArmAfterThreePeriodsAndCountsOneEvent) {
   EXPECT_EQ(t.actuator->counters().watchdog_events, 2u);
 }
 
+TEST(Actuator, TheWatchdogsBrakeExpiresTheLastCommandSoAChainThroughItCountsNoAgeUntilTheNext) {
+  ActuatorUnderTest t;
+  const std::array<float, 6> cmd{0.01f, 0, 0, 0, 0, 0};
+  t.step(cmd);
+  EXPECT_FALSE(t.actuator->command_in().last_expired()) << "acting on it";
+  t.step();
+  t.step();
+  EXPECT_FALSE(t.actuator->command_in().last_expired()) << "still repeated: still acted on";
+  t.step();
+  ASSERT_EQ(t.actuator->counters().watchdog_events, 1u);
+  EXPECT_TRUE(t.actuator->command_in().last_expired()) << "braked: no longer acted on";
+  t.step(cmd);
+  EXPECT_FALSE(t.actuator->command_in().last_expired()) << "a new command is acted on";
+}
+
 TEST(Actuator, WatchdogPeriodsAreConfigurable) {
   rtm::comp::ActuatorParams p;
   p.watchdog_periods = 1;

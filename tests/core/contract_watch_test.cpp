@@ -161,6 +161,28 @@ class ChainEnd final : public rtm::Component {
   std::atomic<int> cycles{0};
 };
 
+// Reads its InPort, and after `acting` cycles without a new datum stops acting on the last one
+// (expire_last()), as the actuator does when its watchdog brakes.
+class BrakingChainEnd final : public rtm::Component {
+ public:
+  explicit BrakingChainEnd(int acting) : Component("end0", "test"), acting_(acting) {}
+  void on_cycle(const rtm::CycleContext&) override {
+    RTM::TimedFloat6 datum{};
+    if (in.read(datum) == rtm::ReadResult::NewData) {
+      without_ = 0;
+    } else if (++without_ == acting_) {
+      in.expire_last();
+    }
+    cycles.fetch_add(1);
+  }
+  rtm::InPort<RTM::TimedFloat6>& in = add_in_port<RTM::TimedFloat6>("in");
+  std::atomic<int> cycles{0};
+
+ private:
+  const int acting_;
+  int without_ = 0;
+};
+
 TEST_F(ContractWatch, AChainsEndMeasuresFromTheStampOfTheSampleItsDataDeriveFrom) {
   auto logic = std::make_unique<ChainEnd>();
   ChainEnd& end = *logic;
@@ -179,6 +201,30 @@ TEST_F(ContractWatch, AChainsEndMeasuresFromTheStampOfTheSampleItsDataDeriveFrom
       << "every cycle acted on the 30 ms old datum the port kept";
   EXPECT_GE(statistic(servant, "chain.sample_to_end.age_max"), 30'000.0);
   EXPECT_EQ(end.in.stamps_taken(), 1u);
+}
+
+TEST_F(ContractWatch, CyclesThatNoLongerActOnTheLastDatumCountNoAgeAndNoStaleCycle) {
+  auto logic = std::make_unique<BrakingChainEnd>(2);
+  BrakingChainEnd& end = *logic;
+  rtm::ComponentServant servant(std::move(logic), fast());
+  servant.watch_chain({"sample_to_end", &end.in, 0, 20'000'000});
+  RTM::TimedFloat6 datum{};
+  datum.tm = rtm::from_ns(rtm::to_ns(rtm::now()) - 30'000'000);
+  end.in.deliver(datum);
+  servant.on();
+  ASSERT_TRUE(eventually([&] { return end.cycles.load() >= 8; }));
+  EXPECT_EQ(statistic(servant, "chain.sample_to_end.stale"), 2.0)
+      << "the cycle reading it and the one repeating it; then it expired";
+  // A new datum is acted on again: its cycles count once more.
+  datum.tm = rtm::from_ns(rtm::to_ns(rtm::now()) - 30'000'000);
+  end.in.deliver(datum);
+  ASSERT_TRUE(eventually([&] { return statistic(servant, "chain.sample_to_end.stale") >= 3.0; }));
+  const int after = end.cycles.load();
+  ASSERT_TRUE(eventually([&] { return end.cycles.load() >= after + 4; }));
+  servant.off();
+  EXPECT_EQ(end.in.stamps_taken(), 2u);
+  EXPECT_EQ(statistic(servant, "chain.sample_to_end.stale"), 4.0);
+  EXPECT_GE(statistic(servant, "chain.sample_to_end.age_max"), 30'000.0);
 }
 
 TEST_F(ContractWatch, AChainThatSaysBrakeStopsItsEndAtTheFirstLateDatumAndSaysWhich) {

@@ -14,14 +14,17 @@ class Doubler(rtm.Component):
               "pos": rtm.In("TimedFloat3", "a position", "x y z", "m m m")}
     outputs = {"out": rtm.Out("TimedFloat6", "the wrench times factor", *WRENCH)}
     parameters = {"factor": rtm.Parameter(2.0, description="what it multiplies by"),
-                  "fail": rtm.Parameter(0, description="1: the next step raises")}
+                  "fail": rtm.Parameter(0, description="1: the next step raises"),
+                  "expire": rtm.Parameter(0, description="1: it stops acting on in0's data (expire_last)")}
     budget = "1ms"
 
     def step(self, cycle):
         if self.parameter("fail"):
             raise ValueError(f"asked to fail at cycle {cycle.number}")
         wrench = self.inputs.in0.read()
-        if wrench is not None:
+        if self.parameter("expire"):
+            self.inputs.in0.expire_last()
+        elif wrench is not None:
             self.outputs.out.write(wrench.values * self.parameter("factor"))
 
 

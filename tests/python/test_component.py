@@ -124,3 +124,24 @@ chains:
         assert stats["chain.a_to_c.latency_p50"]["value"] >= 50_000, stats["chain.a_to_c.latency_p50"]
     finally:
         system.down("pychain")
+
+
+def test_a_python_chain_end_that_stops_acting_on_its_data_counts_no_stale_cycle_until_it_acts_again(system,
+                                                                                                  components):
+    components("a", "--on", "--stamp-age-ms", "50")
+    components("dbl0", "--on", "--watch-chain", "a_to_dbl:in0:0ns:10ms", command=DOUBLER)
+    system.connect("a.force", "dbl0.in0")
+
+    def stale():
+        return system.describe("dbl0")["statistics"]["chain.a_to_dbl.stale"]["value"]
+
+    def cycles():
+        return system.describe("dbl0")["timing"]["cycles"]
+
+    until(lambda: stale() >= 5, what="stale cycles: a's data are 50 ms old, the chain tolerates 10 ms")
+    system.set("dbl0", "expire", 1)
+    held, since = stale(), cycles()
+    until(lambda: cycles() >= since + 50, what="50 cycles of dbl0")
+    assert stale() <= held + 1, "a cycle that does not act on its data is not stale (one may have run before the set)"
+    system.set("dbl0", "expire", 0)
+    until(lambda: stale() >= held + 10, what="stale cycles again, once it acts on its data")

@@ -165,6 +165,12 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   std::int64_t last_stamp_ns() const { return last_stamp_ns_; }
   std::uint64_t stamps_taken() const { return stamps_taken_; }
   virtual bool stamped() const = 0;  // its datum is Stamped
+  // The component no longer acts on the newest datum read() gave: it went stale and the
+  // component braked (the actuator's watchdog). A chain watched through this port then counts
+  // no age and no stale cycle until read() gives a new datum: a servo braked on purpose is not a
+  // late chain. On the thread that reads.
+  void expire_last() { last_expired_ = true; }
+  bool last_expired() const { return last_expired_; }
 
   // Re-simulation (rtm/cycle_tap.h): a tap logging into `sink` as port `key`, or (sink null)
   // answering reads from a replay. The port keeps a pointer to it until untap(); only while
@@ -267,6 +273,7 @@ class InPortBase : public virtual POA_RTM::InPortShm {
   // The reading thread's (last_stamp_ns()).
   std::int64_t last_stamp_ns_ = 0;
   std::uint64_t stamps_taken_ = 0;
+  bool last_expired_ = false;
 
   const std::string name_;
   const std::string owner_;

@@ -196,6 +196,7 @@ ReadResult InPort<T>::read(T& out) {
     if (result == ReadResult::NewData) {
       last_stamp_ns_ = to_ns(out.tm);
       ++stamps_taken_;
+      last_expired_ = false;
     }
   }
   return result;
@@ -216,6 +217,7 @@ std::size_t InPort<T>::read_many(std::span<T> out) {
     if (n > 0) {
       last_stamp_ns_ = to_ns(out[n - 1].tm);  // oldest first: the newest is the last
       stamps_taken_ += n;
+      last_expired_ = false;
     }
   }
   return n;
