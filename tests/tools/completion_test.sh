@@ -55,5 +55,11 @@ expect "rtm script slide.py --p" "--pose"
 expect "rtm script slide.py --name s0 --r" "--reference"
 expect "rtm tls i" "init issue"
 expect "rtm --tls /nonexistent-folder g" "get"
+# Component names come from `rtm ls --names`: here a function stands in for a running system.
+rtm() { [[ $* == "ls --names" ]] && printf '%s\n' actuator0 alpha; }
+expect "rtm ls a" "actuator0 alpha"
+expect "rtm ls al" "alpha"
+expect "rtm cat ac" "actuator0"
+unset -f rtm
 if ((fails)); then echo "$fails failed"; exit 1; fi
 echo "all completions as expected"

@@ -96,6 +96,23 @@ TEST_F(RtmCli, LsListsComponentsWithStateKindPeriodAndPorts) {
   EXPECT_EQ(a["ports"][3]["type"], "RTM::TimedFloat3");
 }
 
+TEST_F(RtmCli, LsTakesAComponentsNameAHostOrBoth) {
+  talker("alpha");
+  talker("beta");
+  auto one = rtm_json({"ls", "beta"});
+  ASSERT_EQ(one.size(), 1u) << one.dump();
+  EXPECT_EQ(one[0]["name"], "beta");
+  const std::string host = one[0]["host"];
+  EXPECT_EQ(rtm_json({"ls", host}).size(), 2u) << "a bare word is a host as well";
+  auto both = rtm_json({"ls", host + "/alpha"});
+  ASSERT_EQ(both.size(), 1u);
+  EXPECT_EQ(both[0]["name"], "alpha");
+  EXPECT_EQ(rtm_json({"ls", "gamma"}).size(), 0u) << "no such name nor host";
+  EXPECT_EQ(rtm_json({"ls", "no-such-host/alpha"}).size(), 0u);
+  auto names = rtm({"ls", "--names", "alpha"});
+  EXPECT_EQ(names.out, "alpha\n");
+}
+
 TEST_F(RtmCli, LsLongAddsLatenessAndOverruns) {
   talker("alpha", {"--on"});
   ASSERT_TRUE(eventually([&] {

@@ -241,15 +241,14 @@ std::vector<ComponentInfo> Browser::list(std::string_view filter, bool detailed)
 
 std::vector<ComponentInfo> Browser::list(std::string_view filter, Detail detail, Asking asking) const {
   std::vector<ComponentEntry> entries = naming_.list_components();
-  std::string host_filter, name_filter;
-  if (!filter.empty()) {
-    auto slash = filter.find('/');
-    host_filter = std::string(filter.substr(0, slash));
-    if (slash != std::string_view::npos) name_filter = std::string(filter.substr(slash + 1));
-  }
+  // "host/name", "host/" or "/name" as written; a bare word is a host or a component's name,
+  // as `rtm cat` takes a bare name.
   std::erase_if(entries, [&](const ComponentEntry& e) {
-    return (!host_filter.empty() && e.path.host != host_filter) ||
-           (!name_filter.empty() && e.path.name != name_filter);
+    if (filter.empty()) return false;
+    const auto slash = filter.find('/');
+    if (slash == std::string_view::npos) return e.path.host != filter && e.path.name != filter;
+    const std::string_view host = filter.substr(0, slash), name = filter.substr(slash + 1);
+    return (!host.empty() && e.path.host != host) || (!name.empty() && e.path.name != name);
   });
   std::vector<ComponentInfo> out;
   out.reserve(entries.size());

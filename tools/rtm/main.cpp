@@ -131,7 +131,7 @@ struct Cli {
 
 void add_browse_commands(CLI::App& app, Cli& c) {
   c.ls = app.add_subcommand("ls", "list components in the naming service");
-  c.ls->add_option("path", c.ls_path, "host or host/name to list");
+  c.ls->add_option("path", c.ls_path, "what to list: a host, a component's name, or host/name");
   c.ls->add_flag("-l,--long", c.ls_long, "add lateness, overrun statistics and each component's own statistics");
   c.ls->add_flag("--clean", c.ls_clean, "remove bindings whose process is gone");
   c.ls->add_flag("--names", c.ls_names, "only the names, one per line (for scripts and completion)");

@@ -33,7 +33,13 @@ _rtm() {
     return
   fi
   case $cmd in
-    ls) COMPREPLY=($(compgen -W "-l --long --clean --names" -- "$cur")) ;;
+    ls)
+      if [[ $cur == -* ]]; then
+        COMPREPLY=($(compgen -W "-l --long --clean --names" -- "$cur"))
+      else
+        COMPREPLY=($(compgen -W "$(_rtm_components)" -- "$cur"))
+      fi
+      ;;
     cat|on|off|reset) COMPREPLY=($(compgen -W "$(_rtm_components)" -- "$cur")) ;;
     set)
       if [[ $prev == set ]]; then

@@ -129,7 +129,7 @@ class Browser {
 
   const NamingClient& naming() const { return naming_; }
 
-  // Every component under filter ("", "host", or "host/name"), with ports (and stats when
+  // Every component under filter ("", a host or a component's name, or "host/name"), with ports (and stats when
   // detailed). Dead bindings are reported as dead, not as errors.
   std::vector<ComponentInfo> list(std::string_view filter, bool detailed) const;
   // How much list() asks each component: brief (ls: state, timing, ports), wiring (and each
