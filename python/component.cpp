@@ -76,7 +76,8 @@ std::string builtin_type_names() {
 class InSlot {
  public:
   virtual ~InSlot() = default;
-  virtual py::object read() = 0;  // GIL held
+  virtual py::object read() = 0;         // GIL held
+  virtual py::object read_values() = 0;  // GIL held
   virtual InPortBase& port() = 0;
 };
 
@@ -99,6 +100,27 @@ class TypedIn final : public InSlot {
     CORBA::Any any;
     DataTraits<T>::insert(any, datum_);
     return py::cast(Datum(std::move(any), address_, names_, units_));
+  }
+  // The values alone, straight from the datum: no Any, no Datum, no strings.
+  py::object read_values() override {
+    if (port_.read(datum_) != ReadResult::NewData) return py::none();
+    using Traits = DataTraits<T>;
+    const auto& v = Traits::values(datum_);
+    if constexpr (Traits::shape == DataShape::scalar) {
+      py::array_t<double> out(1);
+      out.mutable_data()[0] = static_cast<double>(v);
+      return out;
+    } else {
+      py::ssize_t n = 0;
+      if constexpr (Traits::shape == DataShape::array)
+        n = static_cast<py::ssize_t>(Traits::elements);
+      else
+        n = static_cast<py::ssize_t>(v.length());
+      py::array_t<double> out(n);
+      double* to = out.mutable_data();
+      for (py::ssize_t i = 0; i < n; ++i) to[i] = static_cast<double>(v[static_cast<CORBA::ULong>(i)]);
+      return out;
+    }
   }
   InPortBase& port() override { return port_; }
 
@@ -418,6 +440,9 @@ int run(const py::object& cls, const std::vector<std::string>& argv) {
 void bind_component(py::module_& m) {
   py::class_<InSlot>(m, "InPort", "an InPort of a Python component")
       .def("read", &InSlot::read, "the datum that came since the last read, or None")
+      .def("read_values", &InSlot::read_values,
+           "the values of the datum that came since the last read, as a numpy array, or None: what read().values "
+           "gives, without making the Datum")
       .def(
           "expire_last", [](InSlot& slot) { slot.port().expire_last(); },
           "the component no longer acts on the last datum read() gave (it braked): a chain ending here counts no "

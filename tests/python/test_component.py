@@ -49,6 +49,11 @@ def test_a_python_component_wired_to_cpp_ones_both_ways(system, components):
     assert doubled.labels == ["fx", "fy", "fz", "tx", "ty", "tz"]
     system.set("dbl0", "factor", 3)
     until(lambda: system.get("dbl0.out").values[1] - system.get("dbl0.out").values[0] == 3, what="factor 3")
+    system.set("dbl0", "light", 1)  # read_values(): the same values, in order, without a Datum
+    system.set("dbl0", "factor", 4)
+    until(lambda: system.get("dbl0.out").values[1] - system.get("dbl0.out").values[0] == 4, what="factor 4")
+    light = system.get("dbl0.out").values
+    assert list(light) == [4 * (light[0] / 4 + i) for i in range(6)], "a's ramp n + i, times 4, from read_values"
     with pytest.raises(rtm.Error, match=r"a.force \(RTM::TimedFloat6\) -> dbl0.pos \(RTM::TimedFloat3\): types differ"):
         system.connect("a.force", "dbl0.pos")
     with pytest.raises(rtm.Error, match=r"dbl0.pos refused the datum: .*RTM::TimedFloat6"):
