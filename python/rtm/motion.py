@@ -183,7 +183,7 @@ class Arm:
         self._below_cycles = 0
         self._lost = None  # why the inputs are gone, once they are
         self._ports = {}  # the newest datum of each port rtm script --watch wired in, by name
-        self._filtered = None  # the wrench's force, low-passed (FRICTION_FILTER_S)
+        self._filtered = None  # the wrench's force, low-passed (FRICTION_FILTER_S): 3 floats
         self._last_s = None
         self.phases = []  # (begin_ns, end_ns, name, description, outcome, figures()) of each call
 
@@ -332,9 +332,11 @@ class Arm:
         if motion is not None and not motion.done.is_set():
             self._end(motion, ScriptError(f"{motion.describe()}: {why}"))
 
+    # Each cycle's arithmetic is on 3 floats, not numpy arrays: on a 3-vector each numpy
+    # operation costs a few µs, ten times the arithmetic it does.
     def _contact(self, wrench) -> bool:
         """The controller's contact judgement (its ContactDetector), mirrored."""
-        magnitude = float(np.linalg.norm(wrench[:3]))
+        magnitude = math.hypot(wrench[0], wrench[1], wrench[2])
         if not self._state.in_contact:
             self._below_cycles = 0
             return magnitude >= self.contact_force
@@ -348,25 +350,26 @@ class Arm:
         """The reference that makes the controller press ``force`` N along the normal (None:
         no force control) and move at ``velocity`` m/s across it (all of it without force)."""
         s = self._state
-        gain = self.gain if s.in_contact else self.free_gain
-        with np.errstate(divide="ignore", invalid="ignore"):
-            moving = np.where(gain > 0, velocity / np.where(gain > 0, gain, 1.0), 0.0) - self._filtered
-        ref = np.zeros(6)
+        gain = (self.gain if s.in_contact else self.free_gain).tolist()
+        v, f = velocity.tolist(), self._filtered
+        m = [(v[i] / gain[i] if gain[i] > 0 else 0.0) - f[i] for i in range(3)]
         if force is None or s.normal is None:
-            ref[:3] = moving
-        else:
-            n = s.normal
-            ref[:3] = force * n + (moving - (moving @ n) * n)
-        return ref
+            return np.array((m[0], m[1], m[2], 0.0, 0.0, 0.0))
+        n = s.normal.tolist()
+        normal_part = m[0] * n[0] + m[1] * n[1] + m[2] * n[2]  # the force takes its place
+        return np.array([force * n[i] + m[i] - normal_part * n[i] for i in range(3)] + [0.0, 0.0, 0.0])
 
     def _hold_velocity(self):
         s = self._state
         if self._hold_point is None or s.pose is None:
             return np.zeros(3)
-        error = self._hold_point - s.pose[:3]
-        if s.normal is not None and self._hold_force is not None:
-            error = error - (error @ s.normal) * s.normal
-        return POSITION_GAIN * error
+        h, p = self._hold_point.tolist(), s.pose.tolist()
+        error = [h[i] - p[i] for i in range(3)]
+        if s.normal is not None and self._hold_force is not None:  # along the surface only
+            n = s.normal.tolist()
+            normal_part = error[0] * n[0] + error[1] * n[1] + error[2] * n[2]
+            error = [error[i] - normal_part * n[i] for i in range(3)]
+        return np.array([POSITION_GAIN * e for e in error])
 
     def _cycle(self, now_s, wrench, pose):
         """One cycle (the component's step): the reference to write."""
@@ -375,11 +378,13 @@ class Arm:
         s.wrench = wrench
         s.pose = pose
         s.in_contact = self._contact(wrench)
+        w = wrench[:3].tolist()
         if self._filtered is None or FRICTION_FILTER_S <= 0:
-            self._filtered = wrench[:3].copy()
+            self._filtered = w
         else:
             share = min(1.0, (now_s - self._last_s) / FRICTION_FILTER_S) if now_s > self._last_s else 0.0
-            self._filtered = self._filtered + share * (wrench[:3] - self._filtered)
+            f = self._filtered
+            self._filtered = [f[i] + share * (w[i] - f[i]) for i in range(3)]
         self._last_s = now_s
         with self._lock:
             motion = self._current
@@ -566,15 +571,17 @@ class _Slide(_Motion):
                 return self.force, np.zeros(3), True
             return self.force, self.speed * self.path, False
         along = min(self.speed * t, self.distance)
-        target = self.origin + along * self.path
-        error = target - state.pose[:3]
-        error = error - (error @ state.normal) * state.normal
-        self.result = float((state.pose[:3] - self.origin) @ self.path)
-        if t >= length and (np.linalg.norm(error) <= ARRIVED_M or t >= length + SETTLE_S):
-            arm._hold_point = target
+        o, d, n, p = self.origin.tolist(), self.path.tolist(), state.normal.tolist(), state.pose.tolist()
+        target = [o[i] + along * d[i] for i in range(3)]
+        error = [target[i] - p[i] for i in range(3)]
+        normal_part = error[0] * n[0] + error[1] * n[1] + error[2] * n[2]
+        error = [error[i] - normal_part * n[i] for i in range(3)]  # along the surface only
+        self.result = (p[0] - o[0]) * d[0] + (p[1] - o[1]) * d[1] + (p[2] - o[2]) * d[2]
+        if t >= length and (math.hypot(*error) <= ARRIVED_M or t >= length + SETTLE_S):
+            arm._hold_point = np.array(target)
             return self.force, np.zeros(3), True
-        feed = self.speed * self.path if t < length else np.zeros(3)
-        return self.force, feed + POSITION_GAIN * error, False
+        feed = self.speed if t < length else 0.0
+        return self.force, np.array([feed * d[i] + POSITION_GAIN * error[i] for i in range(3)]), False
 
 
 class _Wait(_Motion):
@@ -686,15 +693,15 @@ class ScriptComponent(rtm.Component):
         self._thread.start()
 
     def step(self, cycle):
-        w = self.inputs.wrench.read()
+        w = self.inputs.wrench.read_values()  # the values alone: no Datum made
         if w is not None:
-            self._wrench = w.values
+            self._wrench = w
             self._fresh = 0
         else:
             self._fresh += 1
-        p = self.inputs.pose.read()
+        p = self.inputs.pose.read_values()
         if p is not None:
-            self._pose = p.values
+            self._pose = p
         for name in self.watched:
             datum = getattr(self.inputs, name).read()
             if datum is not None:
@@ -710,12 +717,12 @@ class ScriptComponent(rtm.Component):
         self._missing = 0
         if self._ended.is_set():
             return
-        if not np.all(np.isfinite(self._wrench)):
+        if not all(map(math.isfinite, self._wrench.tolist())):
             return
         if self._started_ns is None:
             self._started_ns = cycle.wake_ns
         reference = self._arm._cycle((cycle.wake_ns - self._started_ns) * 1e-9, self._wrench, self._pose)
-        if np.all(np.isfinite(reference)):
+        if all(map(math.isfinite, reference.tolist())):
             self.outputs.reference.write(reference)
 
     def on_stop(self):

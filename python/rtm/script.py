@@ -229,13 +229,14 @@ def _print_timing(system, name):
         return
     t = d.get("timing") or {}
     stats = d.get("statistics", {})
+    step50 = stats.get("python.step_p50", {}).get("value")
     step = stats.get("python.step_p99", {}).get("value")
     gil = stats.get("python.gil_wait_p99", {}).get("value")
     if not t:
         return
     print(f"rtm script: {name} ran {t['cycles']} cycles: lateness p99 {t['lateness_p99_ns'] / 1000:.1f} us, max "
-          f"{t['lateness_max_ns'] / 1000:.1f} us, {t['overruns']} overruns; step p99 {step} us, GIL wait p99 {gil} us",
-          flush=True)
+          f"{t['lateness_max_ns'] / 1000:.1f} us, {t['overruns']} overruns; step p50 {step50} us, p99 {step} us, "
+          f"GIL wait p99 {gil} us", flush=True)
 
 
 if __name__ == "__main__":
