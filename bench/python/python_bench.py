@@ -101,15 +101,16 @@ def component(system, names, test_bin, seconds):
         t = d["timing"]
         print(f"  {name}: {t['cycles']} cycles, overruns {t['overruns']}, lateness p50 {t['lateness_p50_ns'] / 1e3:.1f} us, "
               f"p99 {t['lateness_p99_ns'] / 1e3:.1f} us, max {t['lateness_max_ns'] / 1e3:.1f} us")
+    def stat(name, key):
+        return rows[name]["statistics"][key]["value"]
+
     for name, how in (("py0", "read()"), ("pyv0", "read_values()")):
-        st = rows[name]["statistics"]
-        v = lambda k: st[k]["value"]  # noqa: E731
-        print(f"  {name} ({how}) GIL: wait p50 {v('python.gil_wait_p50'):.1f} us, p99 {v('python.gil_wait_p99'):.1f} us, "
-              f"max {v('python.gil_wait_max'):.1f} us; step() holding it p50 {v('python.step_p50'):.1f} us, "
-              f"p99 {v('python.step_p99'):.1f} us, max {v('python.step_max'):.1f} us")
-    step = lambda name, k: rows[name]["statistics"][k]["value"]  # noqa: E731
-    print(f"  step() p50, read_values() / read(): {step('pyv0', 'python.step_p50') / step('py0', 'python.step_p50'):.2f}x; "
-          f"p99 {step('pyv0', 'python.step_p99') / step('py0', 'python.step_p99'):.2f}x")
+        print(f"  {name} ({how}) GIL: wait p50 {stat(name, 'python.gil_wait_p50'):.1f} us, "
+              f"p99 {stat(name, 'python.gil_wait_p99'):.1f} us, max {stat(name, 'python.gil_wait_max'):.1f} us; "
+              f"step() holding it p50 {stat(name, 'python.step_p50'):.1f} us, "
+              f"p99 {stat(name, 'python.step_p99'):.1f} us, max {stat(name, 'python.step_max'):.1f} us")
+    ratio = {q: stat("pyv0", f"python.step_{q}") / stat("py0", f"python.step_{q}") for q in ("p50", "p99")}
+    print(f"  step() read_values() / read(): p50 {ratio['p50']:.2f}x, p99 {ratio['p99']:.2f}x")
     ratio = rows["py0"]["timing"]["lateness_p99_ns"] / max(1, rows["cpp0"]["timing"]["lateness_p99_ns"])
     print(f"  lateness p99, Python / C++: {ratio:.2f}x")
 
