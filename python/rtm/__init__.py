@@ -167,8 +167,10 @@ class Component:
       parameters   {name: rtm.Parameter(...)}
       budget       the longest one step takes, e.g. "0.3ms": its timing contract's budget
 
-    While it runs: self.name; self.inputs.NAME.read() (a Datum, or None when nothing new came);
-    self.outputs.NAME.write(values); self.parameter(NAME) (a number, or a list).
+    While it runs: self.name; self.inputs.NAME.read() (a Datum, or None when nothing new came),
+    .read_values() (its values alone, a numpy array, or None), .expire_last() (the step no longer
+    acts on the last datum: a chain ending there counts it no more); self.outputs.NAME.write(values);
+    self.parameter(NAME) (a number, or a list).
     """
 
     kind = "python"
