@@ -86,10 +86,6 @@ void add_figure_options(CLI::App& app, rtm::demo::PhaseOptions& options, rtm::de
       ->check(CLI::NonNegativeNumber);
 }
 
-}  // namespace
-
-namespace {
-
 // A motion script's run: its phase log and the tool's pose (script_report.h).
 struct ScriptInputs {
   std::string phases_csv, pose_csv;

@@ -64,7 +64,7 @@ struct ScriptLimits {
 
 // The summary's "Motion script" part: each motion (outcome, duration), then each slide's
 // figures against the limits. `missed` receives one line per figure not kept (a slide's force
-// error p99 or path deviation over its limit, no slide at all, a motion that did not end done).
+// error p99 or path deviation over its limit or not measured, a motion that did not end done).
 std::string format_script_report(const std::vector<ScriptPhase>& phases, const std::vector<SlideFigures>& slides,
                                  const ScriptLimits& limits, std::vector<std::string>& missed);
 

@@ -89,6 +89,18 @@ def direction(value) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
+# Each cycle's arithmetic is on 3 floats (lists), not numpy arrays: on a 3-vector each numpy
+# operation costs a few µs, ten times the arithmetic it does.
+def _dot(a, b) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _across(v, n) -> list:
+    """v without its part along the unit vector n."""
+    k = _dot(v, n)
+    return [v[i] - k * n[i] for i in range(3)]
+
+
 def _positive(name, value, allow_zero=False, allow_none=False):
     if value is None and allow_none:
         return None
@@ -332,8 +344,6 @@ class Arm:
         if motion is not None and not motion.done.is_set():
             self._end(motion, ScriptError(f"{motion.describe()}: {why}"))
 
-    # Each cycle's arithmetic is on 3 floats, not numpy arrays: on a 3-vector each numpy
-    # operation costs a few µs, ten times the arithmetic it does.
     def _contact(self, wrench) -> bool:
         """The controller's contact judgement (its ContactDetector), mirrored."""
         magnitude = math.hypot(wrench[0], wrench[1], wrench[2])
@@ -356,8 +366,8 @@ class Arm:
         if force is None or s.normal is None:
             return np.array((m[0], m[1], m[2], 0.0, 0.0, 0.0))
         n = s.normal.tolist()
-        normal_part = m[0] * n[0] + m[1] * n[1] + m[2] * n[2]  # the force takes its place
-        return np.array([force * n[i] + m[i] - normal_part * n[i] for i in range(3)] + [0.0, 0.0, 0.0])
+        surface = _across(m, n)  # along the normal, the force takes the motion's place
+        return np.array([force * n[i] + surface[i] for i in range(3)] + [0.0, 0.0, 0.0])
 
     def _hold_velocity(self):
         s = self._state
@@ -366,9 +376,7 @@ class Arm:
         h, p = self._hold_point.tolist(), s.pose.tolist()
         error = [h[i] - p[i] for i in range(3)]
         if s.normal is not None and self._hold_force is not None:  # along the surface only
-            n = s.normal.tolist()
-            normal_part = error[0] * n[0] + error[1] * n[1] + error[2] * n[2]
-            error = [error[i] - normal_part * n[i] for i in range(3)]
+            error = _across(error, s.normal.tolist())
         return np.array([POSITION_GAIN * e for e in error])
 
     def _cycle(self, now_s, wrench, pose):
@@ -573,10 +581,8 @@ class _Slide(_Motion):
         along = min(self.speed * t, self.distance)
         o, d, n, p = self.origin.tolist(), self.path.tolist(), state.normal.tolist(), state.pose.tolist()
         target = [o[i] + along * d[i] for i in range(3)]
-        error = [target[i] - p[i] for i in range(3)]
-        normal_part = error[0] * n[0] + error[1] * n[1] + error[2] * n[2]
-        error = [error[i] - normal_part * n[i] for i in range(3)]  # along the surface only
-        self.result = (p[0] - o[0]) * d[0] + (p[1] - o[1]) * d[1] + (p[2] - o[2]) * d[2]
+        error = _across([target[i] - p[i] for i in range(3)], n)  # along the surface only
+        self.result = _dot([p[i] - o[i] for i in range(3)], d)
         if t >= length and (math.hypot(*error) <= ARRIVED_M or t >= length + SETTLE_S):
             arm._hold_point = np.array(target)
             return self.force, np.zeros(3), True
